@@ -1,0 +1,37 @@
+"""Shared helpers for the benchmark scripts: local-only DDS, medians of repeats, a printed table."""
+
+from __future__ import annotations
+
+import os
+import statistics
+import time
+from collections.abc import Callable, Sequence
+
+__all__ = ["local_ros_env", "median_ns_per_call", "print_table"]
+
+
+def local_ros_env(domain: int | None = None) -> None:
+    """Keep DDS on loopback and (optionally) pick the domain; call before importing rclpy."""
+    os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    if domain is not None:
+        os.environ["ROS_DOMAIN_ID"] = str(domain)
+
+
+def median_ns_per_call(fn: Callable[[], object], *, calls: int, repeats: int) -> float:
+    """Return the median over `repeats` of the mean nanoseconds per call of `fn` over `calls` calls."""
+    samples = []
+    for _ in range(repeats):
+        start = time.perf_counter_ns()
+        for _ in range(calls):
+            fn()
+        samples.append((time.perf_counter_ns() - start) / calls)
+    return statistics.median(samples)
+
+
+def print_table(title: str, header: Sequence[str], rows: Sequence[Sequence[object]]) -> None:
+    """Print a Markdown table, so a run's output pastes straight into the README."""
+    print(f"\n### {title}\n")
+    print("| " + " | ".join(header) + " |")
+    print("|" + "|".join("---" for _ in header) + "|")
+    for row in rows:
+        print("| " + " | ".join(str(c) for c in row) + " |")

@@ -1,0 +1,66 @@
+"""The ``dbglog`` command line: one dispatcher, each subcommand in the module that owns its work."""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+from collections.abc import Sequence
+from typing import Protocol, cast
+
+__all__ = ["main"]
+
+
+class _Command(Protocol):
+    """What a subcommand module provides (kept light: no rclpy or Dear PyGui import at module level)."""
+
+    HELP: str
+
+    def add_arguments(self, parser: argparse.ArgumentParser) -> None:
+        """Declare the subcommand's options."""
+
+    def run(self, args: argparse.Namespace) -> int:
+        """Do the work; return the process exit code."""
+
+
+# name -> module implementing the _Command protocol; order is the order shown in --help.
+_COMMANDS: dict[str, str] = {}
+
+
+def _load(module: str) -> _Command:
+    return cast(_Command, importlib.import_module(module))
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """Build the argument parser with every subcommand."""
+    from dbglog import __version__
+
+    parser = argparse.ArgumentParser(
+        prog="dbglog",
+        description="Typed debug logging for ROS 2: publish values, bridge log lines, view them live.",
+    )
+    parser.add_argument("--version", action="version", version=f"dbglog {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for name, module in _COMMANDS.items():
+        command = _load(module)
+        child = sub.add_parser(name, help=command.HELP, description=command.HELP)
+        command.add_arguments(child)
+        child.set_defaults(_module=module)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the ``dbglog`` command line and return its exit code."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if args.command is None:
+        parser.print_help()
+        return 0
+    try:
+        return _load(args._module).run(args)
+    except KeyboardInterrupt:
+        return 130
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

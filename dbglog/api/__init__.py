@@ -1,0 +1,1 @@
+"""dbglog.api package."""

@@ -1,0 +1,1 @@
+"""dbglog.regex_bridge package."""

@@ -1,0 +1,128 @@
+"""Safe regular expressions (google-re2, linear time) and strict ASCII number parsing.
+
+Shared by the bridge's rule matcher and the viewer's per-binding regex.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Literal
+
+import re2
+
+__all__ = ["MAX_LINE", "CompiledRegex", "NumberKind", "RegexError", "compile_regex", "parse_number"]
+
+MAX_LINE = 4096
+"""Lines longer than this many characters are truncated before matching."""
+
+NumberKind = Literal["float", "int", "bool"]
+
+
+class RegexError(ValueError):
+    """A pattern that RE2 cannot compile or express; the message says why."""
+
+
+_OPTIONS = re2.Options()
+_OPTIONS.log_errors = False
+_OPTIONS.max_mem = 8 << 20
+
+
+@dataclass(frozen=True, slots=True)
+class CompiledRegex:
+    """A compiled RE2 pattern with its capture-group layout."""
+
+    pattern: str
+    compiled: re2._Regexp
+    group_names: tuple[str | None, ...]
+    """Name of each capture group in order (None for unnamed groups)."""
+
+    def extract(self, text: str) -> str | None:
+        """Return the first capture group (or the whole match without groups) of the first match."""
+        m = self.compiled.search(text[:MAX_LINE])
+        if m is None:
+            return None
+        return m.group(1) if self.group_names else m.group(0)
+
+
+def compile_regex(pattern: str) -> CompiledRegex:
+    """Compile `pattern` with RE2.
+
+    Raises:
+        RegexError: the pattern does not compile or uses a feature RE2 rejects (backreferences,
+            lookarounds); the message gives RE2's reason.
+    """
+    if not isinstance(pattern, str):
+        raise RegexError(f"pattern must be a string, not {type(pattern).__name__}")
+    try:
+        compiled = re2.compile(pattern, options=_OPTIONS)
+    except re2.error as exc:
+        raise RegexError(_reason(pattern, exc)) from None
+    names: list[str | None] = [None] * compiled.groups
+    for name, index in compiled.groupindex.items():
+        names[index - 1] = name
+    return CompiledRegex(pattern, compiled, tuple(names))
+
+
+def _reason(pattern: str, exc: Exception) -> str:
+    raw = exc.args[0] if exc.args else ""
+    text = raw.decode("utf-8", "replace") if isinstance(raw, bytes) else str(raw)
+    text = text or "invalid pattern"
+    if "\\1" in pattern or any(f"\\{d}" in pattern for d in "123456789"):
+        return f"{text} (backreferences are not supported: RE2 matches in linear time)"
+    if any(look in pattern for look in ("(?=", "(?!", "(?<=", "(?<!")):
+        return f"{text} (lookarounds are not supported: RE2 matches in linear time)"
+    return text
+
+
+_DIGITS = frozenset("0123456789")
+_FLOAT_CHARS = _DIGITS | frozenset("+-.eE")
+_SPECIAL = {
+    "nan": math.nan,
+    "+nan": math.nan,
+    "-nan": math.nan,
+    "inf": math.inf,
+    "+inf": math.inf,
+    "-inf": -math.inf,
+    "infinity": math.inf,
+    "+infinity": math.inf,
+    "-infinity": -math.inf,
+}
+_BOOLS = {
+    "true": True,
+    "false": False,
+    "1": True,
+    "0": False,
+    "yes": True,
+    "no": False,
+    "on": True,
+    "off": False,
+}
+
+
+def parse_number(text: str, kind: NumberKind = "float") -> float | int | bool:
+    """Parse `text` strictly: ASCII digits only, no ``_`` separators, no hex, no decimal comma.
+
+    Raises:
+        ValueError: the text is not a number of that kind; the message quotes it.
+    """
+    s = text.strip()
+    if kind == "bool":
+        try:
+            return _BOOLS[s.lower()]
+        except KeyError:
+            raise ValueError(f"not a bool: {text!r}") from None
+    if kind == "int":
+        body = s[1:] if s[:1] in "+-" else s
+        if not body or not set(body) <= _DIGITS:
+            raise ValueError(f"not an integer: {text!r}")
+        return int(s)
+    special = _SPECIAL.get(s.lower())
+    if special is not None:
+        return special
+    if not s or not set(s) <= _FLOAT_CHARS or not (set(s) & _DIGITS):
+        raise ValueError(f"not a number: {text!r}")
+    try:
+        return float(s)
+    except ValueError:
+        raise ValueError(f"not a number: {text!r}") from None

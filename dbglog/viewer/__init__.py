@@ -1,0 +1,1 @@
+"""dbglog.viewer package."""

@@ -1,0 +1,131 @@
+"""Plain data shared by the viewer's data engine and its UI: bindings, snapshots, topics, fields.
+
+No ROS and no Dear PyGui here: the engine produces these, the UI and the terminal consume them.
+"""
+
+from __future__ import annotations
+
+import enum
+from dataclasses import dataclass, field
+from typing import Protocol
+
+import numpy as np
+import numpy.typing as npt
+
+__all__ = [
+    "Binding",
+    "DataSource",
+    "FieldInfo",
+    "SeriesSnapshot",
+    "Status",
+    "TopicInfo",
+    "ValueKind",
+]
+
+TAG_PREFIX = "/rosdashboard/"
+
+
+class Status(enum.StrEnum):
+    """Where a series stands, shown on every widget."""
+
+    WAITING = "waiting"
+    """The topic is not published (yet)."""
+    LIVE = "live"
+    """Messages are arriving."""
+    STALE = "stale"
+    """No message for longer than the stale time."""
+    ERROR = "error"
+    """Data arrives but cannot be turned into values; the snapshot's ``reason`` says why."""
+
+
+class ValueKind(enum.StrEnum):
+    """What kind of value a series holds; numbers and bools also fill the numeric arrays."""
+
+    NUMBER = "number"
+    BOOL = "bool"
+    TEXT = "text"
+    ARRAY = "array"
+
+
+@dataclass(frozen=True, slots=True)
+class Binding:
+    """A topic, a field path inside its messages (``""`` = the whole single-valued message), a regex."""
+
+    topic: str
+    field: str = ""
+    regex: str = ""
+
+
+@dataclass(frozen=True, slots=True)
+class SeriesSnapshot:
+    """A consistent copy of one series at one moment, safe to read on any thread."""
+
+    binding: Binding
+    status: Status
+    reason: str = ""
+    """Why the status is ERROR (or WAITING), for a tooltip."""
+    kind: ValueKind | None = None
+    msg_type: str | None = None
+    """The ROS type, e.g. ``std_msgs/msg/Float64``, once known from the graph."""
+    times: npt.NDArray[np.float64] = field(default_factory=lambda: np.empty(0))
+    """Source timestamps (seconds since the epoch), oldest first."""
+    values: npt.NDArray[np.float64] = field(default_factory=lambda: np.empty(0))
+    """Numeric values (bools as 0/1) aligned with ``times``; empty for text series."""
+    texts: tuple[str, ...] = ()
+    """Recent text values, oldest first (text series only)."""
+    last: float | int | bool | str | tuple[float, ...] | None = None
+    """The latest value with its kind kept (array series: a tuple of numbers)."""
+    last_time: float | None = None
+    rate_hz: float = 0.0
+    """Messages per second over the last few seconds."""
+    age_s: float | None = None
+    """Seconds since the latest message (None before the first)."""
+    count: int = 0
+    """Messages taken into this series so far; grows monotonically, so a reader can skip redraws."""
+
+
+@dataclass(frozen=True, slots=True)
+class TopicInfo:
+    """A topic seen on the ROS graph."""
+
+    name: str
+    types: tuple[str, ...]
+    publishers: int = 0
+
+    @property
+    def tag(self) -> str | None:
+        """The dbglog tag if this is a ``/rosdashboard/`` topic, else None."""
+        if self.name.startswith(TAG_PREFIX):
+            return self.name[len(TAG_PREFIX) :]
+        return None
+
+
+@dataclass(frozen=True, slots=True)
+class FieldInfo:
+    """One field path of a message type, for the topic setup dialog."""
+
+    path: str
+    """e.g. ``pose.position.z`` or ``ranges[]`` for a sequence."""
+    type_name: str
+    """The ROS field type, e.g. ``double``, ``string``, ``sequence<float>``, ``geometry_msgs/Vector3``."""
+    numeric: bool
+    """True when a binding to this path yields numbers or bools."""
+
+
+class DataSource(Protocol):
+    """What the UI and the terminal commands need from the data engine."""
+
+    def bind(self, binding: Binding) -> None:
+        """Start filling a series for `binding` (idempotent, never blocks)."""
+
+    def unbind(self, binding: Binding) -> None:
+        """Stop filling the series for `binding` and free it."""
+
+    def snapshot(self, binding: Binding) -> SeriesSnapshot:
+        """Return the current state of the series for `binding`."""
+
+    def topics(self) -> list[TopicInfo]:
+        """Return every topic on the graph, sorted by name."""
+
+    def fields(self, topic: str) -> list[FieldInfo]:
+        """Return the field paths of the topic's message type (empty while the type is unknown)."""

@@ -1,0 +1,13 @@
+"""Session-wide test setup: DDS kept on loopback, a random ROS domain per session."""
+
+from __future__ import annotations
+
+import os
+import random
+
+# Before anything imports rclpy: every process of this session (and its children) shares one random
+# domain, and discovery never leaves this machine unless the caller set the range explicitly.
+os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+if "DBGLOG_TEST_DOMAIN_FIXED" not in os.environ:
+    os.environ["ROS_DOMAIN_ID"] = str(random.SystemRandom().randint(1, 100))
+os.environ.setdefault("RMW_IMPLEMENTATION", "rmw_fastrtps_cpp")
