@@ -42,7 +42,8 @@ class CompiledRegex:
         m = self.compiled.search(text[:MAX_LINE])
         if m is None:
             return None
-        return m.group(1) if self.group_names else m.group(0)
+        found: str | None = m.group(1) if self.group_names else m.group(0)
+        return found
 
 
 def compile_regex(pattern: str) -> CompiledRegex:
