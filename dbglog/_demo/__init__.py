@@ -1,0 +1,1 @@
+"""The demo robot: a turtle in a walled arena and a sound-source localizer, for ``dbglog demo``."""
