@@ -24,7 +24,9 @@ class _Command(Protocol):
 
 
 # name -> module implementing the _Command protocol; order is the order shown in --help.
-_COMMANDS: dict[str, str] = {}
+_COMMANDS: dict[str, str] = {
+    "bridge": "dbglog.regex_bridge._cli",
+}
 
 
 def _load(module: str) -> _Command:

@@ -6,12 +6,23 @@ Shared by the bridge's rule matcher and the viewer's per-binding regex.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Literal
 
 import re2
 
-__all__ = ["MAX_LINE", "CompiledRegex", "NumberKind", "RegexError", "compile_regex", "parse_number"]
+__all__ = [
+    "BYTES_PARSERS",
+    "MAX_LINE",
+    "CompiledRegex",
+    "NumberKind",
+    "RegexError",
+    "compile_regex",
+    "parse_number",
+    "parse_number_bytes",
+    "re2_options",
+]
 
 MAX_LINE = 4096
 """Lines longer than this many characters are truncated before matching."""
@@ -23,9 +34,15 @@ class RegexError(ValueError):
     """A pattern that RE2 cannot compile or express; the message says why."""
 
 
-_OPTIONS = re2.Options()
-_OPTIONS.log_errors = False
-_OPTIONS.max_mem = 8 << 20
+def re2_options(max_mem: int = 8 << 20) -> re2.Options:
+    """Return RE2 options: UTF-8, quiet (errors come back as exceptions), at most `max_mem` bytes."""
+    options = re2.Options()
+    options.log_errors = False
+    options.max_mem = max_mem
+    return options
+
+
+_OPTIONS = re2_options()
 
 
 @dataclass(frozen=True, slots=True)
@@ -76,6 +93,7 @@ def _reason(pattern: str, exc: Exception) -> str:
     return text
 
 
+_ASCII_SPACE = " \t\n\r\f\v"
 _DIGITS = frozenset("0123456789")
 _FLOAT_CHARS = _DIGITS | frozenset("+-.eE")
 _SPECIAL = {
@@ -107,7 +125,7 @@ def parse_number(text: str, kind: NumberKind = "float") -> float | int | bool:
     Raises:
         ValueError: the text is not a number of that kind; the message quotes it.
     """
-    s = text.strip()
+    s = text.strip(_ASCII_SPACE)
     if kind == "bool":
         try:
             return _BOOLS[s.lower()]
@@ -127,3 +145,56 @@ def parse_number(text: str, kind: NumberKind = "float") -> float | int | bool:
         return float(s)
     except ValueError:
         raise ValueError(f"not a number: {text!r}") from None
+
+
+def parse_number_bytes(data: bytes, kind: NumberKind = "float") -> float | int | bool:
+    """Parse a UTF-8 capture exactly as `parse_number` parses its text, but faster (the bridge's hot path).
+
+    ``float()``/``int()`` on bytes read ASCII only, so other scripts' digits never pass; the only extra
+    syntax they allow, ``_`` separators, is refused here.
+
+    Raises:
+        ValueError: the capture is not a number of that kind; the message quotes it.
+    """
+    return BYTES_PARSERS[kind](data)
+
+
+def _float_bytes(data: bytes) -> float:
+    if b"_" not in data:
+        try:
+            return float(data)
+        except ValueError:
+            pass
+    raise ValueError(f"not a number: {_shown(data)!r}")
+
+
+def _int_bytes(data: bytes) -> int:
+    if b"_" not in data:
+        try:
+            return int(data)
+        except ValueError:
+            pass
+    raise ValueError(f"not an integer: {_shown(data)!r}")
+
+
+_ASCII_SPACE_BYTES = _ASCII_SPACE.encode()
+_BYTES_BOOLS = {k.encode(): v for k, v in _BOOLS.items()}
+
+
+def _bool_bytes(data: bytes) -> bool:
+    found = _BYTES_BOOLS.get(data.strip(_ASCII_SPACE_BYTES).lower())
+    if found is None:
+        raise ValueError(f"not a bool: {_shown(data)!r}")
+    return found
+
+
+BYTES_PARSERS: dict[str, Callable[[bytes], float | int | bool]] = {
+    "float": _float_bytes,
+    "int": _int_bytes,
+    "bool": _bool_bytes,
+}
+"""`parse_number_bytes` for each kind, as plain functions (no dispatch) for the hot loop."""
+
+
+def _shown(data: bytes) -> str:
+    return data.decode("utf-8", "replace")
