@@ -1,0 +1,242 @@
+"""Pure maths of the viewer: snapping, hit-testing, gauge angles and ticks, fills, plot decimation.
+
+No Dear PyGui here: everything is tested without a display.
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+__all__ = [
+    "Part",
+    "Rect",
+    "compass_label",
+    "format_tick",
+    "gauge_angle",
+    "hit_test",
+    "led_on",
+    "minmax_decimate",
+    "nice_ticks",
+    "normalize_heading",
+    "polar",
+    "snap",
+    "snap_rect",
+    "thermo_fill",
+    "value_fraction",
+    "window_slice",
+]
+
+FloatArray = npt.NDArray[np.float64]
+
+
+@dataclass(frozen=True, slots=True)
+class Rect:
+    """An axis-aligned rectangle in canvas pixels (y grows downwards)."""
+
+    x: float
+    y: float
+    w: float
+    h: float
+
+    def contains(self, px: float, py: float) -> bool:
+        """Return True when the point lies inside (edges included)."""
+        return self.x <= px <= self.x + self.w and self.y <= py <= self.y + self.h
+
+    def moved(self, dx: float, dy: float) -> Rect:
+        """Return the rectangle shifted by (dx, dy), never left of or above the origin."""
+        return Rect(max(0.0, self.x + dx), max(0.0, self.y + dy), self.w, self.h)
+
+    def resized(self, dw: float, dh: float, min_w: float, min_h: float) -> Rect:
+        """Return the rectangle grown by (dw, dh) from its top-left corner, at least min_w x min_h."""
+        return Rect(self.x, self.y, max(min_w, self.w + dw), max(min_h, self.h + dh))
+
+
+def snap(value: float, grid: float) -> float:
+    """Round `value` to the nearest multiple of `grid` (no change when grid <= 0)."""
+    if grid <= 0:
+        return value
+    return float(round(value / grid) * grid)
+
+
+def snap_rect(rect: Rect, grid: float, *, min_w: float = 0.0, min_h: float = 0.0) -> Rect:
+    """Snap a rectangle's corner and size to the grid; the size never drops below one cell or the minimum."""
+    if grid <= 0:
+        return rect
+    w = max(snap(rect.w, grid), grid, math.ceil(min_w / grid) * grid)
+    h = max(snap(rect.h, grid), grid, math.ceil(min_h / grid) * grid)
+    return Rect(max(0.0, snap(rect.x, grid)), max(0.0, snap(rect.y, grid)), w, h)
+
+
+class Part(enum.Enum):
+    """Which part of a widget frame a point hits."""
+
+    TITLE = "title"
+    """The title strip: dragging it moves the widget."""
+    CORNER = "corner"
+    """The bottom-right grip: dragging it resizes the widget."""
+    BODY = "body"
+
+
+def hit_test(
+    rects: Sequence[Rect], px: float, py: float, *, title_h: float, corner: float
+) -> tuple[int, Part] | None:
+    """Return the index of the topmost rectangle under the point and the part hit (later = on top)."""
+    for index in range(len(rects) - 1, -1, -1):
+        r = rects[index]
+        if not r.contains(px, py):
+            continue
+        if px >= r.x + r.w - corner and py >= r.y + r.h - corner:
+            return index, Part.CORNER
+        if py <= r.y + title_h:
+            return index, Part.TITLE
+        return index, Part.BODY
+    return None
+
+
+def value_fraction(value: float, lo: float, hi: float) -> float:
+    """Return where `value` sits between lo and hi as 0..1, clamped (NaN and an empty range give 0)."""
+    if not (math.isfinite(lo) and math.isfinite(hi)) or hi == lo or math.isnan(value):
+        return 0.0
+    frac = (value - lo) / (hi - lo)
+    return min(1.0, max(0.0, frac))
+
+
+def gauge_angle(value: float, lo: float, hi: float, *, start_deg: float, sweep_deg: float) -> float:
+    """Return the needle angle in degrees for a gauge whose scale starts at `start_deg` and turns `sweep_deg`.
+
+    Angles are compass-like on screen: 0 points up, positive turns clockwise. Values outside the
+    range pin the needle at the end stops.
+    """
+    return start_deg + sweep_deg * value_fraction(value, lo, hi)
+
+
+def polar(cx: float, cy: float, radius: float, angle_deg: float) -> tuple[float, float]:
+    """Return the screen point at `radius` from the centre in direction `angle_deg` (0 = up, clockwise)."""
+    a = math.radians(angle_deg)
+    return (cx + radius * math.sin(a), cy - radius * math.cos(a))
+
+
+def nice_ticks(lo: float, hi: float, max_ticks: int = 6) -> list[float]:
+    """Return round tick values (steps of 1, 2, 2.5 or 5 x 10^n) within [lo, hi], at most `max_ticks`.
+
+    When no two round values fit, the ends themselves are returned.
+    """
+    if not (math.isfinite(lo) and math.isfinite(hi)) or max_ticks < 2:
+        return []
+    if hi < lo:
+        lo, hi = hi, lo
+    if hi == lo:
+        return [lo]
+    raw = (hi - lo) / (max_ticks - 1)
+    magnitude = 10 ** math.floor(math.log10(raw))
+    step = magnitude * 10
+    for mult in (1.0, 2.0, 2.5, 5.0, 10.0):
+        if mult * magnitude >= raw * (1 - 1e-9):
+            step = mult * magnitude
+            break
+    first = math.ceil(lo / step - 1e-9) * step
+    ticks = []
+    k = 0
+    while True:
+        t = first + k * step
+        if t > hi + step * 1e-9:
+            break
+        ticks.append(0.0 if abs(t) < step * 1e-9 else round(t, 12))
+        k += 1
+    if len(ticks) < 2:
+        return [lo, hi]
+    return ticks
+
+
+def format_tick(value: float) -> str:
+    """Format a tick label compactly: ``5``, ``2.5``, ``1.2k``, ``-3M``."""
+    a = abs(value)
+    for limit, unit, suffix in ((1e9, 1e9, "G"), (1e6, 1e6, "M"), (1e4, 1e3, "k")):
+        if a >= limit:
+            return f"{value / unit:.3g}{suffix}"
+    if a == 0:
+        return "0"
+    return f"{value:.3g}"
+
+
+def normalize_heading(value: float, *, radians: bool = False, offset_deg: float = 0.0) -> float:
+    """Return a heading in [0, 360) degrees from a value in degrees (or radians), plus an offset."""
+    if not math.isfinite(value):
+        return 0.0
+    deg = math.degrees(value) if radians else value
+    return (deg + offset_deg) % 360.0
+
+
+_POINTS = ("N", "NE", "E", "SE", "S", "SW", "W", "NW")
+
+
+def compass_label(heading_deg: float) -> str:
+    """Return the nearest of the eight compass points for a heading in degrees."""
+    return _POINTS[round(normalize_heading(heading_deg) / 45.0) % 8]
+
+
+def thermo_fill(value: float, lo: float, hi: float, length: float) -> float:
+    """Return how many pixels of a bar of `length` are filled for `value` on the scale lo..hi."""
+    return value_fraction(value, lo, hi) * max(0.0, length)
+
+
+def led_on(value: float | bool | str | None, threshold: float, *, invert: bool = False) -> bool:
+    """Return whether an LED is lit: a bool as is, a number when >= threshold, text when truthy."""
+    if value is None:
+        lit = False
+    elif isinstance(value, bool):
+        lit = value
+    elif isinstance(value, int | float):
+        lit = not math.isnan(value) and value >= threshold
+    else:
+        lit = value.strip().lower() in {"1", "true", "yes", "on", "high", "ok"}
+    return lit != invert
+
+
+def window_slice(times: FloatArray, now: float, window_s: float) -> slice:
+    """Return the slice of sorted `times` that falls within the last `window_s` seconds before `now`."""
+    start = int(np.searchsorted(times, now - window_s, side="left"))
+    return slice(start, len(times))
+
+
+def minmax_decimate(x: FloatArray, y: FloatArray, max_points: int) -> tuple[FloatArray, FloatArray]:
+    """Reduce a line to at most `max_points` points, keeping each bucket's minimum and maximum in order.
+
+    With one bucket per pair of output points, spikes survive decimation (unlike taking every n-th
+    point), so a plot ``max_points`` = 2 x its width in pixels looks the same as the full data.
+    """
+    n = len(x)
+    if n <= max_points or max_points < 2:
+        return x, y
+    buckets = max_points // 2
+    edges = np.linspace(0, n, buckets + 1).astype(np.int64)
+    starts = edges[:-1]
+    lengths = np.diff(edges)
+    # Every bucket has at least one point because n > max_points >= buckets.
+    y_clean = np.where(np.isnan(y), np.inf, y)
+    imin = np.minimum.reduceat(y_clean, starts)
+    y_clean_max = np.where(np.isnan(y), -np.inf, y)
+    imax = np.maximum.reduceat(y_clean_max, starts)
+    # Indices of min and max within each bucket.
+    idx = np.arange(n)
+    bucket_of = np.repeat(np.arange(buckets), lengths)
+    is_min = y_clean == imin[bucket_of]
+    is_max = y_clean_max == imax[bucket_of]
+    first_min = np.full(buckets, n, dtype=np.int64)
+    first_max = np.full(buckets, n, dtype=np.int64)
+    np.minimum.at(first_min, bucket_of[is_min], idx[is_min])
+    np.minimum.at(first_max, bucket_of[is_max], idx[is_max])
+    first_min = np.where(first_min == n, starts, first_min)
+    first_max = np.where(first_max == n, starts, first_max)
+    lo = np.minimum(first_min, first_max)
+    hi = np.maximum(first_min, first_max)
+    order = np.empty(buckets * 2, dtype=np.int64)
+    order[0::2] = lo
+    order[1::2] = hi
+    return x[order], y[order]

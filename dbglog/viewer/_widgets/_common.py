@@ -1,0 +1,121 @@
+"""Shared look and small helpers of the built-in widgets: the palette, value extraction, gauge scales."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import dearpygui.dearpygui as dpg
+
+from dbglog.viewer._geometry import format_tick, nice_ticks, polar
+from dbglog.viewer._model import SeriesSnapshot
+from dbglog.viewer.widget_api import Color
+
+TEXT: Color = (222, 226, 232, 255)
+DIM: Color = (138, 146, 158, 255)
+FACE: Color = (30, 33, 40, 255)
+FACE_EDGE: Color = (70, 77, 90, 255)
+TRACK: Color = (52, 57, 68, 255)
+ACCENT: Color = (86, 166, 240, 255)
+NEEDLE: Color = (246, 102, 72, 255)
+HUB: Color = (200, 205, 212, 255)
+
+SERIES_COLORS: tuple[Color, ...] = (
+    (86, 166, 240, 255),
+    (246, 160, 60, 255),
+    (110, 210, 120, 255),
+    (236, 96, 110, 255),
+    (180, 130, 240, 255),
+    (90, 210, 210, 255),
+)
+
+
+def latest_number(snap: SeriesSnapshot | None) -> float | None:
+    """Return the snapshot's latest value as a float (bools as 0/1), or None when it has none."""
+    if snap is None:
+        return None
+    last = snap.last
+    if isinstance(last, bool):
+        return 1.0 if last else 0.0
+    if isinstance(last, int | float):
+        return float(last)
+    if isinstance(last, str):
+        try:
+            return float(last)
+        except ValueError:
+            return None
+    if len(snap.values):
+        return float(snap.values[-1])
+    return None
+
+
+def format_value(value: float | None, decimals: int, unit: str = "") -> str:
+    """Format a gauge readout: fixed decimals, the unit after a thin space; a dash when there is no value."""
+    if value is None or math.isnan(value):
+        return "\u2014"
+    text = f"{value:.{max(0, decimals)}f}"
+    return f"{text} {unit}".rstrip()
+
+
+def text_size(text: str, size: float) -> tuple[float, float]:
+    """Approximate the pixel size of `text` drawn at font `size` (proportional font, no display needed)."""
+    return (len(text) * size * 0.55, size)
+
+
+def draw_centered_text(
+    text: str, x: float, y: float, size: float, color: Color, parent: int | str
+) -> int | str:
+    """Draw text centred on (x, y) and return the item."""
+    w, h = text_size(text, size)
+    item: int | str = dpg.draw_text((x - w / 2, y - h / 2), text, size=size, color=color, parent=parent)
+    return item
+
+
+def arc_points(
+    cx: float, cy: float, r: float, start: float, end: float, step: float = 4.0
+) -> list[list[float]]:
+    """Return polyline points of an arc from angle `start` to `end` degrees (0 = up, clockwise)."""
+    n = max(2, int(abs(end - start) / step) + 1)
+    return [list(polar(cx, cy, r, start + (end - start) * i / (n - 1))) for i in range(n)]
+
+
+def draw_scale(
+    parent: int | str,
+    cx: float,
+    cy: float,
+    r: float,
+    lo: float,
+    hi: float,
+    *,
+    start: float,
+    sweep: float,
+    label_size: float,
+    max_ticks: int = 6,
+) -> None:
+    """Draw a gauge scale: major ticks with labels on round values, minor ticks between."""
+    if hi == lo:
+        return
+    ticks: Sequence[float] = nice_ticks(min(lo, hi), max(lo, hi), max_ticks)
+    span = hi - lo
+    minor_step = (ticks[1] - ticks[0]) / 5 if len(ticks) > 1 else 0.0
+    if minor_step > 0:
+        k = math.ceil(min(lo, hi) / minor_step)
+        while k * minor_step <= max(lo, hi) + 1e-9 * abs(span):
+            angle = start + sweep * (k * minor_step - lo) / span
+            p1 = polar(cx, cy, r, angle)
+            p2 = polar(cx, cy, r - 5, angle)
+            dpg.draw_line(p1, p2, color=DIM, thickness=1, parent=parent)
+            k += 1
+    for t in ticks:
+        angle = start + sweep * (t - lo) / span
+        p1 = polar(cx, cy, r, angle)
+        p2 = polar(cx, cy, r - 10, angle)
+        dpg.draw_line(p1, p2, color=TEXT, thickness=2, parent=parent)
+        lx, ly = polar(cx, cy, r - 10 - label_size * 0.95, angle)
+        draw_centered_text(format_tick(t), lx, ly, label_size, DIM, parent)
+
+
+def draw_title(parent: int | str, text: str, x: float, y: float, size: float) -> None:
+    """Draw a small dim caption (used for units and labels)."""
+    if text:
+        draw_centered_text(text, x, y, size, DIM, parent)

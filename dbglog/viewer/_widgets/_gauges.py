@@ -1,0 +1,306 @@
+"""Needle and bar widgets drawn with Dear PyGui draw items: Dial, Knob, Compass, Thermo."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import dearpygui.dearpygui as dpg
+
+from dbglog.viewer._geometry import (
+    compass_label,
+    format_tick,
+    gauge_angle,
+    nice_ticks,
+    normalize_heading,
+    polar,
+    thermo_fill,
+)
+from dbglog.viewer._model import SeriesSnapshot, ValueKind
+from dbglog.viewer._widgets._common import (
+    DIM,
+    FACE,
+    FACE_EDGE,
+    HUB,
+    TEXT,
+    TRACK,
+    arc_points,
+    draw_centered_text,
+    draw_scale,
+    format_value,
+    latest_number,
+    text_size,
+)
+from dbglog.viewer.widget_api import Property, PropKind, Widget
+
+__all__ = ["CompassWidget", "DialWidget", "KnobWidget", "ThermoWidget"]
+
+_RANGE = (
+    Property("minimum", PropKind.NUMBER, 0.0, minimum=-1e12, maximum=1e12),
+    Property("maximum", PropKind.NUMBER, 100.0, minimum=-1e12, maximum=1e12),
+)
+_UNIT = Property("unit", PropKind.TEXT, "", help="shown after the value")
+_DECIMALS = Property("decimals", PropKind.NUMBER, 1.0, minimum=0, maximum=9, integer=True)
+
+
+def _needle_points(cx: float, cy: float, r: float, angle: float) -> list[list[float]]:
+    tip = polar(cx, cy, r, angle)
+    left = polar(cx, cy, r * 0.07, angle - 90)
+    right = polar(cx, cy, r * 0.07, angle + 90)
+    tail = polar(cx, cy, r * 0.16, angle + 180)
+    return [list(tip), list(left), list(tail), list(right), list(tip)]
+
+
+class DialWidget(Widget):
+    """A needle gauge over a 240 degree scale with round tick labels and a digital readout."""
+
+    type_name = "dial"
+    label = "Dial"
+    description = "Needle gauge with a scale and a digital readout"
+    accepts = frozenset({ValueKind.NUMBER, ValueKind.BOOL})
+    properties = (
+        *_RANGE,
+        _UNIT,
+        _DECIMALS,
+        Property("color", PropKind.COLOR, "#f66648ff", label="Needle colour"),
+    )
+    default_size = (220, 220)
+    min_size = (120, 120)
+    START, SWEEP = -120.0, 240.0
+
+    def _layout(self, width: int, height: int) -> tuple[float, float, float]:
+        r = max(20.0, min(width / 2 - 8, (height - 30) / (1 + math.cos(math.radians(60))) - 4))
+        cx = width / 2
+        cy = 8 + r
+        return cx, cy, r
+
+    def create(self, parent: int | str, width: int, height: int) -> None:
+        """Draw the face and scale once; the needle and readout are updated in place."""
+        lo, hi = self.num("minimum"), self.num("maximum")
+        self.drawlist = dpg.add_drawlist(width, height, parent=parent)
+        cx, cy, r = self._layout(width, height)
+        self._geom = (cx, cy, r)
+        dl = self.drawlist
+        dpg.draw_circle((cx, cy), r + 4, color=FACE_EDGE, fill=FACE, thickness=2, parent=dl)
+        dpg.draw_polyline(
+            arc_points(cx, cy, r - 2, self.START, self.START + self.SWEEP),
+            color=TRACK,
+            thickness=4,
+            parent=dl,
+        )
+        self._arc = dpg.draw_polyline([[cx, cy], [cx, cy]], color=self.color("color"), thickness=4, parent=dl)
+        draw_scale(dl, cx, cy, r - 6, lo, hi, start=self.START, sweep=self.SWEEP, label_size=max(11, r / 7))
+        self._needle = dpg.draw_polygon(
+            _needle_points(cx, cy, r - 14, self.START),
+            color=self.color("color"),
+            fill=self.color("color"),
+            parent=dl,
+        )
+        dpg.draw_circle((cx, cy), max(4, r * 0.09), color=HUB, fill=HUB, parent=dl)
+        self._size = max(14.0, min(28.0, r / 3.2))
+        self._readout = draw_centered_text("\u2014", cx, cy + r * 0.55, self._size, TEXT, dl)
+
+    def update(self, snapshots: Sequence[SeriesSnapshot], now: float) -> None:
+        """Turn the needle to the latest value."""
+        value = latest_number(snapshots[0] if snapshots else None)
+        cx, cy, r = self._geom
+        lo, hi = self.num("minimum"), self.num("maximum")
+        angle = gauge_angle(
+            value if value is not None else lo, lo, hi, start_deg=self.START, sweep_deg=self.SWEEP
+        )
+        dpg.configure_item(self._needle, points=_needle_points(cx, cy, r - 14, angle))
+        dpg.configure_item(self._arc, points=arc_points(cx, cy, r - 2, self.START, angle))
+        text = format_value(value, int(self.num("decimals")), str(self.prop("unit")))
+        w, h = text_size(text, self._size)
+        dpg.configure_item(self._readout, text=text, pos=(cx - w / 2, cy + r * 0.55 - h / 2))
+
+
+class KnobWidget(DialWidget):
+    """A rotary knob over 270 degrees: a filled value arc and a pointer on a round cap."""
+
+    type_name = "knob"
+    label = "Knob"
+    description = "Rotary knob with a value arc over 270 degrees"
+    properties = (
+        *_RANGE,
+        _UNIT,
+        _DECIMALS,
+        Property("color", PropKind.COLOR, "#56a6f0ff", label="Arc colour"),
+    )
+    START, SWEEP = -135.0, 270.0
+
+    def create(self, parent: int | str, width: int, height: int) -> None:
+        """Draw the scale and cap once; the arc, pointer and readout are updated in place."""
+        lo, hi = self.num("minimum"), self.num("maximum")
+        self.drawlist = dpg.add_drawlist(width, height, parent=parent)
+        dl = self.drawlist
+        r = max(20.0, min(width / 2 - 8, (height - 34) / (1 + math.cos(math.radians(45))) - 4))
+        cx, cy = width / 2, 8 + r
+        self._geom = (cx, cy, r)
+        draw_scale(dl, cx, cy, r, lo, hi, start=self.START, sweep=self.SWEEP, label_size=max(11, r / 7))
+        ring = r * 0.62
+        dpg.draw_polyline(
+            arc_points(cx, cy, ring + 8, self.START, self.START + self.SWEEP),
+            color=TRACK,
+            thickness=6,
+            parent=dl,
+        )
+        self._arc = dpg.draw_polyline([[cx, cy], [cx, cy]], color=self.color("color"), thickness=6, parent=dl)
+        dpg.draw_circle((cx, cy), ring, color=FACE_EDGE, fill=(44, 48, 57, 255), thickness=2, parent=dl)
+        dpg.draw_circle((cx, cy), ring * 0.82, color=(60, 66, 78, 255), fill=(38, 42, 50, 255), parent=dl)
+        self._needle = dpg.draw_line((cx, cy), (cx, cy), color=HUB, thickness=4, parent=dl)
+        self._size = max(14.0, min(26.0, r / 3.4))
+        self._readout = draw_centered_text("\u2014", cx, cy + r * 0.9, self._size, TEXT, dl)
+
+    def update(self, snapshots: Sequence[SeriesSnapshot], now: float) -> None:
+        """Turn the pointer and grow the arc to the latest value."""
+        value = latest_number(snapshots[0] if snapshots else None)
+        cx, cy, r = self._geom
+        lo, hi = self.num("minimum"), self.num("maximum")
+        angle = gauge_angle(
+            value if value is not None else lo, lo, hi, start_deg=self.START, sweep_deg=self.SWEEP
+        )
+        ring = r * 0.62
+        dpg.configure_item(self._arc, points=arc_points(cx, cy, ring + 8, self.START, angle))
+        dpg.configure_item(
+            self._needle, p1=polar(cx, cy, ring * 0.3, angle), p2=polar(cx, cy, ring * 0.78, angle)
+        )
+        text = format_value(value, int(self.num("decimals")), str(self.prop("unit")))
+        w, h = text_size(text, self._size)
+        dpg.configure_item(self._readout, text=text, pos=(cx - w / 2, cy + r * 0.9 - h / 2))
+
+
+class CompassWidget(Widget):
+    """A 360 degree compass rose with a heading needle and a numeric heading."""
+
+    type_name = "compass"
+    label = "Compass"
+    description = "Heading on a 360 degree compass rose"
+    accepts = frozenset({ValueKind.NUMBER})
+    properties = (
+        Property("units", PropKind.CHOICE, "degrees", choices=("degrees", "radians")),
+        Property("offset", PropKind.NUMBER, 0.0, minimum=-360, maximum=360, label="Offset (deg)"),
+        Property("color", PropKind.COLOR, "#f66648ff", label="Needle colour"),
+    )
+    default_size = (220, 240)
+    min_size = (120, 130)
+
+    def create(self, parent: int | str, width: int, height: int) -> None:
+        """Draw the rose once; the needle and heading are updated in place."""
+        self.drawlist = dpg.add_drawlist(width, height, parent=parent)
+        dl = self.drawlist
+        r = max(20.0, min(width / 2 - 8, (height - 34) / 2))
+        cx, cy = width / 2, 6 + r
+        self._geom = (cx, cy, r)
+        dpg.draw_circle((cx, cy), r, color=FACE_EDGE, fill=FACE, thickness=2, parent=dl)
+        for deg in range(0, 360, 10):
+            major = deg % 30 == 0
+            p1 = polar(cx, cy, r - 3, deg)
+            p2 = polar(cx, cy, r - (12 if major else 7), deg)
+            dpg.draw_line(p1, p2, color=TEXT if major else DIM, thickness=2 if major else 1, parent=dl)
+        size = max(11.0, r / 6.5)
+        for deg, label in ((0, "N"), (90, "E"), (180, "S"), (270, "W")):
+            lx, ly = polar(cx, cy, r - 14 - size * 0.7, deg)
+            draw_centered_text(label, lx, ly, size * 1.15, (246, 102, 72, 255) if deg == 0 else TEXT, dl)
+        for deg in (30, 60, 120, 150, 210, 240, 300, 330):
+            lx, ly = polar(cx, cy, r - 14 - size * 0.7, deg)
+            draw_centered_text(str(deg), lx, ly, size * 0.8, DIM, dl)
+        color = self.color("color")
+        self._north = dpg.draw_polygon(self._half(0, 1), color=color, fill=color, parent=dl)
+        self._south = dpg.draw_polygon(self._half(0, -1), color=HUB, fill=(120, 126, 136, 255), parent=dl)
+        dpg.draw_circle((cx, cy), max(3, r * 0.06), color=HUB, fill=HUB, parent=dl)
+        self._size = max(14.0, min(24.0, r / 3.5))
+        self._readout = draw_centered_text("\u2014", cx, height - self._size / 2 - 2, self._size, TEXT, dl)
+
+    def _half(self, heading: float, sign: int) -> list[list[float]]:
+        cx, cy, r = self._geom
+        length = (r - 30) if sign > 0 else (r - 30) * 0.8
+        tip = polar(cx, cy, length, heading if sign > 0 else heading + 180)
+        left = polar(cx, cy, r * 0.08, heading - 90)
+        right = polar(cx, cy, r * 0.08, heading + 90)
+        return [list(tip), list(left), list(right), list(tip)]
+
+    def update(self, snapshots: Sequence[SeriesSnapshot], now: float) -> None:
+        """Point the needle to the latest heading."""
+        value = latest_number(snapshots[0] if snapshots else None)
+        if value is None:
+            return
+        heading = normalize_heading(
+            value, radians=self.prop("units") == "radians", offset_deg=self.num("offset")
+        )
+        dpg.configure_item(self._north, points=self._half(heading, 1))
+        dpg.configure_item(self._south, points=self._half(heading, -1))
+        text = f"{heading:5.1f}\u00b0 {compass_label(heading)}"
+        w, _h = text_size(text, self._size)
+        cx, _, _ = self._geom
+        dpg.configure_item(self._readout, text=text, pos=(cx - w / 2, self.height - self._size - 2))
+
+
+class ThermoWidget(Widget):
+    """A vertical thermometer bar with a bulb, a labelled scale and a readout."""
+
+    type_name = "thermo"
+    label = "Thermo"
+    description = "Thermometer bar with a scale"
+    accepts = frozenset({ValueKind.NUMBER, ValueKind.BOOL})
+    properties = (
+        *_RANGE,
+        _UNIT,
+        _DECIMALS,
+        Property("color", PropKind.COLOR, "#ec606eff", label="Fill colour"),
+    )
+    default_size = (140, 260)
+    min_size = (100, 140)
+
+    def create(self, parent: int | str, width: int, height: int) -> None:
+        """Draw the tube and scale once; the fill and readout are updated in place."""
+        lo, hi = self.num("minimum"), self.num("maximum")
+        self.drawlist = dpg.add_drawlist(width, height, parent=parent)
+        dl = self.drawlist
+        size = 13.0
+        tube_w = max(12.0, min(22.0, width / 7))
+        bulb_r = tube_w * 0.95
+        x0 = width * 0.42 - tube_w / 2
+        top = 10.0
+        bottom = height - 30 - bulb_r * 2
+        self._geom = (x0, tube_w, top, bottom, bulb_r)
+        color = self.color("color")
+        dpg.draw_rectangle(
+            (x0 - 3, top - 3),
+            (x0 + tube_w + 3, bottom + bulb_r),
+            color=FACE_EDGE,
+            fill=FACE,
+            rounding=tube_w / 2 + 3,
+            thickness=2,
+            parent=dl,
+        )
+        dpg.draw_circle(
+            (x0 + tube_w / 2, bottom + bulb_r), bulb_r + 3, color=FACE_EDGE, fill=FACE, thickness=2, parent=dl
+        )
+        self._fill = dpg.draw_rectangle(
+            (x0, bottom),
+            (x0 + tube_w, bottom + bulb_r),
+            color=color,
+            fill=color,
+            rounding=tube_w / 2,
+            parent=dl,
+        )
+        dpg.draw_circle((x0 + tube_w / 2, bottom + bulb_r), bulb_r - 1, color=color, fill=color, parent=dl)
+        span = hi - lo
+        for t in nice_ticks(min(lo, hi), max(lo, hi), 6) if span else []:
+            y = bottom - (bottom - top) * (t - lo) / span
+            dpg.draw_line((x0 + tube_w + 5, y), (x0 + tube_w + 13, y), color=TEXT, thickness=2, parent=dl)
+            dpg.draw_text((x0 + tube_w + 17, y - size / 2), format_tick(t), size=size, color=DIM, parent=dl)
+        self._size = 16.0
+        self._readout = draw_centered_text("\u2014", width / 2, height - 10, self._size, TEXT, dl)
+
+    def update(self, snapshots: Sequence[SeriesSnapshot], now: float) -> None:
+        """Fill the tube to the latest value."""
+        value = latest_number(snapshots[0] if snapshots else None)
+        x0, tube_w, top, bottom, bulb_r = self._geom
+        lo, hi = self.num("minimum"), self.num("maximum")
+        fill = thermo_fill(value if value is not None else lo, lo, hi, bottom - top)
+        dpg.configure_item(self._fill, pmin=(x0, bottom - fill), pmax=(x0 + tube_w, bottom + bulb_r))
+        text = format_value(value, int(self.num("decimals")), str(self.prop("unit")))
+        w, h = text_size(text, self._size)
+        dpg.configure_item(self._readout, text=text, pos=(self.width / 2 - w / 2, self.height - 10 - h / 2))

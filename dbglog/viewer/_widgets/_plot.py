@@ -1,0 +1,129 @@
+"""The Plot widget: several series over a sliding time window, auto or fixed scale, pause, decimation."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import dearpygui.dearpygui as dpg
+import numpy as np
+
+from dbglog.viewer._geometry import minmax_decimate, window_slice
+from dbglog.viewer._model import Binding, SeriesSnapshot, ValueKind
+from dbglog.viewer._widgets._common import SERIES_COLORS
+from dbglog.viewer.widget_api import Property, PropKind, Widget
+
+__all__ = ["PlotWidget", "series_label"]
+
+
+def series_label(binding: Binding) -> str:
+    """Return a short legend label for a binding: the tag or topic, plus the field."""
+    topic = binding.topic.removeprefix("/rosdashboard/")
+    return f"{topic}.{binding.field}" if binding.field and binding.field != "data" else topic
+
+
+class PlotWidget(Widget):
+    """A time plot of up to six series; it never sends more points to the GPU than it has pixels."""
+
+    type_name = "plot"
+    label = "Plot"
+    description = "Time plot of one or more series"
+    accepts = frozenset({ValueKind.NUMBER, ValueKind.BOOL})
+    max_bindings = 6
+    properties = (
+        Property("window", PropKind.NUMBER, 10.0, minimum=0.5, maximum=3600, label="Time window (s)"),
+        Property("scale", PropKind.CHOICE, "auto", choices=("auto", "fixed")),
+        Property("y_min", PropKind.NUMBER, 0.0, minimum=-1e12, maximum=1e12, label="Fixed minimum"),
+        Property("y_max", PropKind.NUMBER, 100.0, minimum=-1e12, maximum=1e12, label="Fixed maximum"),
+        Property("legend", PropKind.BOOL, True, label="Show legend"),
+    )
+    default_size = (420, 240)
+    min_size = (200, 140)
+
+    def __init__(self, props: dict[str, float | str | bool] | None = None) -> None:
+        super().__init__(props)
+        self.paused = False
+        self.points_drawn = 0
+        """Points sent to the plot in the last update (for tests and the benchmark)."""
+
+    def create(self, parent: int | str, width: int, height: int) -> None:
+        """Build the plot, its axes and a pause toggle."""
+        self._series: list[int | str] = []
+        self._labels: list[str] = []
+        with dpg.group(parent=parent, horizontal=True):
+            self._pause = dpg.add_checkbox(label="Pause", default_value=self.paused, callback=self._on_pause)
+            self._info = dpg.add_text("", color=(138, 146, 158, 255))
+        self.plot = dpg.add_plot(
+            width=width,
+            height=max(60, height - 28),
+            parent=parent,
+            no_menus=True,
+            no_box_select=True,
+            no_mouse_pos=True,
+        )
+        if self.prop("legend"):
+            dpg.add_plot_legend(parent=self.plot, location=dpg.mvPlot_Location_NorthWest)
+        self.x_axis = dpg.add_plot_axis(dpg.mvXAxis, parent=self.plot, label="", no_menus=True)
+        self.y_axis = dpg.add_plot_axis(dpg.mvYAxis, parent=self.plot, no_menus=True)
+        window = self.num("window")
+        dpg.set_axis_limits(self.x_axis, -window, 0.0)
+        if self.prop("scale") == "fixed":
+            dpg.set_axis_limits(self.y_axis, self.num("y_min"), self.num("y_max"))
+
+    def _on_pause(self, sender: int | str, value: bool) -> None:
+        self.paused = bool(value)
+
+    def set_paused(self, paused: bool) -> None:
+        """Freeze or resume the plot (the checkbox does the same)."""
+        self.paused = paused
+        dpg.set_value(self._pause, paused)
+
+    def _ensure_series(self, snapshots: Sequence[SeriesSnapshot]) -> None:
+        labels = [series_label(s.binding) for s in snapshots]
+        if labels == self._labels:
+            return
+        for tag in self._series:
+            dpg.delete_item(tag)
+        self._series = []
+        for i, label in enumerate(labels):
+            tag = dpg.add_line_series([], [], label=label, parent=self.y_axis)
+            with dpg.theme() as theme, dpg.theme_component(dpg.mvLineSeries):
+                dpg.add_theme_color(
+                    dpg.mvPlotCol_Line, SERIES_COLORS[i % len(SERIES_COLORS)], category=dpg.mvThemeCat_Plots
+                )
+                dpg.add_theme_style(dpg.mvPlotStyleVar_LineWeight, 2.0, category=dpg.mvThemeCat_Plots)
+            dpg.bind_item_theme(tag, theme)
+            self._series.append(tag)
+        self._labels = labels
+
+    def update(self, snapshots: Sequence[SeriesSnapshot], now: float) -> None:
+        """Redraw every series over the window ending at the newest sample."""
+        if self.paused:
+            return
+        self._ensure_series(snapshots)
+        window = self.num("window")
+        latest = [float(s.times[-1]) for s in snapshots if len(s.times)]
+        ref = max(latest) if latest else now
+        max_points = max(2, 2 * self.width)
+        lo, hi = np.inf, -np.inf
+        drawn = 0
+        for tag, snap in zip(self._series, snapshots, strict=True):
+            n = min(len(snap.times), len(snap.values))
+            times, values = (
+                snap.times[-n:] if n else snap.times[:0],
+                snap.values[-n:] if n else snap.values[:0],
+            )
+            sl = window_slice(times, ref, window)
+            x, y = minmax_decimate(times[sl] - ref, values[sl], max_points)
+            dpg.set_value(tag, [x.tolist(), y.tolist()])
+            drawn += len(x)
+            finite = y[np.isfinite(y)]
+            if len(finite):
+                lo, hi = min(lo, float(finite.min())), max(hi, float(finite.max()))
+        self.points_drawn = drawn
+        dpg.set_axis_limits(self.x_axis, -window, 0.0)
+        if self.prop("scale") == "fixed":
+            dpg.set_axis_limits(self.y_axis, self.num("y_min"), self.num("y_max"))
+        elif np.isfinite(lo):
+            pad = (hi - lo) * 0.08 or max(abs(hi) * 0.1, 0.5)
+            dpg.set_axis_limits(self.y_axis, lo - pad, hi + pad)
+        dpg.set_value(self._info, f"{window:g} s window")

@@ -1,0 +1,257 @@
+"""The widget API: what a viewer widget declares and implements, for built-ins and plugins alike.
+
+A widget is a class registered under the entry-point group ``dbglog.widgets``. It declares a type name,
+a toolbox label, the value kinds it accepts and its properties; it implements ``create`` (build its Dear
+PyGui items inside a parent the viewer gives it), ``update`` (draw new snapshots) and optionally
+``resize``. The viewer draws the frame around it: title strip, status pill, move and resize handles,
+context menu, topic setup and properties dialogs, saving and loading.
+
+Example::
+
+    import dearpygui.dearpygui as dpg
+    from dbglog.viewer.widget_api import Property, PropKind, Widget
+    from dbglog.viewer._model import ValueKind
+
+    class Big(Widget):
+        type_name = "big"
+        label = "Big number"
+        accepts = frozenset({ValueKind.NUMBER})
+        properties = (Property("decimals", PropKind.NUMBER, 2, minimum=0, maximum=9),)
+
+        def create(self, parent, width, height):
+            self.text = dpg.add_text("-", parent=parent)
+
+        def update(self, snapshots, now):
+            last = snapshots[0].last
+            if isinstance(last, (int, float)):
+                dpg.set_value(self.text, f"{last:.{int(self.prop('decimals'))}f}")
+
+Only the viewer's UI thread calls these methods; a widget must not start threads that call Dear PyGui.
+"""
+
+from __future__ import annotations
+
+import abc
+import enum
+import math
+import re
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import ClassVar
+
+from dbglog.viewer._model import SeriesSnapshot, ValueKind
+
+__all__ = [
+    "Color",
+    "PropKind",
+    "PropValue",
+    "Property",
+    "PropertyError",
+    "Widget",
+    "parse_color",
+]
+
+PropValue = float | str | bool
+"""A property value as stored in a dashboard file: numbers are floats, colours are ``#rrggbb[aa]``."""
+
+Color = tuple[int, int, int, int]
+"""An RGBA colour, each channel 0-255, as Dear PyGui takes it."""
+
+
+class PropertyError(ValueError):
+    """A property value that its declaration rejects; the message says which property and why."""
+
+
+class PropKind(enum.StrEnum):
+    """The kinds of property a widget can declare; each gets its own editor in the properties dialog."""
+
+    NUMBER = "number"
+    TEXT = "text"
+    BOOL = "bool"
+    COLOR = "color"
+    CHOICE = "choice"
+
+
+_HEX = re.compile(r"#(?:[0-9a-fA-F]{6}|[0-9a-fA-F]{8})")
+
+
+def parse_color(text: str) -> Color:
+    """Turn ``#rrggbb`` or ``#rrggbbaa`` into an RGBA tuple.
+
+    Raises:
+        PropertyError: the text is not such a colour.
+    """
+    if not isinstance(text, str) or not _HEX.fullmatch(text):
+        raise PropertyError(f"not a colour {text!r}: use #rrggbb or #rrggbbaa")
+    digits = text[1:]
+    channels = [int(digits[i : i + 2], 16) for i in range(0, len(digits), 2)]
+    if len(channels) == 3:
+        channels.append(255)
+    return (channels[0], channels[1], channels[2], channels[3])
+
+
+def format_color(color: Sequence[float]) -> str:
+    """Turn RGB(A) channels 0-255 into ``#rrggbbaa`` (the inverse of `parse_color`)."""
+    parts = [max(0, min(255, round(float(c)))) for c in list(color)[:4]]
+    while len(parts) < 4:
+        parts.append(255)
+    return "#" + "".join(f"{p:02x}" for p in parts)
+
+
+@dataclass(frozen=True, slots=True)
+class Property:
+    """One setting of a widget, shown in its properties dialog and saved in dashboards.
+
+    Args:
+        name: key in the dashboard file (``[a-z_][a-z0-9_]*``).
+        kind: which editor and which validation.
+        default: the value a new widget starts with.
+        label: shown in the dialog (defaults to the name).
+        minimum / maximum: bounds for numbers (inclusive).
+        choices: the allowed values of a CHOICE.
+        integer: a NUMBER that must be a whole number.
+    """
+
+    name: str
+    kind: PropKind
+    default: PropValue
+    label: str = ""
+    minimum: float | None = None
+    maximum: float | None = None
+    choices: tuple[str, ...] = ()
+    integer: bool = False
+    help: str = ""
+
+    @property
+    def title(self) -> str:
+        """The label shown in the properties dialog."""
+        return self.label or self.name.replace("_", " ").capitalize()
+
+    def validate(self, value: object) -> PropValue:
+        """Return `value` normalised for this property.
+
+        Raises:
+            PropertyError: the value has the wrong type or is out of range; the message names the property.
+        """
+        try:
+            return self._validate(value)
+        except PropertyError as exc:
+            raise PropertyError(f"property {self.name!r}: {exc}") from None
+
+    def _validate(self, value: object) -> PropValue:
+        if self.kind is PropKind.NUMBER:
+            if isinstance(value, bool) or not isinstance(value, int | float):
+                raise PropertyError(f"expected a number, got {_describe(value)}")
+            number = float(value)
+            if not math.isfinite(number):
+                raise PropertyError(f"expected a finite number, got {value!r}")
+            if self.integer and not number.is_integer():
+                raise PropertyError(f"expected a whole number, got {value!r}")
+            if self.minimum is not None and number < self.minimum:
+                raise PropertyError(f"{value!r} is below the minimum {self.minimum:g}")
+            if self.maximum is not None and number > self.maximum:
+                raise PropertyError(f"{value!r} is above the maximum {self.maximum:g}")
+            return number
+        if self.kind is PropKind.BOOL:
+            if not isinstance(value, bool):
+                raise PropertyError(f"expected true or false, got {_describe(value)}")
+            return value
+        if not isinstance(value, str):
+            raise PropertyError(f"expected a string, got {_describe(value)}")
+        if self.kind is PropKind.COLOR:
+            parse_color(value)
+            return value.lower()
+        if self.kind is PropKind.CHOICE and value not in self.choices:
+            raise PropertyError(f"{value!r} is not one of {', '.join(self.choices)}")
+        if len(value) > 1000:
+            raise PropertyError("text longer than 1000 characters")
+        return value
+
+
+def _describe(value: object) -> str:
+    text = repr(value)
+    return f"{type(value).__name__} {text[:40]}"
+
+
+class Widget(abc.ABC):
+    """Base class of every viewer widget: declare the class attributes, implement `create` and `update`.
+
+    The viewer constructs a widget with its validated property values, calls `create` once with a parent
+    container and the body size in pixels, then `update` whenever one of its series changed, `resize`
+    when the user resizes it, `set_properties` after the properties dialog, and `destroy` at the end.
+    """
+
+    type_name: ClassVar[str]
+    """Registry key saved in dashboard files, e.g. ``"dial"``; must equal the entry point's name."""
+    label: ClassVar[str]
+    """Name shown in the toolbox."""
+    description: ClassVar[str] = ""
+    """One line shown as the toolbox tooltip."""
+    accepts: ClassVar[frozenset[ValueKind]] = frozenset({ValueKind.NUMBER, ValueKind.BOOL})
+    """Value kinds this widget can show; the topic setup dialog warns about others."""
+    properties: ClassVar[tuple[Property, ...]] = ()
+    max_bindings: ClassVar[int] = 1
+    """How many series the widget shows (a plot takes several)."""
+    default_size: ClassVar[tuple[int, int]] = (220, 220)
+    min_size: ClassVar[tuple[int, int]] = (120, 90)
+
+    def __init__(self, props: Mapping[str, PropValue] | None = None) -> None:
+        self.props: dict[str, PropValue] = self.default_properties()
+        if props:
+            self.props.update({k: v for k, v in props.items() if k in self.props})
+        self.parent: int | str = 0
+        self.width = 0
+        self.height = 0
+
+    @classmethod
+    def default_properties(cls) -> dict[str, PropValue]:
+        """Return every declared property at its default."""
+        return {p.name: p.default for p in cls.properties}
+
+    @classmethod
+    def property_named(cls, name: str) -> Property | None:
+        """Return the declaration of property `name` (None when not declared)."""
+        return next((p for p in cls.properties if p.name == name), None)
+
+    def prop(self, name: str) -> PropValue:
+        """Return the current value of property `name`."""
+        return self.props[name]
+
+    def num(self, name: str) -> float:
+        """Return a NUMBER property as a float."""
+        value = self.props[name]
+        return float(value) if not isinstance(value, str) else 0.0
+
+    def color(self, name: str) -> Color:
+        """Return a COLOR property as RGBA."""
+        return parse_color(str(self.props[name]))
+
+    def mount(self, parent: int | str, width: int, height: int) -> None:
+        """Remember where the widget lives and build it (the viewer calls this, not `create`)."""
+        self.parent, self.width, self.height = parent, width, height
+        self.create(parent, width, height)
+
+    @abc.abstractmethod
+    def create(self, parent: int | str, width: int, height: int) -> None:
+        """Build the widget's Dear PyGui items inside `parent`, filling `width` x `height` pixels."""
+
+    @abc.abstractmethod
+    def update(self, snapshots: Sequence[SeriesSnapshot], now: float) -> None:
+        """Show new data: one snapshot per binding, in binding order; `now` is the wall clock in seconds."""
+
+    def resize(self, width: int, height: int) -> None:
+        """Fit the new body size; the default rebuilds the widget (create again in the same parent)."""
+        self.destroy()
+        self.mount(self.parent, width, height)
+
+    def set_properties(self, props: Mapping[str, PropValue]) -> None:
+        """Take new property values; the default stores them and rebuilds."""
+        self.props.update({k: v for k, v in props.items() if k in self.props})
+        self.resize(self.width, self.height)
+
+    def destroy(self) -> None:
+        """Delete the widget's items; the default deletes every child of the parent."""
+        import dearpygui.dearpygui as dpg
+
+        if self.parent and dpg.does_item_exist(self.parent):
+            dpg.delete_item(self.parent, children_only=True)

@@ -1,0 +1,206 @@
+"""The viewer's pure maths, without a display: snapping, hit-testing, gauges, fills, decimation."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from dbglog.viewer._geometry import (
+    Part,
+    Rect,
+    compass_label,
+    format_tick,
+    gauge_angle,
+    hit_test,
+    led_on,
+    minmax_decimate,
+    nice_ticks,
+    normalize_heading,
+    polar,
+    snap,
+    snap_rect,
+    thermo_fill,
+    value_fraction,
+    window_slice,
+)
+
+
+def test_snap_rounds_to_nearest_multiple() -> None:
+    """Values round to the nearest grid multiple; grid 0 leaves them alone."""
+    assert snap(29, 20) == 20
+    assert snap(31, 20) == 40
+    assert snap(-11, 20) == -20
+    assert snap(13.7, 0) == 13.7
+
+
+def test_snap_rect_keeps_at_least_one_cell_and_minimum() -> None:
+    """A snapped rectangle is on the grid, at least a cell and the widget minimum, never off-canvas."""
+    r = snap_rect(Rect(-7, 33, 5, 101), 20, min_w=50, min_h=0)
+    assert r == Rect(0, 40, 60, 100)
+    assert snap_rect(Rect(3, 4, 5, 6), 0) == Rect(3, 4, 5, 6)
+
+
+@given(st.floats(-1e4, 1e4), st.floats(-1e4, 1e4), st.floats(1, 1e4), st.floats(1, 1e4), st.integers(2, 200))
+def test_snap_rect_lands_on_grid(x: float, y: float, w: float, h: float, grid: int) -> None:
+    """Every coordinate of a snapped rectangle is a multiple of the grid."""
+    r = snap_rect(Rect(x, y, w, h), grid)
+    for v in (r.x, r.y, r.w, r.h):
+        assert v % grid == pytest.approx(0, abs=1e-6) or v % grid == pytest.approx(grid)
+    assert r.x >= 0
+    assert r.y >= 0
+    assert r.w >= grid
+    assert r.h >= grid
+
+
+def test_rect_move_and_resize_clamp() -> None:
+    """Moving never goes above/left of the origin; resizing never goes below the minimum size."""
+    r = Rect(10, 10, 100, 80)
+    assert r.moved(-50, 5) == Rect(0, 15, 100, 80)
+    assert r.resized(-90, 40, 60, 50) == Rect(10, 10, 60, 120)
+
+
+def test_hit_test_finds_topmost_and_part() -> None:
+    """The last rectangle wins where they overlap; title strip, resize corner and body are told apart."""
+    rects = [Rect(0, 0, 100, 100), Rect(50, 50, 100, 100)]
+    assert hit_test(rects, 10, 5, title_h=20, corner=10) == (0, Part.TITLE)
+    assert hit_test(rects, 60, 55, title_h=20, corner=10) == (1, Part.TITLE)
+    assert hit_test(rects, 145, 145, title_h=20, corner=10) == (1, Part.CORNER)
+    assert hit_test(rects, 20, 60, title_h=20, corner=10) == (0, Part.BODY)
+    assert hit_test(rects, 300, 300, title_h=20, corner=10) is None
+
+
+def test_value_fraction_clamps_and_handles_bad_ranges() -> None:
+    """The fraction is clamped to 0..1; NaN values and empty or infinite ranges give 0."""
+    assert value_fraction(5, 0, 10) == 0.5
+    assert value_fraction(-5, 0, 10) == 0.0
+    assert value_fraction(50, 0, 10) == 1.0
+    assert value_fraction(math.nan, 0, 10) == 0.0
+    assert value_fraction(1, 3, 3) == 0.0
+    assert value_fraction(1, 0, math.inf) == 0.0
+    assert value_fraction(-2, 0, -4) == 0.5
+
+
+def test_gauge_angle_maps_range_to_sweep() -> None:
+    """Minimum, middle and maximum land at the start, centre and end of the sweep; outside values pin."""
+    assert gauge_angle(-8, -8, 8, start_deg=-120, sweep_deg=240) == -120
+    assert gauge_angle(0, -8, 8, start_deg=-120, sweep_deg=240) == 0
+    assert gauge_angle(8, -8, 8, start_deg=-120, sweep_deg=240) == 120
+    assert gauge_angle(99, -8, 8, start_deg=-120, sweep_deg=240) == 120
+
+
+def test_polar_zero_is_up_and_clockwise() -> None:
+    """Angle 0 points up (negative screen y) and 90 points right."""
+    x, y = polar(100, 100, 10, 0)
+    assert (x, y) == pytest.approx((100, 90))
+    x, y = polar(100, 100, 10, 90)
+    assert (x, y) == pytest.approx((110, 100))
+
+
+def test_nice_ticks_are_round_and_cover_range() -> None:
+    """Ticks use round steps within the range."""
+    assert nice_ticks(0, 100, 6) == [0, 20, 40, 60, 80, 100]
+    assert nice_ticks(-8, 8, 5) == [-5, 0, 5]
+    assert nice_ticks(1.625, 1.75, 2) == [1.625, 1.75]
+    assert nice_ticks(0, 1, 5) == [0, 0.25, 0.5, 0.75, 1.0]
+    assert nice_ticks(3, 3) == [3]
+    assert nice_ticks(0, math.nan) == []
+
+
+@given(st.floats(-1e6, 1e6), st.floats(1e-3, 1e6), st.integers(2, 12))
+@settings(max_examples=200)
+def test_nice_ticks_property(lo: float, span: float, n: int) -> None:
+    """Ticks are ascending, inside the range, and never more than asked for."""
+    ticks = nice_ticks(lo, lo + span, n)
+    assert 1 <= len(ticks) <= n
+    assert ticks == sorted(ticks)
+    tol = span * 1e-6
+    assert ticks[0] >= lo - tol
+    assert ticks[-1] <= lo + span + tol
+
+
+def test_format_tick_is_compact() -> None:
+    """Tick labels are short."""
+    assert format_tick(0) == "0"
+    assert format_tick(2.5) == "2.5"
+    assert format_tick(12000) == "12k"
+    assert format_tick(-3e6) == "-3M"
+
+
+def test_heading_normalization_and_labels() -> None:
+    """Headings wrap into [0, 360), radians convert, and the nearest compass point is named."""
+    assert normalize_heading(-90) == 270
+    assert normalize_heading(725) == 5
+    assert normalize_heading(math.pi, radians=True) == pytest.approx(180)
+    assert normalize_heading(350, offset_deg=20) == pytest.approx(10)
+    assert normalize_heading(math.inf) == 0
+    assert compass_label(0) == "N"
+    assert compass_label(44) == "NE"
+    assert compass_label(181) == "S"
+    assert compass_label(350) == "N"
+
+
+def test_thermo_fill() -> None:
+    """The bar fills in proportion to the value and clamps at both ends."""
+    assert thermo_fill(25, 0, 100, 200) == 50
+    assert thermo_fill(-5, 0, 100, 200) == 0
+    assert thermo_fill(500, 0, 100, 200) == 200
+
+
+def test_led_on_for_bools_numbers_and_text() -> None:
+    """Bools light as they are, numbers against the threshold, text when truthy; invert flips."""
+    assert led_on(True, 0.5)
+    assert not led_on(False, 0.5)
+    assert led_on(0.7, 0.5)
+    assert not led_on(0.3, 0.5)
+    assert not led_on(math.nan, 0.5)
+    assert led_on("ON", 0.5)
+    assert not led_on("idle", 0.5)
+    assert led_on(None, 0.5, invert=True)
+
+
+def test_window_slice_keeps_recent_points() -> None:
+    """Only points within the window before now are kept."""
+    t = np.arange(0.0, 10.0)
+    assert t[window_slice(t, 9.0, 3.0)].tolist() == [6.0, 7.0, 8.0, 9.0]
+
+
+def test_minmax_decimate_keeps_spikes() -> None:
+    """A single spike in a long flat line survives decimation to a few points."""
+    x = np.arange(10000, dtype=np.float64)
+    y = np.zeros(10000)
+    y[4321] = 50.0
+    y[777] = -20.0
+    dx, dy = minmax_decimate(x, y, 100)
+    assert len(dx) <= 100
+    assert dy.max() == 50.0
+    assert dy.min() == -20.0
+    assert 4321.0 in dx.tolist()
+    assert np.all(np.diff(dx) >= 0)
+
+
+def test_minmax_decimate_short_input_unchanged() -> None:
+    """Lines already short enough are returned as they are."""
+    x = np.arange(5, dtype=np.float64)
+    dx, dy = minmax_decimate(x, x * 2, 100)
+    assert dx is x
+    assert dy.tolist() == [0, 2, 4, 6, 8]
+
+
+@given(
+    st.lists(st.floats(-1e9, 1e9, allow_nan=False), min_size=1, max_size=3000),
+    st.integers(2, 400),
+)
+@settings(max_examples=150)
+def test_minmax_decimate_property(values: list[float], max_points: int) -> None:
+    """Never more points than asked, x stays ordered, and the global min and max are kept."""
+    y = np.array(values)
+    x = np.arange(len(y), dtype=np.float64)
+    dx, dy = minmax_decimate(x, y, max_points)
+    assert len(dx) == len(dy) <= max(max_points, 1) or len(y) <= max_points
+    assert np.all(np.diff(dx) >= 0)
+    assert dy.max() == y.max()
+    assert dy.min() == y.min()
