@@ -798,6 +798,8 @@ def _check_text(text: str) -> None:
         reason = _BAD_CHARS.get(ch)
         if reason is not None:
             raise FormulaError(reason, i + 1)
+        if ch == "_" and text.startswith("__", i):
+            raise FormulaError("'__' is not allowed (no dunder names)", i + 1)
         if ch in "([":
             depth += 1
             if depth > MAX_DEPTH:
