@@ -172,7 +172,7 @@ class Matcher:
     def _extract(self, group: _Group, hits: list[int], data: bytes) -> list[Value]:
         values: list[Value] = []
         end = len(data)
-        for index in hits:
+        for index in sorted(hits):  # RE2 reports them in no particular order; keep file order
             compiled = group.rules[index]
             spans = compiled.program.Match(_UNANCHORED, data, 0, end)
             for group_index, topic, kind, parse in compiled.outputs:

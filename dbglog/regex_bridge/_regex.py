@@ -15,6 +15,7 @@ import re2
 __all__ = [
     "BYTES_PARSERS",
     "MAX_LINE",
+    "MAX_PROGRAM_SIZE",
     "CompiledRegex",
     "NumberKind",
     "RegexError",
@@ -26,6 +27,9 @@ __all__ = [
 
 MAX_LINE = 4096
 """Lines longer than this many characters are truncated before matching."""
+
+MAX_PROGRAM_SIZE = 1500
+"""Largest RE2 program accepted: one match costs at most about ``MAX_LINE × MAX_PROGRAM_SIZE`` steps."""
 
 NumberKind = Literal["float", "int", "bool"]
 
@@ -76,6 +80,12 @@ def compile_regex(pattern: str) -> CompiledRegex:
         compiled = re2.compile(pattern, options=_OPTIONS)
     except re2.error as exc:
         raise RegexError(_reason(pattern, exc)) from None
+    size = compiled._regexp.ProgramSize()
+    if size > MAX_PROGRAM_SIZE:
+        raise RegexError(
+            f"pattern is too complex (RE2 program size {size} > {MAX_PROGRAM_SIZE}): simplify it; "
+            "counted repeats such as {200} multiply its size"
+        )
     names: list[str | None] = [None] * compiled.groups
     for name, index in compiled.groupindex.items():
         names[index - 1] = name

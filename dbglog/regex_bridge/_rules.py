@@ -370,7 +370,7 @@ def _validate_rule(
         try:
             compiled = compile_regex(pattern)
         except RegexError as exc:
-            problem(f"pattern {pattern!r} does not compile with RE2: {exc}", "pattern")
+            problem(f"pattern '{pattern}' does not compile with RE2: {exc}", "pattern")
         else:
             outputs = _outputs(tag, kind, compiled.group_names, lambda why: problem(why, "pattern"))
 

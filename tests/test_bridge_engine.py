@@ -1,0 +1,168 @@
+"""The matching engine: lines → typed values, filters, strict numbers, truncation, golden files; no ROS."""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from pathlib import Path
+from typing import Any
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from rcl_interfaces.msg import Log
+from rclpy.serialization import serialize_message
+from std_msgs.msg import Bool, Float64, Int64, String
+
+from dbglog.regex_bridge import MAX_LINE, Matcher, Value, load_rules, parse_rules
+from dbglog.regex_bridge._cdr import encode_value, read_log, read_string
+
+GOLDEN = Path(__file__).resolve().parent / "golden" / "bridge"
+DEMO_RULES = Path(__file__).resolve().parent.parent / "examples" / "rules" / "demo_rules.yaml"
+
+
+def _cases() -> list[str]:
+    return sorted(p.name for p in GOLDEN.iterdir() if p.is_dir())
+
+
+def _jsonl(path: Path) -> list[dict[str, Any]]:
+    return [json.loads(line) for line in path.read_text(encoding="utf-8").splitlines() if line.strip()]
+
+
+@pytest.mark.parametrize("case", _cases())
+def test_golden_lines_give_the_expected_values(case: str) -> None:
+    """Each golden case's sample lines yield exactly the recorded values and unparseable counts."""
+    folder = GOLDEN / case
+    rules_path = folder / "rules.yaml" if (folder / "rules.yaml").exists() else DEMO_RULES
+    matcher = Matcher(load_rules(rules_path))
+    inputs, expected = _jsonl(folder / "lines.jsonl"), _jsonl(folder / "expected.jsonl")
+    assert len(inputs) == len(expected) > 0
+    for given_line, want in zip(inputs, expected, strict=True):
+        before = matcher.stats.unparseable_total
+        got = matcher.match(
+            given_line["line"],
+            logger=given_line.get("logger", ""),
+            level=given_line.get("level", 0),
+            source=given_line.get("source", "/rosout"),
+        )
+        assert [list(v) for v in got] == want["values"], given_line
+        assert matcher.stats.unparseable_total - before == want["unparseable"], given_line
+        for value in got:
+            assert type(value.value) is {"float": float, "int": int, "bool": bool}[value.kind]
+
+
+def test_golden_cases_cover_the_demo_and_strictness() -> None:
+    """The golden set includes the demo robot's lines and the strict-number cases."""
+    assert {"demo", "strict_numbers", "filters"} <= set(_cases())
+
+
+def test_match_and_match_bytes_agree() -> None:
+    """The str API and the UTF-8 bytes API give the same values."""
+    matcher = Matcher(load_rules(DEMO_RULES))
+    line = "sound source: azimuth=1.234 rad elevation=0.120 rad confidence=0.87"
+    expected = [
+        Value("/rosdashboard/sound/log/azimuth", "float", 1.234),
+        Value("/rosdashboard/sound/log/elevation", "float", 0.12),
+        Value("/rosdashboard/sound/log/confidence", "float", 0.87),
+    ]
+    assert matcher.match(line, logger="demo_sound_localizer", level=20) == expected
+    assert matcher.match_bytes(line.encode(), "demo_sound_localizer", 20) == expected
+
+
+def test_unparseable_captures_are_counted_with_the_last_one_kept() -> None:
+    """A capture that is not a number is never returned; the stats say where and what."""
+    matcher = Matcher(parse_rules("rules: [{tag: t, pattern: 'v=(\\S+)', type: int}]"))
+    assert matcher.match("v=1,5") == []
+    assert matcher.match("v=12") == [Value("/rosdashboard/t", "int", 12)]
+    stats = matcher.reset_stats()
+    assert stats.unparseable == {"/rosdashboard/t": 1}
+    assert stats.values == 1
+    assert stats.last_unparseable is not None
+    assert stats.last_unparseable.text == "1,5"
+    assert matcher.stats.unparseable_total == 0
+
+
+def test_lines_are_truncated_for_matching() -> None:
+    """Only the first MAX_LINE bytes of a line are matched, for str and bytes input alike."""
+    matcher = Matcher(parse_rules("rules: [{tag: t, pattern: 'v=(\\d+)'}]"))
+    inside, outside = "x" * (MAX_LINE - 4) + "v=12345", "x" * MAX_LINE + "v=1"
+    assert matcher.match(inside) == [Value("/rosdashboard/t", "float", 12.0)]
+    assert matcher.match_bytes(inside.encode()) == [Value("/rosdashboard/t", "float", 12.0)]
+    assert matcher.match(outside) == []
+    assert matcher.match_bytes(outside.encode()) == []
+
+
+def test_optional_groups_that_do_not_take_part_publish_nothing() -> None:
+    """A named group left out of the match gives no value for that output only."""
+    matcher = Matcher(parse_rules("rules: [{tag: p, pattern: 'x=(?P<x>\\d+)(?: y=(?P<y>\\d+))?'}]"))
+    assert matcher.match("x=1") == [Value("/rosdashboard/p/x", "float", 1.0)]
+    assert len(matcher.match("x=1 y=2")) == 2
+
+
+def test_many_distinct_loggers_do_not_grow_the_cache_without_bound() -> None:
+    """Each (source, logger, level) is remembered, but the cache starts over past its limit."""
+    matcher = Matcher(parse_rules("rules: [{tag: t, node: 'n*', pattern: 'v=(\\d+)'}]"))
+    for i in range(5000):
+        assert matcher.match("v=1", logger=f"n{i}", level=20) == [Value("/rosdashboard/t", "float", 1.0)]
+    assert len(matcher._groups) <= 4096
+
+
+@pytest.mark.parametrize("pattern", ["(a+)+$", "(a|aa)+$", r"(\w+\s?)+$", "(.*a){20}"])
+def test_pathological_line_is_fast_through_the_engine(pattern: str) -> None:
+    """100 kB of 'a' then '!' costs milliseconds at most against slow-for-backtracking rules."""
+    matcher = Matcher(parse_rules(f"rules: [{{tag: t, pattern: '{pattern}'}}]"))
+    line = "a" * 100_000 + "!"
+    start = time.perf_counter()
+    matcher.match(line)
+    assert time.perf_counter() - start < 0.5  # loose: the benchmark measures it properly
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    line=st.text(max_size=300),
+    logger=st.text(max_size=20),
+    level=st.integers(min_value=0, max_value=255),
+)
+def test_any_line_gives_a_list_of_typed_values_and_never_raises(line: str, logger: str, level: int) -> None:
+    """Whatever the line (any Unicode, surrogates included), the result is a list of finite-typed values."""
+    matcher = _RANDOM_MATCHER
+    for value in matcher.match(line, logger=logger, level=level):
+        assert value.topic.startswith("/rosdashboard/")
+        assert isinstance(value.value, {"float": float, "int": int, "bool": bool}[value.kind])
+
+
+_RANDOM_MATCHER = Matcher(
+    parse_rules(
+        "rules:\n"
+        "  - {tag: a, pattern: '(\\S+)'}\n"
+        "  - {tag: b, pattern: '(\\d+)', type: int}\n"
+        "  - {tag: c, pattern: '(?i)(true|false)', type: bool}\n"
+        "  - {tag: d, pattern: '(?P<x>.)(?P<y>.)', node: '*x*', level: warn}\n"
+    )
+)
+
+
+def test_cdr_reader_matches_rclpy_serialization() -> None:
+    """The raw Log/String readers return what rclpy serialized, for ASCII and non-ASCII text."""
+    for name, text in [("demo_turtle", "odometry: speed 0.53 m/s"), ("n", ""), ("ñödé", "ünï ١٢٣ ✓" * 50)]:
+        raw = serialize_message(Log(level=30, name=name, msg=text, file="f.py", function="fn", line=7))
+        assert read_log(raw) == (30, name.encode(), text.encode())
+        assert read_string(serialize_message(String(data=text))) == text.encode()
+    assert read_log(b"\x00\x07\x00\x00" + bytes(40)) is None
+    assert read_log(b"\x00\x01\x00\x00") is None
+    assert read_string(b"\x00\x01\x00\x00\xff\xff\x00\x00") is None
+
+
+def test_value_encoding_matches_rclpy_serialization() -> None:
+    """Pre-serialized outputs deserialize to the same values rclpy would publish."""
+    from rclpy.serialization import deserialize_message
+
+    for kind, msg_type, value in [
+        ("float", Float64, 0.53),
+        ("float", Float64, -math.inf),
+        ("int", Int64, -(1 << 63)),
+        ("bool", Bool, True),
+        ("bool", Bool, False),
+    ]:
+        assert deserialize_message(encode_value(kind, value), msg_type).data == value  # type: ignore[arg-type]

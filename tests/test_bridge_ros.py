@@ -1,0 +1,250 @@
+"""The bridge on real ROS 2: nodes log lines, typed values arrive on /rosdashboard topics (object and CLI)."""
+
+from __future__ import annotations
+
+import signal
+import subprocess
+import sys
+import threading
+from collections.abc import Iterator
+from functools import partial
+from pathlib import Path
+from typing import Any
+
+import pytest
+from rcl_interfaces.msg import Log
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from std_msgs.msg import Bool, Float64, Int64, String
+
+from dbglog.regex_bridge import parse_rules
+from dbglog.regex_bridge._node import Bridge
+from tests._ros import Collector, RosPeer, wait_until
+
+RULES = r"""
+rules:
+  - tag: t/probe
+    type: int
+    pattern: 'probe=(\d+)'
+  - tag: t/speed
+    node: 'robot*'
+    pattern: 'speed (\S+) m/s'
+  - tag: t/alarm
+    node: robot_arm
+    level: warn
+    type: int
+    pattern: 'alarm (\d+)'
+  - tag: t/pose
+    node: robot_arm
+    pattern: 'pose x=(?P<x>\S+) y=(?P<y>\S+)'
+  - tag: t/ok
+    type: bool
+    source_topic: /t_chatter
+    pattern: 'ok=(\w+)'
+  - tag: t/echo
+    type: int
+    pattern: 'not published.*; (\d+) so far'
+"""
+
+LATCHED = QoSProfile(
+    depth=100, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL
+)
+TIMEOUT = 20.0
+
+
+@pytest.fixture
+def peers() -> Iterator[tuple[RosPeer, RosPeer, RosPeer]]:
+    """A robot node (`robot_arm`), another node (`camera`) and an independent viewer."""
+    with RosPeer("robot_arm") as robot, RosPeer("camera") as camera, RosPeer("viewer") as viewer:
+        yield robot, camera, viewer
+
+
+def _has_type(peer: RosPeer, topic: str, type_name: str) -> bool:
+    return peer.topic_types(topic) == [type_name]
+
+
+def _probe(robot: RosPeer, probes: Collector, value: int) -> None:
+    """Log `probe=<value>` until the bridge's value for it reaches the viewer (discovery done)."""
+    for _ in range(int(TIMEOUT / 0.2)):
+        robot.node.get_logger().info(f"probe={value}")
+        if wait_until(lambda: value in probes.values(), timeout=0.2):
+            return
+    raise AssertionError(f"probe {value} never came through the bridge")
+
+
+def test_bridge_turns_logged_lines_into_typed_topics(peers: tuple[RosPeer, RosPeer, RosPeer]) -> None:
+    """Info/warning lines of an unmodified node arrive as Float64/Int64/Bool; node and level filters hold."""
+    robot, camera, viewer = peers
+    with Bridge(parse_rules(RULES), node_name="bridge_under_test", warn_every=0.0) as bridge:
+        # Every output exists before the first match, with its type.
+        for topic, type_name in [
+            ("/rosdashboard/t/speed", "std_msgs/msg/Float64"),
+            ("/rosdashboard/t/alarm", "std_msgs/msg/Int64"),
+            ("/rosdashboard/t/pose/x", "std_msgs/msg/Float64"),
+            ("/rosdashboard/t/ok", "std_msgs/msg/Bool"),
+        ]:
+            assert wait_until(partial(_has_type, viewer, topic, type_name), TIMEOUT), topic
+        assert bridge.stats.values == 0
+
+        probes = viewer.subscribe("/rosdashboard/t/probe", Int64, LATCHED)
+        speed = viewer.subscribe("/rosdashboard/t/speed", Float64, LATCHED)
+        alarm = viewer.subscribe("/rosdashboard/t/alarm", Int64, LATCHED)
+        pose_y = viewer.subscribe("/rosdashboard/t/pose/y", Float64, LATCHED)
+        echo = viewer.subscribe("/rosdashboard/t/echo", Int64, LATCHED)
+        warnings = viewer.subscribe("/rosout", Log)
+        _probe(robot, probes, 1)
+        _probe(camera, probes, 2)
+
+        camera.node.get_logger().info("speed 9.9 m/s")  # node filter: camera is not robot*
+        robot.node.get_logger().info("alarm 5")  # level filter: info < warn
+        robot.node.get_logger().info("speed 0.5 m/s")
+        robot.node.get_logger().warning("alarm 7")
+        robot.node.get_logger().error("alarm 8")
+        robot.node.get_logger().info("speed 1,5 m/s")  # unparseable: counted, warned, not published
+        robot.node.get_logger().info("pose x=1.25 y=-3.5")
+        robot.node.get_logger().info("speed 2.5 m/s")
+
+        assert speed.wait_for(2, TIMEOUT)
+        assert alarm.wait_for(2, TIMEOUT)
+        assert pose_y.wait_for(1, TIMEOUT)
+        # The bridge warns about the unparseable capture on /rosout, and never matches its own lines.
+        assert wait_until(
+            lambda: any(
+                m.name == "bridge_under_test" and "could not be parsed" in m.msg for m in warnings.messages
+            ),
+            TIMEOUT,
+        )
+        _probe(camera, probes, 3)
+        _probe(robot, probes, 4)
+        assert speed.values() == [0.5, 2.5]
+        assert alarm.values() == [7, 8]
+        assert pose_y.values() == [-3.5]
+        assert echo.values() == []
+        stats = bridge.stats
+        assert (stats.values, stats.unparseable, stats.errors) == (4 + 2 + 2 + 2, 1, 0)
+
+
+def test_string_topics_and_bad_messages_never_stop_the_bridge(
+    peers: tuple[RosPeer, RosPeer, RosPeer],
+) -> None:
+    """Lines from a std_msgs/String topic are matched too; an unreadable message is counted and skipped."""
+    robot, _camera, viewer = peers
+    with Bridge(parse_rules(RULES), node_name="bridge_strings") as bridge:
+        ok = viewer.subscribe("/rosdashboard/t/ok", Bool, LATCHED)
+        chatter = robot.publisher("/t_chatter", String)
+        assert robot.wait_for_subscribers(chatter, timeout=TIMEOUT)
+        chatter.publish(b"\x00\x01\x00\x00\xff\xff\xff\x7f")  # a length field pointing far past the end
+        chatter.publish(String(data="ok=true"))
+        chatter.publish(String(data="ok=perhaps"))
+        chatter.publish(String(data="ok=OFF"))
+        assert ok.wait_for(2, TIMEOUT)
+        assert ok.values() == [True, False]
+        assert wait_until(lambda: bridge.stats.errors == 1 and bridge.stats.unparseable == 1, TIMEOUT)
+
+
+class _Process:
+    """A ``dbglog bridge`` subprocess whose output lines are collected by a thread."""
+
+    def __init__(self, *args: str) -> None:
+        self.proc = subprocess.Popen(
+            [sys.executable, "-m", "dbglog", "bridge", *args],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.STDOUT,
+            text=True,
+        )
+        self.lines: list[str] = []
+        self._reader = threading.Thread(target=self._read, daemon=True)
+        self._reader.start()
+
+    def _read(self) -> None:
+        assert self.proc.stdout is not None
+        for line in self.proc.stdout:
+            self.lines.append(line)
+
+    def output(self) -> str:
+        return "".join(self.lines)
+
+    def stop(self, signum: int) -> int:
+        self.proc.send_signal(signum)
+        try:
+            code = self.proc.wait(timeout=TIMEOUT)
+        finally:
+            if self.proc.poll() is None:
+                self.proc.kill()
+                self.proc.wait(timeout=TIMEOUT)
+            self._reader.join(timeout=5)
+            assert self.proc.stdout is not None
+            self.proc.stdout.close()
+        return code
+
+
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
+def test_cli_bridge_runs_until_signalled_and_exits_cleanly(
+    tmp_path: Path, peers: tuple[RosPeer, RosPeer, RosPeer], signum: int
+) -> None:
+    """`dbglog bridge RULES.yaml` publishes typed values from real /rosout and exits 0 on SIGINT/SIGTERM."""
+    robot, _camera, viewer = peers
+    rules = tmp_path / "rules.yaml"
+    rules.write_text(RULES, encoding="utf-8")
+    bridge = _Process(str(rules), "--name", "cli_bridge")
+    try:
+        assert wait_until(lambda: "running" in bridge.output(), TIMEOUT), bridge.output()
+        probes = viewer.subscribe("/rosdashboard/t/probe", Int64, LATCHED)
+        speed = viewer.subscribe("/rosdashboard/t/speed", Float64, LATCHED)
+        x = viewer.subscribe("/rosdashboard/t/pose/x", Float64, LATCHED)
+        _probe(robot, probes, 10)
+        robot.node.get_logger().info("speed 0.75 m/s")
+        robot.node.get_logger().warning("pose x=4 y=5")
+        assert speed.wait_for(1, TIMEOUT)
+        assert x.wait_for(1, TIMEOUT)
+        assert speed.values() == [0.75]
+        assert x.values() == [4.0]
+    finally:
+        code = bridge.stop(signum)
+    assert code == 0, bridge.output()
+    assert "stopped after" in bridge.output()
+    assert "Traceback" not in bridge.output()
+
+
+def test_cli_check_accepts_a_good_file_and_lists_its_topics(tmp_path: Path) -> None:
+    """`--check` on a valid file exits 0 and names every output topic with its type."""
+    rules = tmp_path / "rules.yaml"
+    rules.write_text(RULES, encoding="utf-8")
+    done = _run_check(rules)
+    assert done.returncode == 0, done.stderr
+    assert "OK, 6 rules, 7 topics" in done.stdout
+    assert "/rosdashboard/t/pose/y (float)" in done.stdout
+    assert "/rosdashboard/t/ok (bool)" in done.stdout
+
+
+def test_cli_check_rejects_a_bad_file_printing_every_problem(tmp_path: Path) -> None:
+    """`--check` on a broken file exits non-zero and prints each problem with its line and tag."""
+    rules = tmp_path / "bad.yaml"
+    rules.write_text(
+        "rules:\n"
+        "  - tag: a\n"
+        "    pattern: '(a)\\1'\n"
+        "  - tag: b\n"
+        "    pattern: 'x=(\\d+)'\n"
+        "    level: loud\n"
+        "  - tag: c\n"
+        "    pattern: '(\\d+) (\\d+)'\n",
+        encoding="utf-8",
+    )
+    done = _run_check(rules)
+    assert done.returncode == 2
+    assert "3 problems" in done.stderr
+    assert "bad.yaml:3: rule #1, tag 'a': pattern '(a)\\1' does not compile" in done.stderr
+    assert "bad.yaml:6: rule #2, tag 'b': unknown level 'loud'" in done.stderr
+    assert "bad.yaml:8: rule #3, tag 'c':" in done.stderr
+    assert "unnamed" in done.stderr
+    assert "Traceback" not in done.stderr
+
+
+def _run_check(path: Path) -> subprocess.CompletedProcess[Any]:
+    return subprocess.run(
+        [sys.executable, "-m", "dbglog", "bridge", "--check", str(path)],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=False,
+    )
