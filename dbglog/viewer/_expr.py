@@ -381,14 +381,20 @@ def _column(cols: Mapping[str, F64], key: str, n: int) -> F64:
 class _Compiler:
     """Checks an AST against the allow-list and compiles it into closures."""
 
-    def __init__(self) -> None:
+    def __init__(self, shift: int = 0) -> None:
+        self.shift = shift
+        """Characters stripped from the start of the text before parsing (added back to columns)."""
         self.fields: set[str] = set()
         self.uses_value = False
 
     def fail(self, node: ast.AST, reason: str) -> FormulaError:
-        return FormulaError(reason, getattr(node, "col_offset", -1) + 1)
+        return FormulaError(reason, self.column(node))
 
-    def compile(self, node: ast.AST) -> _Node:
+    def column(self, node: ast.AST) -> int:
+        """Return the 1-based column of `node` in the original text."""
+        return int(getattr(node, "col_offset", 0)) + 1 + self.shift
+
+    def build(self, node: ast.AST) -> _Node:
         """Compile one node (recursively), folding subtrees that read no field into constants."""
         return self._compile(node)
 
@@ -543,7 +549,7 @@ class _Compiler:
             raise self.fail(
                 node.right, f"exponent {_show(right.const)} is too large (the limit is {MAX_EXPONENT})"
             )
-        col = node.col_offset + 1
+        col = self.column(node)
         divides = symbol in ("/", "//", "%")
         fa, fb = left.scalar, right.scalar
 
@@ -691,7 +697,7 @@ class _Compiler:
                 raise self.fail(
                     node.args[1], f"round() digits must be a constant integer within ±{_ROUND_DIGITS}"
                 )
-        return self._fold(node, _call_node(name, spec, args, node.col_offset + 1), args)
+        return self._fold(node, _call_node(name, spec, args, self.column(node)), args)
 
 
 def _pair_bool(left: _Node, right: _Node, *, is_and: bool) -> _Node:
@@ -808,7 +814,7 @@ def _check_text(text: str) -> None:
             depth -= 1
 
 
-def _check_tree(tree: ast.AST) -> None:
+def _check_tree(tree: ast.AST, shift: int) -> None:
     """Check the node count and nesting depth without recursion."""
     nodes = 0
     stack: list[tuple[ast.AST, int]] = [(tree, 0)]
@@ -818,17 +824,17 @@ def _check_tree(tree: ast.AST) -> None:
             nodes += 1
             depth += 1
             if nodes > MAX_NODES:
-                raise FormulaError(f"formula has more than {MAX_NODES} parts", node.col_offset + 1)
+                raise FormulaError(f"formula has more than {MAX_NODES} parts", node.col_offset + 1 + shift)
             if depth > MAX_DEPTH:
-                raise FormulaError(f"formula is nested deeper than {MAX_DEPTH}", node.col_offset + 1)
+                raise FormulaError(f"formula is nested deeper than {MAX_DEPTH}", node.col_offset + 1 + shift)
         stack.extend((child, depth) for child in ast.iter_child_nodes(node))
 
 
-def _compile_tree(tree: ast.AST) -> tuple[_Node, frozenset[str], bool]:
+def _compile_tree(tree: ast.AST, shift: int = 0) -> tuple[_Node, frozenset[str], bool]:
     """Check a parsed tree against the caps and the allow-list and compile it (no text checks)."""
-    _check_tree(tree)
-    compiler = _Compiler()
-    root = compiler.compile(tree)
+    _check_tree(tree, shift)
+    compiler = _Compiler(shift)
+    root = compiler.build(tree)
     return root, frozenset(compiler.fields), compiler.uses_value
 
 
@@ -931,16 +937,27 @@ class Formula:
         return hash(self.text)
 
 
+def _syntax_error(text: str, exc: SyntaxError, shift: int) -> FormulaError:
+    msg = exc.msg or "invalid syntax"
+    reason = msg if msg.startswith("invalid syntax") else f"invalid syntax: {msg}"
+    if not exc.offset or exc.offset + shift > len(text):
+        return FormulaError(f"{reason} (the formula ends too early)", len(text) + 1)
+    return FormulaError(reason, exc.offset + shift)
+
+
 @functools.lru_cache(maxsize=256)
 def _parse_cached(text: str) -> Formula:
     _check_text(text)
+    # Python reads leading blanks as an indent: parse without them and add them back to columns.
+    body = text.lstrip(" ")
+    shift = len(text) - len(body)
     try:
-        tree = ast.parse(text, mode="eval")
+        tree = ast.parse(body, mode="eval")
     except SyntaxError as exc:
-        raise FormulaError(f"invalid syntax: {exc.msg}", exc.offset) from None
+        raise _syntax_error(text, exc, shift) from None
     except (ValueError, MemoryError, RecursionError) as exc:
         raise FormulaError(f"cannot parse: {exc}") from None
-    root, fields, uses_value = _compile_tree(tree)
+    root, fields, uses_value = _compile_tree(tree, shift)
     return Formula(text, fields, uses_value, root)
 
 
