@@ -1,0 +1,685 @@
+"""The viewer's headless data engine: ROS topics in, bounded series out, on its own thread.
+
+One thread owns a private rclpy context and node. It never runs an executor: it waits on a wait set
+of its subscriptions, takes raw CDR bytes straight from each ready subscription handle and decodes a
+whole batch at once (numpy for fixed-offset numeric fields, typed messages otherwise). It also polls
+the ROS graph: bindings wait in the background until their topic has a publisher, subscriptions
+follow the publishers' type and QoS, and the topic list stays current. Readers on any thread get
+copies (``snapshot``); nothing here imports Dear PyGui.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+from collections import defaultdict
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from types import TracebackType
+from typing import Any, Self
+
+import numpy as np
+import numpy.typing as npt
+
+from dbglog.regex_bridge._regex import CompiledRegex, RegexError, compile_regex, parse_number
+from dbglog.viewer._cdr import decode_fixed
+from dbglog.viewer._fields import FieldPathError, Resolved, list_fields, message_class, parse_path, resolve
+from dbglog.viewer._model import Binding, FieldInfo, SeriesSnapshot, Status, TopicInfo, ValueKind
+from dbglog.viewer._series import Series
+
+__all__ = ["Engine", "EngineStats"]
+
+_log = logging.getLogger("dbglog.viewer.engine")
+_MAX_BATCH = 20_000
+"""At most this many messages are taken from one subscription per cycle (others get their turn)."""
+_RESUBSCRIBE_DEDUP_S = 1.0
+_LATENCY_SAMPLES = 1 << 20
+
+
+@dataclass(frozen=True, slots=True)
+class EngineStats:
+    """Counters for benchmarks and diagnostics."""
+
+    taken: int
+    """Messages taken from all subscriptions so far."""
+    per_topic: dict[str, int]
+    cycles: int
+    """Wait-set wake-ups so far."""
+    subscriptions: int
+
+
+@dataclass(eq=False, slots=True)
+class _Sink:
+    """One binding fed by a topic subscription."""
+
+    binding: Binding
+    series: Series
+    regex: CompiledRegex | None
+    resolved: Resolved | None = None
+    kind: ValueKind | None = None
+    skip_until_ns: int = 0
+    """After a re-subscription, messages up to this source stamp were already taken (re-sent history)."""
+
+
+@dataclass(eq=False, slots=True)
+class _TopicSub:
+    """A live subscription on one topic (ROS thread only) and the bindings it feeds."""
+
+    name: str
+    msg_type: str
+    cls: Any
+    sub: Any
+    reliable: bool
+    transient: bool
+    sinks: dict[Binding, _Sink] = field(default_factory=dict)
+    fast: list[tuple[_Sink, int, str]] | None = None
+    newest_ns: int = 0
+    skip_deadline: float = 0.0
+    taken: int = 0
+
+
+def _noop(_msg: object) -> None:
+    """Subscription callback that never runs (the engine takes messages itself)."""
+
+
+def _normalize(topic: str) -> str:
+    topic = topic.strip()
+    return topic if topic.startswith("/") else "/" + topic
+
+
+class Engine:
+    """Turn (topic, field, regex) bindings into live series; implements ``DataSource``.
+
+    Example:
+        >>> with Engine() as engine:
+        ...     engine.bind(Binding("/rosdashboard/proximity"))
+        ...     snap = engine.snapshot(Binding("/rosdashboard/proximity"))
+
+    Args:
+        history: values kept per series (a ring buffer).
+        stale_after: seconds without a message before a series turns STALE.
+        graph_period: seconds between ROS graph polls (topic list, late publishers, type changes).
+        min_cycle: minimum seconds between two wake-ups; under load messages queue in DDS meanwhile
+            and are decoded as one batch (bounded extra latency, far less per-message overhead).
+        queue_depth: KEEP_LAST depth of each subscription (absorbs bursts and pauses).
+        node_name: the engine's ROS node name.
+        measure_latency: record publish-to-buffer latencies (for the benchmark).
+    """
+
+    def __init__(
+        self,
+        *,
+        history: int = 10_000,
+        stale_after: float = 2.0,
+        graph_period: float = 0.25,
+        min_cycle: float = 0.005,
+        queue_depth: int = 1000,
+        node_name: str = "dbglog_viewer",
+        measure_latency: bool = False,
+    ) -> None:
+        if history < 1:
+            raise ValueError(f"history must be at least 1 value, not {history}")
+        if not stale_after > 0:
+            raise ValueError(f"stale_after must be > 0 seconds, not {stale_after}")
+        if not graph_period > 0:
+            raise ValueError(f"graph_period must be > 0 seconds, not {graph_period}")
+        if queue_depth < 1:
+            raise ValueError(f"queue_depth must be at least 1, not {queue_depth}")
+        self.history = history
+        self.stale_after = stale_after
+        self.graph_period = graph_period
+        self.min_cycle = max(0.0, min_cycle)
+        self.queue_depth = queue_depth
+        self.node_name = node_name
+        self._lock = threading.Lock()
+        self._series: dict[Binding, Series] = {}
+        self._regexes: dict[Binding, CompiledRegex | None] = {}
+        self._static_errors: dict[Binding, str] = {}
+        self._topics: tuple[TopicInfo, ...] = ()
+        self._types: dict[str, tuple[str, ...]] = {}
+        self._dirty = threading.Event()
+        self._running = False
+        self._thread: threading.Thread | None = None
+        self._ready = threading.Event()
+        self._start_error: BaseException | None = None
+        self._guard: Any = None
+        self._taken = 0
+        self._cycles = 0
+        self._subs: dict[str, _TopicSub] = {}
+        self._latency: npt.NDArray[np.float64] | None = (
+            np.empty(_LATENCY_SAMPLES) if measure_latency else None
+        )
+        self._latency_n = 0
+
+    # --- lifecycle ----------------------------------------------------------------------------------
+
+    def start(self, timeout: float = 15.0) -> None:
+        """Start the ROS thread (own context and node); returns once it is running.
+
+        Raises:
+            RuntimeError: ROS could not be initialised; the message gives rclpy's reason.
+        """
+        if self._thread is not None:
+            return
+        self._running = True
+        self._ready.clear()
+        self._thread = threading.Thread(target=self._run, name="dbglog-engine", daemon=True)
+        self._thread.start()
+        if not self._ready.wait(timeout):
+            raise RuntimeError(f"the viewer engine did not start within {timeout} s")
+        if self._start_error is not None:
+            self._thread.join(timeout=5)
+            self._thread = None
+            raise RuntimeError(f"the viewer engine could not start ROS: {self._start_error}")
+
+    def stop(self, timeout: float = 10.0) -> None:
+        """Stop the ROS thread and release its context; series stay readable."""
+        thread = self._thread
+        if thread is None:
+            return
+        self._running = False
+        self._wake()
+        thread.join(timeout)
+        self._thread = None
+
+    def __enter__(self) -> Self:
+        self.start()
+        return self
+
+    def __exit__(
+        self, et: type[BaseException] | None, ev: BaseException | None, tb: TracebackType | None
+    ) -> None:
+        self.stop()
+
+    # --- DataSource ---------------------------------------------------------------------------------
+
+    def bind(self, binding: Binding) -> None:
+        """Start filling a series for `binding` (idempotent, never blocks)."""
+        with self._lock:
+            if binding in self._series:
+                return
+            series = Series(binding, self.history)
+            self._series[binding] = series
+            problem = self._check(binding)
+            self._regexes[binding] = None
+            if isinstance(problem, str):
+                self._static_errors[binding] = problem
+                series.set_error(problem)
+            else:
+                self._regexes[binding] = problem
+        self._wake()
+
+    def unbind(self, binding: Binding) -> None:
+        """Stop filling the series for `binding` and free it."""
+        with self._lock:
+            self._series.pop(binding, None)
+            self._regexes.pop(binding, None)
+            self._static_errors.pop(binding, None)
+        self._wake()
+
+    def snapshot(self, binding: Binding) -> SeriesSnapshot:
+        """Return the current state of the series for `binding` (ERROR "not bound" if it is not)."""
+        series = self._series.get(binding)
+        if series is None:
+            return SeriesSnapshot(binding, Status.ERROR, reason="not bound (call bind() first)")
+        return series.snapshot(self.stale_after)
+
+    def topics(self) -> list[TopicInfo]:
+        """Return every topic on the graph (with a publisher or a foreign subscriber), by name."""
+        return list(self._topics)
+
+    def fields(self, topic: str) -> list[FieldInfo]:
+        """Return the field paths of the topic's message type (empty while the type is unknown)."""
+        types = self._types.get(_normalize(topic), ())
+        for type_name in types:
+            try:
+                return list_fields(message_class(type_name))
+            except FieldPathError:
+                continue
+        return []
+
+    # --- extras -------------------------------------------------------------------------------------
+
+    def bindings(self) -> list[Binding]:
+        """Return the bound bindings."""
+        with self._lock:
+            return list(self._series)
+
+    def stats(self) -> EngineStats:
+        """Return ingest counters."""
+        subs = dict(self._subs)
+        return EngineStats(
+            taken=self._taken,
+            per_topic={name: s.taken for name, s in subs.items()},
+            cycles=self._cycles,
+            subscriptions=len(subs),
+        )
+
+    def latencies(self) -> npt.NDArray[np.float64]:
+        """Return recorded publish-to-buffer latencies in seconds (``measure_latency=True`` only)."""
+        if self._latency is None:
+            return np.empty(0)
+        return self._latency[: min(self._latency_n, _LATENCY_SAMPLES)].copy()
+
+    def _check(self, binding: Binding) -> CompiledRegex | str | None:
+        """Validate what can be checked without the graph; return the regex or the problem."""
+        from rclpy.validate_full_topic_name import validate_full_topic_name
+
+        try:
+            validate_full_topic_name(_normalize(binding.topic))
+        except Exception as exc:  # rclpy raises its own InvalidTopicNameException
+            return f"bad topic name {binding.topic!r}: {exc}"
+        try:
+            parse_path(binding.field)
+        except FieldPathError as exc:
+            return str(exc)
+        if not binding.regex:
+            return None
+        try:
+            return compile_regex(binding.regex)
+        except RegexError as exc:
+            return f"bad regex {binding.regex!r}: {exc}"
+
+    def _wake(self) -> None:
+        self._dirty.set()
+        guard = self._guard
+        if guard is not None:
+            try:
+                guard.trigger()
+            except Exception:  # the context is shutting down: the thread is leaving anyway
+                _log.debug("engine guard trigger failed", exc_info=True)
+
+    # --- the ROS thread -----------------------------------------------------------------------------
+
+    def _run(self) -> None:
+        try:
+            import rclpy
+            from rclpy.context import Context
+            from rclpy.guard_condition import GuardCondition
+            from rclpy.node import Node
+            from rclpy.signals import SignalHandlerOptions
+
+            context = Context()
+            rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
+            node = Node(
+                self.node_name,
+                context=context,
+                start_parameter_services=False,
+                enable_rosout=False,
+            )
+            self._guard = GuardCondition(None, None, context=context)
+        except Exception as exc:
+            self._start_error = exc
+            self._ready.set()
+            return
+        self._ready.set()
+        try:
+            self._loop(node, context)
+        finally:
+            self._guard = None
+            for topic in list(self._subs.values()):
+                node.destroy_subscription(topic.sub)
+            self._subs = {}
+            node.destroy_node()
+            if context.ok():
+                rclpy.shutdown(context=context)
+
+    def _loop(self, node: Any, context: Any) -> None:
+        from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
+
+        next_graph = 0.0
+        wait_set: Any = None
+        wait_subs: list[_TopicSub] = []
+        while self._running and context.ok():
+            cycle_start = time.monotonic()
+            try:
+                if self._dirty.is_set():
+                    self._dirty.clear()
+                    self._reconcile(node)
+                    next_graph = 0.0
+                if cycle_start >= next_graph:
+                    self._refresh_graph(node)
+                    next_graph = time.monotonic() + self.graph_period
+                subs = list(self._subs.values())
+                if wait_set is None or subs != wait_subs:
+                    wait_subs = subs
+                    wait_set = _rclpy.WaitSet(len(subs), 1, 0, 0, 0, 0, context.handle)
+                wait_set.clear_entities()
+                for topic in wait_subs:
+                    wait_set.add_subscription(topic.sub.handle)
+                wait_set.add_guard_condition(self._guard.handle)
+                timeout = max(0.0, next_graph - time.monotonic())
+                wait_set.wait(int(timeout * 1e9))
+                self._cycles += 1
+                ready = set(wait_set.get_ready_entities("subscription"))
+                if ready:
+                    for topic in wait_subs:
+                        if topic.sub.handle.pointer in ready:
+                            self._drain(topic)
+            except Exception:
+                if not (self._running and context.ok()):
+                    return
+                _log.exception("viewer engine cycle failed; continuing")
+                wait_set = None
+                time.sleep(0.05)
+            rest = self.min_cycle - (time.monotonic() - cycle_start)
+            if rest > 0 and self._running:
+                time.sleep(rest)
+
+    # --- bindings and the graph (ROS thread) -----------------------------------------------------
+
+    def _wanted(self) -> dict[str, dict[Binding, Series]]:
+        with self._lock:
+            wanted: dict[str, dict[Binding, Series]] = defaultdict(dict)
+            for binding, series in self._series.items():
+                if binding not in self._static_errors:
+                    wanted[_normalize(binding.topic)][binding] = series
+            return wanted
+
+    def _reconcile(self, node: Any) -> None:
+        """Drop subscriptions nobody needs; attach new bindings to existing subscriptions."""
+        wanted = self._wanted()
+        for name, topic in list(self._subs.items()):
+            want = wanted.get(name, {})
+            for binding in list(topic.sinks):
+                if binding not in want:
+                    del topic.sinks[binding]
+            if not want:
+                node.destroy_subscription(topic.sub)
+                del self._subs[name]
+                continue
+            new = {b: series for b, series in want.items() if b not in topic.sinks}
+            if new and topic.transient:
+                # A new binding on a latched topic: subscribe again so it also gets the kept history.
+                self._subscribe(node, name, topic.msg_type, want, topic.reliable, True, topic)
+                continue
+            for binding, series in new.items():
+                sink = self._make_sink(binding, series, topic.cls, topic.msg_type)
+                topic.sinks[binding] = sink
+                if sink.kind is not None:
+                    series.set_type(topic.msg_type, sink.kind)
+                    series.set_waiting("subscribed; no message yet")
+            topic.fast = self._fast_plan(topic)
+
+    def _make_sink(self, binding: Binding, series: Series, cls: Any, msg_type: str) -> _Sink:
+        sink = _Sink(binding, series, self._regexes.get(binding))
+        try:
+            resolved = resolve(cls, binding.field)
+        except FieldPathError as exc:
+            series.set_error(str(exc), msg_type=msg_type)
+            return sink
+        kind = resolved.kind
+        if sink.regex is not None:
+            if kind != ValueKind.TEXT:
+                series.set_error(
+                    f"a regex applies to text fields, but {resolved.path!r} is {resolved.leaf_type}",
+                    msg_type=msg_type,
+                )
+                return sink
+            kind = ValueKind.NUMBER
+        sink.resolved = resolved
+        sink.kind = kind
+        return sink
+
+    @staticmethod
+    def _fast_plan(topic: _TopicSub) -> list[tuple[_Sink, int, str]] | None:
+        """Return the raw-CDR plan when every bound field has a fixed offset, else None."""
+        plan = []
+        for sink in topic.sinks.values():
+            if sink.resolved is None:
+                continue
+            if sink.resolved.cdr is None or sink.regex is not None:
+                return None
+            plan.append((sink, *sink.resolved.cdr))
+        return plan
+
+    def _refresh_graph(self, node: Any) -> None:
+        names_types = node.get_topic_names_and_types()
+        wanted = self._wanted()
+        topics: list[TopicInfo] = []
+        types: dict[str, tuple[str, ...]] = {}
+        for name, type_list in names_types:
+            pubs = node.count_publishers(name)
+            foreign_subs = node.count_subscribers(name) - (1 if name in self._subs else 0)
+            if pubs == 0 and foreign_subs <= 0:
+                continue
+            if name in wanted and pubs:
+                infos = node.get_publishers_info_by_topic(name)
+                type_list = sorted({info.topic_type for info in infos}) or type_list
+            types[name] = tuple(type_list)
+            topics.append(TopicInfo(name, tuple(type_list), pubs))
+        self._types = types
+        self._topics = tuple(sorted(topics, key=lambda t: t.name))
+        graph_names = {name for name, _ in names_types}
+        for name, bindings in wanted.items():
+            try:
+                self._follow(node, name, bindings, name in graph_names)
+            except Exception as exc:  # one odd topic must not stop the others
+                _log.exception("viewer engine: topic %s failed", name)
+                for series in bindings.values():
+                    series.set_error(f"internal error on {name}: {exc}")
+
+    def _follow(self, node: Any, name: str, bindings: dict[Binding, Series], on_graph: bool) -> None:
+        """Subscribe, re-subscribe or wait, as the publishers of one wanted topic require."""
+        from rclpy.qos import DurabilityPolicy, ReliabilityPolicy
+
+        infos = node.get_publishers_info_by_topic(name)
+        topic = self._subs.get(name)
+        if not infos:
+            reason = (
+                "topic is not on the ROS graph yet"
+                if not on_graph
+                else "the topic has no publisher (yet)"
+                if topic is None
+                else "the topic has no publisher now"
+            )
+            for series in bindings.values():
+                series.set_waiting(reason)
+            return
+        pub_types = sorted({info.topic_type for info in infos})
+        best_effort = any(i.qos_profile.reliability == ReliabilityPolicy.BEST_EFFORT for i in infos)
+        transient = all(i.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL for i in infos)
+        if topic is not None and topic.msg_type in pub_types:
+            if (topic.reliable and best_effort) or (topic.transient and not transient):
+                self._subscribe(node, name, topic.msg_type, bindings, not best_effort, transient, topic)
+            return
+        if len(pub_types) > 1:
+            for series in bindings.values():
+                series.set_error(f"publishers disagree on the type of {name}: {', '.join(pub_types)}")
+            return
+        self._subscribe(node, name, pub_types[0], bindings, not best_effort, transient, topic)
+
+    def _subscribe(
+        self,
+        node: Any,
+        name: str,
+        msg_type: str,
+        bindings: dict[Binding, Series],
+        reliable: bool,
+        transient: bool,
+        old: _TopicSub | None,
+    ) -> None:
+        from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+        type_changed = old is not None and old.msg_type != msg_type
+        if old is not None:
+            node.destroy_subscription(old.sub)
+            del self._subs[name]
+        try:
+            cls = message_class(msg_type)
+        except FieldPathError as exc:
+            for series in bindings.values():
+                series.set_error(str(exc), msg_type=msg_type)
+            return
+        qos = QoSProfile(
+            history=HistoryPolicy.KEEP_LAST,
+            depth=self.queue_depth,
+            reliability=ReliabilityPolicy.RELIABLE if reliable else ReliabilityPolicy.BEST_EFFORT,
+            durability=DurabilityPolicy.TRANSIENT_LOCAL if transient else DurabilityPolicy.VOLATILE,
+        )
+        sub = node.create_subscription(cls, name, _noop, qos, raw=True)
+        topic = _TopicSub(name, msg_type, cls, sub, reliable, transient)
+        if old is not None:
+            topic.taken = old.taken
+        for binding, series in bindings.items():
+            previous = old.sinks.get(binding) if old is not None and not type_changed else None
+            if previous is not None and previous.kind is not None:
+                # Same type, new subscription: a transient-local publisher re-sends what we already hold.
+                previous.skip_until_ns = topic.newest_ns = old.newest_ns if old is not None else 0
+                topic.skip_deadline = time.monotonic() + _RESUBSCRIBE_DEDUP_S
+                topic.sinks[binding] = previous
+                continue
+            sink = self._make_sink(binding, series, cls, msg_type)
+            topic.sinks[binding] = sink
+            if sink.kind is None:
+                continue
+            if type_changed and old is not None:
+                series.set_type(
+                    msg_type,
+                    sink.kind,
+                    error=f"type changed from {old.msg_type} to {msg_type}; waiting for its first message",
+                )
+            else:
+                series.set_type(msg_type, sink.kind)
+                series.set_waiting("subscribed; no message yet")
+        topic.fast = self._fast_plan(topic)
+        self._subs[name] = topic
+
+    # --- ingest (ROS thread) ----------------------------------------------------------------------
+
+    def _drain(self, topic: _TopicSub) -> None:
+        take = topic.sub.handle.take_message
+        cls = topic.cls
+        stamps: list[int] = []
+        messages: list[Any] = []
+        if topic.fast is not None:
+            buffers: list[bytes] = []
+            for _ in range(_MAX_BATCH):
+                taken = take(cls, True)
+                if taken is None:
+                    break
+                buffers.append(taken[0])
+                stamps.append(taken[1]["source_timestamp"])
+            if not buffers:
+                return
+            self._count(topic, stamps)
+            columns = decode_fixed(buffers, [(offset, dtype) for _, offset, dtype in topic.fast])
+            if columns is not None:
+                times = np.asarray(stamps, dtype=np.float64) * 1e-9
+                now = time.monotonic()
+                skipping = now < topic.skip_deadline
+                for (sink, _, _), values in zip(topic.fast, columns, strict=True):
+                    t = times
+                    if skipping and sink.skip_until_ns:
+                        keep = np.asarray(stamps, dtype=np.int64) > sink.skip_until_ns
+                        t, values = times[keep], values[keep]
+                    if len(values):
+                        sink.series.push_numbers(t, values, _typed_last(sink, values[-1]), now)
+                self._record_latency(times)
+                return
+            from rclpy.serialization import deserialize_message
+
+            messages = [deserialize_message(b, cls) for b in buffers]
+        else:
+            for _ in range(_MAX_BATCH):
+                taken = take(cls, False)
+                if taken is None:
+                    break
+                messages.append(taken[0])
+                stamps.append(taken[1]["source_timestamp"])
+            if not messages:
+                return
+            self._count(topic, stamps)
+        times_list = [s * 1e-9 for s in stamps]
+        now = time.monotonic()
+        skipping = now < topic.skip_deadline
+        for sink in topic.sinks.values():
+            if sink.resolved is None:
+                continue
+            if skipping and sink.skip_until_ns:
+                fresh = [s > sink.skip_until_ns for s in stamps]
+                _feed(
+                    sink,
+                    [m for m, k in zip(messages, fresh, strict=True) if k],
+                    [t for t, k in zip(times_list, fresh, strict=True) if k],
+                    now,
+                )
+            else:
+                _feed(sink, messages, times_list, now)
+        self._record_latency(np.asarray(times_list))
+
+    def _count(self, topic: _TopicSub, stamps: list[int]) -> None:
+        topic.taken += len(stamps)
+        self._taken += len(stamps)
+        topic.newest_ns = max(topic.newest_ns, max(stamps))
+
+    def _record_latency(self, times: npt.NDArray[np.float64]) -> None:
+        if self._latency is None or not len(times):
+            return
+        lat = time.time() - times
+        start = self._latency_n % _LATENCY_SAMPLES
+        n = min(len(lat), _LATENCY_SAMPLES - start)
+        self._latency[start : start + n] = lat[:n]
+        self._latency_n += n
+
+
+def _typed_last(sink: _Sink, value: float) -> float | int | bool:
+    """Give the last numeric value its field's Python type back (int fields stay ints)."""
+    assert sink.resolved is not None
+    if sink.kind == ValueKind.BOOL:
+        return bool(value)
+    if sink.resolved.leaf_type in ("float", "double"):
+        return float(value)
+    return int(value)
+
+
+def _feed(sink: _Sink, messages: Iterable[Any], times: list[float], now: float) -> None:
+    """Extract one binding's values from typed messages and push them to its series."""
+    resolved = sink.resolved
+    assert resolved is not None
+    get = resolved.get
+    regex = sink.regex
+    values: list[Any] = []
+    value_times: list[float] = []
+    error = ""
+    unmatched = 0
+    for msg, t in zip(messages, times, strict=True):
+        try:
+            value: Any = get(msg)
+        except (IndexError, AttributeError, TypeError, ValueError) as exc:
+            error = f"cannot read {resolved.path!r}: {exc}"
+            continue
+        if regex is not None:
+            captured = regex.extract(value)
+            if captured is None:
+                unmatched += 1
+                continue
+            try:
+                value = float(parse_number(captured))
+            except ValueError:
+                try:
+                    value = float(parse_number(captured, "bool"))
+                except ValueError:
+                    error = f"the regex captured {captured!r}, which is not a number"
+                    continue
+        values.append(value)
+        value_times.append(t)
+        error = ""
+    series = sink.series
+    if values:
+        if sink.kind == ValueKind.TEXT:
+            series.push_texts(value_times, values, now)
+        elif sink.kind == ValueKind.ARRAY:
+            series.push_array(len(values), values[-1], value_times[-1], now)
+        else:
+            series.push_numbers(
+                np.asarray(value_times, dtype=np.float64),
+                np.asarray(values, dtype=np.float64),
+                values[-1],
+                now,
+            )
+    if error:
+        series.set_error(error)
+    elif unmatched and not values and series.count == 0:
+        series.set_waiting(f"no message matched the regex {regex.pattern if regex else ''!r} yet")
