@@ -26,6 +26,7 @@ class _Command(Protocol):
 # name -> module implementing the _Command protocol; order is the order shown in --help.
 _COMMANDS: dict[str, str] = {
     "bridge": "dbglog.regex_bridge._cli",
+    "view": "dbglog.viewer._cli_view",
 }
 
 

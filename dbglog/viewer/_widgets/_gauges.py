@@ -69,9 +69,9 @@ class DialWidget(Widget):
     START, SWEEP = -120.0, 240.0
 
     def _layout(self, width: int, height: int) -> tuple[float, float, float]:
-        r = max(20.0, min(width / 2 - 8, (height - 30) / (1 + math.cos(math.radians(60))) - 4))
+        r = max(20.0, min(width / 2 - 8, height / 2 - 8))
         cx = width / 2
-        cy = 8 + r
+        cy = height / 2
         return cx, cy, r
 
     def create(self, parent: int | str, width: int, height: int) -> None:

@@ -62,8 +62,10 @@ class PlotWidget(Widget):
         )
         if self.prop("legend"):
             dpg.add_plot_legend(parent=self.plot, location=dpg.mvPlot_Location_NorthWest)
-        self.x_axis = dpg.add_plot_axis(dpg.mvXAxis, parent=self.plot, label="", no_menus=True)
-        self.y_axis = dpg.add_plot_axis(dpg.mvYAxis, parent=self.plot, no_menus=True)
+        self.x_axis = dpg.add_plot_axis(
+            dpg.mvXAxis, parent=self.plot, label="", no_menus=True, no_highlight=True
+        )
+        self.y_axis = dpg.add_plot_axis(dpg.mvYAxis, parent=self.plot, no_menus=True, no_highlight=True)
         window = self.num("window")
         dpg.set_axis_limits(self.x_axis, -window, 0.0)
         if self.prop("scale") == "fixed":

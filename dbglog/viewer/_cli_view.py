@@ -1,0 +1,107 @@
+"""``dbglog view``: open the live dashboard viewer, optionally render a screenshot and exit."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+__all__ = ["HELP", "add_arguments", "run"]
+
+HELP = "Open the live dashboard viewer (drag widgets onto a canvas, bind them to topics, save dashboards)."
+
+
+def _size(text: str) -> tuple[int, int]:
+    try:
+        w, h = (int(part) for part in text.lower().split("x"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"size must look like 1440x900, not {text!r}") from None
+    if not (320 <= w <= 8192 and 240 <= h <= 8192):
+        raise argparse.ArgumentTypeError(f"size {text!r} is outside 320x240..8192x8192")
+    return w, h
+
+
+def _seconds(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number of seconds: {text!r}") from None
+    if not 0 <= value <= 3600:
+        raise argparse.ArgumentTypeError(f"seconds must be within 0..3600, not {text}")
+    return value
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Declare ``dbglog view``'s options."""
+    parser.add_argument(
+        "dashboard", nargs="?", type=Path, help="dashboard JSON file (current or ROSDashboard)"
+    )
+    parser.add_argument(
+        "--screenshot", type=Path, metavar="PNG", help="render, write a PNG of the window, exit"
+    )
+    parser.add_argument(
+        "--after",
+        type=_seconds,
+        default=2.0,
+        metavar="SECONDS",
+        help="with --screenshot: how long to render first (default 2)",
+    )
+    parser.add_argument(
+        "--size", type=_size, default=(1440, 900), metavar="WxH", help="window size (1440x900)"
+    )
+    parser.add_argument(
+        "--stale-after",
+        type=_seconds,
+        default=2.0,
+        metavar="SECONDS",
+        help="a series turns stale after this long without a message (default 2)",
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+    """Open the viewer; return the exit code."""
+    from dbglog.viewer._dashboard import DashboardError, LoadResult, load_dashboard
+    from dbglog.viewer._widgets import WidgetRegistry
+
+    registry = WidgetRegistry.discover()
+    for problem in registry.problems:
+        print(f"dbglog view: warning: {problem}", file=sys.stderr)
+    result: LoadResult | None = None
+    if args.dashboard is not None:
+        try:
+            result = load_dashboard(args.dashboard, registry.get)
+        except DashboardError as exc:
+            print(f"dbglog view: error: {exc}", file=sys.stderr)
+            return 2
+        for message in result.messages:
+            print(f"dbglog view: {args.dashboard}: {message}", file=sys.stderr)
+
+    from dbglog.viewer._engine import Engine
+    from dbglog.viewer._ui import ViewerApp
+
+    engine = Engine(stale_after=max(0.1, args.stale_after))
+    try:
+        engine.start()
+    except RuntimeError as exc:
+        print(f"dbglog view: error: {exc}", file=sys.stderr)
+        return 1
+    width, height = args.size
+    app = ViewerApp(engine, registry, width=width, height=height)
+    try:
+        app.start()
+        if result is not None:
+            app.load(result, args.dashboard)
+        if args.screenshot is not None:
+            app.run(seconds=args.after)
+            try:
+                path = app.screenshot(args.screenshot)
+            except (OSError, TimeoutError) as exc:
+                print(f"dbglog view: error: cannot write {args.screenshot}: {exc}", file=sys.stderr)
+                return 1
+            print(path)
+            return 0
+        app.run()
+        return 0
+    finally:
+        app.close()
+        engine.stop()

@@ -1,0 +1,8 @@
+"""The Dear PyGui viewer: window, canvas, dialogs. Import only on the UI thread that will run it."""
+
+from __future__ import annotations
+
+from dbglog.viewer._ui._app import PAYLOAD_TYPE, ViewerApp
+from dbglog.viewer._ui._static_source import StaticSource
+
+__all__ = ["PAYLOAD_TYPE", "StaticSource", "ViewerApp"]

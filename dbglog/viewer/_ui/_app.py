@@ -1,0 +1,778 @@
+"""The viewer window: toolbox, free-form canvas, menus, dialogs, status bar, and the render loop.
+
+Only the thread that created the `ViewerApp` calls Dear PyGui; data comes from a `DataSource` whose
+snapshots are read once per frame, and a widget is redrawn only when one of its series changed.
+"""
+
+from __future__ import annotations
+
+import collections
+import os
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from types import TracebackType
+from typing import Any, Self
+
+import dearpygui.dearpygui as dpg
+
+from dbglog.viewer._dashboard import (
+    Dashboard,
+    DashboardError,
+    LoadResult,
+    WidgetConfig,
+    load_dashboard,
+    save_dashboard,
+)
+from dbglog.viewer._geometry import Part, Rect, hit_test, snap_rect
+from dbglog.viewer._model import Binding, DataSource
+from dbglog.viewer._ui import _theme as theme
+from dbglog.viewer._ui._dialogs import Dialog, MessageDialog, PropertiesDialog, RenameDialog, TopicDialog
+from dbglog.viewer._ui._frame import GRIP, TITLE_H, CanvasItem
+from dbglog.viewer._widgets import WidgetRegistry
+
+__all__ = ["PAYLOAD_TYPE", "ViewerApp"]
+
+PAYLOAD_TYPE = "dbglog-widget"
+"""Drag payload type of the toolbox buttons; the canvas accepts only this."""
+TOOLBOX_W = 190
+STATUS_H = 34
+
+
+@dataclass
+class _Drag:
+    item: CanvasItem
+    part: Part
+    start: tuple[float, float]
+    rect: Rect
+    target: Rect
+
+
+class ViewerApp:
+    """The whole viewer window; create, `start`, call `frame` (or `run`), then `close`.
+
+    Args:
+        source: where series come from (the engine, or any `DataSource`).
+        registry: the widget types (default: built-ins plus installed plugins).
+        width / height: the window size in pixels.
+    """
+
+    def __init__(
+        self,
+        source: DataSource,
+        registry: WidgetRegistry | None = None,
+        *,
+        width: int = 1440,
+        height: int = 900,
+        title: str = "dbglog viewer",
+    ) -> None:
+        self.source = source
+        self.registry = registry if registry is not None else WidgetRegistry.discover()
+        self.width, self.height, self.title = width, height, title
+        self.items: list[CanvasItem] = []
+        self.selected: CanvasItem | None = None
+        self.path: Path | None = None
+        self.dirty = False
+        self.grid_size = 20
+        self.snap = True
+        self.load_messages: list[str] = []
+        self.dialog: Dialog | None = None
+        self.pointer_override: tuple[float, float] | None = None
+        """When set, used instead of the real mouse position (scripted sessions and tests)."""
+        self.frame_times: collections.deque[float] = collections.deque(maxlen=600)
+        self._refs: collections.Counter[Binding] = collections.Counter()
+        self._drag: _Drag | None = None
+        self._left_down = False
+        self._right_down = False
+        self._menu_item: CanvasItem | None = None
+        self._grid_key: tuple[int, int, int, bool, bool] | None = None
+        self._started = False
+        self._status_text = ""
+
+    # -- lifecycle ----------------------------------------------------------------------------------
+
+    def start(self, *, visible: bool = True) -> None:
+        """Create the Dear PyGui context, the window and its contents."""
+        dpg.create_context()
+        self._started = True
+        font = theme.load_font(15)
+        if font is not None:
+            dpg.bind_font(font)
+        theme.apply_theme()
+        self._frame_theme = theme.frame_theme()
+        self._selected_theme = theme.selected_frame_theme()
+        dpg.create_viewport(
+            title=self.title, width=self.width, height=self.height, min_width=640, min_height=400
+        )
+        dpg.setup_dearpygui()
+        self._build()
+        if visible:
+            dpg.show_viewport()
+        for _ in range(2):
+            self.frame()
+
+    def close(self) -> None:
+        """Unbind every series and destroy the context."""
+        if not self._started:
+            return
+        if self.dialog is not None:
+            self.dialog.close()
+        for binding in list(self._refs):
+            self.source.unbind(binding)
+        self._refs.clear()
+        self._started = False
+        dpg.destroy_context()
+
+    def __enter__(self) -> Self:
+        self.start()
+        return self
+
+    def __exit__(
+        self, et: type[BaseException] | None, ev: BaseException | None, tb: TracebackType | None
+    ) -> None:
+        self.close()
+
+    # -- building -----------------------------------------------------------------------------------
+
+    def _build(self) -> None:
+        with dpg.window(
+            no_title_bar=True, no_move=True, no_resize=True, no_collapse=True, menubar=True, no_scrollbar=True
+        ) as self.main:
+            self._build_menus()
+            with dpg.group(horizontal=True):
+                self._build_toolbox()
+                self.canvas = dpg.add_child_window(
+                    width=-1,
+                    height=-STATUS_H,
+                    border=False,
+                    no_scrollbar=True,
+                    no_scroll_with_mouse=True,
+                    drop_callback=self.on_drop,
+                    payload_type=PAYLOAD_TYPE,
+                )
+                self.grid_layer = dpg.add_drawlist(1, 1, parent=self.canvas, pos=(0, 0))
+            with dpg.group(horizontal=True):
+                self.status_left = dpg.add_text("", color=theme.DIM)
+                self.status_msg = dpg.add_text("")
+        dpg.set_primary_window(self.main, True)
+        self.overlay = dpg.add_viewport_drawlist(front=True)
+        with dpg.window(
+            show=False,
+            no_title_bar=True,
+            no_move=True,
+            no_resize=True,
+            autosize=True,
+            no_saved_settings=True,
+            min_size=(170, 20),
+        ) as self.menu:
+            dpg.add_menu_item(
+                label="Topic setup\u2026", callback=lambda *_: self._menu(self.open_topic_dialog)
+            )
+            dpg.add_menu_item(
+                label="Properties\u2026", callback=lambda *_: self._menu(self.open_properties_dialog)
+            )
+            dpg.add_menu_item(label="Rename\u2026", callback=lambda *_: self._menu(self.open_rename_dialog))
+            dpg.add_menu_item(label="Bring to front", callback=lambda *_: self._menu(self.bring_to_front))
+            dpg.add_separator()
+            dpg.add_menu_item(
+                label="Delete", shortcut="Del", callback=lambda *_: self._menu(self.delete_item)
+            )
+        with dpg.handler_registry():
+            dpg.add_key_press_handler(dpg.mvKey_Delete, callback=lambda *_: self.on_delete_key())
+        self._update_title()
+
+    def _build_menus(self) -> None:
+        with dpg.menu_bar():
+            with dpg.menu(label="File"):
+                dpg.add_menu_item(label="New", callback=lambda *_: self.new_dashboard())
+                dpg.add_menu_item(label="Open\u2026", callback=lambda *_: self._file_dialog(save=False))
+                dpg.add_menu_item(label="Save", callback=lambda *_: self.save())
+                dpg.add_menu_item(label="Save As\u2026", callback=lambda *_: self._file_dialog(save=True))
+                dpg.add_separator()
+                dpg.add_menu_item(label="Quit", callback=lambda *_: dpg.stop_dearpygui())
+            with dpg.menu(label="View"):
+                self.snap_menu = dpg.add_menu_item(
+                    label="Snap to grid",
+                    check=True,
+                    default_value=self.snap,
+                    callback=lambda s, a: self.set_snap(bool(a)),
+                )
+                dpg.add_menu_item(label="Load messages\u2026", callback=lambda *_: self.show_load_messages())
+
+    def _build_toolbox(self) -> None:
+        with dpg.child_window(
+            width=TOOLBOX_W, height=-STATUS_H, border=False, no_scrollbar=True
+        ) as self.toolbox:
+            dpg.add_text("WIDGETS", color=theme.DIM)
+            self.toolbox_buttons: dict[str, int | str] = {}
+            for cls in self.registry:
+                button = dpg.add_button(label=cls.label, width=-1, height=32)
+                with dpg.drag_payload(parent=button, payload_type=PAYLOAD_TYPE, drag_data=cls.type_name):
+                    dpg.add_text(f"+ {cls.label}")
+                with dpg.tooltip(button):
+                    dpg.add_text(cls.description or cls.label)
+                    dpg.add_text("Drag onto the canvas", color=theme.DIM)
+                self.toolbox_buttons[cls.type_name] = button
+            dpg.add_spacer(height=6)
+            dpg.add_separator()
+            dpg.add_text("LAYOUT", color=theme.DIM)
+            self.snap_box = dpg.add_checkbox(
+                label="Snap to grid", default_value=self.snap, callback=lambda s, a: self.set_snap(bool(a))
+            )
+            self.grid_slider = dpg.add_slider_int(
+                label="px",
+                default_value=self.grid_size,
+                min_value=5,
+                max_value=80,
+                width=120,
+                callback=lambda s, a: self.set_grid_size(int(a)),
+            )
+            dpg.add_spacer(height=6)
+            with dpg.child_window(height=84, border=True, no_scrollbar=True) as self.trash:
+                self.trash_art = dpg.add_drawlist(TOOLBOX_W - 20, 62)
+                self._draw_trash(TOOLBOX_W - 20, 62)
+            with dpg.theme() as self._trash_hot, dpg.theme_component(dpg.mvChildWindow):
+                dpg.add_theme_color(dpg.mvThemeCol_ChildBg, (110, 40, 40, 255), category=dpg.mvThemeCat_Core)
+                dpg.add_theme_color(
+                    dpg.mvThemeCol_Border,
+                    theme.STATUS_COLORS[next(s for s in theme.STATUS_COLORS if s.value == "error")],
+                    category=dpg.mvThemeCat_Core,
+                )
+            if self.registry.problems:
+                dpg.add_spacer(height=6)
+                dpg.add_text(
+                    "Plugin problems",
+                    color=theme.STATUS_COLORS[next(s for s in theme.STATUS_COLORS if s.value == "error")],
+                )
+                for problem in self.registry.problems:
+                    dpg.add_text(problem, wrap=TOOLBOX_W - 16, color=theme.DIM)
+
+    def _draw_trash(self, w: int, h: int) -> None:
+        dl = self.trash_art
+        cx = 26
+        body = theme.DIM
+        dpg.draw_rectangle((cx - 9, 22), (cx + 9, 46), color=body, thickness=2, rounding=2, parent=dl)
+        dpg.draw_line((cx - 13, 18), (cx + 13, 18), color=body, thickness=2, parent=dl)
+        dpg.draw_line((cx - 4, 14), (cx + 4, 14), color=body, thickness=2, parent=dl)
+        for dx in (-4, 0, 4):
+            dpg.draw_line((cx + dx, 26), (cx + dx, 42), color=body, parent=dl)
+        dpg.draw_text((48, 14), "Delete zone", size=15, color=theme.TEXT, parent=dl)
+        dpg.draw_text((48, 34), "drop a widget here", size=13, color=body, parent=dl)
+
+    # -- frame loop ---------------------------------------------------------------------------------
+
+    def frame(self) -> float:
+        """Poll input, refresh changed widgets, render one frame; return the frame's duration in seconds."""
+        t0 = time.perf_counter()
+        self._poll_mouse()
+        now = time.time()
+        for item in self.items:
+            item.refresh(self.source, now)
+        if self.dialog is not None:
+            try:
+                self.dialog.tick()
+            except Exception as exc:  # a dialog must never stop the render loop
+                self.set_status(f"dialog error: {exc!r}")
+        self._draw_grid()
+        self._update_status()
+        dpg.render_dearpygui_frame()
+        elapsed = time.perf_counter() - t0
+        self.frame_times.append(elapsed)
+        return elapsed
+
+    def run(self, *, seconds: float | None = None) -> None:
+        """Render until the window closes (or for `seconds`)."""
+        deadline = None if seconds is None else time.monotonic() + seconds
+        while dpg.is_dearpygui_running():
+            if deadline is not None and time.monotonic() >= deadline:
+                break
+            self.frame()
+
+    def screenshot(self, path: str | os.PathLike[str], *, timeout: float = 10.0) -> Path:
+        """Write a PNG of the window to `path` and return it.
+
+        Raises:
+            TimeoutError: the frame buffer was not written in time.
+        """
+        target = Path(path).resolve()
+        target.parent.mkdir(parents=True, exist_ok=True)
+        if target.exists():
+            target.unlink()
+        dpg.output_frame_buffer(file=str(target))
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            self.frame()
+            if target.exists() and target.stat().st_size > 0:
+                return target
+        raise TimeoutError(f"{target}: the window was not captured within {timeout:g} s")
+
+    # -- coordinates and input ----------------------------------------------------------------------
+
+    def pointer(self) -> tuple[float, float]:
+        """The mouse position in window pixels."""
+        if self.pointer_override is not None:
+            return self.pointer_override
+        x, y = dpg.get_mouse_pos(local=False)
+        return float(x), float(y)
+
+    def canvas_origin(self) -> tuple[float, float]:
+        """The canvas's top-left corner in window pixels."""
+        # A child window reports no screen rectangle; its first item, the grid layer at (0, 0), does.
+        x, y = dpg.get_item_rect_min(self.grid_layer)
+        return float(x), float(y)
+
+    def canvas_size(self) -> tuple[int, int]:
+        """The canvas's size in pixels."""
+        w, h = dpg.get_item_rect_size(self.canvas)
+        return int(w), int(h)
+
+    def to_canvas(self, pos: tuple[float, float]) -> tuple[float, float]:
+        """Convert window pixels to canvas pixels."""
+        ox, oy = self.canvas_origin()
+        return pos[0] - ox, pos[1] - oy
+
+    def to_window(self, pos: tuple[float, float]) -> tuple[float, float]:
+        """Convert canvas pixels to window pixels."""
+        ox, oy = self.canvas_origin()
+        return pos[0] + ox, pos[1] + oy
+
+    def trash_rect(self) -> Rect:
+        """The delete zone in window pixels."""
+        (x, y), (w, h) = dpg.get_item_rect_min(self.trash_art), dpg.get_item_rect_size(self.trash_art)
+        return Rect(float(x), float(y), float(w), float(h))
+
+    def _over_canvas(self, pos: tuple[float, float]) -> bool:
+        ox, oy = self.canvas_origin()
+        w, h = self.canvas_size()
+        if not Rect(ox, oy, w, h).contains(*pos):
+            return False
+        if self.pointer_override is not None:
+            return True
+        return bool(
+            dpg.is_item_hovered(self.canvas) or any(dpg.is_item_hovered(i.window) for i in self.items)
+        )
+
+    def _poll_mouse(self) -> None:
+        left = bool(dpg.is_mouse_button_down(dpg.mvMouseButton_Left))
+        right = bool(dpg.is_mouse_button_down(dpg.mvMouseButton_Right))
+        if self.pointer_override is None:
+            pos = self.pointer()
+            if left and not self._left_down:
+                self._on_left_press(pos)
+            elif left and self._drag is not None:
+                self.drag_to(pos)
+            elif not left and self._left_down and self._drag is not None:
+                self.release(pos)
+            if right and not self._right_down and self.dialog is None and self._over_canvas(pos):
+                self.context_menu(pos)
+        self._left_down, self._right_down = left, right
+
+    def _on_left_press(self, pos: tuple[float, float]) -> None:
+        if dpg.is_item_shown(self.menu):
+            mx, my = dpg.get_item_pos(self.menu)
+            mw, mh = dpg.get_item_rect_size(self.menu)
+            if not Rect(mx, my, mw, mh).contains(*pos):
+                dpg.hide_item(self.menu)
+            return
+        if self.dialog is not None or not self._over_canvas(pos):
+            return
+        self.press(pos)
+
+    def press(self, pos: tuple[float, float]) -> CanvasItem | None:
+        """Press the left button at `pos` (window pixels): select, and start a move or resize on a handle."""
+        cx, cy = self.to_canvas(pos)
+        hit = hit_test([i.rect for i in self.items], cx, cy, title_h=TITLE_H, corner=GRIP + 4)
+        if hit is None:
+            self.select(None)
+            return None
+        item = self.items[hit[0]]
+        self.select(item)
+        self.bring_to_front(item)
+        if hit[1] in (Part.TITLE, Part.CORNER):
+            self._drag = _Drag(item, hit[1], (cx, cy), item.rect, item.rect)
+        return item
+
+    def drag_to(self, pos: tuple[float, float]) -> None:
+        """Move the pointer with the button held: the widget follows, the outline shows where it will land."""
+        drag = self._drag
+        if drag is None:
+            return
+        cx, cy = self.to_canvas(pos)
+        dx, dy = cx - drag.start[0], cy - drag.start[1]
+        mw, mh = drag.item.min_size
+        if drag.part is Part.TITLE:
+            rect = drag.rect.moved(dx, dy)
+            drag.item.place(rect, rebuild=False)
+        else:
+            rect = drag.rect.resized(dx, dy, mw, mh)
+            dpg.configure_item(drag.item.window, width=int(rect.w), height=int(rect.h))
+        drag.target = snap_rect(rect, self.grid_size, min_w=mw, min_h=mh) if self.snap else rect
+        over_trash = drag.part is Part.TITLE and self.trash_rect().contains(*pos)
+        dpg.bind_item_theme(self.trash, self._trash_hot if over_trash else 0)
+        dpg.delete_item(self.overlay, children_only=True)
+        if not over_trash:
+            ox, oy = self.canvas_origin()
+            t = drag.target
+            dpg.draw_rectangle(
+                (ox + t.x, oy + t.y),
+                (ox + t.x + t.w, oy + t.y + t.h),
+                color=theme.ACCENT,
+                fill=(86, 166, 240, 28),
+                thickness=2,
+                rounding=6,
+                parent=self.overlay,
+            )
+
+    def release(self, pos: tuple[float, float]) -> None:
+        """Let go: the widget lands on the outline, or is deleted over the delete zone."""
+        drag = self._drag
+        if drag is None:
+            return
+        self.drag_to(pos)
+        self._drag = None
+        dpg.delete_item(self.overlay, children_only=True)
+        dpg.bind_item_theme(self.trash, 0)
+        if drag.part is Part.TITLE and self.trash_rect().contains(*pos):
+            self.delete_item(drag.item)
+            return
+        if drag.target != drag.rect:
+            drag.item.place(drag.target, rebuild=True)
+            self._mark_dirty()
+        else:
+            drag.item.place(drag.rect, rebuild=drag.part is Part.CORNER)
+
+    def context_menu(self, pos: tuple[float, float]) -> CanvasItem | None:
+        """Open the widget's context menu at `pos` (right click)."""
+        cx, cy = self.to_canvas(pos)
+        hit = hit_test([i.rect for i in self.items], cx, cy, title_h=TITLE_H, corner=0)
+        if hit is None:
+            return None
+        item = self.items[hit[0]]
+        self.select(item)
+        self._menu_item = item
+        dpg.configure_item(self.menu, pos=(int(pos[0]), int(pos[1])), show=True)
+        dpg.focus_item(self.menu)
+        return item
+
+    def _menu(self, action: Any) -> None:
+        dpg.hide_item(self.menu)
+        if self._menu_item is not None and self._menu_item in self.items:
+            action(self._menu_item)
+
+    def on_delete_key(self) -> None:
+        """Delete key: remove the selected widget (not while a dialog is open)."""
+        if self.dialog is None and self.selected is not None:
+            self.delete_item(self.selected)
+
+    # -- drop from the toolbox ----------------------------------------------------------------------
+
+    def on_drop(self, sender: int | str, app_data: Any, user_data: Any = None) -> None:
+        """Drop callback of the canvas: add the dragged widget type where the pointer is."""
+        if isinstance(app_data, str):
+            self.drop_widget(app_data, self.pointer())
+
+    def drop_widget(self, type_name: str, pos: tuple[float, float]) -> CanvasItem | None:
+        """Add a widget of `type_name` at `pos` (window pixels) and open its topic setup."""
+        item = self.add_widget(type_name, *self.to_canvas(pos))
+        if item is not None:
+            self.open_topic_dialog(item)
+        return item
+
+    def add_widget(self, type_name: str, x: float, y: float, *, name: str | None = None) -> CanvasItem | None:
+        """Place a new widget with its top-left corner near (x, y) on the canvas."""
+        cls = self.registry.get(type_name)
+        if cls is None:
+            self.set_status(f"unknown widget type {type_name!r}")
+            return None
+        w, h = cls.default_size[0], cls.default_size[1] + TITLE_H
+        rect = Rect(max(0.0, x - 20), max(0.0, y - TITLE_H / 2), float(w), float(h))
+        if self.snap:
+            rect = snap_rect(rect, self.grid_size, min_w=cls.min_size[0], min_h=cls.min_size[1] + TITLE_H)
+        taken = {i.name for i in self.items}
+        if name is None:
+            n = 1
+            name = cls.label
+            while name in taken:
+                n += 1
+                name = f"{cls.label} {n}"
+        config = WidgetConfig(type_name, name, rect.x, rect.y, rect.w, rect.h, (), cls.default_properties())
+        item = CanvasItem(config, cls, self.canvas, self._frame_theme)
+        self.items.append(item)
+        self.select(item)
+        self._mark_dirty()
+        return item
+
+    # -- widget operations --------------------------------------------------------------------------
+
+    def select(self, item: CanvasItem | None) -> None:
+        """Highlight `item` (or nothing)."""
+        if self.selected is not None and self.selected in self.items:
+            dpg.bind_item_theme(self.selected.window, self._frame_theme)
+        self.selected = item
+        if item is not None:
+            dpg.bind_item_theme(item.window, self._selected_theme)
+
+    def bring_to_front(self, item: CanvasItem) -> None:
+        """Draw `item` above the others."""
+        if self.items and self.items[-1] is not item:
+            self.items.remove(item)
+            self.items.append(item)
+            dpg.move_item(item.window, parent=self.canvas)
+
+    def delete_item(self, item: CanvasItem) -> None:
+        """Remove a widget and release its series."""
+        if item not in self.items:
+            return
+        for b in item.bindings:
+            self._unbind(b)
+        self.items.remove(item)
+        if self.selected is item:
+            self.selected = None
+        if self.dialog is not None and getattr(self.dialog, "item", None) is item:
+            self.dialog.close()
+        item.destroy()
+        self._mark_dirty()
+        self.set_status(f"deleted {item.name!r}")
+
+    def rename(self, item: CanvasItem, name: str) -> None:
+        """Give a widget a new title."""
+        item.rename(name)
+        self._mark_dirty()
+
+    def apply_bindings(self, item: CanvasItem, bindings: tuple[Binding, ...]) -> None:
+        """Point a widget at new series (binding the new ones before releasing the old)."""
+        for b in bindings:
+            self._bind(b)
+        for b in item.bindings:
+            self._unbind(b)
+        item.set_bindings(bindings)
+        self._mark_dirty()
+
+    def set_snap(self, on: bool) -> None:
+        """Switch snap-to-grid on or off."""
+        self.snap = on
+        dpg.set_value(self.snap_box, on)
+        dpg.set_value(self.snap_menu, on)
+        self._mark_dirty()
+
+    def set_grid_size(self, size: int) -> None:
+        """Change the grid spacing in pixels (5-400)."""
+        self.grid_size = max(2, min(400, int(size)))
+        dpg.set_value(self.grid_slider, min(80, self.grid_size))
+        self._mark_dirty()
+
+    def _bind(self, binding: Binding) -> None:
+        if self._refs[binding] == 0:
+            self.source.bind(binding)
+        self._refs[binding] += 1
+
+    def _unbind(self, binding: Binding) -> None:
+        if self._refs[binding] <= 0:
+            return
+        self._refs[binding] -= 1
+        if self._refs[binding] == 0:
+            del self._refs[binding]
+            self.source.unbind(binding)
+
+    # -- dialogs ------------------------------------------------------------------------------------
+
+    def _open(self, dialog: Dialog) -> Dialog:
+        self.dialog = dialog
+        return dialog
+
+    def _closed(self, dialog: Dialog) -> None:
+        if self.dialog is dialog:
+            self.dialog = None
+
+    def open_topic_dialog(self, item: CanvasItem) -> TopicDialog | None:
+        """Open the topic setup for `item` (placeholders have none)."""
+        if item.widget_cls is None:
+            return None
+        if self.dialog is not None:
+            self.dialog.close()
+        dialog = TopicDialog(item, self.source, self._closed, self.apply_bindings, self._bind, self._unbind)
+        self._open(dialog)
+        return dialog
+
+    def open_properties_dialog(self, item: CanvasItem) -> PropertiesDialog | None:
+        """Open the properties dialog for `item`."""
+        if item.widget_cls is None:
+            return None
+        if self.dialog is not None:
+            self.dialog.close()
+        dialog = PropertiesDialog(item, self._closed_dirty)
+        self._open(dialog)
+        return dialog
+
+    def open_rename_dialog(self, item: CanvasItem) -> RenameDialog:
+        """Open the rename dialog for `item`."""
+        if self.dialog is not None:
+            self.dialog.close()
+        dialog = RenameDialog(item, self._closed_dirty)
+        self._open(dialog)
+        return dialog
+
+    def _closed_dirty(self, dialog: Dialog) -> None:
+        self._closed(dialog)
+        self._mark_dirty()
+
+    def show_message(self, title: str, message: str) -> MessageDialog:
+        """Show a message in a modal dialog."""
+        if self.dialog is not None:
+            self.dialog.close()
+        dialog = MessageDialog(title, message, self._closed)
+        self._open(dialog)
+        return dialog
+
+    def show_load_messages(self) -> None:
+        """Show what could not be loaded from the current dashboard as it was."""
+        text = "\n".join(self.load_messages) or "The dashboard loaded without problems."
+        self.show_message("Load messages", text)
+
+    def _file_dialog(self, *, save: bool) -> None:
+        def chosen(sender: int | str, app_data: dict[str, Any]) -> None:
+            path = app_data.get("file_path_name") if isinstance(app_data, dict) else None
+            dpg.delete_item(sender)
+            if path:
+                if save:
+                    self.save(path)
+                else:
+                    self.open_path(path)
+
+        with dpg.file_dialog(
+            label="Save dashboard as" if save else "Open dashboard",
+            width=700,
+            height=450,
+            modal=True,
+            callback=chosen,
+            cancel_callback=lambda s, a: dpg.delete_item(s),
+            default_path=str(self.path.parent if self.path else Path.cwd()),
+        ):
+            dpg.add_file_extension(".json", color=(86, 166, 240, 255))
+            dpg.add_file_extension(".*")
+
+    # -- files --------------------------------------------------------------------------------------
+
+    def dashboard(self) -> Dashboard:
+        """The current dashboard as it would be saved."""
+        return Dashboard([i.config for i in self.items], self.grid_size, self.snap)
+
+    def load(self, result: LoadResult, path: Path | None = None) -> None:
+        """Replace the canvas with a loaded dashboard."""
+        self.clear()
+        self.grid_size, self.snap = result.dashboard.grid_size, result.dashboard.snap
+        dpg.set_value(self.snap_box, self.snap)
+        dpg.set_value(self.snap_menu, self.snap)
+        dpg.set_value(self.grid_slider, min(80, self.grid_size))
+        for config in result.dashboard.widgets:
+            cls = self.registry.get(config.type) if isinstance(config, WidgetConfig) else None
+            item = CanvasItem(config, cls, self.canvas, self._frame_theme)
+            self.items.append(item)
+            for b in item.bindings:
+                self._bind(b)
+        self.path = path
+        self.dirty = False
+        self.load_messages = list(result.messages)
+        kind = "legacy ROSDashboard file" if result.legacy else "dashboard"
+        note = f"; {len(result.messages)} problem(s): View \u203a Load messages" if result.messages else ""
+        self.set_status(f"opened {kind} {path.name if path else ''}{note}")
+        self._update_title()
+
+    def open_path(self, path: str | os.PathLike[str]) -> bool:
+        """Open a dashboard file; on failure show why and keep the current dashboard."""
+        p = Path(path)
+        try:
+            result = load_dashboard(p, self.registry.get)
+        except DashboardError as exc:
+            self.show_message("Cannot open dashboard", str(exc))
+            self.set_status(f"open failed: {exc}")
+            return False
+        self.load(result, p)
+        return True
+
+    def save(self, path: str | os.PathLike[str] | None = None) -> bool:
+        """Save to `path` (or the current file; with neither, ask for one)."""
+        if path is None and self.path is None:
+            self._file_dialog(save=True)
+            return False
+        target = Path(path) if path is not None else self.path
+        assert target is not None
+        try:
+            save_dashboard(self.dashboard(), target)
+        except DashboardError as exc:
+            self.show_message("Cannot save dashboard", str(exc))
+            self.set_status(f"save failed: {exc}")
+            return False
+        self.path = target
+        self.dirty = False
+        self.set_status(f"saved {target}")
+        self._update_title()
+        return True
+
+    def clear(self) -> None:
+        """Remove every widget."""
+        if self.dialog is not None:
+            self.dialog.close()
+        for item in list(self.items):
+            for b in item.bindings:
+                self._unbind(b)
+            item.destroy()
+        self.items.clear()
+        self.selected = None
+
+    def new_dashboard(self) -> None:
+        """Start an empty dashboard."""
+        self.clear()
+        self.path = None
+        self.dirty = False
+        self.load_messages = []
+        self._update_title()
+
+    # -- chrome -------------------------------------------------------------------------------------
+
+    def set_status(self, text: str) -> None:
+        """Show a message in the status bar."""
+        self._status_text = text
+        if self._started:
+            dpg.set_value(self.status_msg, text)
+
+    def _mark_dirty(self) -> None:
+        self.dirty = True
+        self._update_title()
+
+    def _update_title(self) -> None:
+        name = self.path.name if self.path else "untitled"
+        dpg.set_viewport_title(f"{self.title} \u2014 {name}{' *' if self.dirty else ''}")
+
+    def _update_status(self) -> None:
+        recent: Sequence[float] = list(self.frame_times)[-60:]
+        fps = len(recent) / sum(recent) if recent and sum(recent) > 0 else 0.0
+        name = str(self.path) if self.path else "untitled"
+        text = (
+            f"  {name}{' (modified)' if self.dirty else ''}   \u00b7   {len(self.items)} widgets   \u00b7   "
+            f"grid {self.grid_size}px {'on' if self.snap else 'off'}   \u00b7   {min(fps, 999):.0f} fps   "
+        )
+        dpg.set_value(self.status_left, text)
+
+    def _draw_grid(self) -> None:
+        w, h = self.canvas_size()
+        key = (w, h, self.grid_size, self.snap, bool(self.items))
+        if key == self._grid_key or w <= 0:
+            return
+        self._grid_key = key
+        layer = self.grid_layer
+        dpg.delete_item(layer, children_only=True)
+        dpg.configure_item(layer, width=max(1, w), height=max(1, h))
+        dpg.draw_rectangle((0, 0), (w, h), color=theme.CANVAS, fill=theme.CANVAS, parent=layer)
+        step = self.grid_size
+        while w / step > 160:
+            step *= 2
+        color = theme.GRID if self.snap else (31, 34, 41, 255)
+        for x in range(0, w, step):
+            dpg.draw_line((x, 0), (x, h), color=color, parent=layer)
+        for y in range(0, h, step):
+            dpg.draw_line((0, y), (w, y), color=color, parent=layer)
+        if not self.items:
+            msg = "Drag a widget from the toolbox onto the canvas"
+            dpg.draw_text((w / 2 - len(msg) * 4.6, h / 2 - 10), msg, size=17, color=theme.DIM, parent=layer)

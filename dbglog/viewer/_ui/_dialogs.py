@@ -1,0 +1,439 @@
+"""Modal dialogs: topic setup (type-ahead topics, field list, regex preview), properties, rename, messages."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import dearpygui.dearpygui as dpg
+
+from dbglog.regex_bridge._regex import RegexError, compile_regex
+from dbglog.viewer._model import Binding, DataSource, FieldInfo, Status, ValueKind
+from dbglog.viewer._ui._frame import CanvasItem
+from dbglog.viewer._ui._theme import DIM, STATUS_COLORS
+from dbglog.viewer.widget_api import PropertyError, PropKind, PropValue, format_color, parse_color
+
+__all__ = ["Dialog", "MessageDialog", "PropertiesDialog", "RenameDialog", "TopicDialog", "regex_preview"]
+
+ERROR_COLOR = STATUS_COLORS[Status.ERROR]
+OK_COLOR = STATUS_COLORS[Status.LIVE]
+
+
+def regex_preview(pattern: str, latest: str | None) -> tuple[bool, str]:
+    """Return (ok, text) describing what `pattern` extracts from the latest value, or the RE2 error."""
+    if not pattern:
+        return True, "no regex: the whole value is used"
+    try:
+        compiled = compile_regex(pattern)
+    except RegexError as exc:
+        return False, f"regex error: {exc}"
+    if latest is None:
+        return True, "regex compiles; no value received yet to try it on"
+    found = compiled.extract(latest)
+    if found is None:
+        return False, "no match in the latest value"
+    return True, f"extracts: {found!r}"
+
+
+class Dialog:
+    """A modal window; subclasses add content. `close` deletes it."""
+
+    def __init__(self, title: str, width: int, on_close: Callable[[Dialog], None]) -> None:
+        self._on_close = on_close
+        vw, vh = dpg.get_viewport_client_width() or 1200, dpg.get_viewport_client_height() or 800
+        self.window = dpg.add_window(
+            label=title,
+            modal=True,
+            width=width,
+            autosize=True,
+            no_collapse=True,
+            no_saved_settings=True,
+            pos=(max(0, (vw - width) // 2), max(0, vh // 5)),
+            on_close=lambda *_: self.close(),
+        )
+        self.closed = False
+
+    def tick(self) -> None:
+        """Called once per frame while open."""
+
+    def close(self) -> None:
+        """Remove the dialog."""
+        if self.closed:
+            return
+        self.closed = True
+        if dpg.does_item_exist(self.window):
+            dpg.delete_item(self.window)
+        self._on_close(self)
+
+    def _buttons(self, ok_label: str, on_ok: Callable[[], object]) -> None:
+        dpg.add_spacer(height=4, parent=self.window)
+        with dpg.group(horizontal=True, parent=self.window):
+            self.ok_button = dpg.add_button(label=ok_label, width=100, callback=lambda *_: on_ok())
+            dpg.add_button(label="Cancel", width=100, callback=lambda *_: self.close())
+
+
+class MessageDialog(Dialog):
+    """Shows a message (e.g. why a file could not be opened) with an OK button."""
+
+    def __init__(self, title: str, message: str, on_close: Callable[[Dialog], None]) -> None:
+        super().__init__(title, 560, on_close)
+        self.message = message
+        dpg.add_text(message, parent=self.window, wrap=530)
+        dpg.add_spacer(height=4, parent=self.window)
+        dpg.add_button(label="OK", width=100, parent=self.window, callback=lambda *_: self.close())
+
+
+class RenameDialog(Dialog):
+    """Edit a widget's title."""
+
+    def __init__(self, item: CanvasItem, on_close: Callable[[Dialog], None]) -> None:
+        super().__init__(f"Rename \u2014 {item.name}", 380, on_close)
+        self.item = item
+        self.input = dpg.add_input_text(
+            default_value=item.name,
+            width=-1,
+            parent=self.window,
+            on_enter=True,
+            callback=lambda *_: self.apply(),
+        )
+        self.error = dpg.add_text("", color=ERROR_COLOR, parent=self.window)
+        self._buttons("Rename", self.apply)
+
+    def apply(self, name: str | None = None) -> bool:
+        """Rename the widget (a blank name is refused)."""
+        text = (name if name is not None else str(dpg.get_value(self.input))).strip()
+        if not text:
+            dpg.set_value(self.error, "The name cannot be empty.")
+            return False
+        self.item.rename(text[:200])
+        self.close()
+        return True
+
+
+class PropertiesDialog(Dialog):
+    """An editor per declared property (number, text, bool, colour, choice), validated on OK."""
+
+    def __init__(self, item: CanvasItem, on_close: Callable[[Dialog], None]) -> None:
+        super().__init__(f"Properties \u2014 {item.name}", 440, on_close)
+        self.item = item
+        self.editors: dict[str, int | str] = {}
+        self.errors: dict[str, int | str] = {}
+        cls = item.widget_cls
+        props = dict(item.config.properties) if hasattr(item.config, "properties") else {}
+        self.name_input = dpg.add_input_text(
+            label="Name", default_value=item.name, width=240, parent=self.window
+        )
+        dpg.add_separator(parent=self.window)
+        for decl in cls.properties if cls is not None else ():
+            value = props.get(decl.name, decl.default)
+            if decl.kind is PropKind.NUMBER:
+                editor = dpg.add_input_double(
+                    label=decl.title,
+                    default_value=float(value),
+                    width=240,
+                    format="%.0f" if decl.integer else "%.6g",
+                    parent=self.window,
+                )
+            elif decl.kind is PropKind.BOOL:
+                editor = dpg.add_checkbox(label=decl.title, default_value=bool(value), parent=self.window)
+            elif decl.kind is PropKind.CHOICE:
+                editor = dpg.add_combo(
+                    list(decl.choices),
+                    label=decl.title,
+                    default_value=str(value),
+                    width=240,
+                    parent=self.window,
+                )
+            elif decl.kind is PropKind.COLOR:
+                editor = dpg.add_color_edit(
+                    list(parse_color(str(value))),
+                    label=decl.title,
+                    width=240,
+                    alpha_bar=True,
+                    parent=self.window,
+                )
+            else:
+                editor = dpg.add_input_text(
+                    label=decl.title, default_value=str(value), width=240, parent=self.window
+                )
+            if decl.help:
+                with dpg.tooltip(editor):
+                    dpg.add_text(decl.help)
+            self.editors[decl.name] = editor
+            self.errors[decl.name] = dpg.add_text("", color=ERROR_COLOR, parent=self.window, show=False)
+        self._buttons("Apply", self.apply)
+
+    def set_value(self, name: str, value: object) -> None:
+        """Put a value into an editor as a user would type it (for tests and scripting)."""
+        editor = self.editors[name]
+        if isinstance(value, str) and value.startswith("#") and self._decl(name).kind is PropKind.COLOR:
+            dpg.set_value(editor, list(parse_color(value)))
+        else:
+            dpg.set_value(editor, value)
+
+    def _decl(self, name: str):  # type: ignore[no-untyped-def]
+        cls = self.item.widget_cls
+        assert cls is not None
+        decl = cls.property_named(name)
+        assert decl is not None
+        return decl
+
+    def apply(self) -> bool:
+        """Validate every editor; on success apply and close, else show each problem beside its editor."""
+        cls = self.item.widget_cls
+        values: dict[str, PropValue] = {}
+        ok = True
+        for decl in cls.properties if cls is not None else ():
+            raw = dpg.get_value(self.editors[decl.name])
+            if decl.kind is PropKind.COLOR:
+                raw = format_color(
+                    [c * 255 if isinstance(c, float) and c <= 1.0 and _is_unit(raw) else c for c in raw]
+                )
+            try:
+                values[decl.name] = decl.validate(raw)
+                dpg.configure_item(self.errors[decl.name], show=False)
+            except PropertyError as exc:
+                ok = False
+                dpg.set_value(self.errors[decl.name], str(exc))
+                dpg.configure_item(self.errors[decl.name], show=True)
+        name = str(dpg.get_value(self.name_input)).strip()
+        if not ok:
+            return False
+        if name and name != self.item.name:
+            self.item.rename(name[:200])
+        self.item.set_properties(values)
+        self.close()
+        return True
+
+
+def _is_unit(raw: list[float]) -> bool:
+    return all(isinstance(c, float) and 0.0 <= c <= 1.0 for c in raw)
+
+
+class TopicDialog(Dialog):
+    """Pick the topic (type-ahead from the live graph), the field (from the message type) and a regex."""
+
+    def __init__(
+        self,
+        item: CanvasItem,
+        source: DataSource,
+        on_close: Callable[[Dialog], None],
+        on_apply: Callable[[CanvasItem, tuple[Binding, ...]], None],
+        bind: Callable[[Binding], None],
+        unbind: Callable[[Binding], None],
+    ) -> None:
+        super().__init__(f"Topic setup \u2014 {item.name}", 620, on_close)
+        self.item = item
+        self.source = source
+        self._on_apply = on_apply
+        self._bind, self._unbind = bind, unbind
+        cls = item.widget_cls
+        self.max_bindings = cls.max_bindings if cls is not None else 1
+        self.accepts = cls.accepts if cls is not None else frozenset()
+        self.bindings: list[Binding] = list(item.bindings) or [Binding("")]
+        self.index = 0
+        self._fields: list[FieldInfo] = []
+        self._preview_binding: Binding | None = None
+        self._suggestions: list[str] = []
+        w = self.window
+        if self.max_bindings > 1:
+            with dpg.group(horizontal=True, parent=w):
+                self.series_combo = dpg.add_combo([], label="Series", width=300, callback=self._on_series)
+                dpg.add_button(label="Add series", callback=lambda *_: self.add_series())
+                dpg.add_button(label="Remove", callback=lambda *_: self.remove_series())
+        dpg.add_text("Topic", color=DIM, parent=w)
+        self.topic_input = dpg.add_input_text(
+            width=-1,
+            hint="start typing, e.g. /rosdashboard/",
+            parent=w,
+            callback=lambda *_: self._on_topic_typed(),
+        )
+        self.suggest_list = dpg.add_listbox(
+            [], num_items=5, width=-1, parent=w, callback=lambda s, a: self.choose_topic(a.split("   ")[0])
+        )
+        dpg.add_text("Field", color=DIM, parent=w)
+        self.field_combo = dpg.add_combo([], width=-1, parent=w, callback=lambda s, a: self._on_field(a))
+        self.field_note = dpg.add_text("", color=DIM, parent=w)
+        dpg.add_text("Regex (optional, RE2: the first group or the whole match is used)", color=DIM, parent=w)
+        self.regex_input = dpg.add_input_text(
+            width=-1, hint="e.g. speed=([0-9.]+)", parent=w, callback=lambda *_: self._store()
+        )
+        self.preview = dpg.add_text("", parent=w, wrap=590)
+        self.latest = dpg.add_text("", color=DIM, parent=w, wrap=590)
+        self._buttons("OK", self.apply)
+        self._load_current()
+
+    # -- series list (plots) ------------------------------------------------------------------------
+
+    def _series_labels(self) -> list[str]:
+        return [
+            f"{i + 1}: {b.topic or '(no topic)'}" + (f" \u203a {b.field}" if b.field else "")
+            for i, b in enumerate(self.bindings)
+        ]
+
+    def _on_series(self, sender: int | str, label: str) -> None:
+        self._store()
+        self.index = self._series_labels().index(label) if label in self._series_labels() else 0
+        self._load_current()
+
+    def add_series(self) -> None:
+        """Add an empty series (up to the widget's maximum) and edit it."""
+        self._store()
+        if len(self.bindings) < self.max_bindings:
+            self.bindings.append(Binding(""))
+            self.index = len(self.bindings) - 1
+            self._load_current()
+
+    def remove_series(self) -> None:
+        """Remove the series being edited (one always stays)."""
+        if len(self.bindings) > 1:
+            del self.bindings[self.index]
+            self.index = max(0, self.index - 1)
+        else:
+            self.bindings = [Binding("")]
+        self._load_current()
+
+    def _load_current(self) -> None:
+        b = self.bindings[self.index]
+        if self.max_bindings > 1:
+            labels = self._series_labels()
+            dpg.configure_item(self.series_combo, items=labels)
+            dpg.set_value(self.series_combo, labels[self.index])
+        dpg.set_value(self.topic_input, b.topic)
+        dpg.set_value(self.regex_input, b.regex)
+        self._refresh_suggestions()
+        self._refresh_fields(b.field)
+
+    def _store(self) -> None:
+        topic = str(dpg.get_value(self.topic_input)).strip()
+        field = self._selected_field()
+        regex = str(dpg.get_value(self.regex_input))
+        self.bindings[self.index] = Binding(topic, field, regex)
+        if self.max_bindings > 1:
+            labels = self._series_labels()
+            dpg.configure_item(self.series_combo, items=labels)
+            dpg.set_value(self.series_combo, labels[self.index])
+
+    # -- topic and field ----------------------------------------------------------------------------
+
+    def _on_topic_typed(self) -> None:
+        self._refresh_suggestions()
+        self._refresh_fields("")
+        self._store()
+
+    def suggestions(self) -> list[str]:
+        """Return the topics on the graph matching what is typed (prefix matches first)."""
+        typed = str(dpg.get_value(self.topic_input)).strip().lower()
+        names = list(self.source.topics())
+        prefix = [t for t in names if t.name.lower().startswith(typed)]
+        inner = [t for t in names if typed in t.name.lower() and t not in prefix]
+        return [f"{t.name}   [{', '.join(t.types)}]" for t in prefix + inner]
+
+    def _refresh_suggestions(self) -> None:
+        self._suggestions = self.suggestions()
+        dpg.configure_item(self.suggest_list, items=self._suggestions)
+
+    def choose_topic(self, topic: str) -> None:
+        """Take a topic (as clicking a suggestion does) and list its fields."""
+        dpg.set_value(self.topic_input, topic.strip())
+        self._refresh_fields("")
+        self._store()
+
+    def _field_label(self, f: FieldInfo) -> str:
+        depth = f.path.count(".")
+        mark = "" if f.numeric or ValueKind.TEXT in self.accepts else "   (not numeric)"
+        return f"{'    ' * depth}{f.path}   : {f.type_name}{mark}"
+
+    def _refresh_fields(self, selected: str) -> None:
+        topic = str(dpg.get_value(self.topic_input)).strip()
+        self._fields = self.source.fields(topic) if topic else []
+        labels = ["(whole message)"] + [self._field_label(f) for f in self._fields]
+        dpg.configure_item(self.field_combo, items=labels)
+        current = next((self._field_label(f) for f in self._fields if f.path == selected), None)
+        if current is None and selected:
+            labels.append(selected)
+            dpg.configure_item(self.field_combo, items=labels)
+            current = selected
+        dpg.set_value(self.field_combo, current or "(whole message)")
+        if topic and not self._fields:
+            dpg.set_value(self.field_note, "The topic's message type is not known yet (not on the graph?).")
+        else:
+            dpg.set_value(self.field_note, "")
+
+    def _selected_field(self) -> str:
+        label = str(dpg.get_value(self.field_combo) or "")
+        if label in ("", "(whole message)"):
+            return ""
+        for f in self._fields:
+            if self._field_label(f) == label:
+                return f.path
+        return label.strip()
+
+    def choose_field(self, path: str) -> None:
+        """Select a field by path (as picking it in the list does)."""
+        self._refresh_fields(path)
+        self._store()
+
+    def _on_field(self, label: str) -> None:
+        self._store()
+
+    def set_regex(self, pattern: str) -> None:
+        """Type a regex (as the user would)."""
+        dpg.set_value(self.regex_input, pattern)
+        self._store()
+
+    # -- live preview -------------------------------------------------------------------------------
+
+    def tick(self) -> None:
+        """Keep a preview series bound for the edited topic/field and show what the regex extracts."""
+        b = self.bindings[self.index]
+        want = Binding(b.topic, b.field) if b.topic else None
+        if want != self._preview_binding:
+            if self._preview_binding is not None:
+                self._unbind(self._preview_binding)
+            if want is not None:
+                self._bind(want)
+            self._preview_binding = want
+        latest: str | None = None
+        if want is not None:
+            snap = self.source.snapshot(want)
+            if snap.last is not None:
+                latest = str(snap.last)
+                dpg.set_value(self.latest, f"latest value: {latest[:200]!r}   ({snap.status.value})")
+            else:
+                dpg.set_value(
+                    self.latest,
+                    f"no value yet ({snap.status.value}{': ' + snap.reason if snap.reason else ''})",
+                )
+        else:
+            dpg.set_value(self.latest, "")
+        ok, text = regex_preview(b.regex, latest)
+        dpg.set_value(self.preview, text)
+        dpg.configure_item(self.preview, color=OK_COLOR if ok else ERROR_COLOR)
+        self.preview_text = text
+        self.preview_ok = ok
+
+    def apply(self) -> bool:
+        """Check the regexes compile, then give the bindings to the widget and close."""
+        self._store()
+        bindings = tuple(b for b in self.bindings if b.topic)
+        for b in bindings:
+            if b.regex:
+                try:
+                    compile_regex(b.regex)
+                except RegexError as exc:
+                    dpg.set_value(self.preview, f"regex error: {exc}")
+                    dpg.configure_item(self.preview, color=ERROR_COLOR)
+                    return False
+        bindings = tuple(
+            Binding(b.topic if b.topic.startswith("/") else "/" + b.topic, b.field, b.regex) for b in bindings
+        )
+        self._on_apply(self.item, bindings)
+        self.close()
+        return True
+
+    def close(self) -> None:
+        """Drop the preview series and remove the dialog."""
+        if self._preview_binding is not None:
+            self._unbind(self._preview_binding)
+            self._preview_binding = None
+        super().close()

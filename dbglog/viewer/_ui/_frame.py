@@ -1,0 +1,257 @@
+"""One widget on the canvas: its frame (title strip, status pill, resize grip) around the widget's body."""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Sequence
+from dataclasses import replace
+
+import dearpygui.dearpygui as dpg
+
+from dbglog.viewer._dashboard import RawWidget, WidgetConfig
+from dbglog.viewer._geometry import Rect
+from dbglog.viewer._model import Binding, DataSource, SeriesSnapshot, Status
+from dbglog.viewer._ui._theme import DIM, HEADER, STATUS_COLORS, TEXT
+from dbglog.viewer._widgets._common import text_size
+from dbglog.viewer.widget_api import PropValue, Widget
+
+__all__ = ["TITLE_H", "CanvasItem", "combined_status"]
+
+_log = logging.getLogger(__name__)
+
+TITLE_H = 28
+"""Height of the title strip in pixels: dragging it moves the widget."""
+GRIP = 14
+"""Size of the bottom-right resize grip."""
+PAD = 6
+
+_ORDER = {Status.ERROR: 0, Status.WAITING: 1, Status.STALE: 2, Status.LIVE: 3}
+
+
+def combined_status(snapshots: Sequence[SeriesSnapshot]) -> tuple[Status, str]:
+    """Return the worst status of a widget's series and the reasons behind it (no series = waiting)."""
+    if not snapshots:
+        return Status.WAITING, "no topic set: right-click \u203a Topic setup"
+    worst = min(snapshots, key=lambda s: _ORDER[s.status])
+    reasons = [f"{s.binding.topic}: {s.reason}" for s in snapshots if s.status == worst.status and s.reason]
+    return worst.status, "\n".join(reasons)
+
+
+class CanvasItem:
+    """A placed widget: owns its Dear PyGui frame and its widget instance (None for a placeholder)."""
+
+    def __init__(
+        self,
+        config: WidgetConfig | RawWidget,
+        widget_cls: type[Widget] | None,
+        canvas: int | str,
+        theme: int | str,
+    ) -> None:
+        self.config = config
+        self.widget_cls = widget_cls
+        self.widget: Widget | None = None
+        self.failed = ""
+        """Why the widget was disabled after raising, or empty."""
+        self.status = Status.WAITING
+        self.reason = ""
+        self.updates = 0
+        """How many times the widget was redrawn (tests and the benchmark read this)."""
+        self._key: tuple[tuple[int, Status, str], ...] | None = None
+        self._pill_state: tuple[Status, str] | None = None
+        x, y, w, h = self.geometry()
+        self.window = dpg.add_child_window(
+            parent=canvas,
+            pos=(int(x), int(y)),
+            width=int(w),
+            height=int(h),
+            no_scrollbar=True,
+            no_scroll_with_mouse=True,
+            border=True,
+        )
+        dpg.bind_item_theme(self.window, theme)
+        self._build(int(w), int(h))
+
+    # -- geometry and config ------------------------------------------------------------------------
+
+    def geometry(self) -> tuple[float, float, float, float]:
+        """Return x, y, width, height on the canvas."""
+        if isinstance(self.config, WidgetConfig):
+            c = self.config
+            return c.x, c.y, c.width, c.height
+        return self.config.geometry()
+
+    @property
+    def rect(self) -> Rect:
+        """The frame's rectangle in canvas pixels."""
+        return Rect(*self.geometry())
+
+    @property
+    def name(self) -> str:
+        """The title shown on the frame."""
+        return self.config.name
+
+    @property
+    def bindings(self) -> tuple[Binding, ...]:
+        """The widget's series (none for a placeholder)."""
+        return self.config.bindings if isinstance(self.config, WidgetConfig) else ()
+
+    @property
+    def min_size(self) -> tuple[int, int]:
+        """The smallest frame the widget accepts."""
+        if self.widget_cls is None:
+            return (80, 60)
+        return (self.widget_cls.min_size[0], self.widget_cls.min_size[1] + TITLE_H)
+
+    def body_size(self, w: float, h: float) -> tuple[int, int]:
+        """Return the widget body size inside a frame of w x h."""
+        return max(10, int(w) - 2 * PAD), max(10, int(h) - TITLE_H - 2 * PAD)
+
+    # -- building -----------------------------------------------------------------------------------
+
+    def _build(self, w: int, h: int) -> None:
+        self.header_group = dpg.add_group(parent=self.window)
+        self.header = dpg.add_drawlist(w, TITLE_H, parent=self.header_group)
+        with dpg.tooltip(self.header_group) as tip:
+            self.tooltip_text = dpg.add_text("", wrap=360)
+        self.tooltip = tip
+        self._draw_header(w)
+        with dpg.group(parent=self.window, indent=PAD) as body:
+            self.body = body
+        bw, bh = self.body_size(w, h)
+        if self.widget_cls is not None and isinstance(self.config, WidgetConfig):
+            try:
+                self.widget = self.widget_cls(dict(self.config.properties))
+                self.widget.mount(self.body, bw, bh)
+            except Exception as exc:  # a broken widget class must not take the viewer down
+                self._fail(f"widget failed to build: {exc!r}")
+        else:
+            reason = self.config.reason if isinstance(self.config, RawWidget) else "unknown widget type"
+            dpg.add_text(
+                f"'{self.config.type}' is not available", parent=self.body, color=STATUS_COLORS[Status.ERROR]
+            )
+            dpg.add_text(reason, parent=self.body, wrap=max(60, bw), color=DIM)
+            dpg.add_text(
+                "Kept as it is in the dashboard file.", parent=self.body, wrap=max(60, bw), color=DIM
+            )
+            self.status, self.reason = Status.ERROR, reason
+        self.grip = dpg.add_drawlist(GRIP, GRIP, parent=self.window, pos=(w - GRIP - 2, h - GRIP - 2))
+        for k in (4, 8, 12):
+            dpg.draw_line((GRIP - 2, GRIP - 2 - k), (GRIP - 2 - k, GRIP - 2), color=DIM, parent=self.grip)
+
+    def _draw_header(self, w: int) -> None:
+        dl = self.header
+        dpg.delete_item(dl, children_only=True)
+        dpg.draw_rectangle((0, 0), (w, TITLE_H), color=HEADER, fill=HEADER, rounding=6, parent=dl)
+        dpg.draw_rectangle((0, TITLE_H - 8), (w, TITLE_H), color=HEADER, fill=HEADER, parent=dl)
+        status = self.status
+        label = status.value
+        pill_w = text_size(label, 13)[0] + 26
+        max_chars = max(3, int((w - pill_w - 24) / (15 * 0.55)))
+        title = self.name if len(self.name) <= max_chars else self.name[: max_chars - 1] + "\u2026"
+        dpg.draw_text((10, 6), title, size=15, color=TEXT, parent=dl)
+        color = STATUS_COLORS[status]
+        x1 = w - 8
+        x0 = x1 - pill_w
+        fill = (color[0], color[1], color[2], 60)
+        dpg.draw_rectangle((x0, 5), (x1, TITLE_H - 5), color=color, fill=fill, rounding=9, parent=dl)
+        dpg.draw_circle((x0 + 10, TITLE_H / 2), 4, color=color, fill=color, parent=dl)
+        dpg.draw_text((x0 + 18, 6.5), label, size=13, color=TEXT, parent=dl)
+        tip = {
+            Status.WAITING: "Waiting for data",
+            Status.LIVE: "Live",
+            Status.STALE: "Stale: no new message for a while",
+            Status.ERROR: "Error",
+        }[status]
+        bindings = "\n".join(
+            f"{b.topic}" + (f" \u203a {b.field}" if b.field else "") + (f"  /{b.regex}/" if b.regex else "")
+            for b in self.bindings
+        )
+        dpg.set_value(self.tooltip_text, "\n".join(x for x in (tip, self.reason, bindings) if x))
+        self._pill_state = (status, self.reason)
+
+    # -- live updates -------------------------------------------------------------------------------
+
+    def refresh(self, source: DataSource, now: float) -> bool:
+        """Read the snapshots; redraw only when a count, status or reason changed; True if redrawn."""
+        if self.widget is None or self.failed:
+            return False
+        snapshots = [source.snapshot(b) for b in self.bindings]
+        key = tuple((s.count, s.status, s.reason) for s in snapshots)
+        if key == self._key:
+            return False
+        self._key = key
+        self.status, self.reason = combined_status(snapshots)
+        if (self.status, self.reason) != self._pill_state:
+            self._draw_header(int(self.geometry()[2]))
+        try:
+            self.widget.update(snapshots, now)
+        except Exception as exc:  # one failing widget is disabled; the others keep running
+            self._fail(f"widget failed while drawing: {exc!r}")
+            return False
+        self.updates += 1
+        return True
+
+    def _fail(self, reason: str) -> None:
+        _log.warning("%s (%s): %s", self.name, self.config.type, reason)
+        self.failed = reason
+        self.status, self.reason = Status.ERROR, reason
+        self._draw_header(int(self.geometry()[2]))
+
+    def invalidate(self) -> None:
+        """Force a redraw on the next refresh."""
+        self._key = None
+
+    # -- edits --------------------------------------------------------------------------------------
+
+    def place(self, rect: Rect, *, rebuild: bool) -> None:
+        """Move/resize the frame; with `rebuild`, fit the widget body to the new size."""
+        if isinstance(self.config, WidgetConfig):
+            self.config = replace(self.config, x=rect.x, y=rect.y, width=rect.w, height=rect.h)
+        else:
+            data = dict(self.config.data)
+            x_key, y_key = ("posX", "posY") if "posX" in data else ("x", "y")
+            data.update({x_key: rect.x, y_key: rect.y, "width": rect.w, "height": rect.h})
+            self.config = RawWidget(data, self.config.reason)
+        w, h = int(rect.w), int(rect.h)
+        dpg.configure_item(self.window, pos=(int(rect.x), int(rect.y)), width=w, height=h)
+        if rebuild:
+            dpg.configure_item(self.header, width=w)
+            self._draw_header(w)
+            dpg.configure_item(self.grip, pos=(w - GRIP - 2, h - GRIP - 2))
+            if self.widget is not None and not self.failed:
+                try:
+                    self.widget.resize(*self.body_size(w, h))
+                except Exception as exc:
+                    self._fail(f"widget failed to resize: {exc!r}")
+            self.invalidate()
+
+    def rename(self, name: str) -> None:
+        """Change the title."""
+        if isinstance(self.config, WidgetConfig):
+            self.config = replace(self.config, name=name)
+        else:
+            self.config = RawWidget({**self.config.data, "name": name}, self.config.reason)
+        self._draw_header(int(self.geometry()[2]))
+
+    def set_bindings(self, bindings: tuple[Binding, ...]) -> None:
+        """Point the widget at new series."""
+        if isinstance(self.config, WidgetConfig):
+            self.config = replace(self.config, bindings=bindings)
+            self.invalidate()
+            self._draw_header(int(self.geometry()[2]))
+
+    def set_properties(self, props: dict[str, PropValue]) -> None:
+        """Apply validated property values and rebuild the widget."""
+        if not isinstance(self.config, WidgetConfig) or self.widget is None:
+            return
+        self.config = replace(self.config, properties={**self.config.properties, **props})
+        try:
+            self.widget.set_properties(props)
+        except Exception as exc:
+            self._fail(f"widget failed to apply properties: {exc!r}")
+        self.invalidate()
+
+    def destroy(self) -> None:
+        """Remove the frame and the widget's items."""
+        if dpg.does_item_exist(self.window):
+            dpg.delete_item(self.window)
