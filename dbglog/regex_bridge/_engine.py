@@ -146,7 +146,12 @@ class Matcher:
             group = self._group_for((source, logger, level))
         if group is None:
             return []
-        data = line[:MAX_LINE].encode("utf-8", "surrogatepass")
+        if len(line) > MAX_LINE:
+            line = line[:MAX_LINE]
+        try:
+            data = line.encode()
+        except UnicodeEncodeError:  # lone surrogates (from undecodable bytes): keep them matchable
+            data = line.encode("utf-8", "surrogatepass")
         if len(data) > MAX_LINE:
             data = data[:MAX_LINE]
         hits = group.match_set(data)
