@@ -567,9 +567,14 @@ class _Compiler:
             return r
 
         va, vb = left.vector, right.vector
+        exponent = right.const if symbol == "**" else None
 
         def vector(cols: Mapping[str, F64], n: int) -> tuple[F64, _Bools]:
             a, ba = va(cols, n)
+            if exponent is not None:
+                # ndarray ** scalar takes numpy's fast paths (square, sqrt, reciprocal).
+                r = np.asarray(a**exponent, dtype=np.float64)
+                return r, ba | (~np.isfinite(r) & np.isfinite(a))
             b, bb = vb(cols, n)
             r = np.asarray(v_op(a, b), dtype=np.float64)
             bad = ba | bb | (~np.isfinite(r) & np.isfinite(a) & np.isfinite(b))
