@@ -278,7 +278,7 @@ def _validate(doc: Any, source: str) -> RuleSet:
                     )
                 )
     if problems:
-        raise RulesError(problems)
+        raise RulesError(sorted(problems, key=lambda p: p.line))
     return RuleSet(tuple(rules), source)
 
 
