@@ -234,6 +234,8 @@ class TopicDialog(Dialog):
         self._fields: list[FieldInfo] = []
         self._preview_binding: Binding | None = None
         self._suggestions: list[str] = []
+        self.preview_ok = True
+        self.preview_text = ""
         w = self.window
         if self.max_bindings > 1:
             with dpg.group(horizontal=True, parent=w):

@@ -51,61 +51,56 @@ def load_font(size: int = 15) -> int | str | None:
 
 def apply_theme() -> None:
     """Bind the global dark theme."""
-    with dpg.theme() as theme:
-        with dpg.theme_component(dpg.mvAll):
-            for col, value in (
-                (dpg.mvThemeCol_WindowBg, BG),
-                (dpg.mvThemeCol_ChildBg, CANVAS),
-                (dpg.mvThemeCol_PopupBg, PANEL),
-                (dpg.mvThemeCol_Border, BORDER),
-                (dpg.mvThemeCol_Text, TEXT),
-                (dpg.mvThemeCol_TextDisabled, DIM),
-                (dpg.mvThemeCol_FrameBg, (44, 48, 58, 255)),
-                (dpg.mvThemeCol_FrameBgHovered, (54, 60, 72, 255)),
-                (dpg.mvThemeCol_FrameBgActive, (62, 70, 86, 255)),
-                (dpg.mvThemeCol_Button, (48, 53, 64, 255)),
-                (dpg.mvThemeCol_ButtonHovered, (62, 92, 130, 255)),
-                (dpg.mvThemeCol_ButtonActive, (70, 120, 180, 255)),
-                (dpg.mvThemeCol_Header, (52, 58, 70, 255)),
-                (dpg.mvThemeCol_HeaderHovered, (62, 92, 130, 255)),
-                (dpg.mvThemeCol_HeaderActive, (70, 120, 180, 255)),
-                (dpg.mvThemeCol_MenuBarBg, (28, 30, 37, 255)),
-                (dpg.mvThemeCol_TitleBg, (28, 30, 37, 255)),
-                (dpg.mvThemeCol_TitleBgActive, (40, 56, 80, 255)),
-                (dpg.mvThemeCol_CheckMark, ACCENT),
-                (dpg.mvThemeCol_SliderGrab, ACCENT),
-                (dpg.mvThemeCol_SliderGrabActive, (120, 190, 250, 255)),
-                (dpg.mvThemeCol_Separator, BORDER),
-                (dpg.mvThemeCol_ScrollbarBg, (24, 26, 32, 255)),
-                (dpg.mvThemeCol_ScrollbarGrab, (58, 63, 76, 255)),
-                (dpg.mvThemeCol_DragDropTarget, ACCENT),
-                (dpg.mvThemeCol_ModalWindowDimBg, (0, 0, 0, 110)),
-                (dpg.mvThemeCol_TextSelectedBg, (62, 92, 130, 255)),
-            ):
-                dpg.add_theme_color(col, value, category=dpg.mvThemeCat_Core)
-            for var, a, b in (
-                (dpg.mvStyleVar_WindowPadding, 10, 10),
-                (dpg.mvStyleVar_FramePadding, 8, 5),
-                (dpg.mvStyleVar_ItemSpacing, 8, 7),
-                (dpg.mvStyleVar_ItemInnerSpacing, 6, 4),
-            ):
-                dpg.add_theme_style(var, a, b, category=dpg.mvThemeCat_Core)
-            for var, v in (
-                (dpg.mvStyleVar_FrameRounding, 4),
-                (dpg.mvStyleVar_ChildRounding, 6),
-                (dpg.mvStyleVar_WindowRounding, 6),
-                (dpg.mvStyleVar_PopupRounding, 4),
-                (dpg.mvStyleVar_GrabRounding, 4),
-                (dpg.mvStyleVar_ScrollbarRounding, 4),
-                (dpg.mvStyleVar_ChildBorderSize, 1),
-            ):
-                dpg.add_theme_style(var, v, category=dpg.mvThemeCat_Core)
-        with dpg.theme_component(dpg.mvPlot):
-            dpg.add_theme_color(dpg.mvPlotCol_PlotBg, (24, 26, 32, 255), category=dpg.mvThemeCat_Plots)
-            dpg.add_theme_color(dpg.mvPlotCol_FrameBg, PANEL, category=dpg.mvThemeCat_Plots)
-            dpg.add_theme_color(dpg.mvPlotCol_PlotBorder, BORDER, category=dpg.mvThemeCat_Plots)
-            dpg.add_theme_color(dpg.mvPlotCol_LegendBg, (33, 36, 44, 200), category=dpg.mvThemeCat_Plots)
-            dpg.add_theme_style(dpg.mvPlotStyleVar_PlotPadding, 4, 4, category=dpg.mvThemeCat_Plots)
+    with dpg.theme() as theme, dpg.theme_component(dpg.mvAll):
+        for col, value in (
+            (dpg.mvThemeCol_WindowBg, BG),
+            (dpg.mvThemeCol_ChildBg, CANVAS),
+            (dpg.mvThemeCol_PopupBg, PANEL),
+            (dpg.mvThemeCol_Border, BORDER),
+            (dpg.mvThemeCol_Text, TEXT),
+            (dpg.mvThemeCol_TextDisabled, DIM),
+            (dpg.mvThemeCol_FrameBg, (44, 48, 58, 255)),
+            (dpg.mvThemeCol_FrameBgHovered, (54, 60, 72, 255)),
+            (dpg.mvThemeCol_FrameBgActive, (62, 70, 86, 255)),
+            (dpg.mvThemeCol_Button, (48, 53, 64, 255)),
+            (dpg.mvThemeCol_ButtonHovered, (62, 92, 130, 255)),
+            (dpg.mvThemeCol_ButtonActive, (70, 120, 180, 255)),
+            (dpg.mvThemeCol_Header, (52, 58, 70, 255)),
+            (dpg.mvThemeCol_HeaderHovered, (62, 92, 130, 255)),
+            (dpg.mvThemeCol_HeaderActive, (70, 120, 180, 255)),
+            (dpg.mvThemeCol_MenuBarBg, (28, 30, 37, 255)),
+            (dpg.mvThemeCol_TitleBg, (28, 30, 37, 255)),
+            (dpg.mvThemeCol_TitleBgActive, (40, 56, 80, 255)),
+            (dpg.mvThemeCol_CheckMark, ACCENT),
+            (dpg.mvThemeCol_SliderGrab, ACCENT),
+            (dpg.mvThemeCol_SliderGrabActive, (120, 190, 250, 255)),
+            (dpg.mvThemeCol_Separator, BORDER),
+            (dpg.mvThemeCol_ScrollbarBg, (24, 26, 32, 255)),
+            (dpg.mvThemeCol_ScrollbarGrab, (58, 63, 76, 255)),
+            (dpg.mvThemeCol_DragDropTarget, ACCENT),
+            (dpg.mvThemeCol_ModalWindowDimBg, (0, 0, 0, 110)),
+            (dpg.mvThemeCol_TextSelectedBg, (62, 92, 130, 255)),
+        ):
+            dpg.add_theme_color(col, value, category=dpg.mvThemeCat_Core)
+        for var, a, b in (
+            (dpg.mvStyleVar_WindowPadding, 10, 10),
+            (dpg.mvStyleVar_FramePadding, 8, 5),
+            (dpg.mvStyleVar_ItemSpacing, 8, 7),
+            (dpg.mvStyleVar_ItemInnerSpacing, 6, 4),
+        ):
+            dpg.add_theme_style(var, a, b, category=dpg.mvThemeCat_Core)
+        for var, v in (
+            (dpg.mvStyleVar_FrameRounding, 4),
+            (dpg.mvStyleVar_ChildRounding, 6),
+            (dpg.mvStyleVar_WindowRounding, 6),
+            (dpg.mvStyleVar_PopupRounding, 4),
+            (dpg.mvStyleVar_GrabRounding, 4),
+            (dpg.mvStyleVar_ScrollbarRounding, 4),
+            (dpg.mvStyleVar_ChildBorderSize, 1),
+        ):
+            dpg.add_theme_style(var, v, category=dpg.mvThemeCat_Core)
+        # Plot colours are bound per plot (the widget does it): an mvPlot component in the global
+        # theme makes Dear PyGui 2.3 crash when a later context loads a font.
     dpg.bind_theme(theme)
 
 

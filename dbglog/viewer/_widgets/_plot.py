@@ -21,6 +21,18 @@ def series_label(binding: Binding) -> str:
     return f"{topic}.{binding.field}" if binding.field and binding.field != "data" else topic
 
 
+def _plot_theme() -> int | str:
+    """The plot's dark colours (bound per plot, not globally)."""
+    with dpg.theme() as theme, dpg.theme_component(dpg.mvPlot):
+        dpg.add_theme_color(dpg.mvPlotCol_PlotBg, (24, 26, 32, 255), category=dpg.mvThemeCat_Plots)
+        dpg.add_theme_color(dpg.mvPlotCol_FrameBg, (33, 36, 44, 255), category=dpg.mvThemeCat_Plots)
+        dpg.add_theme_color(dpg.mvPlotCol_PlotBorder, (58, 63, 76, 255), category=dpg.mvThemeCat_Plots)
+        dpg.add_theme_color(dpg.mvPlotCol_LegendBg, (33, 36, 44, 200), category=dpg.mvThemeCat_Plots)
+        dpg.add_theme_style(dpg.mvPlotStyleVar_PlotPadding, 4, 4, category=dpg.mvThemeCat_Plots)
+    result: int | str = theme
+    return result
+
+
 class PlotWidget(Widget):
     """A time plot of up to six series; it never sends more points to the GPU than it has pixels."""
 
@@ -60,6 +72,7 @@ class PlotWidget(Widget):
             no_box_select=True,
             no_mouse_pos=True,
         )
+        dpg.bind_item_theme(self.plot, _plot_theme())
         if self.prop("legend"):
             dpg.add_plot_legend(parent=self.plot, location=dpg.mvPlot_Location_NorthWest)
         self.x_axis = dpg.add_plot_axis(
