@@ -47,6 +47,8 @@ class EngineStats:
     cycles: int
     """Wait-set wake-ups so far."""
     subscriptions: int
+    thread_cpu_s: float
+    """CPU seconds used by the engine's own thread (DDS's receive threads not included)."""
 
 
 @dataclass(eq=False, slots=True)
@@ -146,6 +148,7 @@ class Engine:
         self._guard: Any = None
         self._taken = 0
         self._cycles = 0
+        self._thread_cpu = 0.0
         self._subs: dict[str, _TopicSub] = {}
         self._latency: npt.NDArray[np.float64] | None = (
             np.empty(_LATENCY_SAMPLES) if measure_latency else None
@@ -254,6 +257,7 @@ class Engine:
             per_topic={name: s.taken for name, s in subs.items()},
             cycles=self._cycles,
             subscriptions=len(subs),
+            thread_cpu_s=self._thread_cpu,
         )
 
     def latencies(self) -> npt.NDArray[np.float64]:
@@ -363,6 +367,7 @@ class Engine:
                 _log.exception("viewer engine cycle failed; continuing")
                 wait_set = None
                 time.sleep(0.05)
+            self._thread_cpu = time.thread_time()
             rest = self.min_cycle - (time.monotonic() - cycle_start)
             if rest > 0 and self._running:
                 time.sleep(rest)
@@ -439,13 +444,14 @@ class Engine:
         wanted = self._wanted()
         topics: list[TopicInfo] = []
         types: dict[str, tuple[str, ...]] = {}
+        publishers: dict[str, list[Any]] = {}
         for name, type_list in names_types:
             pubs = node.count_publishers(name)
             foreign_subs = node.count_subscribers(name) - (1 if name in self._subs else 0)
             if pubs == 0 and foreign_subs <= 0:
                 continue
             if name in wanted and pubs:
-                infos = node.get_publishers_info_by_topic(name)
+                infos = publishers[name] = node.get_publishers_info_by_topic(name)
                 type_list = sorted({info.topic_type for info in infos}) or type_list
             types[name] = tuple(type_list)
             topics.append(TopicInfo(name, tuple(type_list), pubs))
@@ -454,17 +460,18 @@ class Engine:
         graph_names = {name for name, _ in names_types}
         for name, bindings in wanted.items():
             try:
-                self._follow(node, name, bindings, name in graph_names)
+                self._follow(node, name, bindings, name in graph_names, publishers.get(name, []))
             except Exception as exc:  # one odd topic must not stop the others
                 _log.exception("viewer engine: topic %s failed", name)
                 for series in bindings.values():
                     series.set_error(f"internal error on {name}: {exc}")
 
-    def _follow(self, node: Any, name: str, bindings: dict[Binding, Series], on_graph: bool) -> None:
+    def _follow(
+        self, node: Any, name: str, bindings: dict[Binding, Series], on_graph: bool, infos: list[Any]
+    ) -> None:
         """Subscribe, re-subscribe or wait, as the publishers of one wanted topic require."""
         from rclpy.qos import DurabilityPolicy, ReliabilityPolicy
 
-        infos = node.get_publishers_info_by_topic(name)
         topic = self._subs.get(name)
         if not infos:
             reason = (

@@ -22,6 +22,8 @@ __all__ = ["RATE_WINDOW_S", "Series"]
 RATE_WINDOW_S = 5.0
 """The message rate is measured over at most this many recent seconds."""
 _CHECKPOINT_EVERY_S = 0.1
+_RATE_SETTLE_S = 0.2
+"""The rate ignores the first moments of a series: a latched history arrives as one burst."""
 _MAX_TEXTS = 1000
 
 
@@ -34,8 +36,8 @@ class Series:
         self.binding = binding
         self._lock = threading.Lock()
         self._capacity = capacity
-        self._times = np.empty(capacity, dtype=np.float64)
-        self._values = np.empty(capacity, dtype=np.float64)
+        self._times = np.full(capacity, np.nan)  # touch the pages now: RSS stays flat later
+        self._values = np.full(capacity, np.nan)
         self._pos = 0
         self._filled = 0
         self._texts: deque[str] = deque(maxlen=min(capacity, _MAX_TEXTS))
@@ -45,6 +47,7 @@ class Series:
         self._last: Scalar | None = None
         self._last_time: float | None = None
         self._last_rx: float | None = None
+        self._first_rx: float | None = None
         self._count = 0
         self._fresh = 0
         """Values since the type was last set (0 = waiting for the first one)."""
@@ -122,7 +125,11 @@ class Series:
                 self._landed(count, last, last_time, now)
 
     def _landed(self, n: int, last: Scalar, last_time: float, now: float) -> None:
-        if not self._checkpoints or now - self._checkpoints[-1][0] >= _CHECKPOINT_EVERY_S:
+        if self._first_rx is None:
+            self._first_rx = now
+        if now - self._first_rx >= _RATE_SETTLE_S and (
+            not self._checkpoints or now - self._checkpoints[-1][0] >= _CHECKPOINT_EVERY_S
+        ):
             self._checkpoints.append((now, self._count + n))
         self._count += n
         self._fresh += n

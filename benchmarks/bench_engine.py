@@ -1,0 +1,314 @@
+"""Viewer engine ingest benchmark: the engine next to a plain rclpy executor, publishers in other processes.
+
+Run from the repository root: ``.venv/bin/python -m benchmarks.bench_engine`` (``--help`` for options).
+Every receiver and publisher is its own process; the script orchestrates them and prints Markdown
+tables: flood ingest (50 topics and 1 topic, engine vs ``SingleThreadedExecutor``), loss and
+publish-to-buffer latency at a fixed rate, and RSS over a soak run.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import random
+import statistics
+import struct
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+from typing import Any
+
+_ROOT = Path(__file__).resolve().parent.parent
+if str(_ROOT) not in sys.path:
+    sys.path.insert(0, str(_ROOT))
+
+from benchmarks._common import local_ros_env, print_table  # noqa: E402
+
+_PREFIX = "/bench/engine/t"
+_SAMPLE_S = 0.1
+
+
+# --- child roles -------------------------------------------------------------------------------------
+
+
+def _publisher(args: argparse.Namespace) -> None:
+    """Publish pre-serialised Float64 messages round-robin over the topics, paced or flat out."""
+    import rclpy
+    from rclpy.context import Context
+    from rclpy.node import Node
+    from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+    from std_msgs.msg import Float64
+
+    context = Context()
+    rclpy.init(context=context)
+    node = Node("bench_publisher", context=context)
+    qos = QoSProfile(
+        history=HistoryPolicy.KEEP_LAST,
+        depth=1000,
+        reliability=ReliabilityPolicy.RELIABLE,
+        durability=DurabilityPolicy.VOLATILE,
+    )
+    pubs = [node.create_publisher(Float64, f"{args.prefix}{i}", qos) for i in range(args.topics)]
+    deadline = time.monotonic() + 30
+    while time.monotonic() < deadline and not all(p.get_subscription_count() > 0 for p in pubs):
+        time.sleep(0.02)
+    matched = all(p.get_subscription_count() > 0 for p in pubs)
+    time.sleep(0.3)
+    header = b"\x00\x01\x00\x00"
+    pack = struct.Struct("<d").pack
+    n_topics = args.topics
+    rate = args.rate
+    sent = 0
+    start = time.monotonic()
+    end = start + args.duration
+    while True:
+        now = time.monotonic()
+        if now >= end:
+            break
+        if rate > 0:
+            due = int((now - start) * rate)
+            if sent >= due:
+                time.sleep(min(0.001, (sent + 1) / rate - (now - start)))
+                continue
+            burst = min(due - sent, 1000)
+        else:
+            burst = 500
+        for _ in range(burst):
+            pubs[sent % n_topics].publish(header + pack(float(sent)))
+            sent += 1
+    stop = time.monotonic()
+    print(json.dumps({"matched": matched, "start": start, "end": stop, "sent": sent}), flush=True)
+    time.sleep(2.0)  # keep reliable writers alive while the receiver drains
+    node.destroy_node()
+    rclpy.shutdown(context=context)
+
+
+def _rss_bytes() -> int:
+    with open("/proc/self/statm") as f:
+        return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+
+
+def _receiver(args: argparse.Namespace) -> None:
+    """Count messages with the engine or a plain executor; report samples when stdin says stop."""
+    topics = [f"{args.prefix}{i}" for i in range(args.topics)]
+    samples: list[tuple[float, ...]] = []
+    stop = threading.Event()
+    result: dict[str, Any] = {}
+
+    def watch_stdin() -> None:
+        sys.stdin.readline()
+        stop.set()
+
+    threading.Thread(target=watch_stdin, daemon=True).start()
+    if args.role == "engine":
+        from dbglog.viewer._engine import Engine
+        from dbglog.viewer._model import Binding
+
+        engine = Engine(measure_latency=True, history=args.history)
+        engine.start()
+        bindings = [Binding(t) for t in topics]
+        for b in bindings:
+            engine.bind(b)
+        print("ready", flush=True)
+        while not stop.wait(_SAMPLE_S):
+            stats = engine.stats()
+            samples.append(
+                (time.monotonic(), stats.taken, time.process_time(), _rss_bytes(), stats.thread_cpu_s)
+            )
+        snaps = [engine.snapshot(b) for b in bindings]
+        lat = engine.latencies()
+        result["landed"] = sum(s.count for s in snaps)
+        result["statuses"] = sorted({str(s.status) for s in snaps})
+        if len(lat):
+            result["lat_p50"] = float(statistics.quantiles(lat, n=100)[49]) if len(lat) > 1 else float(lat[0])
+            result["lat_p99"] = float(statistics.quantiles(lat, n=100)[98]) if len(lat) > 1 else float(lat[0])
+        engine.stop()
+    else:
+        import rclpy
+        from rclpy.context import Context
+        from rclpy.executors import SingleThreadedExecutor
+        from rclpy.node import Node
+        from rclpy.qos import HistoryPolicy, QoSProfile
+        from std_msgs.msg import Float64
+
+        context = Context()
+        rclpy.init(context=context)
+        node = Node("bench_executor", context=context)
+        count = [0]
+
+        def callback(_msg: Any) -> None:
+            count[0] += 1
+
+        qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000)
+        for t in topics:
+            node.create_subscription(Float64, t, callback, qos)
+        executor = SingleThreadedExecutor(context=context)
+        executor.add_node(node)
+
+        def sample() -> None:
+            while not stop.wait(_SAMPLE_S):
+                samples.append((time.monotonic(), count[0], time.process_time(), _rss_bytes()))
+
+        sampler = threading.Thread(target=sample, daemon=True)
+        sampler.start()
+        print("ready", flush=True)
+        while not stop.is_set():
+            executor.spin_once(timeout_sec=0.05)
+        sampler.join()
+        result["landed"] = count[0]
+        executor.shutdown()
+        node.destroy_node()
+        rclpy.shutdown(context=context)
+    result["samples"] = samples
+    print(json.dumps(result), flush=True)
+
+
+# --- orchestration -------------------------------------------------------------------------------
+
+
+def _child(role: str, *extra: str) -> subprocess.Popen[str]:
+    return subprocess.Popen(
+        [sys.executable, "-m", "benchmarks.bench_engine", "--role", role, *extra],
+        cwd=_ROOT,
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        text=True,
+    )
+
+
+def _run_once(
+    receiver: str, topics: int, rate: float, duration: float, history: int = 10_000
+) -> dict[str, Any]:
+    """Run one receiver against one publisher process; return both reports."""
+    prefix = f"{_PREFIX}{random.randrange(1 << 30)}_"
+    common = ["--topics", str(topics), "--prefix", prefix]
+    rx = _child(receiver, *common, "--history", str(history))
+    assert rx.stdout is not None
+    assert rx.stdin is not None
+    if rx.stdout.readline().strip() != "ready":
+        raise RuntimeError(f"{receiver} receiver did not start")
+    tx = _child("publisher", *common, "--rate", str(rate), "--duration", str(duration))
+    out, _ = tx.communicate(timeout=duration + 60)
+    pub = json.loads(out.strip().splitlines()[-1])
+    time.sleep(1.5)  # let the receiver drain its queues
+    out, _ = rx.communicate("stop\n", timeout=30)
+    rec = json.loads(out.strip().splitlines()[-1])
+    if not pub["matched"]:
+        raise RuntimeError("the publisher never matched the receiver's subscriptions")
+    return {"pub": pub, "rx": rec}
+
+
+def _window_rate(run: dict[str, Any]) -> tuple[float, float]:
+    """Return (messages/s, CPU microseconds/message) inside the publishing window."""
+    pub, samples = run["pub"], run["rx"]["samples"]
+    lo, hi = pub["start"] + 0.5, pub["end"]
+    inside = [s for s in samples if lo <= s[0] <= hi]
+    if len(inside) < 2:
+        return 0.0, float("nan")
+    (t0, c0, cpu0), (t1, c1, cpu1) = inside[0][:3], inside[-1][:3]
+    n = c1 - c0
+    return n / (t1 - t0), ((cpu1 - cpu0) / n * 1e6 if n else float("nan"))
+
+
+def _flood(receiver: str, topics: int, duration: float, repeats: int) -> tuple[float, float]:
+    rates, cpus = [], []
+    for _ in range(repeats):
+        rate, cpu = _window_rate(_run_once(receiver, topics, 0, duration))
+        rates.append(rate)
+        cpus.append(cpu)
+    return statistics.median(rates), statistics.median(cpus)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the benchmark (or one child role) and print the tables."""
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--role", choices=["main", "publisher", "engine", "executor"], default="main")
+    parser.add_argument("--topics", type=int, default=50)
+    parser.add_argument("--prefix", default=_PREFIX)
+    parser.add_argument("--rate", type=float, default=0.0, help="total messages/s (0: flat out)")
+    parser.add_argument("--duration", type=float, default=5.0, help="seconds per flood run")
+    parser.add_argument("--history", type=int, default=10_000)
+    parser.add_argument("--repeats", type=int, default=3, help="flood runs per figure (median)")
+    parser.add_argument("--loss-rate", type=float, default=20_000.0)
+    parser.add_argument("--loss-seconds", type=float, default=10.0)
+    parser.add_argument("--soak-rate", type=float, default=10_000.0)
+    parser.add_argument("--soak-seconds", type=float, default=60.0, help="600 for the 10-minute figure")
+    parser.add_argument("--domain", type=int, default=None, help="ROS_DOMAIN_ID (random by default)")
+    args = parser.parse_args(argv)
+    if args.role == "publisher":
+        _publisher(args)
+        return 0
+    if args.role in ("engine", "executor"):
+        _receiver(args)
+        return 0
+
+    local_ros_env(args.domain if args.domain is not None else random.randint(150, 230))
+    n = args.topics
+    print(f"ROS_DOMAIN_ID={os.environ['ROS_DOMAIN_ID']}, {os.cpu_count()} CPUs, {args.repeats} repeats")
+    eng_many, eng_many_cpu = _flood("engine", n, args.duration, args.repeats)
+    exe_many, exe_many_cpu = _flood("executor", n, args.duration, args.repeats)
+    eng_one, eng_one_cpu = _flood("engine", 1, args.duration, args.repeats)
+    exe_one, exe_one_cpu = _flood("executor", 1, args.duration, args.repeats)
+    print_table(
+        "Flood ingest (publisher flat out, Float64, median of repeats)",
+        ["receiver", "topics", "msg/s", "CPU µs/msg", "vs executor"],
+        [
+            ["dbglog engine", n, f"{eng_many:,.0f}", f"{eng_many_cpu:.1f}", f"{eng_many / exe_many:.1f}×"],
+            ["rclpy SingleThreadedExecutor", n, f"{exe_many:,.0f}", f"{exe_many_cpu:.1f}", "1.0×"],
+            ["dbglog engine", 1, f"{eng_one:,.0f}", f"{eng_one_cpu:.1f}", f"{eng_one / exe_one:.1f}×"],
+            ["rclpy SingleThreadedExecutor", 1, f"{exe_one:,.0f}", f"{exe_one_cpu:.1f}", "1.0×"],
+        ],
+    )
+
+    loss_rows = []
+    for receiver in ("engine", "executor"):
+        run = _run_once(receiver, n, args.loss_rate, args.loss_seconds)
+        sent, got = run["pub"]["sent"], run["rx"]["landed"]
+        lat = (
+            f"{run['rx']['lat_p50'] * 1e3:.1f} / {run['rx']['lat_p99'] * 1e3:.1f}"
+            if "lat_p99" in run["rx"]
+            else "n/a"
+        )
+        loss_rows.append(
+            [
+                receiver,
+                f"{sent / (run['pub']['end'] - run['pub']['start']):,.0f}",
+                sent,
+                got,
+                f"{max(0.0, 1 - got / sent) * 100:.2f} %",
+                lat,
+            ]
+        )
+    print_table(
+        f"Fixed rate: {args.loss_rate:,.0f} msg/s over {n} topics for {args.loss_seconds:.0f} s",
+        ["receiver", "sent msg/s", "sent", "landed", "loss", "latency p50 / p99 (ms)"],
+        loss_rows,
+    )
+
+    run = _run_once("engine", n, args.soak_rate, args.soak_seconds)
+    samples = run["rx"]["samples"]
+    pub = run["pub"]
+    warm = pub["start"] + min(10.0, args.soak_seconds * 0.2)
+    steady = [s[3] for s in samples if warm <= s[0] <= pub["end"]]
+    first = steady[0] if steady else 0
+    print_table(
+        f"Memory: {args.soak_rate:,.0f} msg/s over {n} topics for {args.soak_seconds:.0f} s",
+        ["RSS after warm-up", "RSS max", "RSS at end", "growth (max - after warm-up)", "landed / sent"],
+        [
+            [
+                f"{first / 2**20:.1f} MB",
+                f"{max(steady, default=0) / 2**20:.1f} MB",
+                f"{(steady[-1] if steady else 0) / 2**20:.1f} MB",
+                f"{(max(steady, default=0) - first) / 2**20:.1f} MB",
+                f"{run['rx']['landed']:,} / {pub['sent']:,}",
+            ]
+        ],
+    )
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
