@@ -1,7 +1,69 @@
-"""dbglog: typed debug logging for ROS 2 robots, a regex bridge for log lines, and a live viewer."""
+"""dbglog: typed debug logging for ROS 2 robots, a regex bridge for log lines, and a live viewer.
+
+``dbglog.logfloat("proximity", d)`` publishes ``d`` on ``/rosdashboard/proximity`` as
+``std_msgs/msg/Float64``. ``DBGLOG=off`` (and ``python -O``) binds every function to a no-op at import.
+"""
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
+from dbglog._config import load_config as _load_config
+from dbglog.api._errors import DbglogError, DbglogWarning, Stats
+
 __version__ = "0.1.0"
 
-__all__ = ["__version__"]
+_config = _load_config()
+
+enabled: bool = _config.enabled
+"""True when dbglog publishes; use it to skip computing values that are only logged."""
+
+if TYPE_CHECKING or enabled:
+    from dbglog.api._public import (
+        flush,
+        init,
+        log,
+        logbool,
+        logdata,
+        logfloat,
+        logint,
+        logstring,
+        shutdown,
+        stats,
+    )
+
+    if enabled:
+        from dbglog.api import _public
+
+        _public.REPORTER.strict = _config.strict
+else:
+    from dbglog.api._disabled import (
+        flush,
+        init,
+        log,
+        logbool,
+        logdata,
+        logfloat,
+        logint,
+        logstring,
+        shutdown,
+        stats,
+    )
+
+__all__ = [
+    "DbglogError",
+    "DbglogWarning",
+    "Stats",
+    "__version__",
+    "enabled",
+    "flush",
+    "init",
+    "log",
+    "logbool",
+    "logdata",
+    "logfloat",
+    "logint",
+    "logstring",
+    "shutdown",
+    "stats",
+]

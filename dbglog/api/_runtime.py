@@ -1,0 +1,396 @@
+"""dbglog's side of ROS 2: its own context and node (or the user's node), one cached publisher per tag.
+
+rclpy is imported on first use only. dbglog never initialises the user's global context; after a
+``fork`` the child keeps its hands off the parent's middleware objects and stays quiet until
+``dbglog.init()`` is called in it; at interpreter exit everything is shut down.
+"""
+
+from __future__ import annotations
+
+import atexit
+import contextlib
+import ctypes
+import os
+import threading
+import time
+from collections.abc import Callable
+from typing import Any, Literal
+
+from dbglog.api._convert import (
+    ScalarSpec,
+    encode_scalar,
+    scalar_spec,
+    type_name,
+)
+from dbglog.api._errors import Reporter, safe_repr
+from dbglog.api._qos import tag_qos
+from dbglog.api._tags import TAG_PREFIX, sanitize_tag, tag_problem, topic_for_tag
+
+__all__ = ["MAX_TAGS", "Channel", "Runtime"]
+
+MAX_TAGS = 10_000
+"""More distinct tags than this are refused (a bug such as a value formatted into the tag)."""
+
+_EXIT_FLUSH_SECONDS = 0.5
+State = Literal["idle", "ready", "no_ros", "forked", "closed"]
+
+
+class Channel:
+    """One tag's topic, message type and publisher."""
+
+    __slots__ = ("encode", "msg_class", "publish", "publisher", "spec", "tag", "topic")
+
+    def __init__(self, tag: str, msg_class: type, publisher: Any, spec: ScalarSpec | None, raw: bool) -> None:
+        self.tag = tag
+        self.topic = topic_for_tag(tag)
+        self.msg_class = msg_class
+        self.publisher = publisher
+        self.publish: Callable[[object], None] = publisher.publish
+        self.spec = spec
+        self.encode: Callable[[object], bytes] | None = None
+        if spec is not None and raw:
+            self.encode = lambda value, s=spec: encode_scalar(s, value)
+
+    def send(self, value: object, *, message: bool) -> None:
+        """Publish a message, or a checked scalar value (as CDR bytes when verified)."""
+        if message:
+            self.publish(value)
+        elif self.encode is not None:
+            self.publish(self.encode(value))
+        else:
+            self.publish(self.msg_class(data=value))
+
+
+def _cdr_round_trips(msg_class: type, spec: ScalarSpec) -> bool:
+    """True when our CDR bytes for `spec` decode to the same values through the middleware's serializer."""
+    from rclpy.serialization import deserialize_message
+
+    samples: dict[str, list[object]] = {
+        "float": [0.0, -1.5, 1e300 if spec.name == "Float64" else 3.0e38],
+        "int": [spec.low, spec.high, 1],
+        "bool": [True, False],
+    }
+    try:
+        return all(
+            deserialize_message(encode_scalar(spec, v), msg_class).data == v for v in samples[spec.kind]
+        )
+    except Exception:
+        return False
+
+
+def _leak(obj: object) -> None:
+    """Keep `obj` alive forever: a forked child must never finalise the parent's middleware objects."""
+    ctypes.pythonapi.Py_IncRef(ctypes.py_object(obj))
+
+
+class Runtime:
+    """Lazily connects to ROS 2 and owns every publisher dbglog creates."""
+
+    def __init__(self, reporter: Reporter) -> None:
+        self.reporter = reporter
+        self._lock = threading.RLock()
+        self.channels: dict[str, Channel] = {}
+        """Valid tag -> channel."""
+        self.aliases: dict[object, str] = {}
+        """Tag as given -> valid tag (valid tags map to themselves)."""
+        self._owners: dict[str, str] = {}
+        self.fast_float: dict[object, Callable[[bytes], None]] = {}
+        """Tag as given -> ``publish`` of its Float64 publisher with verified CDR bytes (the hot path)."""
+        self.fast_int: dict[object, Callable[[bytes], None]] = {}
+        """Same for Int64."""
+        self.state: State = "idle"
+        self._context: Any = None
+        self._node: Any = None
+        self._user_node: Any = None
+        self._pid = os.getpid()
+        os.register_at_fork(after_in_child=self._after_fork_in_child)
+        atexit.register(self._at_exit)
+
+    # ----- tags -----------------------------------------------------------------------------------
+
+    def resolve_tag(self, tag: object, api: str) -> str | None:
+        """Return the valid tag for `tag` (warning once when renamed), or None when it is unusable."""
+        clean = self.aliases.get(tag) if isinstance(tag, str) else None
+        if clean is not None:
+            return clean
+        if not isinstance(tag, str):
+            self.reporter.drop(
+                "bad_tag",
+                "type:" + type(tag).__name__,
+                f"dbglog.{api}: a tag must be a str, not {type(tag).__name__} ({safe_repr(tag)}); "
+                "value dropped",
+            )
+            return None
+        problem = tag_problem(tag)
+        clean = sanitize_tag(tag) if problem else tag
+        with self._lock:
+            if len(self.aliases) < 4 * MAX_TAGS:
+                self.aliases[tag] = clean
+            owner = self._owners.setdefault(clean, tag)
+        if problem:
+            self.reporter.renamed(
+                tag,
+                f"dbglog.{api}: tag {safe_repr(tag)} is not a valid ROS 2 name ({problem}); "
+                f"publishing it on {TAG_PREFIX}{clean} instead",
+            )
+        if owner != tag:
+            self.reporter.warn(
+                "tag_collision",
+                tag,
+                f"dbglog.{api}: tags {safe_repr(owner)} and {safe_repr(tag)} both publish on "
+                f"{TAG_PREFIX}{clean}",
+                None,
+            )
+        return clean
+
+    def forget_tags(self) -> None:
+        """Forget every tag seen (after `shutdown`, for tests)."""
+        with self._lock:
+            self.aliases.clear()
+            self._owners.clear()
+            self.fast_float.clear()
+            self.fast_int.clear()
+
+    # ----- publishers -----------------------------------------------------------------------------
+
+    def channel(self, tag: str, msg_class: type, api: str) -> Channel | None:
+        """Return the channel of valid tag `tag` for `msg_class`, creating it on first use."""
+        ch = self.channels.get(tag)
+        if ch is None:
+            with self._lock:
+                ch = self.channels.get(tag)
+                if ch is None:
+                    ch = self._create_channel(tag, msg_class, api)
+                    if ch is None:
+                        return None
+        if ch.msg_class is not msg_class:
+            self.reporter.drop(
+                "type_conflict",
+                f"{tag}:{type_name(msg_class)}",
+                f"dbglog.{api}: tag {tag!r} publishes {type_name(ch.msg_class)}; "
+                f"a {type_name(msg_class)} value for it was dropped (one type per tag)",
+            )
+            return None
+        return ch
+
+    def _create_channel(self, tag: str, msg_class: type, api: str) -> Channel | None:
+        if not self._ensure_ready(api):
+            return None
+        if len(self.channels) >= MAX_TAGS:
+            self.reporter.drop(
+                "bad_tag",
+                "too_many_tags",
+                f"dbglog.{api}: more than {MAX_TAGS} tags; a value for the new tag {tag!r} was dropped",
+            )
+            return None
+        node = self._user_node if self._user_node is not None else self._node
+        publisher = node.create_publisher(msg_class, topic_for_tag(tag), tag_qos())
+        spec = scalar_spec(msg_class)
+        raw = spec is not None and spec.kind != "str" and _cdr_round_trips(msg_class, spec)
+        ch = Channel(tag, msg_class, publisher, spec, raw)
+        self.channels[tag] = ch
+        return ch
+
+    def remember_fast_path(self, given: str, ch: Channel) -> None:
+        """Let the hot path of logfloat/logint publish `given`'s values straight to `ch`."""
+        if ch.encode is None or ch.spec is None or self.channels.get(ch.tag) is not ch:
+            return
+        with self._lock:
+            if len(self.fast_float) + len(self.fast_int) >= 4 * MAX_TAGS:
+                return
+            if ch.spec.name == "Float64":
+                self.fast_float[given] = ch.publish
+            elif ch.spec.name == "Int64":
+                self.fast_int[given] = ch.publish
+
+    def send(self, ch: Channel, value: object, api: str, *, message: bool = False) -> bool:
+        """Publish on `ch`; on failure fall back to dbglog's own node once, else count and warn."""
+        try:
+            ch.send(value, message=message)
+        except Exception as first:
+            exc = first
+            retry = self._recover(ch)
+            if retry is not None:
+                try:
+                    retry.send(value, message=message)
+                except Exception as exc2:
+                    exc = exc2
+                else:
+                    return True
+            self.reporter.drop(
+                "publish_failed",
+                ch.tag,
+                f"dbglog.{api}: publishing on {ch.topic} failed ({type(exc).__name__}: {exc}); value dropped",
+                exc,
+            )
+            return False
+        return True
+
+    def _recover(self, ch: Channel) -> Channel | None:
+        """After a failed publish: if the node we used is gone, start over on our own node."""
+        with self._lock:
+            if self.state != "ready":
+                return None
+            context = self._user_node.context if self._user_node is not None else self._context
+            try:
+                alive = bool(context.ok())
+            except Exception:
+                alive = False
+            if alive:
+                return None
+            self._drop_ros_objects(destroy=self._user_node is None)
+            self._user_node = None
+            self.state = "idle"
+            return self._create_channel(ch.tag, ch.msg_class, "log")
+
+    # ----- life cycle -----------------------------------------------------------------------------
+
+    def _ensure_ready(self, api: str) -> bool:
+        """Connect on first use; return False (counted, warned once) when dbglog cannot publish now."""
+        if self.state == "ready":
+            return True
+        if self.state == "idle":
+            return self._start(None, api)
+        if self.state == "no_ros":
+            self.reporter.drop(
+                "no_ros",
+                "no_ros",
+                f"dbglog.{api}: rclpy cannot be imported, so values are dropped: install dbglog[ros] "
+                "or source a ROS 2 Jazzy setup",
+            )
+        elif self.state == "forked":
+            self.reporter.drop(
+                "forked",
+                "forked",
+                f"dbglog.{api}: this process was forked after dbglog connected; values are dropped "
+                "in the child until it calls dbglog.init()",
+            )
+        else:
+            self.reporter.count("shut_down")
+        return False
+
+    def _start(self, user_node: Any, api: str) -> bool:
+        with self._lock:
+            try:
+                import rclpy  # noqa: F401  (the C extension loads here, on first use)
+                from rclpy.context import Context
+                from rclpy.node import Node
+            except Exception as exc:
+                self.state = "no_ros"
+                self.reporter.drop(
+                    "no_ros",
+                    "no_ros",
+                    f"dbglog.{api}: rclpy cannot be imported ({type(exc).__name__}: {exc}); values are "
+                    "dropped: install dbglog[ros] or source a ROS 2 Jazzy setup",
+                    exc,
+                )
+                return False
+            if user_node is not None:
+                self._user_node = user_node
+            else:
+                context = Context()
+                # Our own context: no command-line remapping, no signal handlers, and the user's
+                # logging configuration is left alone.
+                context.init([], initialize_logging=False)
+                self._context = context
+                self._node = Node(
+                    f"dbglog_{os.getpid()}",
+                    context=context,
+                    use_global_arguments=False,
+                    enable_rosout=False,
+                    start_parameter_services=False,
+                )
+            self._pid = os.getpid()
+            self.state = "ready"
+            return True
+
+    def init(self, node: Any = None) -> None:
+        """Connect now: on `node` when given, else on dbglog's own context and node."""
+        with self._lock:
+            if node is not None and not callable(getattr(node, "create_publisher", None)):
+                raise TypeError(f"node must be an rclpy Node, not {type(node).__name__}")
+            if self.state == "ready":
+                self.shutdown()
+            if self.state == "forked":
+                self._forget_parent_objects()
+            self.state = "idle"
+            self._start(node, "init")
+
+    def flush(self, timeout: float) -> bool:
+        """Wait up to `timeout` seconds in total until every subscriber acknowledged every message."""
+        if self.state != "ready":
+            return True
+        from rclpy.duration import Duration
+
+        deadline = time.monotonic() + timeout
+        ok = True
+        for ch in list(self.channels.values()):
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                return False
+            try:
+                if ch.publisher.get_subscription_count() > 0:
+                    ok = bool(ch.publisher.wait_for_all_acked(Duration(seconds=remaining))) and ok
+            except Exception:
+                ok = False
+        return ok
+
+    def shutdown(self) -> None:
+        """Destroy every publisher (and dbglog's own node and context); the next call reconnects."""
+        with self._lock:
+            if self.state == "ready":
+                self._drop_ros_objects(destroy=True)
+            self._user_node = None
+            if self.state in ("ready", "no_ros"):
+                self.state = "idle"
+
+    def _drop_ros_objects(self, *, destroy: bool) -> None:
+        channels = list(self.channels.values())
+        self.channels.clear()
+        self.fast_float.clear()
+        self.fast_int.clear()
+        node, context = self._node, self._context
+        self._node = self._context = None
+        if not destroy:
+            return
+        owner = self._user_node if self._user_node is not None else node
+        # Each may fail when the node or context is already gone: nothing is left to release then.
+        for ch in channels:
+            with contextlib.suppress(Exception):
+                owner.destroy_publisher(ch.publisher)
+        if node is not None:
+            with contextlib.suppress(Exception):
+                node.destroy_node()
+        if context is not None:
+            with contextlib.suppress(Exception):
+                context.try_shutdown()
+
+    def _forget_parent_objects(self) -> None:
+        for obj in (*self.channels.values(), self._node, self._context, self._user_node):
+            if obj is not None:
+                _leak(obj)
+        self.channels.clear()
+        self.fast_float.clear()
+        self.fast_int.clear()
+        self._node = self._context = self._user_node = None
+
+    def _after_fork_in_child(self) -> None:
+        # Locks may have been held by another thread at the fork: start with fresh ones.
+        self._lock = threading.RLock()
+        self.reporter.after_fork()
+        if self.state == "ready":
+            self._forget_parent_objects()
+            self.state = "forked"
+        self._pid = os.getpid()
+
+    def _at_exit(self) -> None:
+        if self.state != "ready" or os.getpid() != self._pid:
+            self.state = "closed" if self.state != "forked" else self.state
+            return
+        try:
+            self.flush(_EXIT_FLUSH_SECONDS)
+        finally:
+            with self._lock:
+                self._drop_ros_objects(destroy=True)
+                self._user_node = None
+                self.state = "closed"
