@@ -89,6 +89,7 @@ class ViewerApp:
         self._grid_key: tuple[int, int, int, bool, bool] | None = None
         self._started = False
         self._status_text = ""
+        self._status_left = ""
 
     # -- lifecycle ----------------------------------------------------------------------------------
 
@@ -746,6 +747,8 @@ class ViewerApp:
         dpg.set_viewport_title(f"{self.title} \u2014 {name}{' *' if self.dirty else ''}")
 
     def _update_status(self) -> None:
+        if len(self.frame_times) % 30:
+            return
         recent: Sequence[float] = list(self.frame_times)[-60:]
         fps = len(recent) / sum(recent) if recent and sum(recent) > 0 else 0.0
         name = str(self.path) if self.path else "untitled"
@@ -753,7 +756,9 @@ class ViewerApp:
             f"  {name}{' (modified)' if self.dirty else ''}   \u00b7   {len(self.items)} widgets   \u00b7   "
             f"grid {self.grid_size}px {'on' if self.snap else 'off'}   \u00b7   {min(fps, 999):.0f} fps   "
         )
-        dpg.set_value(self.status_left, text)
+        if text != self._status_left:
+            self._status_left = text
+            dpg.set_value(self.status_left, text)
 
     def _draw_grid(self) -> None:
         w, h = self.canvas_size()
@@ -764,7 +769,6 @@ class ViewerApp:
         layer = self.grid_layer
         dpg.delete_item(layer, children_only=True)
         dpg.configure_item(layer, width=max(1, w), height=max(1, h))
-        dpg.draw_rectangle((0, 0), (w, h), color=theme.CANVAS, fill=theme.CANVAS, parent=layer)
         step = self.grid_size
         while w / step > 160:
             step *= 2

@@ -138,7 +138,7 @@ class KnobWidget(DialWidget):
         cx, cy = width / 2, 8 + r
         self._geom = (cx, cy, r)
         draw_scale(dl, cx, cy, r, lo, hi, start=self.START, sweep=self.SWEEP, label_size=max(11, r / 7))
-        ring = r * 0.62
+        ring = r * 0.5
         dpg.draw_polyline(
             arc_points(cx, cy, ring + 8, self.START, self.START + self.SWEEP),
             color=TRACK,
@@ -160,7 +160,7 @@ class KnobWidget(DialWidget):
         angle = gauge_angle(
             value if value is not None else lo, lo, hi, start_deg=self.START, sweep_deg=self.SWEEP
         )
-        ring = r * 0.62
+        ring = r * 0.5
         dpg.configure_item(self._arc, points=arc_points(cx, cy, ring + 8, self.START, angle))
         dpg.configure_item(
             self._needle, p1=polar(cx, cy, ring * 0.3, angle), p2=polar(cx, cy, ring * 0.78, angle)
