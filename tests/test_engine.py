@@ -1,0 +1,466 @@
+"""The viewer's data engine against real ROS 2 publishers: fields, kinds, status, QoS, discovery, load."""
+
+from __future__ import annotations
+
+import itertools
+import signal
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Iterator
+
+import numpy as np
+import pytest
+from builtin_interfaces.msg import Time
+from geometry_msgs.msg import PoseStamped, Twist
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from sensor_msgs.msg import LaserScan
+from std_msgs.msg import Bool, Float64, Float64MultiArray, Int32, MultiArrayDimension, String
+
+from dbglog.api._qos import tag_qos
+from dbglog.viewer._engine import Engine
+from dbglog.viewer._model import Binding, SeriesSnapshot, Status, ValueKind
+from tests._ros import RosPeer, wait_until
+
+_ids = itertools.count()
+TIMEOUT = 20.0
+
+
+def _topic(stem: str) -> str:
+    return f"/test_engine/{stem}_{next(_ids)}"
+
+
+@pytest.fixture(scope="module")
+def engine() -> Iterator[Engine]:
+    """One running engine for the module (stale after 1 s to keep the tests quick)."""
+    with Engine(stale_after=1.0, graph_period=0.1) as eng:
+        yield eng
+
+
+@pytest.fixture(scope="module")
+def peer() -> Iterator[RosPeer]:
+    """An independent ROS participant that publishes."""
+    with RosPeer("engine_test_pub") as p:
+        yield p
+
+
+def _snap_when(
+    engine: Engine, binding: Binding, predicate: object, timeout: float = TIMEOUT
+) -> SeriesSnapshot:
+    """Wait until the binding's snapshot satisfies `predicate`, then return it."""
+    assert callable(predicate)
+    holder: list[SeriesSnapshot] = []
+
+    def check() -> bool:
+        holder[:] = [engine.snapshot(binding)]
+        return bool(predicate(holder[0]))
+
+    ok = wait_until(check, timeout)
+    assert ok, f"condition never held; last snapshot: {holder[0]}"
+    return holder[0]
+
+
+def _publish_until(pub: object, make: object, engine: Engine, binding: Binding, n: int) -> SeriesSnapshot:
+    """Publish one message per 20 ms until the series holds `n` values."""
+    assert callable(make)
+    deadline = time.monotonic() + TIMEOUT
+    i = 0
+    while time.monotonic() < deadline:
+        snap = engine.snapshot(binding)
+        if snap.count >= n:
+            return snap
+        pub.publish(make(i))  # type: ignore[attr-defined]
+        i += 1
+        time.sleep(0.02)
+    raise AssertionError(f"series never reached {n} values: {engine.snapshot(binding)}")
+
+
+def test_float64_whole_message_becomes_a_live_number_series(engine: Engine, peer: RosPeer) -> None:
+    """An empty field path on Float64 reads `data`; values, times, kind, type, rate and status fill in."""
+    topic = _topic("f64")
+    pub = peer.publisher(topic, Float64)
+    binding = Binding(topic)
+    engine.bind(binding)
+    assert peer.wait_for_subscribers(pub, timeout=TIMEOUT)
+    for i in range(30):
+        pub.publish(Float64(data=i * 0.5))
+        time.sleep(0.01)
+    snap = _snap_when(engine, binding, lambda s: s.count >= 30)
+    assert snap.status == Status.LIVE
+    assert snap.kind == ValueKind.NUMBER
+    assert snap.msg_type == "std_msgs/msg/Float64"
+    assert snap.values.tolist() == [i * 0.5 for i in range(30)]
+    assert snap.last == 14.5
+    assert isinstance(snap.last, float)
+    assert len(snap.times) == 30
+    assert np.all(np.diff(snap.times) >= 0)
+    assert abs(snap.times[-1] - time.time()) < 30
+    assert snap.rate_hz > 5
+    assert snap.age_s is not None
+    assert snap.age_s < 5
+
+
+def test_nested_fields_and_indexed_message_sequences(engine: Engine, peer: RosPeer) -> None:
+    """`linear.x`, `pose.position.z`, `header.stamp` (seconds) and `layout.dim[0].size` read nested values."""
+    twist_topic, pose_topic, multi_topic = _topic("twist"), _topic("pose"), _topic("multi")
+    b_lin = Binding(twist_topic, "linear.x")
+    b_ang = Binding(twist_topic, "angular.z")
+    b_z = Binding(pose_topic, "pose.position.z")
+    b_stamp = Binding(pose_topic, "header.stamp")
+    b_size = Binding(multi_topic, "layout.dim[0].size")
+    for b in (b_lin, b_ang, b_z, b_stamp, b_size):
+        engine.bind(b)
+    tw, po, mu = (
+        peer.publisher(twist_topic, Twist),
+        peer.publisher(pose_topic, PoseStamped),
+        peer.publisher(multi_topic, Float64MultiArray),
+    )
+
+    def twist(i: int) -> Twist:
+        m = Twist()
+        m.linear.x, m.angular.z = float(i), -float(i)
+        return m
+
+    def pose(i: int) -> PoseStamped:
+        m = PoseStamped()
+        m.pose.position.z = 10.0 + i
+        m.header.stamp = Time(sec=100 + i, nanosec=500_000_000)
+        return m
+
+    def multi(i: int) -> Float64MultiArray:
+        m = Float64MultiArray()
+        m.layout.dim = [MultiArrayDimension(label="rows", size=7 + i, stride=1)]
+        return m
+
+    _publish_until(tw, twist, engine, b_ang, 3)
+    _publish_until(po, pose, engine, b_stamp, 3)
+    _publish_until(mu, multi, engine, b_size, 3)
+    lin, ang = engine.snapshot(b_lin), engine.snapshot(b_ang)
+    assert lin.status == ang.status == Status.LIVE
+    assert lin.values.tolist() == [-v for v in ang.values.tolist()]
+    z, stamp = engine.snapshot(b_z), engine.snapshot(b_stamp)
+    assert z.values[0] == 10.0
+    assert stamp.values.tolist() == [v + 90.5 for v in z.values.tolist()]
+    size = engine.snapshot(b_size)
+    assert size.kind == ValueKind.NUMBER
+    assert isinstance(size.last, int)
+    assert size.values[0] == 7.0
+
+
+def test_arrays_whole_and_indexed(engine: Engine, peer: RosPeer) -> None:
+    """`ranges` is an ARRAY whose last value is a tuple; `ranges[3]` is a number; a short scan is an error."""
+    topic = _topic("scan")
+    whole, third = Binding(topic, "ranges"), Binding(topic, "ranges[3]")
+    engine.bind(whole)
+    engine.bind(third)
+    pub = peer.publisher(topic, LaserScan)
+
+    def scan(i: int) -> LaserScan:
+        return LaserScan(ranges=[float(i + k) for k in range(5)], range_max=9.0)
+
+    _publish_until(pub, scan, engine, third, 2)
+    snap = _snap_when(engine, whole, lambda s: s.count >= 2)
+    assert snap.kind == ValueKind.ARRAY
+    assert isinstance(snap.last, tuple)
+    assert len(snap.last) == 5
+    assert snap.last[1] - snap.last[0] == 1.0
+    num = engine.snapshot(third)
+    assert num.kind == ValueKind.NUMBER
+    assert num.last == snap.last[3]
+    pub.publish(LaserScan(ranges=[1.0]))
+    err = _snap_when(engine, third, lambda s: s.status == Status.ERROR)
+    assert "ranges[3]" in err.reason
+    assert "index" in err.reason
+    before = err.count
+    pub.publish(scan(100))
+    ok = _snap_when(engine, third, lambda s: s.count > before)
+    assert ok.status == Status.LIVE
+    assert ok.last == 103.0
+
+
+def test_strings_keep_text_kind_and_regex_extracts_numbers(engine: Engine, peer: RosPeer) -> None:
+    """A String is TEXT; with a regex its capture group becomes a number; unmatched lines are skipped."""
+    topic = _topic("text")
+    text = Binding(topic)
+    temp = Binding(topic, "data", r"temp=(-?[\d.]+)C")
+    engine.bind(text)
+    engine.bind(temp)
+    pub = peer.publisher(topic, String)
+    lines = ["boot ok", "temp=21.5C fan=on", "noise", "temp=-3C"]
+    _publish_until(pub, lambda i: String(data=lines[i % len(lines)]), engine, text, 8)
+    tsnap = engine.snapshot(text)
+    assert tsnap.kind == ValueKind.TEXT
+    assert set(tsnap.texts) >= set(lines)
+    assert len(tsnap.times) == len(tsnap.texts)
+    assert tsnap.values.size == 0
+    nsnap = _snap_when(engine, temp, lambda s: s.count >= 2)
+    assert nsnap.kind == ValueKind.NUMBER
+    assert set(nsnap.values.tolist()) <= {21.5, -3.0}
+    assert nsnap.status == Status.LIVE
+    pub.publish(String(data="temp=..C"))
+    err = _snap_when(engine, temp, lambda s: s.status == Status.ERROR)
+    assert "not a number" in err.reason
+
+
+def test_bools_keep_their_kind(engine: Engine, peer: RosPeer) -> None:
+    """A Bool series is BOOL: last is a bool, values are 0/1."""
+    topic = _topic("bool")
+    binding = Binding(topic)
+    engine.bind(binding)
+    pub = peer.publisher(topic, Bool)
+    snap = _publish_until(pub, lambda i: Bool(data=i % 2 == 1), engine, binding, 4)
+    assert snap.kind == ValueKind.BOOL
+    assert isinstance(snap.last, bool)
+    assert set(snap.values.tolist()) <= {0.0, 1.0}
+
+
+def test_late_publisher_binds_in_the_background(engine: Engine, peer: RosPeer) -> None:
+    """bind() returns at once; the series waits (topic absent) and goes live when a publisher appears."""
+    topic = _topic("late")
+    binding = Binding(topic)
+    start = time.perf_counter()
+    engine.bind(binding)
+    assert time.perf_counter() - start < 0.1
+    waiting = _snap_when(engine, binding, lambda s: "not on the ROS graph" in s.reason)
+    assert waiting.status == Status.WAITING
+    pub = peer.publisher(topic, Float64)
+    snap = _publish_until(pub, lambda i: Float64(data=42.0), engine, binding, 1)
+    assert snap.last == 42.0
+    assert snap.status == Status.LIVE
+
+
+_KILLABLE = """
+import sys, time, rclpy
+from rclpy.context import Context
+from rclpy.node import Node
+from std_msgs.msg import Float64
+ctx = Context(); rclpy.init(context=ctx)
+node = Node("killable", context=ctx)
+pub = node.create_publisher(Float64, sys.argv[1], 10)
+i = 0
+while True:
+    pub.publish(Float64(data=float(i))); i += 1
+    time.sleep(0.02)
+"""
+
+
+def test_killed_publisher_turns_stale(engine: Engine) -> None:
+    """A publisher process killed with SIGKILL leaves the series STALE after the stale time."""
+    topic = _topic("killed")
+    binding = Binding(topic)
+    engine.bind(binding)
+    proc = subprocess.Popen([sys.executable, "-c", _KILLABLE, topic])
+    try:
+        live = _snap_when(engine, binding, lambda s: s.status == Status.LIVE and s.count > 20)
+        assert live.rate_hz > 5
+    finally:
+        proc.send_signal(signal.SIGKILL)
+        proc.wait(10)
+    stale = _snap_when(engine, binding, lambda s: s.status == Status.STALE)
+    assert stale.age_s is not None
+    assert stale.age_s > engine.stale_after
+    assert "no message" in stale.reason
+
+
+def test_publisher_restarted_with_another_type_errors_then_recovers(engine: Engine) -> None:
+    """Float64 -> Int32 on the same topic: ERROR "type changed" until the first Int32, then LIVE again."""
+    topic = _topic("retype")
+    binding = Binding(topic)
+    engine.bind(binding)
+    with RosPeer("retype_a") as first:
+        pub = first.publisher(topic, Float64)
+        _publish_until(pub, lambda i: Float64(data=1.5), engine, binding, 1)
+    with RosPeer("retype_b") as second:
+        pub2 = second.publisher(topic, Int32)
+        err = _snap_when(engine, binding, lambda s: s.status == Status.ERROR)
+        assert "type changed" in err.reason
+        assert "std_msgs/msg/Int32" in err.reason
+        assert err.msg_type == "std_msgs/msg/Int32"
+        count = err.count
+        snap = _publish_until(pub2, lambda i: Int32(data=7), engine, binding, count + 1)
+        assert snap.status == Status.LIVE
+        assert snap.last == 7
+        assert isinstance(snap.last, int)
+        assert snap.values[0] == 1.5  # same kind (number): the history is kept
+
+
+def test_best_effort_publisher_delivers(engine: Engine, peer: RosPeer) -> None:
+    """A best-effort publisher's messages arrive (the engine subscribes best-effort for it)."""
+    topic = _topic("besteffort")
+    binding = Binding(topic)
+    engine.bind(binding)
+    qos = QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT)
+    pub = peer.publisher(topic, Float64, qos)
+    snap = _publish_until(pub, lambda i: Float64(data=3.0), engine, binding, 3)
+    assert snap.status == Status.LIVE
+
+
+def test_transient_local_history_reaches_a_late_viewer(engine: Engine, peer: RosPeer) -> None:
+    """Values a tag published before the viewer bound arrive at once (transient-local QoS followed)."""
+    topic = _topic("latched")
+    pub = peer.publisher(topic, Float64, tag_qos())
+    for i in range(5):
+        pub.publish(Float64(data=float(i)))
+    assert wait_until(lambda: topic in {t.name for t in engine.topics()}, TIMEOUT)
+    binding = Binding(topic)
+    engine.bind(binding)
+    snap = _snap_when(engine, binding, lambda s: s.count >= 5)
+    assert snap.values.tolist() == [0.0, 1.0, 2.0, 3.0, 4.0]
+    second = Binding(topic, "data")  # a second binding on the latched topic gets the history too
+    engine.bind(second)
+    assert _snap_when(engine, second, lambda s: s.count >= 5).values.tolist() == [0.0, 1.0, 2.0, 3.0, 4.0]
+    assert engine.snapshot(binding).count == 5  # ... without duplicating the first binding's values
+
+
+def test_mixed_reliable_and_best_effort_publishers_both_deliver(engine: Engine, peer: RosPeer) -> None:
+    """With a reliable and a best-effort publisher on one topic, values from both arrive."""
+    topic = _topic("mixed")
+    binding = Binding(topic)
+    engine.bind(binding)
+    reliable = peer.publisher(topic, Float64)
+    best = peer.publisher(topic, Float64, QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT))
+
+    def both() -> bool:
+        reliable.publish(Float64(data=1.0))
+        best.publish(Float64(data=2.0))
+        time.sleep(0.02)
+        return {1.0, 2.0} <= set(engine.snapshot(binding).values.tolist())
+
+    assert wait_until(both, TIMEOUT)
+
+
+def test_fifty_topics_under_load_lose_nothing(engine: Engine, peer: RosPeer) -> None:
+    """50 Float64 topics x 200 messages published flat out all land, in order, one subscription each."""
+    topics = [_topic(f"load{i}") for i in range(50)]
+    bindings = [Binding(t) for t in topics]
+    for b in bindings:
+        engine.bind(b)
+    qos = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
+    pubs = [peer.publisher(t, Float64, qos) for t in topics]
+    assert wait_until(lambda: all(p.get_subscription_count() > 0 for p in pubs), TIMEOUT)
+    for k in range(200):
+        for pub in pubs:
+            pub.publish(Float64(data=float(k)))
+    assert wait_until(lambda: all(engine.snapshot(b).count >= 200 for b in bindings), TIMEOUT)
+    for b in bindings:
+        assert engine.snapshot(b).values.tolist() == [float(k) for k in range(200)]
+    per_topic = engine.stats().per_topic
+    assert all(per_topic[t] == 200 for t in topics)
+
+
+def test_bindings_on_one_topic_share_one_subscription(engine: Engine, peer: RosPeer) -> None:
+    """Two fields of one topic use one subscription; unbinding both drops it."""
+    topic = _topic("shared")
+    bx, by = Binding(topic, "linear.x"), Binding(topic, "linear.y")
+    pub = peer.publisher(topic, Twist)
+    engine.bind(bx)
+    engine.bind(by)
+    _publish_until(pub, lambda i: Twist(), engine, by, 1)
+    assert list(engine.stats().per_topic).count(topic) == 1
+    engine.unbind(bx)
+    engine.unbind(by)
+    assert wait_until(lambda: topic not in engine.stats().per_topic, TIMEOUT)
+    assert engine.snapshot(bx).status == Status.ERROR
+    assert "not bound" in engine.snapshot(bx).reason
+
+
+def test_discovery_lists_topics_and_follows_nodes(engine: Engine) -> None:
+    """topics() shows a new node's topics (tags singled out) and drops them when the node goes."""
+    tag_topic = "/rosdashboard/engine_test_tag_" + str(next(_ids))
+    plain = _topic("plain")
+    with RosPeer("discovery_peer") as p:
+        p.publisher(tag_topic, Float64, tag_qos())
+        p.publisher(plain, String)
+        assert wait_until(lambda: {tag_topic, plain} <= {t.name for t in engine.topics()}, TIMEOUT)
+        infos = {t.name: t for t in engine.topics()}
+        assert infos[tag_topic].tag == tag_topic.removeprefix("/rosdashboard/")
+        assert infos[tag_topic].types == ("std_msgs/msg/Float64",)
+        assert infos[tag_topic].publishers == 1
+        assert infos[plain].tag is None
+        assert [f.path for f in engine.fields(plain)] == ["data"]
+    assert wait_until(lambda: not {tag_topic, plain} & {t.name for t in engine.topics()}, TIMEOUT)
+
+
+def test_fields_of_a_topic_for_the_setup_dialog(engine: Engine, peer: RosPeer) -> None:
+    """fields() lists nested paths of the topic's type, `[]` for sequences; empty for unknown topics."""
+    topic = _topic("fields")
+    peer.publisher(topic, LaserScan)
+    assert wait_until(lambda: bool(engine.fields(topic)), TIMEOUT)
+    fields = {f.path: f for f in engine.fields(topic)}
+    assert fields["ranges[]"].numeric
+    assert fields["ranges[]"].type_name == "sequence<float>"
+    assert fields["header.frame_id"].type_name == "string"
+    assert not fields["header"].numeric
+    assert engine.fields("/no/such/topic") == []
+
+
+def test_bad_bindings_report_clear_errors(engine: Engine, peer: RosPeer) -> None:
+    """Malformed paths, bad regexes, missing fields, several-field types and regex on numbers are ERRORs."""
+    topic = _topic("bad")
+    peer.publisher(topic, Twist)
+    cases = {
+        Binding(topic, "linear..x"): "expected a field name",
+        Binding(topic, "data", "(unclosed"): "bad regex",
+        Binding("/bad topic"): "bad topic name",
+        Binding(topic, "linear.w"): "'w' is not in geometry_msgs/msg/Vector3",
+        Binding(topic): "several fields",
+        Binding(topic, "linear"): "pick one of its fields: linear.x",
+        Binding(topic, "linear.x", r"(\d+)"): "a regex applies to text fields",
+    }
+    for binding in cases:
+        engine.bind(binding)
+    for binding, expected in cases.items():
+        snap = _snap_when(engine, binding, lambda s: s.status == Status.ERROR)
+        assert expected in snap.reason, (binding, snap.reason)
+
+
+def test_snapshots_are_consistent_while_another_thread_ingests(engine: Engine, peer: RosPeer) -> None:
+    """Snapshots taken on another thread during a flood are self-consistent and never go backwards."""
+    topic = _topic("consistent")
+    binding = Binding(topic)
+    engine.bind(binding)
+    qos = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
+    pub = peer.publisher(topic, Float64, qos)
+    assert peer.wait_for_subscribers(pub, timeout=TIMEOUT)
+    problems: list[str] = []
+    stop = threading.Event()
+    seen = [0]
+
+    def reader() -> None:
+        last_count = 0
+        while not stop.is_set():
+            s = engine.snapshot(binding)
+            seen[0] += 1
+            if len(s.times) != len(s.values):
+                problems.append("times and values differ in length")
+            if s.count < last_count:
+                problems.append("count went backwards")
+            if len(s.values) and (s.last != s.values[-1] or np.any(np.diff(s.values) <= 0)):
+                problems.append(f"torn snapshot: last={s.last} tail={s.values[-3:]}")
+            last_count = s.count
+            time.sleep(0.0005)
+
+    thread = threading.Thread(target=reader)
+    thread.start()
+    try:
+        for k in range(20_000):
+            pub.publish(Float64(data=float(k)))
+        assert wait_until(lambda: engine.snapshot(binding).last == 19_999.0, TIMEOUT)
+    finally:
+        stop.set()
+        thread.join()
+    assert not problems, problems[:3]
+    assert seen[0] > 10
+    final = engine.snapshot(binding)
+    assert len(final.values) == min(final.count, engine.history)
+    assert final.count > 10_000  # flat out with a reader hammering: at most brief queue overflows
+
+
+def test_defaults_and_validation() -> None:
+    """The stale time defaults to 2 s; nonsense settings are refused with the setting's name."""
+    assert Engine().stale_after == 2.0
+    with pytest.raises(ValueError, match="history"):
+        Engine(history=0)
+    with pytest.raises(ValueError, match="stale_after"):
+        Engine(stale_after=0)
