@@ -1,0 +1,103 @@
+"""The series ring buffer, its status transitions and its rate, with explicit clocks (no ROS)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from dbglog.viewer._model import Binding, Status, ValueKind
+from dbglog.viewer._series import Series
+
+B = Binding("/t")
+
+
+def _push(series: Series, values: list[float], now: float, t0: float = 0.0) -> None:
+    arr = np.asarray(values, dtype=np.float64)
+    series.push_numbers(np.arange(len(arr), dtype=np.float64) + t0, arr, values[-1], now)
+
+
+@given(st.lists(st.integers(min_value=1, max_value=30), min_size=1, max_size=20), st.integers(1, 50))
+def test_ring_keeps_the_latest_values_in_order(batches: list[int], capacity: int) -> None:
+    """Whatever the batch sizes, the snapshot holds the last `capacity` values oldest first."""
+    series = Series(B, capacity)
+    series.set_type("std_msgs/msg/Float64", ValueKind.NUMBER)
+    sent: list[float] = []
+    for n in batches:
+        batch = [float(len(sent) + i) for i in range(n)]
+        sent.extend(batch)
+        series.push_numbers(np.asarray(batch), np.asarray(batch), batch[-1], now=1.0)
+    snap = series.snapshot(2.0, now=1.0)
+    assert snap.values.tolist() == sent[-capacity:]
+    assert snap.times.tolist() == sent[-capacity:]
+    assert snap.count == len(sent)
+    assert snap.last == sent[-1]
+
+
+def test_status_moves_waiting_live_stale_error() -> None:
+    """WAITING before data, LIVE while fresh, STALE after the stale time, ERROR until the next value."""
+    series = Series(B, 10)
+    series.set_waiting("topic is not on the ROS graph yet")
+    first = series.snapshot(2.0, now=0.0)
+    assert (first.status, first.reason) == (Status.WAITING, "topic is not on the ROS graph yet")
+    series.set_type("std_msgs/msg/Float64", ValueKind.NUMBER)
+    _push(series, [1.0], now=10.0)
+    assert series.snapshot(2.0, now=11.0).status == Status.LIVE
+    stale = series.snapshot(2.0, now=12.5)
+    assert stale.status == Status.STALE
+    assert stale.age_s == pytest.approx(2.5)
+    series.set_error("field missing")
+    assert series.snapshot(2.0, now=12.5).reason == "field missing"
+    _push(series, [2.0], now=13.0)
+    assert series.snapshot(2.0, now=13.0).status == Status.LIVE
+
+
+def test_type_change_keeps_history_of_the_same_kind_and_clears_another() -> None:
+    """A new type of the same kind keeps the values; a new kind starts over (count stays monotonic)."""
+    series = Series(B, 10)
+    series.set_type("std_msgs/msg/Float64", ValueKind.NUMBER)
+    _push(series, [1.0, 2.0], now=1.0)
+    series.set_type("std_msgs/msg/Int32", ValueKind.NUMBER, error="type changed")
+    snap = series.snapshot(2.0, now=1.0)
+    assert (snap.status, snap.values.tolist()) == (Status.ERROR, [1.0, 2.0])
+    series.set_type("std_msgs/msg/String", ValueKind.TEXT)
+    series.push_texts([5.0], ["hello"], now=2.0)
+    text = series.snapshot(2.0, now=2.0)
+    assert (text.kind, text.texts, text.values.size, text.count) == (ValueKind.TEXT, ("hello",), 0, 3)
+
+
+def test_rate_follows_the_message_rhythm_and_decays() -> None:
+    """Steady 10 Hz pushes read about 10 Hz; after the messages stop, the rate falls towards 0."""
+    series = Series(B, 100)
+    series.set_type("std_msgs/msg/Float64", ValueKind.NUMBER)
+    for i in range(40):
+        _push(series, [float(i)], now=i * 0.1)
+    assert series.snapshot(2.0, now=3.95).rate_hz == pytest.approx(10.0, rel=0.1)
+    assert series.snapshot(2.0, now=6.0).rate_hz < 6.0
+    assert series.snapshot(2.0, now=20.0).rate_hz == 0.0
+
+
+def test_latched_burst_does_not_inflate_the_rate() -> None:
+    """A history burst at subscription is not counted as a rate."""
+    series = Series(B, 200)
+    series.set_type("std_msgs/msg/Float64", ValueKind.NUMBER)
+    _push(series, [0.0] * 100, now=0.0)
+    for i in range(1, 21):
+        _push(series, [float(i)], now=i * 0.5)
+    assert series.snapshot(2.0, now=10.2).rate_hz == pytest.approx(2.0, rel=0.15)
+
+
+def test_array_series_keep_only_the_latest_array() -> None:
+    """ARRAY series report the latest tuple and count messages, without numeric history."""
+    series = Series(B, 10)
+    series.set_type("sensor_msgs/msg/LaserScan", ValueKind.ARRAY)
+    series.push_array(3, (1.0, 2.0), 7.0, now=1.0)
+    snap = series.snapshot(2.0, now=1.0)
+    assert (snap.last, snap.last_time, snap.count, snap.values.size) == ((1.0, 2.0), 7.0, 3, 0)
+
+
+def test_capacity_must_be_positive() -> None:
+    """A series that could hold nothing is refused."""
+    with pytest.raises(ValueError, match="at least one"):
+        Series(B, 0)
