@@ -52,9 +52,6 @@ def split_target(target: str, graph_topics: set[str]) -> tuple[str, str] | None:
         return _TAG_PREFIX + tag, path
     topic, dot, path = target.partition(".")
     if dot or topic in graph_topics:
-        bracket = topic.find("[")
-        if not dot and bracket >= 0:
-            return topic[:bracket], topic[bracket:]
         return topic, path
     parts = topic.split("/")
     for cut in range(len(parts) - 1, 1, -1):

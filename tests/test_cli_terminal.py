@@ -1,0 +1,164 @@
+"""``dbglog tags`` and ``dbglog echo`` as real subprocesses against a real publishing node."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Iterator
+
+import pytest
+from geometry_msgs.msg import Twist
+from std_msgs.msg import Bool, Float64, String
+
+from dbglog.api._qos import tag_qos
+from dbglog.viewer._cli_echo import format_line, split_target
+from dbglog.viewer._cli_tags import format_table, format_value
+from tests._ros import RosPeer
+
+TIMEOUT = 60
+
+
+@pytest.fixture(scope="module")
+def robot() -> Iterator[None]:
+    """A node publishing three tags and a Twist topic at 20 Hz until the module ends."""
+    stop = threading.Event()
+    with RosPeer("cli_robot") as peer:
+        prox = peer.publisher("/rosdashboard/cli_proximity", Float64, tag_qos())
+        state = peer.publisher("/rosdashboard/cli_state", String, tag_qos())
+        bumper = peer.publisher("/rosdashboard/cli_bumper", Bool, tag_qos())
+        cmd = peer.publisher("/cli_turtle/cmd_vel", Twist)
+
+        def loop() -> None:
+            i = 0
+            while not stop.is_set():
+                prox.publish(Float64(data=0.25 + i))
+                state.publish(String(data=f"mode=run step {i}"))
+                bumper.publish(Bool(data=i % 2 == 0))
+                twist = Twist()
+                twist.linear.x, twist.angular.z = 0.5, -1.0
+                cmd.publish(twist)
+                i += 1
+                time.sleep(0.05)
+
+        thread = threading.Thread(target=loop, daemon=True)
+        thread.start()
+        yield
+        stop.set()
+        thread.join()
+
+
+def _dbglog(*args: str, timeout: float = TIMEOUT) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "dbglog", *args], capture_output=True, text=True, timeout=timeout, check=False
+    )
+
+
+def test_tags_prints_a_table_once(robot: None) -> None:
+    """`dbglog tags` lists each tag with type, rate, last value and live status, then exits 0."""
+    out = _dbglog("tags", "--wait", "3")
+    assert out.returncode == 0, out.stderr
+    lines = out.stdout.splitlines()
+    assert lines[0].split() == ["tag", "type", "rate", "last", "value", "status"]
+    rows = {line.split()[0]: line for line in lines[2:]}
+    assert {"cli_proximity", "cli_state", "cli_bumper"} <= set(rows)
+    assert "std_msgs/msg/Float64" in rows["cli_proximity"]
+    assert rows["cli_proximity"].rstrip().endswith("live")
+    assert "Hz" in rows["cli_proximity"]
+    assert "mode=run step" in rows["cli_state"]
+    assert "true" in rows["cli_bumper"] or "false" in rows["cli_bumper"]
+    assert "/cli_turtle/cmd_vel" not in out.stdout
+
+
+def test_tags_all_lists_every_topic(robot: None) -> None:
+    """`dbglog tags --all` lists plain topics too, by full name."""
+    out = _dbglog("tags", "--all", "--wait", "3")
+    assert out.returncode == 0, out.stderr
+    assert "/cli_turtle/cmd_vel" in out.stdout
+    assert "geometry_msgs/msg/Twist" in out.stdout
+    assert "/rosdashboard/cli_proximity" in out.stdout
+
+
+def test_tags_watch_refreshes_until_interrupted(robot: None) -> None:
+    """`dbglog tags --watch` prints the table again and again."""
+    with subprocess.Popen(
+        [sys.executable, "-m", "dbglog", "tags", "--watch", "--wait", "2", "--interval", "0.3"],
+        stdout=subprocess.PIPE,
+        text=True,
+    ) as proc:
+        assert proc.stdout is not None
+        tables = 0
+        try:
+            deadline = time.monotonic() + TIMEOUT
+            while tables < 3 and time.monotonic() < deadline:
+                line = proc.stdout.readline()
+                tables += line.startswith("tag ")
+        finally:
+            proc.terminate()
+            proc.wait(10)
+    assert tables >= 3
+
+
+def test_echo_a_tag_prints_count_values(robot: None) -> None:
+    """`dbglog echo TAG --count 3` prints three numbers, one per line, and exits 0."""
+    out = _dbglog("echo", "cli_proximity", "--count", "3", "--timeout", "20")
+    assert out.returncode == 0, out.stderr
+    values = [float(v) for v in out.stdout.split()]
+    assert len(values) == 3
+    assert all(v % 1 == 0.25 for v in values)
+
+
+def test_echo_topic_field_and_rqt_style(robot: None) -> None:
+    """A topic with a dotted field path, or with slashes rqt-style, prints that field."""
+    dotted = _dbglog("echo", "/cli_turtle/cmd_vel.linear.x", "-n", "2", "--timeout", "20")
+    assert dotted.returncode == 0, dotted.stderr
+    assert dotted.stdout.split() == ["0.5", "0.5"]
+    slashed = _dbglog("echo", "/cli_turtle/cmd_vel/angular/z", "-n", "1", "--timeout", "20")
+    assert slashed.returncode == 0, slashed.stderr
+    assert slashed.stdout.split() == ["-1.0"]
+
+
+def test_echo_regex_on_a_text_tag(robot: None) -> None:
+    """--regex turns a text tag's capture group into numbers."""
+    out = _dbglog("echo", "cli_state", "--regex", r"step (\d+)", "-n", "2", "--timeout", "20")
+    assert out.returncode == 0, out.stderr
+    first, second = (float(v) for v in out.stdout.split())
+    assert second >= first
+
+
+def test_echo_missing_topic_times_out_saying_why(robot: None) -> None:
+    """A topic that does not exist makes --timeout exit 1 with the reason on stderr."""
+    out = _dbglog("echo", "/cli_no_such_topic", "--timeout", "2")
+    assert out.returncode == 1
+    assert out.stdout == ""
+    assert "/cli_no_such_topic does not exist on the ROS graph" in out.stderr
+
+
+def test_echo_bad_field_exits_with_the_reason(robot: None) -> None:
+    """A field that is not in the type exits 1 naming the fields that exist."""
+    out = _dbglog("echo", "/cli_turtle/cmd_vel.linear.w", "--timeout", "20")
+    assert out.returncode == 1
+    assert "'w' is not in geometry_msgs/msg/Vector3" in out.stderr
+
+
+def test_split_target_rules() -> None:
+    """Tags map to /rosdashboard/, the first dot starts the path, slashes need the graph."""
+    assert split_target("proximity", set()) == ("/rosdashboard/proximity", "")
+    assert split_target("pose.x", set()) == ("/rosdashboard/pose", "x")
+    assert split_target("/scan.ranges[3]", set()) == ("/scan", "ranges[3]")
+    assert split_target("/scan", {"/scan"}) == ("/scan", "")
+    assert split_target("/turtle1/pose/x", set()) is None
+    assert split_target("/turtle1/pose/x", {"/turtle1/pose"}) == ("/turtle1/pose", "x")
+    assert split_target("/a/b/c/d", {"/a/b"}) == ("/a/b", "c.d")
+
+
+def test_formatting_helpers() -> None:
+    """Values render compactly for tables and exactly for echo lines."""
+    assert format_value(0.1 + 0.2) == "0.3"
+    assert format_value(True) == "true"
+    assert format_value(tuple(float(i) for i in range(10))) == "[0, 1, 2, 3, … (10 values)]"
+    assert format_value("x" * 100, width=10) == "x" * 9 + "…"
+    assert format_line(0.5) == "0.5"
+    assert format_line(False, 12.5) == "12.500000 false"
+    assert format_table(["a", "bb"], [["xyz", "1"]]).splitlines() == ["a    bb", "---  --", "xyz  1"]
