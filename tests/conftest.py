@@ -4,6 +4,9 @@ from __future__ import annotations
 
 import os
 import random
+from collections.abc import Iterator
+
+import pytest
 
 # Before anything imports rclpy: every process of this session (and its children) shares one random
 # domain, and discovery never leaves this machine unless the caller set the range explicitly.
@@ -11,3 +14,15 @@ os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
 if "DBGLOG_TEST_DOMAIN_FIXED" not in os.environ:
     os.environ["ROS_DOMAIN_ID"] = str(random.SystemRandom().randint(1, 100))
 os.environ.setdefault("RMW_IMPLEMENTATION", "rmw_fastrtps_cpp")
+
+
+@pytest.fixture(autouse=True)
+def _reset_dbglog_state() -> Iterator[None]:
+    """Give every test a fresh dbglog: disconnected, counters and warnings zeroed."""
+    yield
+    import dbglog
+
+    if dbglog.enabled:
+        from dbglog.api._public import reset
+
+        reset()

@@ -159,7 +159,9 @@ def check_int(value: object, spec: ScalarSpec) -> int:
 
 def check_bool(value: object) -> bool:
     """Return `value` as a bool: bools (also numpy's) and the integers 0 and 1."""
-    if isinstance(value, bool) or type(value).__name__ == "bool_":
+    if isinstance(value, bool) or (
+        type(value).__module__ == "numpy" and type(value).__name__ in ("bool", "bool_")
+    ):
         return bool(value)
     if isinstance(value, int) and value in (0, 1):
         return bool(value)
@@ -268,7 +270,10 @@ def multiarray_message(data: object) -> Any:
     import numpy as np
 
     try:
-        arr = data if isinstance(data, np.ndarray) else np.asarray(data)
+        if isinstance(data, bytes | bytearray):
+            arr = np.frombuffer(bytes(data), dtype=np.uint8)
+        else:
+            arr = data if isinstance(data, np.ndarray) else np.asarray(data)
     except (ValueError, TypeError, OverflowError) as exc:
         detail = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         raise ConversionError("bad_value", f"cannot be read as a numeric array ({detail})") from None

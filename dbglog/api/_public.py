@@ -27,7 +27,7 @@ from dbglog.api._convert import (
     scalar_spec,
     type_name,
 )
-from dbglog.api._errors import _API_DIR, DbglogError, Reporter, Stats, safe_repr
+from dbglog.api._errors import _API_DIR, DbglogError, DbglogWarning, Reporter, Stats, safe_repr
 from dbglog.api._rate import RateLimiter, check_throttle
 from dbglog.api._runtime import Runtime
 
@@ -54,6 +54,8 @@ _MAX_DEPTH = 8
 """How deep `log` follows nested dicts (a dict that contains itself stops here)."""
 
 _std_msgs: Any = None
+_PASS_THROUGH = (DbglogError, DbglogWarning)
+"""Strict mode's error, and our warning when the user turned warnings into errors: theirs to see."""
 
 # Bound once: the hot paths below touch only these names.
 _fast_float = RUNTIME.fast_float
@@ -190,7 +192,7 @@ def _scalar_call(
                 REPORTER.drop(exc.reason, f"{clean}:msg_type", f"dbglog.{api}({clean!r}): {exc}")
                 return
         _publish_scalar(api, tag, clean, value, cls, opts, fast=msg_type is None and not opts.active)
-    except DbglogError:
+    except _PASS_THROUGH:
         raise
     except Exception as exc:
         _unexpected(api, tag, exc)
@@ -340,7 +342,7 @@ def logdata(
             REPORTER.drop(exc.reason, clean, f"dbglog.logdata({clean!r}): {exc}; value dropped")
             return
         _send_message(clean, msg, opts, "logdata")
-    except DbglogError:
+    except _PASS_THROUGH:
         raise
     except Exception as exc:
         _unexpected("logdata", tag, exc)
@@ -377,7 +379,7 @@ def log(
         clean = RUNTIME.resolve_tag(tag, "log")
         if clean is not None:
             _dispatch(clean, data, opts, 0)
-    except DbglogError:
+    except _PASS_THROUGH:
         raise
     except Exception as exc:
         _unexpected("log", tag, exc)
