@@ -1,8 +1,8 @@
 """dbglog's side of ROS 2: its own context and node (or the user's node), one cached publisher per tag.
 
 rclpy is imported on first use only. dbglog never initialises the user's global context; after a
-``fork`` the child keeps its hands off the parent's middleware objects and stays quiet until
-``dbglog.init()`` is called in it; at interpreter exit everything is shut down.
+``fork`` the child keeps its hands off the parent's middleware objects and stays quiet (the DDS
+middleware does not survive a fork); at interpreter exit everything is shut down.
 """
 
 from __future__ import annotations
@@ -11,6 +11,7 @@ import atexit
 import contextlib
 import ctypes
 import os
+import sys
 import threading
 import time
 from collections.abc import Callable
@@ -32,6 +33,11 @@ MAX_TAGS = 10_000
 """More distinct tags than this are refused (a bug such as a value formatted into the tag)."""
 
 _EXIT_FLUSH_SECONDS = 0.5
+_FORKED_MESSAGE = (
+    "dbglog.{api}: this process was forked from one that used ROS 2, whose middleware does not "
+    "survive a fork; dbglog drops values in the child (start workers with multiprocessing's "
+    "'spawn' or 'forkserver' method to log from them)"
+)
 State = Literal["idle", "ready", "no_ros", "forked", "closed"]
 
 
@@ -259,12 +265,7 @@ class Runtime:
                 "or source a ROS 2 Jazzy setup",
             )
         elif self.state == "forked":
-            self.reporter.drop(
-                "forked",
-                "forked",
-                f"dbglog.{api}: this process was forked after dbglog connected; values are dropped "
-                "in the child until it calls dbglog.init()",
-            )
+            self.reporter.drop("forked", "forked", _FORKED_MESSAGE.format(api=api))
         else:
             self.reporter.count("shut_down")
         return False
@@ -309,10 +310,11 @@ class Runtime:
         with self._lock:
             if node is not None and not callable(getattr(node, "create_publisher", None)):
                 raise TypeError(f"node must be an rclpy Node, not {type(node).__name__}")
+            if self.state == "forked":
+                self.reporter.warn("forked", "init", _FORKED_MESSAGE.format(api="init"), None)
+                return
             if self.state == "ready":
                 self.shutdown()
-            if self.state == "forked":
-                self._forget_parent_objects()
             self.state = "idle"
             self._start(node, "init")
 
@@ -380,6 +382,9 @@ class Runtime:
         self.reporter.after_fork()
         if self.state == "ready":
             self._forget_parent_objects()
+        if self.state == "ready" or "rclpy" in sys.modules:
+            # The parent may have started the middleware, whose threads did not survive the fork: a
+            # new context in the child publishes into the void and cannot exit cleanly. Stay quiet.
             self.state = "forked"
         self._pid = os.getpid()
 

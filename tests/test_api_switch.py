@@ -1,0 +1,206 @@
+"""The off switch, strict mode and process life cycle, each tested in a fresh interpreter."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def _run(
+    code: str, *, env: dict[str, str] | None = None, flags: tuple[str, ...] = ()
+) -> subprocess.CompletedProcess[str]:
+    """Run `code` in a new interpreter with the session's ROS environment plus `env`."""
+    full = {k: v for k, v in os.environ.items() if k not in ("DBGLOG", "DBGLOG_STRICT")}
+    full["PYTHONPATH"] = str(ROOT)
+    full.update(env or {})
+    return subprocess.run(
+        [sys.executable, *flags, "-c", textwrap.dedent(code)],
+        env=full,
+        capture_output=True,
+        text=True,
+        timeout=60,
+        cwd=ROOT,
+        check=False,
+    )
+
+
+_OFF_PROBE = """
+    import json, sys, threading
+    import dbglog
+    before = threading.active_count()
+    dbglog.logfloat("x", 1.0)
+    dbglog.logint("x", 1, msg_type="std_msgs/msg/Int32", throttle=1.0)
+    dbglog.logbool("x", True, once=True)
+    dbglog.logstring("x", "s", skip_first=True)
+    dbglog.logdata("x", {"x": 1.0}, "geometry_msgs/msg/Point")
+    dbglog.log("x", {"a": [1, 2]})
+    dbglog.init()
+    dbglog.flush()
+    dbglog.shutdown()
+    print(json.dumps({
+        "enabled": dbglog.enabled,
+        "rclpy": "rclpy" in sys.modules,
+        "threads": threading.active_count() - before,
+        "calls": dbglog.stats().calls,
+        "stats_enabled": dbglog.stats().enabled,
+    }))
+"""
+
+
+@pytest.mark.parametrize("word", ["off", "0", "false", "no", "OFF", " Off "])
+def test_dbglog_off_binds_no_ops_and_never_imports_rclpy(word: str) -> None:
+    """DBGLOG=off (any accepted spelling): every function is a no-op, rclpy is never imported."""
+    proc = _run(_OFF_PROBE, env={"DBGLOG": word})
+    assert proc.returncode == 0, proc.stderr
+    out = json.loads(proc.stdout)
+    assert out == {"enabled": False, "rclpy": False, "threads": 0, "calls": 0, "stats_enabled": False}
+
+
+def test_disabled_functions_are_the_module_level_no_ops() -> None:
+    """When off, the public names are the no-op functions themselves (no per-call flag check)."""
+    proc = _run(
+        "import dbglog, dbglog.api._disabled as d; "
+        "print(all(getattr(dbglog, n) is getattr(d, n) for n in d.__all__))",
+        env={"DBGLOG": "off"},
+    )
+    assert proc.stdout.strip() == "True", proc.stderr
+
+
+def test_bad_dbglog_value_is_a_clear_error_at_import() -> None:
+    """DBGLOG=maybe fails at import with a message naming DBGLOG and the value."""
+    proc = _run("import dbglog", env={"DBGLOG": "maybe"})
+    assert proc.returncode != 0
+    assert "DBGLOG='maybe'" in proc.stderr
+    assert "ConfigError" in proc.stderr
+
+
+def test_python_optimized_switches_off_unless_forced_on() -> None:
+    """Under python -O dbglog is off by default and on with DBGLOG=on."""
+    code = "import sys, dbglog; print(dbglog.enabled, 'rclpy' in sys.modules)"
+    assert _run(code, flags=("-O",)).stdout.split() == ["False", "False"]
+    assert _run(code, flags=("-O",), env={"DBGLOG": "on"}).stdout.split() == ["True", "False"]
+    assert _run(code).stdout.split() == ["True", "False"]
+
+
+def test_enabled_import_is_lazy_and_first_call_connects() -> None:
+    """Enabled: importing dbglog imports no rclpy; the first call does, and publishes."""
+    proc = _run(
+        """
+        import sys, dbglog
+        assert "rclpy" not in sys.modules
+        dbglog.logfloat("lazy", 1.0)
+        s = dbglog.stats()
+        print("rclpy" in sys.modules, s.published, s.tags)
+        """
+    )
+    assert proc.stdout.split() == ["True", "1", "1"], proc.stderr
+
+
+def test_strict_mode_raises_dbglog_error() -> None:
+    """DBGLOG_STRICT=1 turns a dropped value into a DbglogError at the call."""
+    proc = _run(
+        """
+        import dbglog
+        try:
+            dbglog.logint("x", 2**63)
+        except dbglog.DbglogError as exc:
+            print("raised", exc)
+        """,
+        env={"DBGLOG_STRICT": "1"},
+    )
+    assert proc.stdout.startswith("raised dbglog.logint('x')"), proc.stderr
+    assert "Int64 range" in proc.stdout
+
+
+def test_without_rclpy_calls_are_dropped_with_one_warning() -> None:
+    """When rclpy cannot be imported, calls are counted as dropped (no_ros) with one warning."""
+    proc = _run(
+        """
+        import sys, warnings
+        sys.modules["rclpy"] = None  # what a machine without ROS 2 looks like to an import
+        import dbglog
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            for i in range(3):
+                dbglog.logfloat("x", float(i))
+        s = dbglog.stats()
+        print(len(caught), s.calls, s.dropped_by_reason)
+        print(caught[0].message)
+        """
+    )
+    lines = proc.stdout.splitlines()
+    assert lines[0] == "1 3 {'no_ros': 3}", proc.stderr
+    assert "dbglog[ros]" in lines[1]
+
+
+def test_clean_exit_with_live_publishers() -> None:
+    """A script that logs and just ends exits 0 promptly (atexit shuts dbglog down)."""
+    proc = _run(
+        """
+        import dbglog
+        for i in range(100):
+            dbglog.logfloat("bye", float(i))
+            dbglog.log("bye_dict", {"a": i, "b": [1.0, 2.0]})
+        print("done")
+        """
+    )
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.strip() == "done"
+
+
+_FORK_PROBE = """
+    import json, os, sys, time, warnings
+    import dbglog
+    from dbglog.api._qos import tag_qos
+    from std_msgs.msg import Float64
+    from tests._ros import RosPeer
+
+    warnings.simplefilter("ignore")
+    with RosPeer("fork_peer") as peer:
+        got = peer.subscribe("/rosdashboard/fork/parent", Float64, tag_qos())
+        dbglog.logfloat("fork/parent", 1.0)
+        r, w = os.pipe()
+        pid = os.fork()
+        if pid == 0:
+            start = time.monotonic()
+            dbglog.logfloat("fork/parent", 5.0)
+            dbglog.init()
+            dbglog.log("fork/child", {"a": 1.0})
+            s = dbglog.stats()
+            took = time.monotonic() - start
+            os.write(w, json.dumps({"dropped": s.dropped_by_reason, "calls": s.calls, "took": took}).encode())
+            os._exit(0)
+        child = json.loads(os.read(r, 1000))
+        deadline = time.monotonic() + 20
+        status = None
+        while time.monotonic() < deadline:
+            done, status = os.waitpid(pid, os.WNOHANG)
+            if done:
+                break
+            time.sleep(0.05)
+        else:
+            os.kill(pid, 9)
+        dbglog.logfloat("fork/parent", 2.0)
+        got.wait_for(2, timeout=20)
+        print(json.dumps({**child, "status": status, "parent": got.values()}))
+"""
+
+
+def test_fork_child_goes_quiet_at_once_and_parent_carries_on() -> None:
+    """After fork the child drops values at once (counted), exits; the parent keeps publishing."""
+    proc = _run(_FORK_PROBE)
+    assert proc.returncode == 0, proc.stderr
+    out = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert out["dropped"] == {"forked": 2}
+    assert out["calls"] == 3  # one call in the parent before the fork
+    assert out["took"] < 1.0
+    assert out["status"] == 0
+    assert out["parent"] == [1.0, 2.0]
