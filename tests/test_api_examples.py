@@ -1,0 +1,55 @@
+"""The two examples run for real and their values reach an independent subscriber."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+from std_msgs.msg import Float64, Int64
+
+from dbglog.api._qos import tag_qos
+from tests._ros import RosPeer
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def _run_example(
+    name: str, *args: str, env: dict[str, str] | None = None
+) -> subprocess.CompletedProcess[str]:
+    full = {**os.environ, "PYTHONPATH": str(ROOT), **(env or {})}
+    return subprocess.run(
+        [sys.executable, str(ROOT / "examples" / name), *args],
+        env=full,
+        capture_output=True,
+        text=True,
+        timeout=90,
+        check=False,
+    )
+
+
+def test_typed_node_example_publishes_typed_values() -> None:
+    """examples/typed_node.py logs from its timer; a subscriber sees Float64 proximity and Int64 ticks."""
+    with RosPeer("example_peer") as peer:
+        proximity = peer.subscribe("/rosdashboard/proximity", Float64, tag_qos())
+        ticks = peer.subscribe("/rosdashboard/wheel/ticks", Int64, tag_qos())
+        proc = _run_example("typed_node.py", "--duration", "4", "--rate", "20")
+        assert proc.returncode == 0, proc.stderr
+        assert "dropped 0" in proc.stdout
+        assert proximity.wait_for(1, timeout=15)
+        assert ticks.wait_for(1, timeout=15)
+        assert all(0.19 <= v <= 1.81 for v in proximity.values())
+        assert ticks.values() == sorted(ticks.values())
+
+
+def test_plain_script_runs_on_and_off() -> None:
+    """examples/plain_script.py runs with dbglog on (publishing) and off (counting nothing)."""
+    on = _run_example("plain_script.py", "--steps", "20", "--dt", "0.001")
+    assert on.returncode == 0, on.stderr
+    fields = dict(item.split("=") for item in on.stdout.split())
+    assert (fields["enabled"], fields["calls"], fields["dropped"]) == ("True", "120", "0")
+    assert 121 <= int(fields["published"]) <= 140  # 20 steps x 7 values, the throttled phase mostly held
+    off = _run_example("plain_script.py", "--steps", "20", "--dt", "0.001", env={"DBGLOG": "off"})
+    assert off.returncode == 0, off.stderr
+    assert "enabled=False calls=0" in off.stdout
