@@ -2,7 +2,8 @@
 
 Ingest is a dedicated thread that takes serialized messages straight from the subscription handles
 in a tight loop, blocking on an rcl wait set only when every queue is empty: no executor, no callback
-and no Python message object per line. Output values are published as pre-serialized CDR.
+and no Python message object per line. Each burst taken from a subscription is matched as one batch
+(`Matcher.match_many_bytes`). Output values are published as pre-serialized CDR.
 """
 
 from __future__ import annotations
@@ -165,6 +166,9 @@ class Bridge:
             busy = False
             for sub, topic, is_log in self._sources:
                 handle, msg_type = sub.handle, sub.msg_type
+                texts: list[bytes] = []
+                names: list[str] = []
+                levels: list[int] = []
                 for _ in range(_BURST):
                     try:
                         taken = handle.take_message(msg_type, True)
@@ -176,9 +180,11 @@ class Bridge:
                     busy = True
                     self._lines += 1
                     try:
-                        self._handle(taken[0], topic, is_log)
+                        self._read(taken[0], is_log, texts, names, levels)
                     except Exception:  # a bad line never stops the bridge
                         self._errors += 1
+                if texts:
+                    self._match_and_publish(texts, names, levels, topic)
             self._maybe_warn()
             if not busy and not self._stop.is_set():
                 wait_set.clear_entities()
@@ -191,7 +197,10 @@ class Bridge:
                     if not self._context.ok():
                         return
 
-    def _handle(self, raw: bytes, topic: str, is_log: bool) -> None:
+    def _read(
+        self, raw: bytes, is_log: bool, texts: list[bytes], names: list[str], levels: list[int]
+    ) -> None:
+        """Append a taken message's text, logger and level to the batch (not the bridge's own lines)."""
         if is_log:
             fields = read_log(raw)
             if fields is None:
@@ -209,11 +218,24 @@ class Bridge:
             data = read_string(raw)
             text = data if data is not None else deserialize_message(raw, String).data.encode()
             name, level = "", 0
-        for out_topic, kind, value in self.matcher.match_bytes(text, name, level, topic):
-            try:
-                self._publishers[out_topic].publish(encode_value(kind, value))
-            except Exception:  # counted; the next value may well go through
-                self._errors += 1
+        texts.append(text)
+        names.append(name)
+        levels.append(level)
+
+    def _match_and_publish(self, texts: list[bytes], names: list[str], levels: list[int], topic: str) -> None:
+        """Match a batch of lines in one go (`Matcher.match_many_bytes`) and publish every value."""
+        try:
+            batch = self.matcher.match_many_bytes(texts, names, levels, topic)
+        except Exception:  # never expected; counted, and the bridge goes on
+            self._errors += len(texts)
+            return
+        publishers = self._publishers
+        for values in batch:
+            for out_topic, kind, value in values:
+                try:
+                    publishers[out_topic].publish(encode_value(kind, value))
+                except Exception:  # counted; the next value may well go through
+                    self._errors += 1
 
     def _maybe_warn(self) -> None:
         stats = self.matcher.stats
