@@ -9,8 +9,7 @@ context menu, topic setup and properties dialogs, saving and loading.
 Example::
 
     import dearpygui.dearpygui as dpg
-    from dbglog.viewer.widget_api import Property, PropKind, Widget
-    from dbglog.viewer._model import ValueKind
+    from dbglog.viewer.widget_api import Property, PropKind, ValueKind, Widget
 
     class Big(Widget):
         type_name = "big"
@@ -27,6 +26,9 @@ Example::
                 dpg.set_value(self.text, f"{last:.{int(self.prop('decimals'))}f}")
 
 Only the viewer's UI thread calls these methods; a widget must not start threads that call Dear PyGui.
+Everything a plugin needs is importable from this module (the data types `SeriesSnapshot`, `ValueKind`,
+`Status` and `Binding` are re-exported here); the ``_``-prefixed modules are private. The full reference
+and a step-by-step tutorial are in ``docs/plugins.md``.
 """
 
 from __future__ import annotations
@@ -39,15 +41,20 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import ClassVar
 
-from dbglog.viewer._model import SeriesSnapshot, ValueKind
+from dbglog.viewer._model import Binding, SeriesSnapshot, Status, ValueKind
 
 __all__ = [
+    "Binding",
     "Color",
     "PropKind",
     "PropValue",
     "Property",
     "PropertyError",
+    "SeriesSnapshot",
+    "Status",
+    "ValueKind",
     "Widget",
+    "format_color",
     "parse_color",
 ]
 
