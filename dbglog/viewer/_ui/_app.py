@@ -21,6 +21,7 @@ from dbglog.viewer._dashboard import (
     Dashboard,
     DashboardError,
     LoadResult,
+    RawWidget,
     WidgetConfig,
     load_dashboard,
     save_dashboard,
@@ -668,6 +669,9 @@ class ViewerApp:
         dpg.set_value(self.grid_slider, min(80, self.grid_size))
         for config in result.dashboard.widgets:
             cls = self.registry.get(config.type) if isinstance(config, WidgetConfig) else None
+            if isinstance(config, RawWidget) and not result.legacy and config.type != "?":
+                # The placeholder says what is missing: a plugin that failed to load, or none installed.
+                config = RawWidget(config.data, self.registry.missing_reason(config.type))
             item = CanvasItem(config, cls, self.canvas, self._frame_theme)
             self.items.append(item)
             for b in item.bindings:

@@ -196,6 +196,18 @@ class CanvasItem:
         self.failed = reason
         self.status, self.reason = Status.ERROR, reason
         self._draw_header(int(self.geometry()[2]))
+        self._show_disabled(reason)
+
+    def _show_disabled(self, reason: str) -> None:
+        """Replace a failed widget's half-drawn body with a notice saying it is disabled and why."""
+        try:
+            if dpg.does_item_exist(self.body):
+                dpg.delete_item(self.body, children_only=True)
+                wrap = max(60, self.body_size(*self.geometry()[2:])[0])
+                dpg.add_text("Widget disabled", parent=self.body, color=STATUS_COLORS[Status.ERROR])
+                dpg.add_text(reason, parent=self.body, wrap=wrap, color=DIM)
+        except Exception:  # the notice is a courtesy: the frame must outlive whatever the widget left
+            _log.debug("could not show the disabled notice of %s", self.name, exc_info=True)
 
     def invalidate(self) -> None:
         """Force a redraw on the next refresh."""
@@ -245,6 +257,8 @@ class CanvasItem:
         if not isinstance(self.config, WidgetConfig) or self.widget is None:
             return
         self.config = replace(self.config, properties={**self.config.properties, **props})
+        if self.failed:
+            return  # saved with the dashboard; a disabled widget is not called again
         try:
             self.widget.set_properties(props)
         except Exception as exc:
