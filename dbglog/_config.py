@@ -7,7 +7,7 @@ import sys
 from collections.abc import Mapping
 from dataclasses import dataclass
 
-__all__ = ["Config", "ConfigError", "env_bool", "env_float", "load_config"]
+__all__ = ["Config", "ConfigError", "env_bool", "env_float", "has_display", "load_config"]
 
 _TRUE = frozenset({"1", "true", "yes", "on"})
 _FALSE = frozenset({"0", "false", "no", "off"})
@@ -62,6 +62,12 @@ def env_float(
     if not (value >= minimum and value != float("inf")):
         raise ConfigError(f"environment variable {key}={raw!r} must be a finite number >= {minimum}")
     return value
+
+
+def has_display(environ: Mapping[str, str] | None = None) -> bool:
+    """Whether a graphical display is available (``DISPLAY`` or ``WAYLAND_DISPLAY`` is set)."""
+    env = os.environ if environ is None else environ
+    return bool(env.get("DISPLAY", "").strip() or env.get("WAYLAND_DISPLAY", "").strip())
 
 
 @dataclass(frozen=True, slots=True)

@@ -9,13 +9,13 @@ from __future__ import annotations
 
 import re
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 from dbglog.viewer._dashboard import WidgetConfig
 from dbglog.viewer._model import Binding, FieldInfo, TopicInfo
-from dbglog.viewer.widget_api import PropValue
+from dbglog.viewer.widget_api import PropertyError, PropValue, Widget
 
-__all__ = ["AutoLayout", "Suggestion", "suggest"]
+__all__ = ["AutoLayout", "Suggestion", "is_array_type", "retype", "suggest"]
 
 _NUMBER_TYPES = frozenset(
     f"std_msgs/msg/{t}"
@@ -54,6 +54,11 @@ class Suggestion:
     properties: dict[str, PropValue] = field(default_factory=dict)
     group: str = ""
     """Suggestions of one group (a dict's sub-tags) are placed together."""
+
+
+def is_array_type(msg_type: str) -> bool:
+    """Whether `msg_type` is a std_msgs ``*MultiArray`` (its length is learnt from the first message)."""
+    return _ARRAY_TYPE.fullmatch(msg_type) is not None
 
 
 def _leaf(name: str) -> str:
@@ -134,7 +139,7 @@ class AutoLayout:
 
     columns: int = 6
     cell_width: float = 240.0
-    cell_height: float = 230.0
+    cell_height: float = 190.0
     gap: float = 10.0
     origin: tuple[float, float] = (10.0, 10.0)
     _seen: set[str] = field(default_factory=set)
@@ -146,18 +151,34 @@ class AutoLayout:
         """Whether widgets were already made for `topic`."""
         return topic in self._seen
 
-    def add(self, suggestions: Iterable[Suggestion], topic: str) -> list[WidgetConfig]:
-        """Place the suggestions for `topic` (once per topic) and return them as widget configs."""
+    def add(
+        self,
+        suggestions: Iterable[Suggestion],
+        topic: str,
+        *,
+        free: Callable[[float, float, float, float], bool] | None = None,
+    ) -> list[WidgetConfig]:
+        """Place the suggestions for `topic` (once per topic) and return them as widget configs.
+
+        Args:
+            suggestions: what `suggest` returned for the topic.
+            topic: the topic's name (a topic is placed only once).
+            free: tells whether the rectangle (x, y, width, height) is free on the canvas; cells taken
+                by widgets the user moved there are skipped, so nothing placed earlier ever moves.
+        """
         if topic in self._seen:
             return []
         self._seen.add(topic)
         placed = []
         for s in suggestions:
             span = min(int(_SIZES.get(s.type, (1, 1))[0]), self.columns)
-            row, col = self._slot(s.group, span)
-            x = self.origin[0] + col * (self.cell_width + self.gap)
-            y = self.origin[1] + row * (self.cell_height + self.gap)
             width = span * self.cell_width + (span - 1) * self.gap
+            for _ in range(10_000):  # bounded: every miss moves the cursor on
+                row, col = self._slot(s.group, span)
+                x = self.origin[0] + col * (self.cell_width + self.gap)
+                y = self.origin[1] + row * (self.cell_height + self.gap)
+                if free is None or free(x, y, width, self.cell_height):
+                    break
             placed.append(
                 WidgetConfig(s.type, s.name, x, y, width, self.cell_height, s.bindings, dict(s.properties))
             )
@@ -171,6 +192,47 @@ class AutoLayout:
         self._cursor[group] = (row, col + span)
         return row, col
 
+    def fit_columns(self, width: float, *, min_cell: float = 180.0) -> None:
+        """Use as many columns of at least `min_cell` pixels as fit `width`, widened to fill it exactly."""
+        usable = width - 2 * self.origin[0] + self.gap
+        self.columns = max(2, int(usable // (min_cell + self.gap)))
+        self.cell_width = max(min_cell, usable / self.columns - self.gap)
+
     def skip_rows(self, rows: int) -> None:
         """Leave `rows` rows free at the top (for widgets that were already on the canvas)."""
         self._rows = max(self._rows, rows)
+
+
+def retype(
+    config: WidgetConfig, cls: type[Widget], *, min_frame: tuple[float, float] | None = None
+) -> WidgetConfig:
+    """Return `config` as a widget of another kind: same name, place and (as many) bindings.
+
+    Properties the new kind declares too (a range, a unit, a colour) keep their values when valid
+    there; the rest start at the new kind's defaults.
+
+    Args:
+        config: the widget as it is.
+        cls: the new widget class.
+        min_frame: the smallest frame (width, height) the new kind fits in; the size grows to it.
+    """
+    props = cls.default_properties()
+    for name, value in config.properties.items():
+        declared = cls.property_named(name)
+        if declared is None:
+            continue
+        try:
+            props[name] = declared.validate(value)
+        except PropertyError:
+            continue
+    width, height = config.width, config.height
+    if min_frame is not None:
+        width, height = max(width, min_frame[0]), max(height, min_frame[1])
+    return replace(
+        config,
+        type=cls.type_name,
+        width=width,
+        height=height,
+        bindings=config.bindings[: max(1, cls.max_bindings)],
+        properties=props,
+    )

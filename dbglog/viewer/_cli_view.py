@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import time
 from pathlib import Path
 
 __all__ = ["HELP", "add_arguments", "run"]
@@ -34,7 +35,16 @@ def _seconds(text: str) -> float:
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Declare ``dbglog view``'s options."""
     parser.add_argument(
-        "dashboard", nargs="?", type=Path, help="dashboard JSON file (current or ROSDashboard)"
+        "dashboard",
+        nargs="?",
+        type=Path,
+        help="dashboard JSON file (current or ROSDashboard); without one, an automatic dashboard of the "
+        "live /rosdashboard/ tags",
+    )
+    parser.add_argument(
+        "--all",
+        action="store_true",
+        help="automatic dashboard: also add widgets for topics that are not dbglog tags",
     )
     parser.add_argument(
         "--screenshot", type=Path, metavar="PNG", help="render, write a PNG of the window, exit"
@@ -45,6 +55,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=2.0,
         metavar="SECONDS",
         help="with --screenshot: how long to render first (default 2)",
+    )
+    parser.add_argument(
+        "--wait-live",
+        type=_seconds,
+        default=0.0,
+        metavar="SECONDS",
+        help="with --screenshot: after --after, keep rendering up to this long until every widget is live",
+    )
+    parser.add_argument(
+        "--report-json",
+        type=Path,
+        metavar="PATH",
+        help="on exit, write every widget's name, type, status and bindings (and the dashboard) as JSON",
     )
     parser.add_argument(
         "--size", type=_size, default=(1440, 900), metavar="WxH", help="window size (1440x900)"
@@ -89,10 +112,19 @@ def run(args: argparse.Namespace) -> int:
     app = ViewerApp(engine, registry, width=width, height=height)
     try:
         app.start()
+        from dbglog.viewer._ui._auto import AutoDashboard, all_live, write_report
+
         if result is not None:
             app.load(result, args.dashboard)
+        else:
+            AutoDashboard(app, all_topics=args.all).install()
         if args.screenshot is not None:
             app.run(seconds=args.after)
+            deadline = time.monotonic() + args.wait_live
+            while not all_live(app) and time.monotonic() < deadline:
+                app.frame()
+            if args.report_json is not None:
+                write_report(app, args.report_json)
             try:
                 path = app.screenshot(args.screenshot)
             except (OSError, TimeoutError) as exc:
@@ -101,6 +133,8 @@ def run(args: argparse.Namespace) -> int:
             print(path)
             return 0
         app.run()
+        if args.report_json is not None:
+            write_report(app, args.report_json)
         return 0
     finally:
         app.close()

@@ -9,7 +9,7 @@ from __future__ import annotations
 import collections
 import os
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from types import TracebackType
@@ -82,6 +82,8 @@ class ViewerApp:
         self.pointer_override: tuple[float, float] | None = None
         """When set, used instead of the real mouse position (scripted sessions and tests)."""
         self.frame_times: collections.deque[float] = collections.deque(maxlen=600)
+        self.frame_hooks: list[Callable[[], None]] = []
+        """Called once per frame on the UI thread, after the widgets refresh (the auto-dashboard)."""
         self._refs: collections.Counter[Binding] = collections.Counter()
         self._drag: _Drag | None = None
         self._left_down = False
@@ -176,6 +178,12 @@ class ViewerApp:
             )
             dpg.add_menu_item(label="Rename\u2026", callback=lambda *_: self._menu(self.open_rename_dialog))
             dpg.add_menu_item(label="Bring to front", callback=lambda *_: self._menu(self.bring_to_front))
+            with dpg.menu(label="Change widget type"):
+                for cls in self.registry:
+                    dpg.add_menu_item(
+                        label=cls.label,
+                        callback=lambda *_, t=cls.type_name: self._menu(lambda i: self.change_type(i, t)),
+                    )
             dpg.add_separator()
             dpg.add_menu_item(
                 label="Delete", shortcut="Del", callback=lambda *_: self._menu(self.delete_item)
@@ -193,7 +201,7 @@ class ViewerApp:
                 dpg.add_menu_item(label="Save As\u2026", callback=lambda *_: self._file_dialog(save=True))
                 dpg.add_separator()
                 dpg.add_menu_item(label="Quit", callback=lambda *_: dpg.stop_dearpygui())
-            with dpg.menu(label="View"):
+            with dpg.menu(label="View") as self.view_menu:
                 self.snap_menu = dpg.add_menu_item(
                     label="Snap to grid",
                     check=True,
@@ -271,6 +279,8 @@ class ViewerApp:
         now = time.time()
         for item in self.items:
             item.refresh(self.source, now)
+        for hook in self.frame_hooks:
+            hook()
         if self.dialog is not None:
             try:
                 self.dialog.tick()
@@ -536,6 +546,38 @@ class ViewerApp:
         item.destroy()
         self._mark_dirty()
         self.set_status(f"deleted {item.name!r}")
+
+    def add_config(self, config: WidgetConfig) -> CanvasItem:
+        """Place a ready-made widget (bindings and properties set) on the canvas and bind its series."""
+        item = CanvasItem(config, self.registry.get(config.type), self.canvas, self._frame_theme)
+        self.items.append(item)
+        for b in item.bindings:
+            self._bind(b)
+        return item
+
+    def change_type(self, item: CanvasItem, type_name: str) -> CanvasItem | None:
+        """Swap `item` for a widget of another kind with the same name, place and bindings."""
+        from dbglog.viewer._autodash import retype
+
+        cls = self.registry.get(type_name)
+        if cls is None or not isinstance(item.config, WidgetConfig) or item not in self.items:
+            return None
+        if type_name == item.config.type:
+            return item
+        config = retype(item.config, cls, min_frame=(cls.min_size[0], cls.min_size[1] + TITLE_H))
+        new = CanvasItem(config, cls, self.canvas, self._frame_theme)
+        self.items[self.items.index(item)] = new
+        for b in new.bindings:
+            self._bind(b)
+        for b in item.bindings:
+            self._unbind(b)
+        if self.dialog is not None and getattr(self.dialog, "item", None) is item:
+            self.dialog.close()
+        item.destroy()
+        self.select(new)
+        self._mark_dirty()
+        self.set_status(f"{new.name!r} is now a {cls.label}")
+        return new
 
     def rename(self, item: CanvasItem, name: str) -> None:
         """Give a widget a new title."""

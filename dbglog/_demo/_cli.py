@@ -1,0 +1,239 @@
+"""``dbglog demo``: a simulated robot, the regex bridge and the viewer on a curated dashboard, in one command.
+
+Everything runs as child processes of this one, each in its own process group; whatever way this process
+ends (the window closed, Ctrl-C, SIGTERM, a crashed viewer), it stops them all: SIGTERM to each group,
+then SIGKILL after a timeout. On Linux the children also get SIGTERM if this process is killed outright.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import os
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+from types import FrameType
+from typing import IO
+
+__all__ = ["HELP", "Supervisor", "add_arguments", "dashboard_path", "rules_path", "run"]
+
+HELP = "Run a simulated robot (turtle arena + sound localizer) and open the live viewer on it."
+
+STOP_TIMEOUT_S = 5.0
+"""How long a child may take to stop after SIGTERM before it gets SIGKILL."""
+DEMO_STALE_AFTER_S = 30.0
+"""The demo viewer's stale time: wall hits are events, seconds apart, and must not look stale between."""
+
+
+def dashboard_path() -> Path:
+    """The curated demo dashboard bundled with dbglog."""
+    return Path(str(resources.files("dbglog._demo").joinpath("demo_dashboard.json")))
+
+
+def rules_path() -> Path:
+    """The bridge rules for the demo nodes' log lines, bundled with dbglog."""
+    return Path(str(resources.files("dbglog._demo").joinpath("demo_rules.yaml")))
+
+
+def _seconds(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number of seconds: {text!r}") from None
+    if not 0 <= value <= 3600:
+        raise argparse.ArgumentTypeError(f"seconds must be within 0..3600, not {text}")
+    return value
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Declare ``dbglog demo``'s options."""
+    parser.add_argument(
+        "--screenshot",
+        type=Path,
+        metavar="PNG",
+        help="headless: render the dashboard, write a PNG, stop everything and exit",
+    )
+    parser.add_argument(
+        "--after",
+        type=_seconds,
+        default=8.0,
+        metavar="SECONDS",
+        help="with --screenshot: how long to render first (default 8)",
+    )
+    parser.add_argument(
+        "--report-json",
+        type=Path,
+        metavar="PATH",
+        help="on exit, write every widget's name, type and status as JSON",
+    )
+    parser.add_argument("--size", default="1440x900", metavar="WxH", help="window size (default 1440x900)")
+
+
+@dataclass
+class _Child:
+    name: str
+    proc: subprocess.Popen[bytes]
+    log: Path | None
+
+
+def _die_with_parent() -> None:  # pragma: no cover - runs in the child between fork and exec
+    """Ask Linux to send SIGTERM to this child when its parent dies (even by SIGKILL)."""
+    os.setsid()
+    if sys.platform.startswith("linux"):
+        import ctypes
+
+        try:
+            libc = ctypes.CDLL(None, use_errno=True)
+            libc.prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG
+        except (OSError, AttributeError):
+            pass
+
+
+@dataclass
+class Supervisor:
+    """Starts child processes in their own process groups and stops every one of them on `close`."""
+
+    log_dir: Path
+    children: list[_Child] = field(default_factory=list)
+
+    def start(self, name: str, argv: Sequence[str], *, quiet: bool) -> subprocess.Popen[bytes]:
+        """Start `argv`; with `quiet`, its output goes to a log file in `log_dir`."""
+        log: Path | None = None
+        out: IO[bytes] | None = None
+        if quiet:
+            log = self.log_dir / f"{name}.log"
+            out = log.open("wb")
+        try:
+            proc = subprocess.Popen(
+                list(argv),
+                stdin=subprocess.DEVNULL,
+                stdout=out,
+                stderr=subprocess.STDOUT if quiet else None,
+                preexec_fn=_die_with_parent,  # no threads run in this process yet
+            )
+        finally:
+            if out is not None:
+                out.close()
+        self.children.append(_Child(name, proc, log))
+        return proc
+
+    def dead(self) -> list[_Child]:
+        """Children that have exited."""
+        return [c for c in self.children if c.proc.poll() is not None]
+
+    def tail(self, child: _Child, lines: int = 15) -> str:
+        """The last lines of a quiet child's log."""
+        if child.log is None or not child.log.exists():
+            return ""
+        text = child.log.read_text(encoding="utf-8", errors="replace").splitlines()
+        return "\n".join(text[-lines:])
+
+    def close(self) -> None:
+        """Stop every child and its process group: SIGTERM, then SIGKILL after `STOP_TIMEOUT_S`."""
+        for child in reversed(self.children):
+            _signal_group(child.proc, signal.SIGTERM)
+        deadline = time.monotonic() + STOP_TIMEOUT_S
+        for child in reversed(self.children):
+            with contextlib.suppress(subprocess.TimeoutExpired):
+                child.proc.wait(max(0.05, deadline - time.monotonic()))
+        for child in self.children:
+            _signal_group(child.proc, signal.SIGKILL)  # stragglers, and anything the child started
+            with contextlib.suppress(subprocess.TimeoutExpired):
+                child.proc.wait(STOP_TIMEOUT_S)
+
+
+def _signal_group(proc: subprocess.Popen[bytes], signum: int) -> None:
+    # The child leads its own group (setsid): its pid is the group id, even after it exited.
+    with contextlib.suppress(ProcessLookupError, PermissionError):
+        os.killpg(proc.pid, signum)
+
+
+class _StopRequestedError(Exception):
+    """SIGTERM or SIGHUP arrived: leave through the clean-up path."""
+
+
+@contextlib.contextmanager
+def _stop_on_signals() -> Iterator[None]:
+    def handler(signum: int, _frame: FrameType | None) -> None:
+        raise _StopRequestedError(signal.Signals(signum).name)
+
+    previous = {s: signal.signal(s, handler) for s in (signal.SIGTERM, signal.SIGHUP)}
+    try:
+        yield
+    finally:
+        for signum, old in previous.items():
+            signal.signal(signum, old)
+
+
+def _viewer_argv(args: argparse.Namespace) -> list[str]:
+    argv = [sys.executable, "-m", "dbglog", "view", str(dashboard_path())]
+    argv += ["--stale-after", f"{DEMO_STALE_AFTER_S:g}", "--size", str(args.size)]
+    if args.screenshot is not None:
+        argv += ["--screenshot", str(args.screenshot), "--after", f"{args.after:g}", "--wait-live", "20"]
+    if args.report_json is not None:
+        argv += ["--report-json", str(args.report_json)]
+    return argv
+
+
+def run(args: argparse.Namespace) -> int:
+    """Start the robot and the bridge, run the viewer, stop everything; return the viewer's exit code."""
+    from dbglog._config import has_display
+    from dbglog._rosenv import localhost_discovery
+
+    if args.screenshot is None and not has_display():
+        print(
+            "dbglog demo: no display here (neither DISPLAY nor WAYLAND_DISPLAY is set).\n"
+            "  Render the demo on a virtual screen instead and look at the picture:\n"
+            "    xvfb-run -a dbglog demo --screenshot demo.png --after 8",
+            file=sys.stderr,
+        )
+        return 2
+    localhost_discovery()
+    with tempfile.TemporaryDirectory(prefix="dbglog-demo-") as tmp, _stop_on_signals():
+        sup = Supervisor(Path(tmp))
+        try:
+            sup.start("robot", [sys.executable, "-m", "dbglog._demo._robot"], quiet=True)
+            sup.start("bridge", [sys.executable, "-m", "dbglog", "bridge", str(rules_path())], quiet=True)
+            viewer = sup.start("viewer", _viewer_argv(args), quiet=False)
+            print(
+                "dbglog demo: robot, bridge and viewer running"
+                + ("" if args.screenshot else " (close the window or press Ctrl-C to stop)"),
+                file=sys.stderr,
+                flush=True,
+            )
+            return _watch(sup, viewer)
+        except _StopRequestedError as exc:
+            print(f"dbglog demo: {exc}: stopping", file=sys.stderr)
+            return 128 + int(getattr(signal, str(exc), signal.SIGTERM))
+        finally:
+            sup.close()
+
+
+def _watch(sup: Supervisor, viewer: subprocess.Popen[bytes]) -> int:
+    """Wait for the viewer; report a helper that died on the way; return the exit code."""
+    reported: set[str] = set()
+    while True:
+        try:
+            code = viewer.wait(0.5)
+            break
+        except subprocess.TimeoutExpired:
+            pass
+        for child in sup.dead():
+            if child.proc is not viewer and child.name not in reported:
+                reported.add(child.name)
+                print(
+                    f"dbglog demo: the {child.name} stopped (exit code {child.proc.returncode}):\n"
+                    f"{sup.tail(child)}",
+                    file=sys.stderr,
+                )
+    if code < 0:
+        print(f"dbglog demo: the viewer crashed ({signal.Signals(-code).name}); stopping", file=sys.stderr)
+        return 1
+    return code
