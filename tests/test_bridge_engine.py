@@ -314,3 +314,38 @@ def test_pathological_lines_in_a_batch_stay_fast(pattern: str) -> None:
     elapsed = time.perf_counter() - start
     assert got == _one_by_one(matcher, lines)
     assert elapsed < 0.02 * len(lines)  # loose (a shared machine): 20 ms a line; the benchmark measures it
+
+
+@settings(max_examples=150, deadline=None)
+@given(
+    lines=st.lists(
+        st.tuples(
+            st.text(alphabet="v=12 \n", max_size=12),
+            st.sampled_from(["a", "ab", "b", ""]),
+            st.sampled_from([0, 10, 20, 30, 40]),
+        ),
+        max_size=30,
+    ),
+    same_origin=st.booleans(),
+)
+def test_match_many_with_mixed_origins_gives_what_match_gives(
+    lines: list[tuple[str, str, int]], same_origin: bool
+) -> None:
+    """Per-line loggers and levels (some selecting no rule at all) give the single-call values."""
+    matcher = Matcher(
+        parse_rules(
+            "rules:\n"
+            "  - {tag: any, pattern: 'v=(\\d+)'}\n"
+            "  - {tag: a, pattern: '(\\d)$', node: 'a*'}\n"
+            "  - {tag: loud, pattern: '^(\\d)', level: warn, node: ab}\n"
+            "  - {tag: b, pattern: '=(\\d)', node: b, level: info}\n"
+        )
+    )
+    texts = [text for text, _, _ in lines]
+    loggers = [logger for _, logger, _ in lines]
+    levels = [level for _, _, level in lines]
+    if same_origin:
+        loggers, levels = ["a"] * len(lines), [20] * len(lines)
+    expected = [tuple(matcher.match(*args)) for args in zip(texts, loggers, levels, strict=True)]
+    assert matcher.match_many(texts, loggers, levels) == expected
+    assert matcher.match_many_bytes([t.encode() for t in texts], loggers, levels) == expected

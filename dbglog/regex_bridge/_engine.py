@@ -44,6 +44,11 @@ longest single line: the pathological-line bound holds for batches too."""
 _TEXT_ENDS: Final = re.compile(r"\\[Az]|\(\?[imsU]*-[imsU]*m")
 """Pattern text that may depend on where the text starts or ends (``\\A``, ``\\z``, multi-line mode
 turned off): such rules never run over joined lines. Errs on the safe side (an escaped ``\\\\A`` counts)."""
+_FEW_TO_JOIN: Final = 3
+"""Batches of fewer lines are matched one line at a time (joining costs more than it saves)."""
+_FEW_ORIGINS: Final = 64
+"""A batch with at most this many (logger, level) combinations checks whether they all select the
+same rules, to match it as one."""
 _NO_VALUES: Final[tuple[Value, ...]] = ()
 
 
@@ -284,41 +289,60 @@ class Matcher:
     ) -> list[tuple[Value, ...]]:
         count = len(lines)
         results: list[tuple[Value, ...]] = [_NO_VALUES] * count
-        if isinstance(logger, str) and isinstance(level, int):
-            try:
-                group = self._groups[source, logger, level]
-            except KeyError:
-                group = self._group_for((source, logger, level))
-            if group is not None and count:
-                self._batch(group, *join(lines), None, results)
-            return results
-        for group, where in self._split(count, logger, level, source).items():
-            self._batch(group, *join([lines[i] for i in where]), where, results)
+        for group, where in self._split(count, logger, level, source):
+            picked = lines if where is None else [lines[i] for i in where]
+            if len(picked) < _FEW_TO_JOIN:
+                self._each(group, join(picked)[1], where, results)
+            else:
+                self._batch(group, *join(picked), where, results)
         return results
+
+    def _group(self, source: str, logger: str, level: int) -> _Group | None:
+        try:
+            return self._groups[source, logger, level]
+        except KeyError:
+            return self._group_for((source, logger, level))
 
     def _split(
         self, count: int, logger: str | Sequence[str], level: int | Sequence[int], source: str
-    ) -> dict[_Group, list[int]]:
-        """Sort line numbers by the rule group their origin selects (lines no rule is for are left out)."""
+    ) -> list[tuple[_Group, list[int] | None]]:
+        """Sort line numbers by the rule group their origin selects (None: all lines; lines no rule is
+        for are left out)."""
+        if isinstance(logger, str) and isinstance(level, int):
+            group = self._group(source, logger, level)
+            return [] if group is None or not count else [(group, None)]
         loggers = [logger] * count if isinstance(logger, str) else logger
         levels = [level] * count if isinstance(level, int) else level
         if len(loggers) != count or len(levels) != count:
             raise ValueError(f"match_many: {count} lines but {len(loggers)} loggers and {len(levels)} levels")
+        names, severities = set(loggers), set(levels)
+        if len(names) * len(severities) <= _FEW_ORIGINS:  # often every origin selects the same rules
+            groups = {self._group(source, name, severity) for name in names for severity in severities}
+            if len(groups) == 1:
+                group = groups.pop()
+                return [] if group is None or not count else [(group, None)]
         buckets: dict[_Group, list[int]] = {}
         last: tuple[str, int] | None = None
         bucket: list[int] | None = None
         for i, origin in enumerate(zip(loggers, levels, strict=True)):
             if origin != last:
                 last = origin
-                key = (source, origin[0], origin[1])
-                try:
-                    group = self._groups[key]
-                except KeyError:
-                    group = self._group_for(key)
-                bucket = None if group is None else buckets.setdefault(group, [])
+                found = self._group(source, *origin)
+                bucket = None if found is None else buckets.setdefault(found, [])
             if bucket is not None:
                 bucket.append(i)
-        return buckets
+        return list(buckets.items())
+
+    def _each(
+        self, group: _Group, datas: Sequence[Any], where: list[int] | None, results: list[tuple[Value, ...]]
+    ) -> None:
+        """Match a few lines (cut to `MAX_LINE` bytes, or ASCII text no longer) one by one."""
+        for k, data in enumerate(datas):
+            if isinstance(data, str):
+                data = data.encode()
+            hits = group.match_set(data)
+            if hits:
+                results[k if where is None else where[k]] = tuple(self._extract(group.rules, hits, data))
 
     def _batch(
         self,
