@@ -207,11 +207,21 @@ def _nice_step(raw: float) -> float:
     return 10 * magnitude
 
 
+def _nice_floor(value: float) -> float:
+    magnitude = 10.0 ** math.floor(math.log10(value))
+    for mult in (5.0, 2.5, 2.0, 1.0):
+        if mult * magnitude <= value * (1 + 1e-9):
+            return mult * magnitude
+    return magnitude
+
+
 def ring_radii(max_range: float, max_rings: int) -> list[float]:
     """Return round ring radii (1, 2, 2.5, 5 x 10^n metres) up to `max_range`, at most `max_rings`."""
     if max_rings <= 0 or not math.isfinite(max_range) or max_range <= 0:
         return []
     step = _nice_step(max_range / max_rings)
+    if step > max_range * (1 + 1e-9):
+        step = _nice_floor(max_range)  # the round step up would not fit: one ring a round step below
     count = int(max_range / step + 1e-9)
     return [round(step * k, 9) for k in range(1, count + 1)]
 
