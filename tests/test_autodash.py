@@ -7,7 +7,7 @@ import itertools
 from hypothesis import given
 from hypothesis import strategies as st
 
-from dbglog.viewer._autodash import AutoLayout, suggest
+from dbglog.viewer._autodash import AutoLayout, retype, suggest
 from dbglog.viewer._model import Binding, FieldInfo, TopicInfo
 
 
@@ -127,3 +127,50 @@ def test_layout_property_no_overlap_within_columns(items: list[tuple[str, str]],
         assert w.x + w.width <= right
     for a, b in itertools.combinations(placed, 2):
         assert a.x + a.width <= b.x or b.x + b.width <= a.x or a.y + a.height <= b.y or b.y + b.height <= a.y
+
+
+def test_layout_skips_cells_that_are_not_free() -> None:
+    """A cell the user already filled is skipped: the widget lands in the next free one."""
+    layout = AutoLayout(columns=4)
+    taken = (layout.origin[0], layout.origin[1], 300.0, 100.0)
+
+    def free(x: float, y: float, w: float, h: float) -> bool:
+        tx, ty, tw, th = taken
+        return x + w <= tx or tx + tw <= x or y + h <= ty or ty + th <= y
+
+    (placed,) = layout.add(suggest(_tag("a", "Bool")), "/rosdashboard/a", free=free)
+    assert free(placed.x, placed.y, placed.width, placed.height)
+
+
+def test_fit_columns_fills_the_width() -> None:
+    """Columns of at least the minimum width fill the canvas exactly; never fewer than two."""
+    layout = AutoLayout()
+    layout.fit_columns(1226, min_cell=180)
+    assert layout.columns == 6
+    right = layout.origin[0] + layout.columns * (layout.cell_width + layout.gap) - layout.gap
+    assert abs(right - (1226 - layout.origin[0])) < 1e-6
+    layout.fit_columns(100)
+    assert layout.columns == 2
+
+
+def test_retype_keeps_name_place_bindings_and_shared_properties() -> None:
+    """A swapped kind keeps name, place, bindings (as many as fit) and valid shared properties."""
+    from dbglog.viewer._dashboard import WidgetConfig
+    from dbglog.viewer._widgets._gauges import DialWidget, ThermoWidget
+
+    binds = (Binding("/rosdashboard/a"), Binding("/rosdashboard/b"))
+    plot = WidgetConfig("plot", "speed", 30, 40, 420, 100, binds, {"window": 5.0, "y_min": -3.0})
+    dial = retype(plot, DialWidget, min_frame=(120, 148))
+    assert (dial.type, dial.name, dial.x, dial.y) == ("dial", "speed", 30, 40)
+    assert dial.bindings == binds[:1]
+    assert (dial.width, dial.height) == (420, 148)
+    assert dial.properties == DialWidget.default_properties()
+    ranged = WidgetConfig(
+        "dial", "t", 0, 0, 200, 200, binds[:1], {"minimum": -5.0, "maximum": 5.0, "unit": "C"}
+    )
+    thermo = retype(ranged, ThermoWidget)
+    assert (thermo.properties["minimum"], thermo.properties["maximum"], thermo.properties["unit"]) == (
+        -5.0,
+        5.0,
+        "C",
+    )

@@ -1,0 +1,198 @@
+"""`dbglog demo` end to end: headless screenshot with every widget live, and nothing left running after."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+from dbglog._demo._cli import dashboard_path, rules_path
+from dbglog.viewer._dashboard import load_dashboard
+from dbglog.viewer._widgets import WidgetRegistry
+from tests._ros import wait_until
+
+pytestmark = pytest.mark.gui
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+@pytest.fixture(scope="module")
+def display() -> Iterator[dict[str, str]]:
+    """An environment with a display: the caller's, or a private Xvfb started for this module."""
+    env = dict(os.environ)
+    if env.get("DISPLAY"):
+        yield env
+        return
+    read, write = os.pipe()
+    xvfb = subprocess.Popen(
+        ["Xvfb", "-displayfd", str(write), "-screen", "0", "1920x1080x24", "-nolisten", "tcp"],
+        pass_fds=(write,),
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    os.close(write)
+    with os.fdopen(read) as f:
+        number = f.readline().strip()
+    assert number, "Xvfb did not start"
+    env["DISPLAY"] = f":{number}"
+    try:
+        yield env
+    finally:
+        xvfb.terminate()
+        xvfb.wait(10)
+
+
+def descendants(pid: int) -> set[int]:
+    """Every living process below `pid` (children, grandchildren, ...), from /proc."""
+    parents: dict[int, int] = {}
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit():
+            continue
+        try:
+            stat = (entry / "stat").read_text()
+        except OSError:
+            continue
+        fields = stat[stat.rindex(")") + 2 :].split()
+        parents[int(entry.name)] = int(fields[1])
+    out: set[int] = set()
+    frontier = {pid}
+    while frontier:
+        frontier = {p for p, parent in parents.items() if parent in frontier} - out
+        out |= frontier
+    return out
+
+
+def alive(pid: int) -> bool:
+    """Whether `pid` exists and is not a zombie."""
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text()
+    except OSError:
+        return False
+    return stat[stat.rindex(")") + 2] != "Z"
+
+
+def cmdline(pid: int) -> str:
+    """The command line of `pid` (empty once it is gone)."""
+    try:
+        return Path(f"/proc/{pid}/cmdline").read_bytes().replace(b"\0", b" ").decode()
+    except OSError:
+        return ""
+
+
+def start_demo(env: dict[str, str], *args: str) -> subprocess.Popen[str]:
+    """Start `dbglog demo` with `args`."""
+    return subprocess.Popen(
+        [sys.executable, "-m", "dbglog", "demo", *args],
+        env=env,
+        cwd=ROOT,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+
+
+def wait_for_children(demo: subprocess.Popen[str]) -> set[int]:
+    """Wait until the robot, the bridge and the viewer run under `demo`; return all their pids."""
+    found: set[int] = set()
+
+    def three() -> bool:
+        found.update(descendants(demo.pid))
+        lines = [cmdline(p) for p in found]
+        return all(any(word in c for c in lines) for word in ("_demo._robot", " bridge ", " view "))
+
+    assert wait_until(three, timeout=20), [cmdline(p) for p in found]
+    return found
+
+
+def test_demo_screenshot_headless_widgets_live_nothing_left(display: dict[str, str], tmp_path: Path) -> None:
+    """`dbglog demo --screenshot` writes a PNG with every widget live, exits 0 and stops all it started."""
+    png, report = tmp_path / "demo.png", tmp_path / "report.json"
+    demo = start_demo(display, "--screenshot", str(png), "--after", "4", "--report-json", str(report))
+    children = wait_for_children(demo)
+    out, err = demo.communicate(timeout=90)
+    assert demo.returncode == 0, f"{out}\n{err}"
+    assert png.stat().st_size > 10_000
+    widgets = json.loads(report.read_text())["widgets"]
+    shipped = load_dashboard(dashboard_path(), WidgetRegistry.builtin().get).dashboard.widgets
+    assert [w["name"] for w in widgets] == [w.name for w in shipped]
+    assert {w["type"] for w in widgets} >= {"plot", "led", "string", "compass", "dial", "thermo"}
+    not_live = [(w["name"], w["status"], w["reason"]) for w in widgets if w["status"] != "live"]
+    assert not_live == [], not_live
+    assert wait_until(lambda: not any(alive(p) for p in children), timeout=10), [
+        cmdline(p) for p in children if alive(p)
+    ]
+
+
+def test_demo_stops_everything_on_sigterm(display: dict[str, str]) -> None:
+    """SIGTERM to `dbglog demo` (window open) stops the robot, the bridge and the viewer, then it exits."""
+    demo = start_demo(display)
+    children = wait_for_children(demo)
+    demo.send_signal(signal.SIGTERM)
+    demo.communicate(timeout=30)
+    assert demo.returncode == 128 + signal.SIGTERM
+    assert not [cmdline(p) for p in children if alive(p)]
+
+
+def test_demo_viewer_crash_stops_the_rest(display: dict[str, str]) -> None:
+    """When the viewer dies of a signal, the demo stops the robot and the bridge and exits 1."""
+    demo = start_demo(display)
+    children = wait_for_children(demo)
+    viewer = next(p for p in children if " view " in cmdline(p))
+    os.kill(viewer, signal.SIGSEGV)
+    _out, err = demo.communicate(timeout=30)
+    assert demo.returncode == 1
+    assert "viewer crashed" in err
+    assert not [cmdline(p) for p in children if alive(p)]
+
+
+def test_demo_children_die_with_a_killed_demo(display: dict[str, str]) -> None:
+    """Even when `dbglog demo` is killed outright (SIGKILL), its children stop (parent-death signal)."""
+    demo = start_demo(display)
+    children = wait_for_children(demo)
+    demo.kill()
+    demo.communicate(timeout=10)
+    assert wait_until(lambda: not any(alive(p) for p in children), timeout=20), [
+        cmdline(p) for p in children if alive(p)
+    ]
+
+
+def test_demo_without_display_points_to_screenshot() -> None:
+    """Without DISPLAY or WAYLAND_DISPLAY the demo says so, names --screenshot and starts nothing."""
+    env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
+    started = time.monotonic()
+    proc = subprocess.run(
+        [sys.executable, "-m", "dbglog", "demo"],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=30,
+        check=False,
+    )
+    assert proc.returncode == 2
+    assert "no display" in proc.stderr
+    assert "--screenshot" in proc.stderr
+    assert time.monotonic() - started < 20
+
+
+def test_demo_files_ship_as_package_data_and_examples_share_them() -> None:
+    """The demo dashboard and rules load from the package; examples/rules is the same file, not a copy."""
+    result = load_dashboard(dashboard_path(), WidgetRegistry.builtin().get)
+    assert result.messages == []
+    assert (ROOT / "examples" / "rules" / "demo_rules.yaml").resolve() == rules_path().resolve()
+    sound = load_dashboard(
+        ROOT / "examples" / "dashboards" / "sound_source.json", WidgetRegistry.builtin().get
+    )
+    assert sound.messages == []
+    kinds = {(w.type, w.bindings[0].topic) for w in sound.dashboard.widgets if hasattr(w, "bindings")}
+    assert kinds == {
+        ("compass", "/rosdashboard/sound/azimuth"),
+        ("dial", "/rosdashboard/sound/azimuth"),
+        ("thermo", "/rosdashboard/sound/confidence"),
+    }
