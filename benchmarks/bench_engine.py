@@ -107,7 +107,7 @@ def _receiver(args: argparse.Namespace) -> None:
         from dbglog.viewer._engine import Engine
         from dbglog.viewer._model import Binding
 
-        engine = Engine(measure_latency=True, history=args.history)
+        engine = Engine(measure_latency=bool(args.latency), history=args.history)
         engine.start()
         bindings = [Binding(t) for t in topics]
         for b in bindings:
@@ -180,12 +180,12 @@ def _child(role: str, *extra: str) -> subprocess.Popen[str]:
 
 
 def _run_once(
-    receiver: str, topics: int, rate: float, duration: float, history: int = 10_000
+    receiver: str, topics: int, rate: float, duration: float, *, latency: bool = True
 ) -> dict[str, Any]:
     """Run one receiver against one publisher process; return both reports."""
     prefix = f"{_PREFIX}{random.randrange(1 << 30)}_"
     common = ["--topics", str(topics), "--prefix", prefix]
-    rx = _child(receiver, *common, "--history", str(history))
+    rx = _child(receiver, *common, "--latency", "1" if latency else "0")
     assert rx.stdout is not None
     assert rx.stdin is not None
     if rx.stdout.readline().strip() != "ready":
@@ -231,6 +231,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--rate", type=float, default=0.0, help="total messages/s (0: flat out)")
     parser.add_argument("--duration", type=float, default=5.0, help="seconds per flood run")
     parser.add_argument("--history", type=int, default=10_000)
+    parser.add_argument("--latency", type=int, choices=[0, 1], default=1, help=argparse.SUPPRESS)
+    parser.add_argument(
+        "--only", choices=["flood", "rate", "soak"], default=None, help="run one part of the benchmark"
+    )
     parser.add_argument("--repeats", type=int, default=3, help="flood runs per figure (median)")
     parser.add_argument("--loss-rate", type=float, default=20_000.0)
     parser.add_argument("--loss-seconds", type=float, default=10.0)
@@ -246,8 +250,18 @@ def main(argv: list[str] | None = None) -> int:
         return 0
 
     local_ros_env(args.domain if args.domain is not None else random.randint(150, 230))
-    n = args.topics
     print(f"ROS_DOMAIN_ID={os.environ['ROS_DOMAIN_ID']}, {os.cpu_count()} CPUs, {args.repeats} repeats")
+    if args.only in (None, "flood"):
+        _flood_table(args)
+    if args.only in (None, "rate"):
+        _rate_table(args)
+    if args.only in (None, "soak"):
+        _soak_table(args)
+    return 0
+
+
+def _flood_table(args: argparse.Namespace) -> None:
+    n = args.topics
     eng_many, eng_many_cpu = _flood("engine", n, args.duration, args.repeats)
     exe_many, exe_many_cpu = _flood("executor", n, args.duration, args.repeats)
     eng_one, eng_one_cpu = _flood("engine", 1, args.duration, args.repeats)
@@ -263,6 +277,9 @@ def main(argv: list[str] | None = None) -> int:
         ],
     )
 
+
+def _rate_table(args: argparse.Namespace) -> None:
+    n = args.topics
     loss_rows = []
     for receiver in ("engine", "executor"):
         run = _run_once(receiver, n, args.loss_rate, args.loss_seconds)
@@ -288,7 +305,11 @@ def main(argv: list[str] | None = None) -> int:
         loss_rows,
     )
 
-    run = _run_once("engine", n, args.soak_rate, args.soak_seconds)
+
+def _soak_table(args: argparse.Namespace) -> None:
+    n = args.topics
+    # The engine as the viewer runs it: no latency recording.
+    run = _run_once("engine", n, args.soak_rate, args.soak_seconds, latency=False)
     samples = run["rx"]["samples"]
     pub = run["pub"]
     warm = pub["start"] + min(10.0, args.soak_seconds * 0.2)
@@ -307,7 +328,6 @@ def main(argv: list[str] | None = None) -> int:
             ]
         ],
     )
-    return 0
 
 
 if __name__ == "__main__":

@@ -151,7 +151,7 @@ class Engine:
         self._thread_cpu = 0.0
         self._subs: dict[str, _TopicSub] = {}
         self._latency: npt.NDArray[np.float64] | None = (
-            np.empty(_LATENCY_SAMPLES) if measure_latency else None
+            np.full(_LATENCY_SAMPLES, np.nan) if measure_latency else None  # pages touched now
         )
         self._latency_n = 0
 
