@@ -45,7 +45,7 @@ _TEXT_ENDS: Final = re.compile(r"\\[Az]|\(\?[imsU]*-[imsU]*m")
 """Pattern text that may depend on where the text starts or ends (``\\A``, ``\\z``, multi-line mode
 turned off): such rules never run over joined lines. Errs on the safe side (an escaped ``\\\\A`` counts)."""
 _FEW_TO_JOIN: Final = 3
-"""Batches of fewer lines are matched one line at a time (joining costs more than it saves)."""
+"""Batches of fewer lines are matched one line at a time (joining them costs more than it saves)."""
 _FEW_ORIGINS: Final = 64
 """A batch with at most this many (logger, level) combinations checks whether they all select the
 same rules, to match it as one."""
@@ -240,6 +240,9 @@ class Matcher:
         Raises:
             ValueError: `logger` or `level` is a sequence of another length than `lines`.
         """
+        if len(lines) < _FEW_TO_JOIN:
+            loggers, levels = _origins(len(lines), logger, level)
+            return [tuple(self.match(*args, source)) for args in zip(lines, loggers, levels, strict=True)]
         return self._many(lines, logger, level, source, _join_str)
 
     def match_many_bytes(
@@ -250,6 +253,11 @@ class Matcher:
         source: str = ROSOUT,
     ) -> list[tuple[Value, ...]]:
         """Like `match_many`, for lines already in UTF-8 (the bridge's ingest batches)."""
+        if len(lines) < _FEW_TO_JOIN:
+            loggers, levels = _origins(len(lines), logger, level)
+            return [
+                tuple(self.match_bytes(*args, source)) for args in zip(lines, loggers, levels, strict=True)
+            ]
         return self._many(lines, logger, level, source, _join_bytes)
 
     def reset_stats(self) -> MatcherStats:
@@ -290,11 +298,7 @@ class Matcher:
         count = len(lines)
         results: list[tuple[Value, ...]] = [_NO_VALUES] * count
         for group, where in self._split(count, logger, level, source):
-            picked = lines if where is None else [lines[i] for i in where]
-            if len(picked) < _FEW_TO_JOIN:
-                self._each(group, join(picked)[1], where, results)
-            else:
-                self._batch(group, *join(picked), where, results)
+            self._batch(group, *join(lines if where is None else [lines[i] for i in where]), where, results)
         return results
 
     def _group(self, source: str, logger: str, level: int) -> _Group | None:
@@ -311,10 +315,7 @@ class Matcher:
         if isinstance(logger, str) and isinstance(level, int):
             group = self._group(source, logger, level)
             return [] if group is None or not count else [(group, None)]
-        loggers = [logger] * count if isinstance(logger, str) else logger
-        levels = [level] * count if isinstance(level, int) else level
-        if len(loggers) != count or len(levels) != count:
-            raise ValueError(f"match_many: {count} lines but {len(loggers)} loggers and {len(levels)} levels")
+        loggers, levels = _origins(count, logger, level)
         names, severities = set(loggers), set(levels)
         if len(names) * len(severities) <= _FEW_ORIGINS:  # often every origin selects the same rules
             groups = {self._group(source, name, severity) for name in names for severity in severities}
@@ -332,17 +333,6 @@ class Matcher:
             if bucket is not None:
                 bucket.append(i)
         return list(buckets.items())
-
-    def _each(
-        self, group: _Group, datas: Sequence[Any], where: list[int] | None, results: list[tuple[Value, ...]]
-    ) -> None:
-        """Match a few lines (cut to `MAX_LINE` bytes, or ASCII text no longer) one by one."""
-        for k, data in enumerate(datas):
-            if isinstance(data, str):
-                data = data.encode()
-            hits = group.match_set(data)
-            if hits:
-                results[k if where is None else where[k]] = tuple(self._extract(group.rules, hits, data))
 
     def _batch(
         self,
@@ -490,6 +480,17 @@ class Matcher:
                 self._groups.clear()
             self._groups[key] = group
             return group
+
+
+def _origins(
+    count: int, logger: str | Sequence[str], level: int | Sequence[int]
+) -> tuple[Sequence[str], Sequence[int]]:
+    """The logger and level of each of `count` lines."""
+    loggers = [logger] * count if isinstance(logger, str) else logger
+    levels = [level] * count if isinstance(level, int) else level
+    if len(loggers) != count or len(levels) != count:
+        raise ValueError(f"match_many: {count} lines but {len(loggers)} loggers and {len(levels)} levels")
+    return loggers, levels
 
 
 def _utf8(line: str) -> bytes:
