@@ -211,6 +211,7 @@ def bench_matching(quick: bool) -> None:
         f"{r200['many'] / r50['many']:.2f}x batched (10% match mix; target <= 2x)."
     )
     bench_batch_sizes(quick)
+    bench_floor(quick)
 
 
 def bench_batch_sizes(quick: bool) -> None:
@@ -249,6 +250,63 @@ def bench_batch_sizes(quick: bool) -> None:
         "Batch size (50 rules, 10% match, match_many_bytes; loggers and levels vary per line in the first "
         "and last rows, like /rosout)",
         ["how", "µs/line (median)"],
+        [[name, f"{ns / 1000:.2f}"] for name, ns in got.items()],
+    )
+
+
+def bench_floor(quick: bool) -> None:
+    """What the google-re2 binding itself costs per line: the floor under the engine, and rejected designs."""
+    from re2 import _re2
+
+    from dbglog.regex_bridge import parse_rules
+    from dbglog.regex_bridge._regex import re2_options
+
+    count, rounds = (2048, 5) if quick else (5120, 9)
+    data = [line.encode() for line in sample_lines(count, 0.1, 50)]
+    patterns = [r.pattern.encode() for r in parse_rules(rules_yaml(50)).rules]
+    anchor = _re2.RE2.Anchor.UNANCHORED
+    rule_set = _re2.Set(anchor, re2_options(64 << 20))
+    multi_set = _re2.Set(anchor, re2_options(64 << 20))
+    for p in patterns:
+        rule_set.Add(p)
+        multi_set.Add(b"(?m)" + p)
+    rule_set.Compile()
+    multi_set.Compile()
+    one = _re2.RE2(patterns[0], re2_options()).Match
+    combined = _re2.RE2(b"|".join(b"(" + p + b")" for p in patterns), re2_options(64 << 20)).Match
+    grouping = b"|".join(b"(?:" + p + b")" for p in patterns)
+    no_capture_options = re2_options(64 << 20)
+    no_capture_options.never_capture = True
+    combined_no_capture = _re2.RE2(grouping, no_capture_options).Match
+
+    def each(call: Callable[[bytes], object]) -> Callable[[int, int], object]:
+        def run(lo: int, hi: int) -> None:
+            for line in data[lo:hi]:
+                call(line)
+
+        return run
+
+    def joined(lo: int, hi: int) -> None:
+        for i in range(lo, hi, _BATCH):
+            multi_set.Match(b"\n".join(data[i : min(hi, i + _BATCH)]))
+
+    empty = b""
+    runs: dict[str, Callable[[int, int], object]] = {
+        "Set.Match(b'') — one call into the binding, no text": each(lambda _line: rule_set.Match(empty)),
+        "Set.Match(line), 50 rules": each(lambda line: rule_set.Match(line)),
+        "RE2.Match(line) of one rule (groups)": each(lambda line: one(anchor, line, 0, len(line))),
+        "one alternation of the 50 rules, each a group (one call gives rule and groups)": each(
+            lambda line: combined(anchor, line, 0, len(line))
+        ),
+        "one alternation of the 50 rules, no groups": each(
+            lambda line: combined_no_capture(anchor, line, 0, len(line))
+        ),
+        f"Set.Match over {_BATCH} lines joined, (?m) rules, per line": joined,
+    }
+    got = _interleaved(runs, count, rounds, 2 * _BATCH)
+    print_table(
+        "The google-re2 binding's own cost (50 rules, 10% match; no engine code, each call through a lambda)",
+        ["call", "µs/line (median)"],
         [[name, f"{ns / 1000:.2f}"] for name, ns in got.items()],
     )
 
