@@ -38,6 +38,8 @@ __all__ = ["PAYLOAD_TYPE", "ViewerApp"]
 PAYLOAD_TYPE = "dbglog-widget"
 """Drag payload type of the toolbox buttons; the canvas accepts only this."""
 TOOLBOX_W = 190
+SETTLE_FRAMES = 3
+"""Frames rendered before a screenshot is captured, so that the last update is fully on screen."""
 STATUS_H = 34
 
 
@@ -311,6 +313,10 @@ class ViewerApp:
         target.parent.mkdir(parents=True, exist_ok=True)
         if target.exists():
             target.unlink()
+        # Settle first: texture uploads (plugins may draw into dynamic textures) reach the screen a frame
+        # late, and the capture reads the previous buffer; without this a fresh update can be missing.
+        for _ in range(SETTLE_FRAMES):
+            self.frame()
         dpg.output_frame_buffer(file=str(target))
         deadline = time.monotonic() + timeout
         while time.monotonic() < deadline:
