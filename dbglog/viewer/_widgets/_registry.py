@@ -51,26 +51,17 @@ class WidgetRegistry:
 
     def register(self, cls: object, *, name: str | None = None, origin: str = "builtin") -> bool:
         """Add a widget class; return False (and record why) when it is not a usable widget."""
-        label = name or getattr(cls, "type_name", repr(cls))
+        label = str(name or getattr(cls, "type_name", repr(cls)))
         if not (isinstance(cls, type) and issubclass(cls, Widget)):
-            self.problems.append(f"widget {label!r} from {origin}: {cls!r} is not a dbglog Widget class")
-            return False
+            return self._reject(label, origin, f"{cls!r} is not a dbglog Widget class")
         type_name = getattr(cls, "type_name", None)
         if not isinstance(type_name, str) or not _TYPE_NAME.fullmatch(type_name):
-            self.problems.append(
-                f"widget {label!r} from {origin}: type_name {type_name!r} is not a valid name"
-            )
-            return False
+            return self._reject(label, origin, f"type_name {type_name!r} is not a valid name")
         if name is not None and name != type_name:
-            self.problems.append(
-                f"widget {name!r} from {origin}: entry point name differs from type_name {type_name!r}"
-            )
-            return False
+            return self._reject(label, origin, f"entry point name differs from type_name {type_name!r}")
         problem = declaration_problem(cls)
         if problem:
-            self.problems.append(f"widget {type_name!r} from {origin}: {problem}")
-            self.failed.setdefault(type_name, f"{origin}: {problem}")
-            return False
+            return self._reject(label, origin, problem)
         if type_name in self._classes:
             self.problems.append(
                 f"widget {type_name!r} from {origin}: already provided by {self.origins[type_name]}; ignored"
@@ -79,6 +70,11 @@ class WidgetRegistry:
         self._classes[type_name] = cls
         self.origins[type_name] = origin
         return True
+
+    def _reject(self, label: str, origin: str, problem: str) -> bool:
+        self.problems.append(f"widget {label!r} from {origin}: {problem}")
+        self.failed.setdefault(label, f"{origin}: {problem}")
+        return False
 
     def missing_reason(self, type_name: str) -> str:
         """Say why `type_name` has no widget class: a plugin that failed, or none installed."""
