@@ -285,23 +285,27 @@ def test_match_many_with_a_logger_and_level_per_line() -> None:
 def test_batches_never_join_lines_into_a_match() -> None:
     """A pattern that could run across the join of two lines finds only what each line holds alone."""
     matcher = Matcher(
-        parse_rules(
-            "rules:\n  - {tag: s, pattern: 'a\\s*(\\d+)'}\n  - {tag: n, pattern: 'b[^x]*(\\d+)'}\n"
-            "  - {tag: e, pattern: '(\\d+)\\z'}\n  - {tag: t, pattern: '\\Av(\\d)'}\n"
-        )
+        parse_rules("rules:\n  - {tag: s, pattern: 'a\\s*(\\d+)'}\n  - {tag: n, pattern: 'b[^x]*(\\d+)'}\n")
     )
-    lines = ["a", "12", "b", "b 3", "7 v", "v5", "v=1\nv2"]
+    # Few rules hit among many lines, so the batch searches each rule through the joined lines.
+    lines = ["a", "12", "b", "b 3", "b", "", "4", "a 5 a", "6"] + ["nothing here"] * 30 + ["b", "7 a", "8"]
     got = matcher.match_many(lines)
     assert got == _one_by_one(matcher, lines)
-    assert [[v.value for v in values] for values in got] == [
-        [],
-        [12.0],
-        [],
-        [3.0, 3.0],
-        [],
-        [5.0, 5.0],
-        [2.0],
-    ]
+    assert [[v.value for v in values] for values in got if values] == [[3.0], [5.0]]
+
+
+def test_rules_that_need_the_ends_of_the_line_see_each_line_alone() -> None:
+    """With \\A, \\z or (?-m) in a pattern, a batch matches each line on its own."""
+    matcher = Matcher(
+        parse_rules(
+            "rules:\n  - {tag: e, pattern: '(\\d+)\\z'}\n  - {tag: t, pattern: '\\Av(\\d)'}\n"
+            "  - {tag: m, pattern: '(?-m)^w(\\d)'}\n"
+        )
+    )
+    lines = ["7 v", "v5", "v=1\nv2", "w3", "x\nw4"] + ["nothing"] * 20
+    got = matcher.match_many(lines)
+    assert got == _one_by_one(matcher, lines)
+    assert [[v.value for v in values] for values in got[:5]] == [[], [5.0, 5.0], [2.0], [3.0, 3.0], [4.0]]
 
 
 @pytest.mark.parametrize("pattern", ["(a+)+$", "(a|aa)+$", r"(\w+\s?)+$", "(.*a){20}", r"([^!]*a)+$"])

@@ -10,8 +10,8 @@ holds each pattern in multi-line mode (``(?m)``: ``^``/``$`` also match at the j
 matches on its own always makes its chunk match the rule too: no false negatives. Each rule a chunk hits
 is then searched through the chunk for its lines; a hit that stays inside one line is exactly that line's
 own match (the joins look like the ends of a text to every assertion), a hit running past its line is
-checked line by line. Patterns whose meaning depends on the ends of the text (``\\A``, ``\\z``, ``(?-m)``)
-run on each line alone, and so do lines with a newline of their own.
+checked line by line. Chunks that many rules hit, lines with a newline of their own, and the rule groups
+with a pattern whose meaning depends on the ends of the text (``\\A``, ``\\z``, ``(?-m)``) go line by line.
 """
 
 from __future__ import annotations
@@ -49,6 +49,9 @@ _FEW_TO_JOIN: Final = 3
 _FEW_ORIGINS: Final = 64
 """A batch with at most this many (logger, level) combinations checks whether they all select the
 same rules, to match it as one."""
+_DENSE: Final = 5
+"""A chunk where more than one rule in this many lines hits is matched line by line: one Set search per
+line then costs less than two searches through the chunk per hit."""
 _NO_VALUES: Final[tuple[Value, ...]] = ()
 
 
@@ -129,20 +132,17 @@ def _compile_set(patterns: Iterable[bytes]) -> Any:
 class _Group:
     """The rules that apply to one kind of line, with RE2 Sets over their patterns."""
 
-    __slots__ = ("joined_rules", "lone_rules", "match_joined", "match_set", "rules")
+    __slots__ = ("match_joined", "match_set", "rules")
 
     def __init__(self, rules: Sequence[_Compiled]) -> None:
         self.rules = tuple(rules)
         self.match_set: Any = _compile_set(r.pattern for r in self.rules)
-        self.joined_rules = tuple(i for i, r in enumerate(self.rules) if r.joinable)
-        """The group index of each rule in `match_joined`, in that Set's order."""
-        self.lone_rules = tuple(i for i, r in enumerate(self.rules) if not r.joinable)
-        """Rules that a batch runs on each line alone."""
         self.match_joined: Any = (
-            _compile_set(b"(?m)" + self.rules[i].pattern for i in self.joined_rules)
-            if self.joined_rules
+            _compile_set(b"(?m)" + r.pattern for r in self.rules)
+            if all(r.joinable for r in self.rules)
             else None
         )
+        """Over lines joined by newlines; None when a rule must see each line alone."""
 
 
 class Matcher:
@@ -241,6 +241,8 @@ class Matcher:
             ValueError: `logger` or `level` is a sequence of another length than `lines`.
         """
         if len(lines) < _FEW_TO_JOIN:
+            if isinstance(logger, str) and isinstance(level, int):
+                return [tuple(self.match(line, logger, level, source)) for line in lines]
             loggers, levels = _origins(len(lines), logger, level)
             return [tuple(self.match(*args, source)) for args in zip(lines, loggers, levels, strict=True)]
         return self._many(lines, logger, level, source, _join_str)
@@ -254,6 +256,8 @@ class Matcher:
     ) -> list[tuple[Value, ...]]:
         """Like `match_many`, for lines already in UTF-8 (the bridge's ingest batches)."""
         if len(lines) < _FEW_TO_JOIN:
+            if isinstance(logger, str) and isinstance(level, int):
+                return [tuple(self.match_bytes(line, logger, level, source)) for line in lines]
             loggers, levels = _origins(len(lines), logger, level)
             return [
                 tuple(self.match_bytes(*args, source)) for args in zip(lines, loggers, levels, strict=True)
@@ -369,11 +373,14 @@ class Matcher:
                     results,
                 )
             return
+        if group.match_joined is None:  # a rule must see each line alone: go line by line
+            self._each_line(group, joined, offsets, 0, count, where, results)
+            return
         first = 0
         while first < count:
             base = offsets[first]
-            # Each line is at most MAX_LINE = _CHUNK_BYTES bytes, so a chunk holds at least one.
-            last = bisect_right(offsets, base + _CHUNK_BYTES + 1, first + 1) - 1
+            # A chunk holds at most _CHUNK_BYTES bytes, or one line (at most MAX_LINE bytes).
+            last = max(first + 1, bisect_right(offsets, base + _CHUNK_BYTES + 1, first + 1) - 1)
             chunk = joined if first == 0 and last == count else joined[base : offsets[last] - 1]
             self._chunk(group, chunk, offsets, first, last, where, results)
             first = last
@@ -389,22 +396,18 @@ class Matcher:
         results: list[tuple[Value, ...]],
     ) -> None:
         """Match lines `first` to `last` (excluded), joined in `chunk`; none has a newline of its own."""
-        hits = group.match_joined(chunk) if group.match_joined is not None else []
-        if not hits and not group.lone_rules:
+        hits = group.match_joined(chunk)
+        if not hits:
             return
-        joined_rules, rules = group.joined_rules, group.rules
-        order = [joined_rules[h] for h in hits]
-        if group.lone_rules:
-            order += group.lone_rules
-        if len(order) > 1:
-            order.sort()  # rule by rule in file order, so each line's values are in file order
-        base, end = offsets[first], len(chunk)
-        for index in order:
+        if len(hits) * _DENSE > last - first:  # many rules hit: going line by line costs less
+            self._each_line(group, chunk, offsets, first, last, where, results)
+            return
+        if len(hits) > 1:
+            hits.sort()  # rule by rule in file order, so each line's values are in file order
+        rules, base, end = group.rules, offsets[first], len(chunk)
+        for index in hits:
             compiled = rules[index]
             search = compiled.match_joined
-            if search is None:
-                self._lines_alone(compiled, chunk, offsets, first, first, last, where, results)
-                continue
             pos = 0
             while True:
                 spans = search(_UNANCHORED, chunk, pos, end)
@@ -419,6 +422,24 @@ class Matcher:
                 self._emit(compiled.outputs, spans, chunk, results, line if where is None else where[line])
                 if pos > end:
                     break
+
+    def _each_line(
+        self,
+        group: _Group,
+        chunk: bytes,
+        offsets: list[int],
+        first: int,
+        last: int,
+        where: list[int] | None,
+        results: list[tuple[Value, ...]],
+    ) -> None:
+        """Match lines `first` to `last` (excluded) of `chunk` (which begins with line `first`) one by one."""
+        base, match_set, rules = offsets[first], group.match_set, group.rules
+        for line in range(first, last):
+            data = chunk[offsets[line] - base : offsets[line + 1] - base - 1]
+            hits = match_set(data)
+            if hits:
+                results[line if where is None else where[line]] = tuple(self._extract(rules, hits, data))
 
     def _lines_alone(
         self,
