@@ -466,6 +466,7 @@ def scenario_missing_plugin_placeholder_saved_back_unchanged(app: Any, source: S
     assert "no installed package provides the widget type 'laserscan'" in body[1]
     assert "entry point 'laserscan' in the group 'dbglog.widgets'" in body[1]
     assert placeholder.status is Status.ERROR
+    assert str(dpg.get_value(placeholder.tooltip_text)).startswith("Error"), "a red pill, not waiting"
     assert any("unknown widget type 'laserscan'" in m for m in app.load_messages)
     source.push("/speed", "data", 4.0)
     frames(app)

@@ -134,6 +134,7 @@ class CanvasItem:
                 "Kept as it is in the dashboard file.", parent=self.body, wrap=max(60, bw), color=DIM
             )
             self.status, self.reason = Status.ERROR, reason
+            self._draw_header(w)  # the pill was drawn before the status was known
         self.grip = dpg.add_drawlist(GRIP, GRIP, parent=self.window, pos=(w - GRIP - 2, h - GRIP - 2))
         for k in (4, 8, 12):
             dpg.draw_line((GRIP - 2, GRIP - 2 - k), (GRIP - 2 - k, GRIP - 2), color=DIM, parent=self.grip)
