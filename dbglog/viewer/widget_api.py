@@ -186,6 +186,11 @@ class Widget(abc.ABC):
     The viewer constructs a widget with its validated property values, calls `create` once with a parent
     container and the body size in pixels, then `update` whenever one of its series changed, `resize`
     when the user resizes it, `set_properties` after the properties dialog, and `destroy` at the end.
+
+    All of these run on the viewer's UI thread. An exception from any of them disables this widget only:
+    its frame turns red with the reason and it is not called again; the other widgets keep running.
+    Plugins register the class under the entry-point group ``dbglog.widgets`` with the entry point's
+    name equal to `type_name`; see ``docs/plugins.md``.
     """
 
     type_name: ClassVar[str]
