@@ -332,6 +332,19 @@ def bench_pathological(quick: bool) -> None:
     for pattern in ("(a|aa)+$", "(\\w+\\s?)+$", "(.*a){20}"):
         m = Matcher(parse_rules(f"rules: [{{tag: slow, pattern: '{pattern}'}}]"))
         rows.append([f"engine, {pattern}", f"{_per_line_ns(m.match, [line], repeats) / 1e6:.3f}"])
+    # Batched: the same line among ordinary log lines, and a batch of nothing but such lines.
+    ordinary = sample_lines(_BATCH - 1, 0.1, 50)
+    for pattern in ("(a+)+$", "(a|aa)+$", "(\\w+\\s?)+$", "(.*a){20}"):
+        m = Matcher(parse_rules(f"rules: [{{tag: slow, pattern: '{pattern}'}}]"))
+        mixed = _per_line_ns(m.match_many, [[line, *ordinary]], repeats) / 1e6
+        only = _per_line_ns(m.match_many, [[line] * 16], repeats) / 1e6 / 16
+        rows.append(
+            [
+                f"engine batched, {pattern}: the line among {_BATCH - 1} ordinary lines (whole batch); "
+                "16 such lines (per line)",
+                f"{mixed:.3f}; {only:.3f}",
+            ]
+        )
     backtracking = re.compile("(a+)+$")
     for n in (16, 20):
         short = "a" * n + "!"

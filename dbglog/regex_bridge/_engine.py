@@ -527,17 +527,16 @@ def _utf8(line: str) -> bytes:
 
 def _join_str(lines: Sequence[str]) -> tuple[bytes, Sequence[Sized]]:
     """The lines' UTF-8, each cut to `MAX_LINE` bytes, joined by newlines; and what gives their sizes."""
-    text = "\n".join(lines)
-    if text.isascii() and (len(text) <= MAX_LINE or max(map(len, lines)) <= MAX_LINE):
-        return text.encode(), lines  # ASCII: as many bytes as characters
+    if max(map(len, lines)) <= MAX_LINE:
+        text = "\n".join(lines)
+        if text.isascii():
+            return text.encode(), lines  # ASCII: as many bytes as characters
     datas = [_utf8(line) for line in lines]
     return b"\n".join(datas), datas
 
 
 def _join_bytes(lines: Sequence[bytes]) -> tuple[bytes, Sequence[Sized]]:
     """The lines, each cut to `MAX_LINE` bytes, joined by newlines; and the lines so cut."""
-    joined = b"\n".join(lines)
-    if len(joined) > MAX_LINE and max(map(len, lines)) > MAX_LINE:
+    if max(map(len, lines)) > MAX_LINE:
         lines = [line[:MAX_LINE] for line in lines]
-        joined = b"\n".join(lines)
-    return joined, lines
+    return b"\n".join(lines), lines
