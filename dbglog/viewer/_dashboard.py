@@ -17,12 +17,13 @@ import os
 import shutil
 import tempfile
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 from dbglog.regex_bridge._regex import RegexError, compile_regex, parse_number
-from dbglog.viewer._model import Binding
+from dbglog.viewer._model import Binding, binding_transforms, canonical_transforms
+from dbglog.viewer._transforms import TransformChain, TransformError
 from dbglog.viewer.widget_api import PropertyError, PropValue, Widget
 
 __all__ = [
@@ -88,9 +89,16 @@ class WidgetConfig:
             "y": self.y,
             "width": self.width,
             "height": self.height,
-            "bindings": [{"topic": b.topic, "field": b.field, "regex": b.regex} for b in self.bindings],
+            "bindings": [_binding_dict(b) for b in self.bindings],
             "properties": dict(self.properties),
         }
+
+
+def _binding_dict(b: Binding) -> dict[str, Any]:
+    out: dict[str, Any] = {"topic": b.topic, "field": b.field, "regex": b.regex}
+    if b.transform:
+        out["transforms"] = binding_transforms(b)
+    return out
 
 
 @dataclass(frozen=True)
@@ -341,10 +349,19 @@ def _parse_bindings(raw: object, cls: type[Widget], where: str, msgs: list[str])
             msgs.append(f"{at}: expected an object, got {_kind(item)}; dropped")
             continue
         binding = _binding(item.get("topic"), item.get("field", ""), item.get("regex", ""), at, msgs)
+        if binding is not None and item.get("transforms") is not None:
+            # Checked here, before anything is evaluated: a bad formula drops this binding only.
+            try:
+                chain = TransformChain.from_json(item["transforms"], where=at)
+            except TransformError as exc:
+                msgs.append(f"{exc}; binding rejected")
+                binding = None
+            else:
+                binding = replace(binding, transform=canonical_transforms(chain.to_json()))
         if binding is not None:
             out.append(binding)
         for key in item:
-            if key not in {"topic", "field", "regex"}:
+            if key not in {"topic", "field", "regex", "transforms"}:
                 msgs.append(f"{at}: unknown field {key!r} ignored")
     return tuple(out)
 

@@ -6,6 +6,8 @@ No ROS and no Dear PyGui here: the engine produces these, the UI and the termina
 from __future__ import annotations
 
 import enum
+import json
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Protocol
 
@@ -20,6 +22,8 @@ __all__ = [
     "Status",
     "TopicInfo",
     "ValueKind",
+    "binding_transforms",
+    "canonical_transforms",
 ]
 
 TAG_PREFIX = "/rosdashboard/"
@@ -54,6 +58,26 @@ class Binding:
     topic: str
     field: str = ""
     regex: str = ""
+    transform: str = ""
+    """The binding's transforms as canonical JSON (`canonical_transforms`), ``""`` for none.
+
+    Kept as text so a binding stays hashable; the engine applies them at ingest (docs/transforms.md).
+    """
+
+
+def canonical_transforms(items: Sequence[Mapping[str, object]] | None) -> str:
+    """Return the canonical JSON text of a transform list for `Binding.transform` (``""`` when empty)."""
+    if not items:
+        return ""
+    return json.dumps([dict(i) for i in items], sort_keys=True, separators=(",", ":"), allow_nan=False)
+
+
+def binding_transforms(binding: Binding) -> list[dict[str, object]]:
+    """Return the transform list of `binding` (the inverse of `canonical_transforms`)."""
+    if not binding.transform:
+        return []
+    items = json.loads(binding.transform)
+    return items if isinstance(items, list) else []
 
 
 @dataclass(frozen=True, slots=True)
