@@ -456,7 +456,8 @@ class _Counter:
 
 
 def _count_in(seen: set[int], low: int, high: int) -> int:
-    return sum(1 for s in seen if low <= s < high)
+    # copy() runs in C under the GIL, so the counting thread cannot change the set mid-iteration.
+    return sum(1 for s in seen.copy() if low <= s < high)
 
 
 def bench_end_to_end(mode: str, publishers: int, rate: float, seconds: float) -> list[str]:
