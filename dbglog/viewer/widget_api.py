@@ -42,6 +42,7 @@ from dataclasses import dataclass
 from typing import ClassVar
 
 from dbglog.viewer._model import Binding, SeriesSnapshot, Status, ValueKind
+from dbglog.viewer._publish import PublishRequest, PublishService, PublishState
 
 __all__ = [
     "Binding",
@@ -50,6 +51,9 @@ __all__ = [
     "PropValue",
     "Property",
     "PropertyError",
+    "PublishRequest",
+    "PublishService",
+    "PublishState",
     "SeriesSnapshot",
     "Status",
     "ValueKind",
@@ -214,6 +218,8 @@ class Widget(abc.ABC):
         self.parent: int | str = 0
         self.width = 0
         self.height = 0
+        self.props_changed = False
+        """Set by `save_property`; the viewer copies `props` into the dashboard and clears it."""
 
     @classmethod
     def default_properties(cls) -> dict[str, PropValue]:
@@ -224,6 +230,18 @@ class Widget(abc.ABC):
     def property_named(cls, name: str) -> Property | None:
         """Return the declaration of property `name` (None when not declared)."""
         return next((p for p in cls.properties if p.name == name), None)
+
+    def save_property(self, name: str, value: object) -> None:
+        """Change a property from inside the widget (a toggle's state, a form); saved with the dashboard.
+
+        Raises:
+            PropertyError: `name` is not declared, or the value fails its declaration.
+        """
+        decl = self.property_named(name)
+        if decl is None:
+            raise PropertyError(f"no property {name!r} on a {self.type_name}")
+        self.props[name] = decl.validate(value)
+        self.props_changed = True
 
     def prop(self, name: str) -> PropValue:
         """Return the current value of property `name`."""
@@ -250,6 +268,27 @@ class Widget(abc.ABC):
     @abc.abstractmethod
     def update(self, snapshots: Sequence[SeriesSnapshot], now: float) -> None:
         """Show new data: one snapshot per binding, in binding order; `now` is the wall clock in seconds."""
+
+    def status(self) -> tuple[Status, str] | None:
+        """Return the widget's own status and reason for its pill, or None (the default) to show its series'.
+
+        Control widgets report their publishing state here; the viewer asks once per frame, so keep it cheap.
+        """
+        return None
+
+    @staticmethod
+    def publisher() -> PublishService:
+        """Return the viewer's publishing service, for control widgets (it starts on first use).
+
+        Example::
+
+            self.publisher().update(self, PublishRequest("/led", default_type="std_msgs/msg/Bool",
+                                                         value=True, value_kind="bool"), send=True)
+            state = self.publisher().state(self)   # PublishState(status, reason, ...)
+        """
+        from dbglog.viewer._publish import shared_service
+
+        return shared_service()
 
     def resize(self, width: int, height: int) -> None:
         """Fit the new body size; the default rebuilds the widget (create again in the same parent)."""

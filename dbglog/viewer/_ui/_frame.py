@@ -56,7 +56,7 @@ class CanvasItem:
         self.reason = ""
         self.updates = 0
         """How many times the widget was redrawn (tests and the benchmark read this)."""
-        self._key: tuple[tuple[int, Status, str], ...] | None = None
+        self._key: tuple[object, ...] | None = None
         self._pill_state: tuple[Status, str] | None = None
         x, y, w, h = self.geometry()
         self.window = dpg.add_child_window(
@@ -177,11 +177,20 @@ class CanvasItem:
         if self.widget is None or self.failed:
             return False
         snapshots = [source.snapshot(b) for b in self.bindings]
-        key = tuple((s.count, s.status, s.reason) for s in snapshots)
+        try:
+            own = self.widget.status()  # control widgets report their own state (publishing)
+        except Exception as exc:
+            self._fail(f"widget failed to report its status: {exc!r}")
+            return False
+        if self.widget.props_changed and isinstance(self.config, WidgetConfig):
+            # The widget changed a property itself (a control's value): keep it for saving.
+            self.widget.props_changed = False
+            self.config = replace(self.config, properties=dict(self.widget.props))
+        key = (*((s.count, s.status, s.reason) for s in snapshots), own)
         if key == self._key:
             return False
         self._key = key
-        self.status, self.reason = combined_status(snapshots)
+        self.status, self.reason = own if own is not None else combined_status(snapshots)
         if (self.status, self.reason) != self._pill_state:
             self._draw_header(int(self.geometry()[2]))
         try:
@@ -268,5 +277,10 @@ class CanvasItem:
 
     def destroy(self) -> None:
         """Remove the frame and the widget's items."""
+        if self.widget is not None:
+            try:
+                self.widget.destroy()  # lets a widget release what it holds (a control's publisher)
+            except Exception:
+                _log.debug("%s: widget destroy failed", self.name, exc_info=True)
         if dpg.does_item_exist(self.window):
             dpg.delete_item(self.window)
