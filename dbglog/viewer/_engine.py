@@ -10,7 +10,9 @@ copies (``snapshot``); nothing here imports Dear PyGui.
 
 from __future__ import annotations
 
+import json
 import logging
+import math
 import threading
 import time
 from collections import defaultdict
@@ -27,6 +29,7 @@ from dbglog.viewer._cdr import decode_fixed
 from dbglog.viewer._fields import FieldPathError, Resolved, list_fields, message_class, parse_path, resolve
 from dbglog.viewer._model import Binding, FieldInfo, SeriesSnapshot, Status, TopicInfo, ValueKind
 from dbglog.viewer._series import Series
+from dbglog.viewer._transforms import TransformChain
 
 __all__ = ["Engine", "EngineStats"]
 
@@ -35,6 +38,8 @@ _MAX_BATCH = 20_000
 """At most this many messages are taken from one subscription per cycle (others get their turn)."""
 _RESUBSCRIBE_DEDUP_S = 1.0
 _LATENCY_SAMPLES = 1 << 20
+_FAIL_STREAK = 5
+"""A binding's transforms that yield NaN with a reason this many samples in a row put it in ERROR."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -62,6 +67,11 @@ class _Sink:
     kind: ValueKind | None = None
     skip_until_ns: int = 0
     """After a re-subscription, messages up to this source stamp were already taken (re-sent history)."""
+    chain: TransformChain | None = None
+    """The binding's transforms with this sink's own state (derivative, average, unwrap)."""
+    extra: dict[str, Resolved] = field(default_factory=dict)
+    """Other fields of the same message that the formulas read, by path."""
+    fail_streak: int = 0
 
 
 @dataclass(eq=False, slots=True)
@@ -137,6 +147,7 @@ class Engine:
         self._lock = threading.Lock()
         self._series: dict[Binding, Series] = {}
         self._regexes: dict[Binding, CompiledRegex | None] = {}
+        self._chains: dict[Binding, TransformChain | None] = {}
         self._static_errors: dict[Binding, str] = {}
         self._topics: tuple[TopicInfo, ...] = ()
         self._types: dict[str, tuple[str, ...]] = {}
@@ -206,6 +217,12 @@ class Engine:
             self._series[binding] = series
             problem = self._check(binding)
             self._regexes[binding] = None
+            self._chains[binding] = None
+            if not isinstance(problem, str) and binding.transform:
+                try:
+                    self._chains[binding] = TransformChain.from_json(json.loads(binding.transform))
+                except (ValueError, RecursionError) as exc:  # TransformError and bad JSON are ValueErrors
+                    problem = f"bad transforms: {exc}"
             if isinstance(problem, str):
                 self._static_errors[binding] = problem
                 series.set_error(problem)
@@ -218,6 +235,7 @@ class Engine:
         with self._lock:
             self._series.pop(binding, None)
             self._regexes.pop(binding, None)
+            self._chains.pop(binding, None)
             self._static_errors.pop(binding, None)
         self._wake()
 
@@ -423,6 +441,29 @@ class Engine:
                 )
                 return sink
             kind = ValueKind.NUMBER
+        chain = self._chains.get(binding)
+        if chain is not None:
+            if kind not in (ValueKind.NUMBER, ValueKind.BOOL):
+                series.set_error(
+                    f"transforms apply to numbers, but {resolved.path!r} is {resolved.leaf_type}",
+                    msg_type=msg_type,
+                )
+                return sink
+            for path in sorted(chain.fields):
+                try:
+                    other = resolve(cls, path)
+                except FieldPathError as exc:
+                    series.set_error(f"a formula reads {path!r}: {exc}", msg_type=msg_type)
+                    return sink
+                if other.kind not in (ValueKind.NUMBER, ValueKind.BOOL):
+                    series.set_error(
+                        f"a formula reads {path!r}, which is {other.leaf_type}, not a number",
+                        msg_type=msg_type,
+                    )
+                    return sink
+                sink.extra[path] = other
+            sink.chain = chain.fresh()
+            kind = ValueKind.NUMBER  # a transformed bool is a number
         sink.resolved = resolved
         sink.kind = kind
         return sink
@@ -434,7 +475,7 @@ class Engine:
         for sink in topic.sinks.values():
             if sink.resolved is None:
                 continue
-            if sink.resolved.cdr is None or sink.regex is not None:
+            if sink.resolved.cdr is None or sink.regex is not None or sink.extra:
                 return None
             plan.append((sink, *sink.resolved.cdr))
         return plan
@@ -582,7 +623,12 @@ class Engine:
                         keep = np.asarray(stamps, dtype=np.int64) > sink.skip_until_ns
                         t, values = times[keep], values[keep]
                     if len(values):
-                        sink.series.push_numbers(t, values, _typed_last(sink, values[-1]), now)
+                        if sink.chain is not None:
+                            out = _transform(sink, t, values, None)
+                            sink.series.push_numbers(t, out, float(out[-1]), now)
+                            _check_failures(sink, out, (float(t[-1]), float(values[-1]), {}))
+                        else:
+                            sink.series.push_numbers(t, values, _typed_last(sink, values[-1]), now)
                 self._record_latency(times)
                 return
             from rclpy.serialization import deserialize_message
@@ -641,6 +687,49 @@ def _typed_last(sink: _Sink, value: float) -> float | int | bool:
     return int(value)
 
 
+def _number_or_nan(get: Any, msg: Any) -> float:
+    """Read one numeric field for a formula; NaN when the message does not have it (short sequence)."""
+    try:
+        return float(get(msg))
+    except (IndexError, AttributeError, TypeError, ValueError):
+        return math.nan
+
+
+def _transform(
+    sink: _Sink,
+    times: npt.NDArray[np.float64],
+    values: npt.NDArray[np.float64],
+    columns: dict[str, list[float]] | None,
+) -> npt.NDArray[np.float64]:
+    """Apply the sink's transforms to a batch (its state carries over to the next batch)."""
+    assert sink.chain is not None
+    cols = {k: np.asarray(v, dtype=np.float64) for k, v in columns.items()} if columns else None
+    return sink.chain.apply_array(times, values, cols)
+
+
+def _check_failures(
+    sink: _Sink,
+    out: npt.NDArray[np.float64],
+    sample: tuple[float, float, dict[str, float]],
+) -> None:
+    """Put the series in ERROR when the transforms keep failing (NaN with a reason) sample after sample.
+
+    `sample` is the batch's last input (time, value, other fields), re-run alone for a precise reason.
+    """
+    assert sink.chain is not None
+    reason = sink.chain.last_error
+    if reason is None or not len(out) or not math.isnan(out[-1]):
+        sink.fail_streak = 0
+        return
+    good = np.flatnonzero(~np.isnan(out))
+    trailing = len(out) - (int(good[-1]) + 1 if len(good) else 0)
+    sink.fail_streak = trailing if len(good) else sink.fail_streak + trailing
+    if sink.fail_streak >= _FAIL_STREAK:
+        probe = sink.chain.fresh()
+        probe.apply(*sample)
+        sink.series.set_error(f"transform failed: {probe.last_error or reason}")
+
+
 def _feed(sink: _Sink, messages: Iterable[Any], times: list[float], now: float) -> None:
     """Extract one binding's values from typed messages and push them to its series."""
     resolved = sink.resolved
@@ -649,6 +738,8 @@ def _feed(sink: _Sink, messages: Iterable[Any], times: list[float], now: float) 
     regex = sink.regex
     values: list[Any] = []
     value_times: list[float] = []
+    extra = list(sink.extra.items())
+    columns: dict[str, list[float]] = {path: [] for path, _ in extra}
     error = ""
     unmatched = 0
     for msg, t in zip(messages, times, strict=True):
@@ -672,6 +763,8 @@ def _feed(sink: _Sink, messages: Iterable[Any], times: list[float], now: float) 
                     continue
         values.append(value)
         value_times.append(t)
+        for path, other in extra:
+            columns[path].append(_number_or_nan(other.get, msg))
         error = ""
     series = sink.series
     if values:
@@ -679,6 +772,12 @@ def _feed(sink: _Sink, messages: Iterable[Any], times: list[float], now: float) 
             series.push_texts(value_times, values, now)
         elif sink.kind == ValueKind.ARRAY:
             series.push_array(len(values), values[-1], value_times[-1], now)
+        elif sink.chain is not None:
+            t_arr = np.asarray(value_times, dtype=np.float64)
+            out = _transform(sink, t_arr, np.asarray(values, dtype=np.float64), columns)
+            series.push_numbers(t_arr, out, float(out[-1]), now)
+            last_fields = {k: v[-1] for k, v in columns.items()}
+            _check_failures(sink, out, (value_times[-1], float(values[-1]), last_fields))
         else:
             series.push_numbers(
                 np.asarray(value_times, dtype=np.float64),
