@@ -7,15 +7,67 @@ from collections.abc import Callable
 import dearpygui.dearpygui as dpg
 
 from dbglog.regex_bridge._regex import RegexError, compile_regex
-from dbglog.viewer._model import Binding, DataSource, FieldInfo, Status, ValueKind
+from dbglog.viewer._expr import FormulaError, parse_formula
+from dbglog.viewer._model import (
+    Binding,
+    DataSource,
+    FieldInfo,
+    Status,
+    ValueKind,
+    binding_transforms,
+    canonical_transforms,
+)
+from dbglog.viewer._transforms import TransformError, transforms_from_json
 from dbglog.viewer._ui._frame import CanvasItem
 from dbglog.viewer._ui._theme import DIM, STATUS_COLORS
 from dbglog.viewer.widget_api import PropertyError, PropKind, PropValue, format_color, parse_color
 
-__all__ = ["Dialog", "MessageDialog", "PropertiesDialog", "RenameDialog", "TopicDialog", "regex_preview"]
+__all__ = [
+    "TRANSFORM_KINDS",
+    "Dialog",
+    "MessageDialog",
+    "PropertiesDialog",
+    "RenameDialog",
+    "TopicDialog",
+    "formula_check",
+    "regex_preview",
+]
+
+TRANSFORM_KINDS: dict[str, tuple[str, str, str]] = {
+    "rad2deg": ("radians \u2192 degrees", "", ""),
+    "deg2rad": ("degrees \u2192 radians", "", ""),
+    "scale": ("scale and offset", "scale", "offset"),
+    "abs": ("absolute value", "", ""),
+    "clamp": ("clamp", "min", "max"),
+    "derivative": ("derivative (per second)", "", ""),
+    "moving_average": ("moving average", "window", ""),
+    "unwrap": ("angle unwrap", "period", ""),
+    "formula": ("formula", "", ""),
+}
+"""Transform kind -> (menu label, first parameter, second parameter) for the topic setup dialog."""
+_PARAM_DEFAULTS = {
+    "scale": 1.0,
+    "offset": 0.0,
+    "min": 0.0,
+    "max": 1.0,
+    "window": 5.0,
+    "period": 6.283185307179586,
+}
 
 ERROR_COLOR = STATUS_COLORS[Status.ERROR]
 OK_COLOR = STATUS_COLORS[Status.LIVE]
+
+
+def formula_check(text: str) -> tuple[bool, str]:
+    """Return (ok, text) for a formula as it is typed: the fields it reads, or why it is refused."""
+    if not text.strip():
+        return False, "type a formula of x (the value), e.g. x * 57.2958"
+    try:
+        formula = parse_formula(text)
+    except FormulaError as exc:
+        return False, f"not allowed: {exc}"
+    fields = ", ".join(sorted(formula.fields))
+    return True, "ok" + (f": also reads {fields} from the same message" if fields else "")
 
 
 def regex_preview(pattern: str, latest: str | None) -> tuple[bool, str]:
@@ -261,6 +313,7 @@ class TopicDialog(Dialog):
         )
         self.preview = dpg.add_text("", parent=w, wrap=590)
         self.latest = dpg.add_text("", color=DIM, parent=w, wrap=590)
+        self._build_transforms(w)
         self._buttons("OK", self.apply)
         self._load_current()
 
@@ -304,12 +357,14 @@ class TopicDialog(Dialog):
         dpg.set_value(self.regex_input, b.regex)
         self._refresh_suggestions()
         self._refresh_fields(b.field)
+        self._show_transforms()
 
     def _store(self) -> None:
         topic = str(dpg.get_value(self.topic_input)).strip()
         field = self._selected_field()
         regex = str(dpg.get_value(self.regex_input))
-        self.bindings[self.index] = Binding(topic, field, regex)
+        transform = self.bindings[self.index].transform
+        self.bindings[self.index] = Binding(topic, field, regex, transform)
         if self.max_bindings > 1:
             labels = self._series_labels()
             dpg.configure_item(self.series_combo, items=labels)
@@ -383,6 +438,120 @@ class TopicDialog(Dialog):
         dpg.set_value(self.regex_input, pattern)
         self._store()
 
+    # -- transforms ---------------------------------------------------------------------------------
+
+    def _build_transforms(self, w: int | str) -> None:
+        dpg.add_text("Transforms (applied in order; see docs/transforms.md)", color=DIM, parent=w)
+        self.xf_list = dpg.add_group(parent=w)
+        with dpg.group(horizontal=True, parent=w):
+            self.xf_kind = dpg.add_combo(
+                [label for label, _, _ in TRANSFORM_KINDS.values()],
+                default_value=TRANSFORM_KINDS["rad2deg"][0],
+                width=190,
+                callback=lambda *_: self._on_kind(),
+            )
+            self.xf_a = dpg.add_input_double(width=110, show=False, format="%.6g")
+            self.xf_b = dpg.add_input_double(width=110, show=False, format="%.6g")
+            self.xf_add = dpg.add_button(label="Add", width=60, callback=lambda *_: self.add_transform())
+        self.xf_expr = dpg.add_input_text(
+            width=-1,
+            hint="formula, e.g. x * 57.2958 or sqrt(linear.x**2 + linear.y**2)",
+            parent=w,
+            show=False,
+            callback=lambda *_: self._check_formula(),
+        )
+        self.xf_note = dpg.add_text("", parent=w, wrap=590)
+        self.formula_ok = True
+        self.formula_text = ""
+
+    def _kind(self) -> str:
+        label = str(dpg.get_value(self.xf_kind))
+        return next((k for k, (lab, _, _) in TRANSFORM_KINDS.items() if lab == label), "rad2deg")
+
+    def choose_transform_kind(self, kind: str) -> None:
+        """Select a transform kind in the Add row (as picking it in the list does)."""
+        dpg.set_value(self.xf_kind, TRANSFORM_KINDS[kind][0])
+        self._on_kind()
+
+    def _on_kind(self) -> None:
+        kind = self._kind()
+        _, a, b = TRANSFORM_KINDS[kind]
+        for editor, name in ((self.xf_a, a), (self.xf_b, b)):
+            dpg.configure_item(editor, show=bool(name), label=name)
+            if name:
+                dpg.set_value(editor, _PARAM_DEFAULTS[name])
+        dpg.configure_item(self.xf_expr, show=kind == "formula")
+        if kind == "formula":
+            self._check_formula()
+        else:
+            dpg.set_value(self.xf_note, "")
+
+    def set_formula(self, text: str) -> tuple[bool, str]:
+        """Type a formula into the Add row (as the user would) and return its live check."""
+        self.choose_transform_kind("formula")
+        dpg.set_value(self.xf_expr, text)
+        return self._check_formula()
+
+    def _check_formula(self) -> tuple[bool, str]:
+        ok, text = formula_check(str(dpg.get_value(self.xf_expr)))
+        self.formula_ok, self.formula_text = ok, text
+        dpg.set_value(self.xf_note, text)
+        dpg.configure_item(self.xf_note, color=OK_COLOR if ok else ERROR_COLOR)
+        return ok, text
+
+    def transforms(self) -> list[dict[str, object]]:
+        """Return the transforms of the series being edited."""
+        return binding_transforms(self.bindings[self.index])
+
+    def add_transform(self) -> bool:
+        """Add the transform set up in the Add row to the series being edited; False (and why) if invalid."""
+        kind = self._kind()
+        _, a, b = TRANSFORM_KINDS[kind]
+        item: dict[str, object] = {"kind": kind}
+        if kind == "formula":
+            item["expr"] = str(dpg.get_value(self.xf_expr))
+        for editor, name in ((self.xf_a, a), (self.xf_b, b)):
+            if name:
+                value = float(dpg.get_value(editor))
+                item[name] = int(value) if name == "window" and value.is_integer() else value
+        items = [*self.transforms(), item]
+        try:
+            checked = transforms_from_json(items)
+        except TransformError as exc:
+            dpg.set_value(self.xf_note, str(exc))
+            dpg.configure_item(self.xf_note, color=ERROR_COLOR)
+            return False
+        self._set_transforms([t.to_json() for t in checked])
+        dpg.set_value(self.xf_note, f"added: {checked[-1].describe()}")
+        dpg.configure_item(self.xf_note, color=OK_COLOR)
+        return True
+
+    def remove_transform(self, index: int) -> None:
+        """Remove the transform at `index` from the series being edited."""
+        items = self.transforms()
+        if 0 <= index < len(items):
+            del items[index]
+            self._set_transforms(items)
+
+    def _set_transforms(self, items: list[dict[str, object]]) -> None:
+        b = self.bindings[self.index]
+        self.bindings[self.index] = Binding(b.topic, b.field, b.regex, canonical_transforms(items))
+        self._show_transforms()
+
+    def _show_transforms(self) -> None:
+        dpg.delete_item(self.xf_list, children_only=True)
+        try:
+            shown = transforms_from_json(self.transforms())
+        except TransformError as exc:
+            dpg.add_text(f"invalid: {exc}", parent=self.xf_list, color=ERROR_COLOR, wrap=590)
+            return
+        if not shown:
+            dpg.add_text("none: the value is shown as it arrives", parent=self.xf_list, color=DIM)
+        for i, t in enumerate(shown):
+            with dpg.group(horizontal=True, parent=self.xf_list):
+                dpg.add_button(label="x", width=24, callback=lambda *_, k=i: self.remove_transform(k))
+                dpg.add_text(f"{i + 1}. {t.describe()}")
+
     # -- live preview -------------------------------------------------------------------------------
 
     def tick(self) -> None:
@@ -427,7 +596,8 @@ class TopicDialog(Dialog):
                     dpg.configure_item(self.preview, color=ERROR_COLOR)
                     return False
         bindings = tuple(
-            Binding(b.topic if b.topic.startswith("/") else "/" + b.topic, b.field, b.regex) for b in bindings
+            Binding(b.topic if b.topic.startswith("/") else "/" + b.topic, b.field, b.regex, b.transform)
+            for b in bindings
         )
         self._on_apply(self.item, bindings)
         self.close()
