@@ -328,7 +328,7 @@ def test_pathological_lines_in_a_batch_stay_fast(pattern: str) -> None:
             st.sampled_from(["a", "ab", "b", ""]),
             st.sampled_from([0, 10, 20, 30, 40]),
         ),
-        max_size=30,
+        max_size=40,
     ),
     same_origin=st.booleans(),
 )

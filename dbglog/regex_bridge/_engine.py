@@ -44,8 +44,9 @@ longest single line: the pathological-line bound holds for batches too."""
 _TEXT_ENDS: Final = re.compile(r"\\[Az]|\(\?[imsU]*-[imsU]*m")
 """Pattern text that may depend on where the text starts or ends (``\\A``, ``\\z``, multi-line mode
 turned off): such rules never run over joined lines. Errs on the safe side (an escaped ``\\\\A`` counts)."""
-_FEW_TO_JOIN: Final = 3
-"""Batches of fewer lines are matched one line at a time (joining them costs more than it saves)."""
+_FEW_TO_JOIN: Final = 12
+"""Batches of fewer lines are matched one line at a time (below this, a batch's own cost outweighs what
+joining saves)."""
 _FEW_ORIGINS: Final = 64
 """A batch with at most this many (logger, level) combinations checks whether they all select the
 same rules, to match it as one."""
@@ -352,9 +353,11 @@ class Matcher:
         go to ``results[where[k]]`` (``results[k]`` without `where`).
         """
         count = len(sized)
-        offsets = list(accumulate([n + 1 for n in map(len, sized)], initial=0))
-        # offsets[k]: where line k starts in `joined`; offsets[count]: one past the end, plus one.
+        if group.match_joined is None:  # a rule must see each line alone: go line by line
+            self._each_line(group, joined, _offsets(sized), 0, count, where, results)
+            return
         if joined.count(b"\n") != count - 1:  # some line has a newline of its own: it goes alone
+            offsets = _offsets(sized)
             datas = [joined[offsets[k] : offsets[k + 1] - 1] for k in range(count)]
             kept = []
             for k, data in enumerate(datas):
@@ -373,21 +376,27 @@ class Matcher:
                     results,
                 )
             return
-        if group.match_joined is None:  # a rule must see each line alone: go line by line
-            self._each_line(group, joined, offsets, 0, count, where, results)
+        if len(joined) <= _CHUNK_BYTES:  # one chunk: often no rule hits, and then nothing more to do
+            hits = group.match_joined(joined)
+            if hits:
+                self._chunk(group, hits, joined, _offsets(sized), 0, count, where, results)
             return
+        offsets = _offsets(sized)
         first = 0
         while first < count:
             base = offsets[first]
             # A chunk holds at most _CHUNK_BYTES bytes, or one line (at most MAX_LINE bytes).
             last = max(first + 1, bisect_right(offsets, base + _CHUNK_BYTES + 1, first + 1) - 1)
-            chunk = joined if first == 0 and last == count else joined[base : offsets[last] - 1]
-            self._chunk(group, chunk, offsets, first, last, where, results)
+            chunk = joined[base : offsets[last] - 1]
+            hits = group.match_joined(chunk)
+            if hits:
+                self._chunk(group, hits, chunk, offsets, first, last, where, results)
             first = last
 
     def _chunk(
         self,
         group: _Group,
+        hits: list[int],
         chunk: bytes,
         offsets: list[int],
         first: int,
@@ -395,10 +404,8 @@ class Matcher:
         where: list[int] | None,
         results: list[tuple[Value, ...]],
     ) -> None:
-        """Match lines `first` to `last` (excluded), joined in `chunk`; none has a newline of its own."""
-        hits = group.match_joined(chunk)
-        if not hits:
-            return
+        """Find the values of the rules `hits` (the joined Set's answer) in lines `first` to `last`
+        (excluded), joined in `chunk`; none has a newline of its own."""
         if len(hits) * _DENSE > last - first:  # many rules hit: going line by line costs less
             self._each_line(group, chunk, offsets, first, last, where, results)
             return
@@ -501,6 +508,11 @@ class Matcher:
                 self._groups.clear()
             self._groups[key] = group
             return group
+
+
+def _offsets(sized: Sequence[Sized]) -> list[int]:
+    """Where each line starts once joined by newlines, and last one past the end plus one."""
+    return list(accumulate([n + 1 for n in map(len, sized)], initial=0))
 
 
 def _origins(
