@@ -4,17 +4,29 @@ Run under a virtual display::
 
     xvfb-run -a -s "-screen 0 1920x1080x24" .venv/bin/python -m benchmarks.bench_ui
 
-Each measurement runs in a fresh process (Dear PyGui allows one context per process): the same
-dashboard is measured idle (a static source, no updates: the cost of drawing the window) and live
-(the engine fed by a publisher process sending 50 x 100 Hz Float64). Prints a Markdown table of
-frame-time percentiles (median over repeats) and the messages the engine took.
+What is measured, per frame, with vsync OFF (a vsync-capped loop measures the display, not the viewer):
+
+- *frame production*: ``ViewerApp.frame()`` from start to end: input polling, reading snapshots, widget
+  updates, then ``render_dearpygui_frame`` (Dear ImGui/ImPlot drawing, software GL rasterising, buffer swap);
+- of which *app work* (everything before ``render_dearpygui_frame``) and *render* (that call alone);
+- *frame interval*: from the start of one frame to the start of the next (what the user sees as frame rate).
+
+Each measurement runs in a fresh process (Dear PyGui allows one context per process): an empty window (the
+fixed cost of the GL stack), the dashboard idle (a static source: drawing only, no updates), the dashboard
+live (the real engine fed by a publisher process sending 50 x 100 Hz Float64), and the live dashboard with
+vsync on for reference. Percentiles are the median over repeats. The GL renderer, the X screen depth and the
+load average are printed, since all of them move the figures.
 """
 
 from __future__ import annotations
 
 import argparse
+import ctypes
+import ctypes.util
+import itertools
 import json
 import math
+import os
 import statistics
 import subprocess
 import sys
@@ -26,6 +38,8 @@ from benchmarks._common import local_ros_env, print_table
 
 _ROOT = Path(__file__).resolve().parent.parent
 _PREFIX = "/bench/ui/t"
+_GL_RENDERER = 0x1F01
+_GL_VERSION = 0x1F02
 
 
 def _publisher(args: argparse.Namespace) -> None:
@@ -81,8 +95,48 @@ def _layout() -> list[tuple[str, list[int]]]:
     return widgets
 
 
+def _gl_info() -> str:
+    """Return the current GL renderer and version strings (the context is current on this thread)."""
+    try:
+        gl = ctypes.CDLL(ctypes.util.find_library("GL") or "libGL.so.1")
+        gl.glGetString.restype = ctypes.c_char_p
+        gl.glGetString.argtypes = [ctypes.c_uint]
+        renderer = (gl.glGetString(_GL_RENDERER) or b"?").decode()
+        version = (gl.glGetString(_GL_VERSION) or b"?").decode()
+    except OSError as exc:
+        return f"unknown ({exc})"
+    return f"{renderer}; {version}"
+
+
+def _x_depth() -> str:
+    """Return the default depth of the X screen in use, or why it is unknown."""
+    try:
+        x11 = ctypes.CDLL(ctypes.util.find_library("X11") or "libX11.so.6")
+    except OSError as exc:
+        return f"unknown ({exc})"
+    x11.XOpenDisplay.restype = ctypes.c_void_p
+    x11.XOpenDisplay.argtypes = [ctypes.c_char_p]
+    x11.XDefaultScreen.argtypes = [ctypes.c_void_p]
+    x11.XDefaultDepth.argtypes = [ctypes.c_void_p, ctypes.c_int]
+    x11.XDisplayWidth.argtypes = [ctypes.c_void_p, ctypes.c_int]
+    x11.XDisplayHeight.argtypes = [ctypes.c_void_p, ctypes.c_int]
+    x11.XCloseDisplay.argtypes = [ctypes.c_void_p]
+    display = x11.XOpenDisplay(None)
+    if not display:
+        return "no X display"
+    screen = x11.XDefaultScreen(display)
+    text = (
+        f"{x11.XDisplayWidth(display, screen)}x{x11.XDisplayHeight(display, screen)}"
+        f"x{x11.XDefaultDepth(display, screen)}"
+    )
+    x11.XCloseDisplay(display)
+    return text
+
+
 def _ui(args: argparse.Namespace) -> None:
     """Build the dashboard, render for the warm-up plus the measured time, print frame times as JSON."""
+    import dearpygui.dearpygui as dpg
+
     from dbglog.viewer._geometry import Rect
     from dbglog.viewer._model import Binding
     from dbglog.viewer._model import DataSource as _DataSource
@@ -107,6 +161,7 @@ def _ui(args: argparse.Namespace) -> None:
     width, height = args.width, args.height
     app = ViewerApp(source, WidgetRegistry.builtin(), width=width, height=height)
     app.start()
+    dpg.set_viewport_vsync(args.vsync)
     app.set_snap(False)
     cell_w, cell_h = (width - 220) // 5, (height - 90) // 4
     for n, (kind, topics) in enumerate(_layout() if args.source != "empty" else []):
@@ -114,32 +169,61 @@ def _ui(args: argparse.Namespace) -> None:
         assert item is not None
         item.place(Rect(8 + cell_w * (n % 5), 8 + cell_h * (n // 5), cell_w - 8, cell_h - 8), rebuild=True)
         app.apply_bindings(item, tuple(Binding(f"{_PREFIX}{t}", "data") for t in topics))
+    app.select(None)
     warm_end = time.monotonic() + args.warmup
     while time.monotonic() < warm_end:
         app.frame()
     taken0 = engine.stats().taken if engine is not None else 0
-    times = []
-    end = time.monotonic() + args.duration
-    t0 = time.monotonic()
-    while time.monotonic() < end:
-        times.append(app.frame())
-    elapsed = time.monotonic() - t0
+    updates0 = sum(i.updates for i in app.items)
+    totals: list[float] = []
+    works: list[float] = []
+    starts: list[float] = []
+    cpu0 = time.process_time()
+    t0 = time.perf_counter()
+    end = t0 + args.duration
+    while True:
+        start = time.perf_counter()
+        if start >= end:
+            break
+        starts.append(start)
+        totals.append(app.frame())
+        works.append(getattr(app, "last_work_s", float("nan")))
+    elapsed = time.perf_counter() - t0
+    cpu = time.process_time() - cpu0
     taken = (engine.stats().taken - taken0) if engine is not None else 0
+    updates = sum(i.updates for i in app.items) - updates0
     live = sum(1 for i in app.items if i.status.value == "live")
+    info = {"gl": _gl_info(), "screen": _x_depth()}
     if args.shot:
         app.screenshot(args.shot)
     app.close()
     if engine is not None:
         engine.stop()
-    print(json.dumps({"times": times, "elapsed": elapsed, "taken": taken, "live": live}), flush=True)
+    intervals = [b - a for a, b in itertools.pairwise(starts)]
+    out = {
+        "totals": totals,
+        "works": works,
+        "intervals": intervals,
+        "elapsed": elapsed,
+        "cpu": cpu,
+        "taken": taken,
+        "updates": updates,
+        "live": live,
+        **info,
+    }
+    print(json.dumps(out), flush=True)
 
 
 def _pct(values: list[float], q: float) -> float:
-    ordered = sorted(values)
+    """Return the q-quantile of `values` (nearest rank); NaN when there are none."""
+    ordered = sorted(v for v in values if not math.isnan(v))
+    if not ordered:
+        return math.nan
     return ordered[min(len(ordered) - 1, int(q * len(ordered)))]
 
 
-def _measure(source: str, args: argparse.Namespace, shot: str = "") -> dict[str, float]:
+def _measure(source: str, args: argparse.Namespace, *, vsync: bool, shot: str = "") -> dict[str, Any]:
+    """Run one UI child (and a publisher for the live source); return its frame statistics."""
     pub = None
     if source == "engine":
         pub = subprocess.Popen(
@@ -154,53 +238,81 @@ def _measure(source: str, args: argparse.Namespace, shot: str = "") -> dict[str,
                 "--rate",
                 str(args.rate),
                 "--duration",
-                str(args.warmup + args.duration + 6),
+                str(args.warmup + args.duration + 8),
             ],
             cwd=_ROOT,
             stdout=subprocess.PIPE,
             text=True,
         )
         time.sleep(1.0)
-    ui = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "benchmarks.bench_ui",
-            "--role",
-            "ui",
-            "--source",
-            source,
-            "--topics",
-            str(args.topics),
-            "--duration",
-            str(args.duration),
-            "--warmup",
-            str(args.warmup),
-            "--shot",
-            shot,
-        ],
-        cwd=_ROOT,
-        capture_output=True,
-        text=True,
-        timeout=args.warmup + args.duration + 120,
-        check=False,
-    )
-    if pub is not None:
-        pub.kill()
-        pub.wait()
+    cmd = [
+        sys.executable,
+        "-m",
+        "benchmarks.bench_ui",
+        "--role",
+        "ui",
+        "--source",
+        source,
+        "--topics",
+        str(args.topics),
+        "--width",
+        str(args.width),
+        "--height",
+        str(args.height),
+        "--duration",
+        str(args.duration),
+        "--warmup",
+        str(args.warmup),
+        "--shot",
+        shot,
+    ]
+    if vsync:
+        cmd.append("--vsync")
+    try:
+        ui = subprocess.run(
+            cmd,
+            cwd=_ROOT,
+            capture_output=True,
+            text=True,
+            timeout=args.warmup + args.duration + 120,
+            check=False,
+        )
+    finally:
+        if pub is not None:
+            pub.kill()
+            pub.wait()
     if ui.returncode != 0:
         raise RuntimeError(f"ui child failed:\n{ui.stderr}")
     data = json.loads(ui.stdout.strip().splitlines()[-1])
-    times_ms = [t * 1000 for t in data["times"]]
+    totals = [t * 1000 for t in data["totals"]]
+    works = [t * 1000 for t in data["works"]]
+    renders = [t - w for t, w in zip(totals, works, strict=True)]
+    intervals = [t * 1000 for t in data["intervals"]]
     return {
-        "frames": len(times_ms),
-        "fps": len(times_ms) / data["elapsed"],
-        "p50": _pct(times_ms, 0.50),
-        "p95": _pct(times_ms, 0.95),
-        "p99": _pct(times_ms, 0.99),
+        "frames": len(totals),
+        "fps": len(totals) / data["elapsed"],
+        "p50": _pct(totals, 0.50),
+        "p95": _pct(totals, 0.95),
+        "p99": _pct(totals, 0.99),
+        "work50": _pct(works, 0.50),
+        "work95": _pct(works, 0.95),
+        "render50": _pct(renders, 0.50),
+        "render95": _pct(renders, 0.95),
+        "int50": _pct(intervals, 0.50),
+        "int95": _pct(intervals, 0.95),
+        "int99": _pct(intervals, 0.99),
+        "cpu": 100 * data["cpu"] / data["elapsed"],
+        "cpu_ms": 1000 * data["cpu"] / max(1, len(totals)),
         "msgs": data["taken"] / data["elapsed"],
+        "ups": data["updates"] / data["elapsed"],
         "live": data["live"],
+        "gl": data["gl"],
+        "screen": data["screen"],
     }
+
+
+def _fmt(value: float, spec: str = ".1f") -> str:
+    return "n/a" if math.isnan(value) else format(value, spec)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -215,6 +327,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--duration", type=float, default=8.0, help="measured seconds per repeat")
     parser.add_argument("--warmup", type=float, default=3.0)
     parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--vsync", action="store_true", help="(ui role) keep vsync on")
+    parser.add_argument(
+        "--scenarios",
+        default="empty,static,engine,engine-vsync",
+        help="comma-separated subset of empty, static, engine, engine-vsync",
+    )
     parser.add_argument("--shot", default="", help="write a PNG of the live dashboard at the end")
     args = parser.parse_args(argv)
     local_ros_env()
@@ -224,35 +342,80 @@ def main(argv: list[str] | None = None) -> int:
     if args.role == "ui":
         _ui(args)
         return 0
+    labels = {
+        "empty": ("empty", False, "empty window, vsync off (GL stack fixed cost)"),
+        "static": ("static", False, "20 widgets idle, vsync off (drawing only)"),
+        "engine": ("engine", False, "20 widgets live: 50 topics x 100 Hz, vsync off"),
+        "engine-vsync": ("engine", True, "20 widgets live, vsync on (for reference)"),
+    }
+    chosen = [s.strip() for s in args.scenarios.split(",") if s.strip()]
+    unknown = [s for s in chosen if s not in labels]
+    if unknown:
+        parser.error(f"unknown scenario(s) {', '.join(unknown)}; choose from {', '.join(labels)}")
+    load_before = os.getloadavg()
     rows = []
-    scenarios = (
-        ("empty", "empty window (Xvfb + Mesa fixed cost)"),
-        ("static", "20 widgets idle (drawing only)"),
-        ("engine", "20 widgets live: 50 topics x 100 Hz"),
-    )
-    for source, label in scenarios:
+    env_line = ""
+    for name in chosen:
+        source, vsync, label = labels[name]
         runs = [
-            _measure(source, args, args.shot if (source == "engine" and r == args.repeats - 1) else "")
+            _measure(
+                source,
+                args,
+                vsync=vsync,
+                shot=args.shot if (name == "engine" and r == args.repeats - 1) else "",
+            )
             for r in range(args.repeats)
         ]
-        med = {k: statistics.median(r[k] for r in runs) for k in runs[0]}
+        env_line = f"GL: {runs[0]['gl']}; X screen {runs[0]['screen']}"
+        med = {k: statistics.median(r[k] for r in runs) for k in runs[0] if k not in ("gl", "screen")}
         rows.append(
             [
                 label,
                 f"{med['frames']:.0f}",
+                _fmt(med["p50"]),
+                _fmt(med["p95"]),
+                _fmt(med["p99"]),
+                f"{_fmt(med['work50'])} / {_fmt(med['work95'])}",
+                f"{_fmt(med['render50'])} / {_fmt(med['render95'])}",
+                f"{_fmt(med['int50'])} / {_fmt(med['int95'])} / {_fmt(med['int99'])}",
                 f"{med['fps']:.0f}",
-                f"{med['p50']:.1f}",
-                f"{med['p95']:.1f}",
-                f"{med['p99']:.1f}",
+                f"{med['cpu']:.0f}% / {med['cpu_ms']:.1f}",
                 f"{med['msgs']:.0f}",
+                f"{med['ups']:.0f}",
                 f"{med['live']:.0f}",
             ]
         )
+    load_after = os.getloadavg()
     print_table(
         f"Viewer frame time at {args.width}x{args.height}, {args.topics} topics "
         f"(median of {args.repeats} x {args.duration:g} s)",
-        ["scenario", "frames", "fps", "p50 ms", "p95 ms", "p99 ms", "engine msgs/s", "widgets live"],
+        [
+            "scenario",
+            "frames",
+            "production p50 ms",
+            "p95 ms",
+            "p99 ms",
+            "app work p50 / p95",
+            "render p50 / p95",
+            "interval p50 / p95 / p99 ms",
+            "fps",
+            "UI process CPU / ms per frame",
+            "engine msgs/s",
+            "widget updates/s",
+            "widgets live",
+        ],
         rows,
+    )
+    env = {
+        k: os.environ.get(k, "unset") for k in ("LIBGL_ALWAYS_SOFTWARE", "GALLIUM_DRIVER", "LP_NUM_THREADS")
+    }
+    print(
+        f"\n{env_line}; {', '.join(f'{k}={v}' for k, v in env.items())}; {os.cpu_count()} CPUs; "
+        f"load average {load_before[0]:.2f} before, {load_after[0]:.2f} after.\n"
+        "Production = ViewerApp.frame() (input, snapshots, widget updates, render_dearpygui_frame); "
+        "app work = the part before render_dearpygui_frame; interval = start to start of consecutive frames; "
+        "UI process CPU counts every thread of the viewer process (Mesa's rasterizer threads, and the "
+        "engine's ingest thread in the live rows) and is the figure least moved by other load."
     )
     return 0
 

@@ -21,6 +21,7 @@ from dbglog.viewer._geometry import (
     nice_ticks,
     normalize_heading,
     polar,
+    rects_around,
     snap,
     snap_rect,
     thermo_fill,
@@ -204,3 +205,29 @@ def test_minmax_decimate_property(values: list[float], max_points: int) -> None:
     assert np.all(np.diff(dx) >= 0)
     assert dy.max() == y.max()
     assert dy.min() == y.min()
+
+
+def test_minmax_decimate_nan_bucket_and_uneven_length() -> None:
+    """NaNs never hide a bucket's real extremes; a length that does not divide evenly still fits."""
+    y = np.arange(1001, dtype=np.float64)
+    y[10:20] = np.nan
+    y[500] = -5.0
+    x = np.arange(1001, dtype=np.float64)
+    dx, dy = minmax_decimate(x, y, 64)
+    assert len(dx) <= 64
+    assert dy[np.isfinite(dy)].min() == -5.0
+    assert dy.max() == 1000.0
+    assert np.all(np.diff(dx) >= 0)
+
+
+def test_rects_around_cover_outer_minus_hole() -> None:
+    """The pieces around a hole cover the outer rectangle exactly once outside the hole, never inside it."""
+    outer, hole = Rect(0, 0, 100, 60), Rect(20, 10, 50, 30)
+    pieces = rects_around(outer, hole)
+    assert len(pieces) == 4
+    assert sum(r.w * r.h for r in pieces) == outer.w * outer.h - hole.w * hole.h
+    for px, py in ((5, 5), (95, 55), (10, 30), (80, 30), (45, 5), (45, 50)):
+        assert sum(r.contains(px, py) for r in pieces) >= 1
+    assert not any(r.contains(45, 25) for r in pieces), "nothing is painted inside the hole"
+    assert rects_around(outer, Rect(200, 200, 5, 5)) == [outer]
+    assert rects_around(outer, Rect(-10, -10, 200, 200)) == []

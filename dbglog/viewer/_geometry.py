@@ -25,6 +25,7 @@ __all__ = [
     "nice_ticks",
     "normalize_heading",
     "polar",
+    "rects_around",
     "snap",
     "snap_rect",
     "thermo_fill",
@@ -55,6 +56,25 @@ class Rect:
     def resized(self, dw: float, dh: float, min_w: float, min_h: float) -> Rect:
         """Return the rectangle grown by (dw, dh) from its top-left corner, at least min_w x min_h."""
         return Rect(self.x, self.y, max(min_w, self.w + dw), max(min_h, self.h + dh))
+
+
+def rects_around(outer: Rect, hole: Rect) -> list[Rect]:
+    """Return at most four rectangles that cover `outer` except where `hole` lies (no overlaps, none empty).
+
+    The viewer paints its window background this way, around the canvas, instead of under it.
+    """
+    x0, y0 = max(outer.x, hole.x), max(outer.y, hole.y)
+    x1 = min(outer.x + outer.w, hole.x + hole.w)
+    y1 = min(outer.y + outer.h, hole.y + hole.h)
+    if x1 <= x0 or y1 <= y0:
+        return [outer] if outer.w > 0 and outer.h > 0 else []
+    pieces = (
+        Rect(outer.x, outer.y, outer.w, y0 - outer.y),  # above, full width
+        Rect(outer.x, y1, outer.w, outer.y + outer.h - y1),  # below, full width
+        Rect(outer.x, y0, x0 - outer.x, y1 - y0),  # left of the hole
+        Rect(x1, y0, outer.x + outer.w - x1, y1 - y0),  # right of the hole
+    )
+    return [r for r in pieces if r.w > 0 and r.h > 0]
 
 
 def snap(value: float, grid: float) -> float:
@@ -209,34 +229,24 @@ def minmax_decimate(x: FloatArray, y: FloatArray, max_points: int) -> tuple[Floa
     """Reduce a line to at most `max_points` points, keeping each bucket's minimum and maximum in order.
 
     With one bucket per pair of output points, spikes survive decimation (unlike taking every n-th
-    point), so a plot ``max_points`` = 2 x its width in pixels looks the same as the full data.
+    point), so a plot whose ``max_points`` is its width in pixels looks the same as the full data.
+    Buckets are equal runs of consecutive samples; NaNs never win a bucket unless it holds nothing else.
     """
     n = len(x)
     if n <= max_points or max_points < 2:
         return x, y
-    buckets = max_points // 2
-    edges = np.linspace(0, n, buckets + 1).astype(np.int64)
-    starts = edges[:-1]
-    lengths = np.diff(edges)
-    # Every bucket has at least one point because n > max_points >= buckets.
-    y_clean = np.where(np.isnan(y), np.inf, y)
-    imin = np.minimum.reduceat(y_clean, starts)
-    y_clean_max = np.where(np.isnan(y), -np.inf, y)
-    imax = np.maximum.reduceat(y_clean_max, starts)
-    # Indices of min and max within each bucket.
-    idx = np.arange(n)
-    bucket_of = np.repeat(np.arange(buckets), lengths)
-    is_min = y_clean == imin[bucket_of]
-    is_max = y_clean_max == imax[bucket_of]
-    first_min = np.full(buckets, n, dtype=np.int64)
-    first_max = np.full(buckets, n, dtype=np.int64)
-    np.minimum.at(first_min, bucket_of[is_min], idx[is_min])
-    np.minimum.at(first_max, bucket_of[is_max], idx[is_max])
-    first_min = np.where(first_min == n, starts, first_min)
-    first_max = np.where(first_max == n, starts, first_max)
-    lo = np.minimum(first_min, first_max)
-    hi = np.maximum(first_min, first_max)
+    size = -(-n // (max_points // 2))  # samples per bucket, rounded up: at most max_points // 2 buckets
+    buckets = -(-n // size)
+    pad = buckets * size - n
+    nan = np.isnan(y)
+    # Pad the last bucket with values that never win; the last bucket still holds a real sample.
+    lows = np.concatenate((np.where(nan, np.inf, y), np.full(pad, np.inf))).reshape(buckets, size)
+    highs = np.concatenate((np.where(nan, -np.inf, y), np.full(pad, -np.inf))).reshape(buckets, size)
+    base = np.arange(0, buckets * size, size)
+    i_min = base + lows.argmin(axis=1)
+    i_max = base + highs.argmax(axis=1)
     order = np.empty(buckets * 2, dtype=np.int64)
-    order[0::2] = lo
-    order[1::2] = hi
+    np.minimum(i_min, i_max, out=order[0::2])
+    np.maximum(i_min, i_max, out=order[1::2])
+    np.minimum(order, n - 1, out=order)
     return x[order], y[order]

@@ -26,7 +26,7 @@ from dbglog.viewer._dashboard import (
     load_dashboard,
     save_dashboard,
 )
-from dbglog.viewer._geometry import Part, Rect, hit_test, snap_rect
+from dbglog.viewer._geometry import Part, Rect, hit_test, rects_around, snap_rect
 from dbglog.viewer._model import Binding, DataSource
 from dbglog.viewer._ui import _theme as theme
 from dbglog.viewer._ui._dialogs import Dialog, MessageDialog, PropertiesDialog, RenameDialog, TopicDialog
@@ -86,12 +86,16 @@ class ViewerApp:
         self.frame_times: collections.deque[float] = collections.deque(maxlen=600)
         self.frame_hooks: list[Callable[[], None]] = []
         """Called once per frame on the UI thread, after the widgets refresh (the auto-dashboard)."""
+        self.last_work_s = 0.0
+        """Seconds the last frame spent before `render_dearpygui_frame` (input, snapshots, widget updates)."""
         self._refs: collections.Counter[Binding] = collections.Counter()
         self._drag: _Drag | None = None
         self._left_down = False
         self._right_down = False
         self._menu_item: CanvasItem | None = None
         self._grid_key: tuple[int, int, int, bool, bool] | None = None
+        self._window_size = (0, 0)
+        self._backdrop_key: tuple[float, ...] | None = None
         self._started = False
         self._status_text = ""
         self._status_left = ""
@@ -142,8 +146,24 @@ class ViewerApp:
     # -- building -----------------------------------------------------------------------------------
 
     def _build(self) -> None:
+        # Fill rate is what a software renderer (Mesa llvmpipe) pays for, ~9 ms per frame for one layer over
+        # the whole 1440x900 window. So this is not Dear PyGui's "primary window" (which always fills its
+        # background) but a window without one that follows the viewport's size (`_fit_window`); the viewport
+        # is cleared to the canvas colour, the canvas has no fill of its own, and the window colour is painted
+        # only around the canvas (`_draw_backdrop`).
         with dpg.window(
-            no_title_bar=True, no_move=True, no_resize=True, no_collapse=True, menubar=True, no_scrollbar=True
+            pos=(0, 0),
+            width=self.width,
+            height=self.height,
+            no_title_bar=True,
+            no_move=True,
+            no_resize=True,
+            no_collapse=True,
+            menubar=True,
+            no_scrollbar=True,
+            no_background=True,
+            no_bring_to_front_on_focus=True,
+            no_saved_settings=True,
         ) as self.main:
             self._build_menus()
             with dpg.group(horizontal=True):
@@ -161,7 +181,10 @@ class ViewerApp:
             with dpg.group(horizontal=True):
                 self.status_left = dpg.add_text("", color=theme.DIM)
                 self.status_msg = dpg.add_text("")
-        dpg.set_primary_window(self.main, True)
+        dpg.set_viewport_clear_color(theme.CANVAS)
+        dpg.bind_item_theme(self.main, theme.main_window_theme())
+        dpg.bind_item_theme(self.canvas, theme.unfilled_child_theme())
+        self.backdrop = dpg.add_viewport_drawlist(front=False)
         self.overlay = dpg.add_viewport_drawlist(front=True)
         with dpg.window(
             show=False,
@@ -288,8 +311,11 @@ class ViewerApp:
                 self.dialog.tick()
             except Exception as exc:  # a dialog must never stop the render loop
                 self.set_status(f"dialog error: {exc!r}")
+        self._fit_window()
+        self._draw_backdrop()
         self._draw_grid()
         self._update_status()
+        self.last_work_s = time.perf_counter() - t0
         dpg.render_dearpygui_frame()
         elapsed = time.perf_counter() - t0
         self.frame_times.append(elapsed)
@@ -811,6 +837,26 @@ class ViewerApp:
         if text != self._status_left:
             self._status_left = text
             dpg.set_value(self.status_left, text)
+
+    def _fit_window(self) -> None:
+        size = (dpg.get_viewport_client_width(), dpg.get_viewport_client_height())
+        if size != self._window_size and size[0] > 0 and size[1] > 0:
+            self._window_size = size
+            dpg.configure_item(self.main, width=size[0], height=size[1])
+
+    def _draw_backdrop(self) -> None:
+        ox, oy = self.canvas_origin()
+        w, h = self.canvas_size()
+        key: tuple[float, ...] = (*self._window_size, ox, oy, w, h)
+        if key == self._backdrop_key:
+            return
+        self._backdrop_key = key
+        dpg.delete_item(self.backdrop, children_only=True)
+        outer = Rect(0, 0, float(self._window_size[0]), float(self._window_size[1]))
+        for r in rects_around(outer, Rect(ox, oy, w, h)):
+            dpg.draw_rectangle(
+                (r.x, r.y), (r.x + r.w, r.y + r.h), color=theme.BG, fill=theme.BG, parent=self.backdrop
+            )
 
     def _draw_grid(self) -> None:
         w, h = self.canvas_size()

@@ -9,7 +9,14 @@ import dearpygui.dearpygui as dpg
 from dbglog.viewer._model import Status
 from dbglog.viewer.widget_api import Color
 
-__all__ = ["STATUS_COLORS", "apply_theme", "frame_theme", "load_font"]
+__all__ = [
+    "STATUS_COLORS",
+    "apply_theme",
+    "frame_theme",
+    "load_font",
+    "main_window_theme",
+    "unfilled_child_theme",
+]
 
 STATUS_COLORS: dict[Status, Color] = {
     Status.WAITING: (240, 160, 40, 255),
@@ -102,6 +109,23 @@ def apply_theme() -> None:
         # Plot colours are bound per plot (the widget does it): an mvPlot component in the global
         # theme makes Dear PyGui 2.3 crash when a later context loads a font.
     dpg.bind_theme(theme)
+
+
+def main_window_theme() -> int | str:
+    """Return the main window's theme: no border and square corners, as it fills the viewport."""
+    with dpg.theme() as theme, dpg.theme_component(dpg.mvWindowAppItem):
+        dpg.add_theme_style(dpg.mvStyleVar_WindowBorderSize, 0, category=dpg.mvThemeCat_Core)
+        dpg.add_theme_style(dpg.mvStyleVar_WindowRounding, 0, category=dpg.mvThemeCat_Core)
+    result: int | str = theme
+    return result
+
+
+def unfilled_child_theme() -> int | str:
+    """Return a theme for the canvas: no fill of its own (the viewport is cleared to its colour)."""
+    with dpg.theme() as theme, dpg.theme_component(dpg.mvChildWindow):
+        dpg.add_theme_color(dpg.mvThemeCol_ChildBg, (0, 0, 0, 0), category=dpg.mvThemeCat_Core)
+    result: int | str = theme
+    return result
 
 
 def frame_theme() -> int | str:
