@@ -28,6 +28,11 @@ BUILTIN_WIDGETS: dict[str, str] = {
     "thermo": "dbglog.viewer._widgets._gauges:ThermoWidget",
     "string": "dbglog.viewer._widgets._text:StringWidget",
     "led": "dbglog.viewer._widgets._text:LedWidget",
+    "toggle": "dbglog.viewer._widgets._controls:ToggleWidget",
+    "slider": "dbglog.viewer._widgets._controls:SliderWidget",
+    "button": "dbglog.viewer._widgets._controls:ButtonWidget",
+    "text_field": "dbglog.viewer._widgets._controls:TextFieldWidget",
+    "publish": "dbglog.viewer._widgets._controls:PublishWidget",
 }
 """Entry-point name -> ``module:Class`` of the built-in widgets (mirrored in pyproject.toml)."""
 
