@@ -119,14 +119,17 @@ def _interleaved(
     ``run(lo, hi)`` handles lines ``lo`` to ``hi``. Matching is single-threaded CPU work, so this thread's
     CPU time is what it costs; unlike wall time it leaves out the time other processes on a shared machine
     take the CPU. Taking turns on short blocks, rather than timing one run's repeats then the next's,
-    spreads what remains of the machine's load (caches, clock speed) over every run alike.
+    spreads what remains of the machine's load (caches, clock speed) over every run alike, and the order
+    rotates from block to block.
     """
     samples: dict[str, list[float]] = {name: [] for name in runs}
     clock = time.thread_time_ns
+    order = list(runs.items())
     for _ in range(rounds):
         for lo in range(0, count, block):
             hi = min(count, lo + block)
-            for name, run in runs.items():
+            order.append(order.pop(0))  # each run in turn goes first, so none always follows the same one
+            for name, run in order:
                 start = clock()
                 run(lo, hi)
                 samples[name].append((clock() - start) / (hi - lo))
