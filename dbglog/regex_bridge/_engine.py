@@ -538,13 +538,13 @@ def _utf8(line: str) -> bytes:
 
 
 def _join_str(lines: Sequence[str]) -> tuple[bytes, Sequence[Sized]]:
-    """The lines' UTF-8, each cut to `MAX_LINE` bytes, joined by newlines; and what gives their sizes."""
-    if max(map(len, lines)) <= MAX_LINE:
-        text = "\n".join(lines)
-        if text.isascii():
-            return text.encode(), lines  # ASCII: as many bytes as characters
-    datas = [_utf8(line) for line in lines]
-    return b"\n".join(datas), datas
+    """The lines' UTF-8, each cut to `MAX_LINE` bytes, joined by newlines; and the lines so encoded."""
+    if max(map(len, lines)) <= MAX_LINE:  # else cut the text first: never encode more than needed
+        try:
+            return _join_bytes([line.encode() for line in lines])
+        except UnicodeEncodeError:  # lone surrogates (from undecodable bytes): keep them matchable
+            pass
+    return _join_bytes([_utf8(line) for line in lines])
 
 
 def _join_bytes(lines: Sequence[bytes]) -> tuple[bytes, Sequence[Sized]]:
