@@ -18,7 +18,7 @@ import pytest
 from geometry_msgs.msg import Twist
 from std_msgs.msg import Bool, Float64, String
 
-from dbglog.viewer._dashboard import load_dashboard, parse_dashboard
+from dbglog.viewer._dashboard import WidgetConfig, load_dashboard, parse_dashboard
 from dbglog.viewer._engine import Engine
 from dbglog.viewer._model import Binding, Status, ValueKind, binding_transforms, canonical_transforms
 from dbglog.viewer._widgets import WidgetRegistry
@@ -332,3 +332,31 @@ def test_escape_corpus_dashboard_through_the_loader_and_the_viewer(tmp_path: Pat
     assert (tmp_path / "corpus.png").stat().st_size > 0
     assert not sentinel.exists()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["corpus.json", "corpus.png", "report.json"]
+
+
+def test_shipped_dashboards_show_the_azimuth_in_degrees_and_the_demo_has_teleop() -> None:
+    """The sound-source example and the demo feed a degrees compass through rad→deg; the demo can steer."""
+    root = Path(__file__).resolve().parent.parent
+    registry = WidgetRegistry.discover()
+    for path in (
+        root / "examples" / "dashboards" / "sound_source.json",
+        root / "dbglog" / "_demo" / "demo_dashboard.json",
+    ):
+        result = load_dashboard(path, registry.get)
+        assert result.messages == [], path
+        compass = next(w for w in result.dashboard.widgets if w.type == "compass" and "zimuth" in w.name)
+        assert compass.properties["units"] == "degrees"  # type: ignore[union-attr]
+        (binding,) = compass.bindings  # type: ignore[union-attr]
+        assert binding.topic == "/rosdashboard/sound/azimuth"
+        assert binding_transforms(binding) == [{"kind": "rad2deg"}]
+    demo = load_dashboard(root / "dbglog" / "_demo" / "demo_dashboard.json", registry.get).dashboard
+    teleop = {
+        (w.type, w.bindings[0].topic, w.bindings[0].field)
+        for w in demo.widgets
+        if isinstance(w, WidgetConfig) and w.name.startswith("Teleop")
+    }
+    assert teleop == {
+        ("toggle", "/turtle1/autopilot", ""),
+        ("slider", "/turtle1/cmd_vel", "linear.x"),
+        ("slider", "/turtle1/cmd_vel", "angular.z"),
+    }

@@ -32,6 +32,9 @@ __all__ = [
 ]
 
 MAX_MESSAGE_CHARS = 1000
+NOTE_H = 18
+"""Pixels the one-line note under a control needs (it is left out when the body is shorter)."""
+ROW_H = 22
 _ERROR_COLOR = (236, 96, 110, 255)
 _MAX_FORM_ROWS = 40
 
@@ -181,7 +184,11 @@ class _Control(Widget):
         dpg.set_value(self.note, text)
         dpg.configure_item(self.note, color=_ERROR_COLOR if self.problem else DIM)
 
-    def _add_note(self, parent: int | str, width: int) -> None:
+    def _add_note(self, parent: int | str, width: int, room: int = NOTE_H) -> None:
+        """Add the one-line target/problem note when `room` pixels are left for it."""
+        if room < NOTE_H:
+            self.note = 0
+            return
         self.note = dpg.add_text("", parent=parent, color=DIM, wrap=max(60, width - 4))
         self._show_note()
 
@@ -202,19 +209,23 @@ class ToggleWidget(_Control):
         Property("msg_type", PropKind.TEXT, "", label="Message type", help=_TYPE_HELP),
         _RATE,
     )
-    default_size = (200, 110)
-    min_size = (130, 80)
+    default_size = (200, 70)
+    min_size = (120, 40)
 
     def create(self, parent: int | str, width: int, height: int) -> None:
         """Build one wide switch button and the target line."""
+        room = height - ROW_H
         self.button = dpg.add_button(
-            parent=parent, width=max(60, width - 4), height=max(28, height - 34), callback=self.on_click
+            parent=parent,
+            width=max(60, width - 4),
+            height=max(ROW_H, height - NOTE_H - 4 if room >= NOTE_H else height),
+            callback=self.on_click,
         )
         with dpg.theme() as self._on_theme, dpg.theme_component(dpg.mvButton):
             dpg.add_theme_color(dpg.mvThemeCol_Button, (46, 120, 70, 255))
             dpg.add_theme_color(dpg.mvThemeCol_ButtonHovered, (56, 140, 84, 255))
             dpg.add_theme_color(dpg.mvThemeCol_ButtonActive, (66, 160, 96, 255))
-        self._add_note(parent, width)
+        self._add_note(parent, width, room)
         self._draw()
 
     def destroy(self) -> None:
@@ -261,8 +272,8 @@ class SliderWidget(_Control):
         Property("msg_type", PropKind.TEXT, "", label="Message type", help=_TYPE_HELP),
         _RATE,
     )
-    default_size = (320, 100)
-    min_size = (160, 80)
+    default_size = (320, 44)
+    min_size = (160, 24)
 
     def create(self, parent: int | str, width: int, height: int) -> None:
         """Build the slider, a zero button and the target line."""
@@ -277,7 +288,7 @@ class SliderWidget(_Control):
                 callback=self.on_change,
             )
             self.zero = dpg.add_button(label="0", width=40, callback=lambda *_: self.set_value(0.0))
-        self._add_note(parent, width)
+        self._add_note(parent, width, height - ROW_H)
 
     def value(self) -> Value | None:
         """The number shown."""
@@ -322,8 +333,8 @@ class TextFieldWidget(_Control):
         Property("msg_type", PropKind.TEXT, "", label="Message type", help=_TYPE_HELP),
         _RATE,
     )
-    default_size = (320, 100)
-    min_size = (160, 80)
+    default_size = (320, 44)
+    min_size = (160, 24)
 
     def create(self, parent: int | str, width: int, height: int) -> None:
         """Build the input, the Send button and the target line."""
@@ -336,7 +347,7 @@ class TextFieldWidget(_Control):
                 callback=lambda *_: self.submit(),
             )
             dpg.add_button(label="Send", width=56, callback=lambda *_: self.submit())
-        self._add_note(parent, width)
+        self._add_note(parent, width, height - ROW_H)
 
     def value(self) -> Value | None:
         """The text shown."""
@@ -370,20 +381,21 @@ class ButtonWidget(_Control):
         ),
         _RATE,
     )
-    default_size = (200, 100)
-    min_size = (120, 80)
+    default_size = (200, 70)
+    min_size = (120, 40)
 
     def create(self, parent: int | str, width: int, height: int) -> None:
         """Build the button and the target line; check the message now."""
+        room = height - ROW_H
         self.button = dpg.add_button(
             label=str(self.prop("text")),
             parent=parent,
             width=max(60, width - 4),
-            height=max(28, height - 34),
+            height=max(ROW_H, height - NOTE_H - 4 if room >= NOTE_H else height),
             callback=lambda *_: self.click(),
         )
         self._check()
-        self._add_note(parent, width)
+        self._add_note(parent, width, room)
         self._prepare()
 
     def _check(self) -> dict[str, object]:
