@@ -538,12 +538,11 @@ def _utf8(line: str) -> bytes:
 
 
 def _join_str(lines: Sequence[str]) -> tuple[bytes, Sequence[Sized]]:
-    """The lines' UTF-8, each cut to `MAX_LINE` bytes, joined by newlines; and the lines so encoded."""
-    if max(map(len, lines)) <= MAX_LINE:  # else cut the text first: never encode more than needed
-        try:
-            return _join_bytes([line.encode() for line in lines])
-        except UnicodeEncodeError:  # lone surrogates (from undecodable bytes): keep them matchable
-            pass
+    """The lines' UTF-8, each cut to `MAX_LINE` bytes, joined by newlines; and what gives their sizes."""
+    if max(map(len, lines)) <= MAX_LINE:
+        text = "\n".join(lines)
+        if text.isascii():  # the common case: a few passes in C, as many bytes as characters
+            return text.encode(), lines
     return _join_bytes([_utf8(line) for line in lines])
 
 
