@@ -390,6 +390,45 @@ def scenario_type_clash(tmp: Path) -> None:
             app.close()
 
 
+def scenario_steer_the_demo_robot(tmp: Path) -> None:
+    """The demo dashboard's Teleop group steers the simulated turtle: teleop, stopped, autopilot again."""
+    import threading
+
+    from dbglog._demo import _robot
+    from dbglog.viewer._dashboard import load_dashboard
+    from dbglog.viewer._engine import Engine
+    from dbglog.viewer._model import Binding
+
+    stop = threading.Event()
+    robot = threading.Thread(target=_robot.run, args=(None, stop), daemon=True)
+    robot.start()
+    try:
+        with Engine() as engine:
+            app = _viewer(engine)
+            try:
+                board = Path(_robot.__file__).with_name("demo_dashboard.json")
+                app.load(load_dashboard(board, app.registry.get), board)
+                mode = Binding("/rosdashboard/turtle/mode")
+                engine.bind(mode)
+                items = {i.name: i for i in app.items}
+                speed, autopilot = items["Teleop \u00b7 speed (m/s)"], items["Teleop \u00b7 autopilot"]
+                _pump(app, lambda: engine.snapshot(mode).last == "autopilot", 30, "the autopilot drives")
+                _pump(
+                    app, lambda: speed.status is Status.LIVE and autopilot.status is Status.LIVE, 30, "live"
+                )
+                speed.widget.set_value(0.7)
+                _pump(app, lambda: engine.snapshot(mode).last == "teleop", 20, "teleop from the slider")
+                autopilot.widget.on_click()  # off: after the teleop hold the turtle stops
+                _pump(app, lambda: engine.snapshot(mode).last == "stopped", 20, "stopped")
+                autopilot.widget.on_click()
+                _pump(app, lambda: engine.snapshot(mode).last == "autopilot", 20, "autopilot again")
+            finally:
+                app.close()
+    finally:
+        stop.set()
+        robot.join(10)
+
+
 def run_here(scenario: str, tmp: str) -> None:
     """Child-process entry point: run one scenario."""
     warnings.simplefilter("error")
