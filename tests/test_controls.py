@@ -303,6 +303,12 @@ def scenario_sliders_teleop(tmp: Path) -> None:
             span = time.monotonic() - t0
             sent = len(levels.messages) - start
             assert sent <= span * 5 + 2, (sent, span)
+            # A property change rebuilds the widget; it keeps its publisher (live) and can send at a rate.
+            level.set_properties({"send": "at rate", "rate": 10.0, "rate_limit": 20.0})
+            _pump(app, lambda: level.status is Status.LIVE, what="live after a property change")
+            n0 = len(levels.messages)
+            _pump(app, lambda: len(levels.messages) >= n0 + 5, what="sent at a set rate")
+            assert set(levels.values()[n0:]) == {slider_value(59 / 6, 0, 10, 0.5)}
             shot = app.screenshot(tmp / "sliders.png")
             assert shot.stat().st_size > 0
         finally:

@@ -130,6 +130,11 @@ class _Control(Widget):
         self.publisher().release(self)
         super().destroy()
 
+    def mount(self, parent: int | str, width: int, height: int) -> None:
+        """Build the widget; after a rebuild (new size or properties) take the publisher back."""
+        super().mount(parent, width, height)
+        self._prepare(send=self.repeat_hz() > 0)
+
     # -- publishing ---------------------------------------------------------------------------------
 
     def value(self) -> Value | None:
