@@ -22,9 +22,11 @@ from dbglog.viewer._geometry import (
     normalize_heading,
     polar,
     rects_around,
+    rects_outside,
     snap,
     snap_rect,
     thermo_fill,
+    uncovered,
     value_fraction,
     window_slice,
 )
@@ -231,3 +233,37 @@ def test_rects_around_cover_outer_minus_hole() -> None:
     assert not any(r.contains(45, 25) for r in pieces), "nothing is painted inside the hole"
     assert rects_around(outer, Rect(200, 200, 5, 5)) == [outer]
     assert rects_around(outer, Rect(-10, -10, 200, 200)) == []
+
+
+def test_rects_outside_leave_every_hole_empty() -> None:
+    """Painting around two holes covers the rest of the outer rectangle and neither hole."""
+    outer = Rect(0, 0, 100, 50)
+    holes = (Rect(5, 5, 20, 40), Rect(30, 5, 65, 40))
+    pieces = rects_outside(outer, holes)
+    area = sum(r.w * r.h for r in pieces)
+    assert area == outer.w * outer.h - sum(h.w * h.h for h in holes)
+    for hole in holes:
+        cx, cy = hole.x + hole.w / 2, hole.y + hole.h / 2
+        assert not any(r.contains(cx, cy) for r in pieces)
+    assert any(r.contains(27, 20) for r in pieces), "the gap between the holes is painted"
+
+
+def test_uncovered_returns_the_gaps_between_covers() -> None:
+    """Overlapping, unsorted and out-of-range covers leave exactly the uncovered gaps, in order."""
+    assert uncovered(0, 100, []) == [(0, 100)]
+    assert uncovered(0, 100, [(50, 60), (10, 20), (15, 30)]) == [(0, 10), (30, 50), (60, 100)]
+    assert uncovered(0, 100, [(-5, 40), (90, 200)]) == [(40, 90)]
+    assert uncovered(0, 100, [(0, 100)]) == []
+    assert uncovered(0, 100, [(120, 130)]) == [(0, 100)]
+
+
+@given(st.lists(st.tuples(st.integers(-20, 120), st.integers(0, 60)), max_size=8))
+def test_uncovered_property(spans: list[tuple[int, int]]) -> None:
+    """Every point of 0..100 is either in a gap or under a cover, never both."""
+    covers = [(a, a + n) for a, n in spans]
+    gaps = uncovered(0, 100, covers)
+    for p in range(100):
+        x = p + 0.5
+        in_gap = any(a <= x < b for a, b in gaps)
+        covered = any(a <= x < b for a, b in covers)
+        assert in_gap != covered

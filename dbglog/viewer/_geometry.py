@@ -26,9 +26,11 @@ __all__ = [
     "normalize_heading",
     "polar",
     "rects_around",
+    "rects_outside",
     "snap",
     "snap_rect",
     "thermo_fill",
+    "uncovered",
     "value_fraction",
     "window_slice",
 ]
@@ -75,6 +77,37 @@ def rects_around(outer: Rect, hole: Rect) -> list[Rect]:
         Rect(x1, y0, outer.x + outer.w - x1, y1 - y0),  # right of the hole
     )
     return [r for r in pieces if r.w > 0 and r.h > 0]
+
+
+def rects_outside(outer: Rect, holes: Sequence[Rect]) -> list[Rect]:
+    """Return rectangles that cover `outer` except where any of `holes` lies (no overlaps, none empty)."""
+    pieces = [outer] if outer.w > 0 and outer.h > 0 else []
+    for hole in holes:
+        pieces = [part for piece in pieces for part in rects_around(piece, hole)]
+    return pieces
+
+
+def uncovered(start: float, end: float, covers: Sequence[tuple[float, float]]) -> list[tuple[float, float]]:
+    """Return, in order, the parts of the span start..end that none of the (a, b) spans `covers` covers.
+
+    The canvas grid is drawn only where no widget hides it: a line under a widget still costs a software
+    renderer its fill.
+    """
+    gaps = []
+    pos = start
+    for a, b in sorted(covers):
+        if b <= pos:
+            continue
+        if a >= end:
+            break
+        if a > pos:
+            gaps.append((pos, a))
+        pos = b
+        if pos >= end:
+            break
+    if pos < end:
+        gaps.append((pos, end))
+    return gaps
 
 
 def snap(value: float, grid: float) -> float:

@@ -26,7 +26,7 @@ from dbglog.viewer._dashboard import (
     load_dashboard,
     save_dashboard,
 )
-from dbglog.viewer._geometry import Part, Rect, hit_test, rects_around, snap_rect
+from dbglog.viewer._geometry import Part, Rect, hit_test, rects_outside, snap_rect, uncovered
 from dbglog.viewer._model import Binding, DataSource
 from dbglog.viewer._ui import _theme as theme
 from dbglog.viewer._ui._dialogs import Dialog, MessageDialog, PropertiesDialog, RenameDialog, TopicDialog
@@ -93,7 +93,7 @@ class ViewerApp:
         self._left_down = False
         self._right_down = False
         self._menu_item: CanvasItem | None = None
-        self._grid_key: tuple[int, int, int, bool, bool] | None = None
+        self._grid_key: tuple[int, int, int, bool, bool, tuple[Rect, ...]] | None = None
         self._window_size = (0, 0)
         self._backdrop_key: tuple[float, ...] | None = None
         self._started = False
@@ -149,8 +149,8 @@ class ViewerApp:
         # Fill rate is what a software renderer (Mesa llvmpipe) pays for, ~9 ms per frame for one layer over
         # the whole 1440x900 window. So this is not Dear PyGui's "primary window" (which always fills its
         # background) but a window without one that follows the viewport's size (`_fit_window`); the viewport
-        # is cleared to the canvas colour, the canvas has no fill of its own, and the window colour is painted
-        # only around the canvas (`_draw_backdrop`).
+        # is cleared to the canvas colour, the canvas and the toolbox (same colour) have no fill of their own,
+        # and the window colour is painted only around them (`_draw_backdrop`).
         with dpg.window(
             pos=(0, 0),
             width=self.width,
@@ -166,7 +166,8 @@ class ViewerApp:
             no_saved_settings=True,
         ) as self.main:
             self._build_menus()
-            with dpg.group(horizontal=True):
+            # A child window reports no position; the group that starts with the toolbox does.
+            with dpg.group(horizontal=True) as self.body_group:
                 self._build_toolbox()
                 self.canvas = dpg.add_child_window(
                     width=-1,
@@ -183,7 +184,9 @@ class ViewerApp:
                 self.status_msg = dpg.add_text("")
         dpg.set_viewport_clear_color(theme.CANVAS)
         dpg.bind_item_theme(self.main, theme.main_window_theme())
-        dpg.bind_item_theme(self.canvas, theme.unfilled_child_theme())
+        unfilled = theme.unfilled_child_theme()
+        dpg.bind_item_theme(self.canvas, unfilled)
+        dpg.bind_item_theme(self.toolbox, unfilled)
         self.backdrop = dpg.add_viewport_drawlist(front=False)
         self.overlay = dpg.add_viewport_drawlist(front=True)
         with dpg.window(
@@ -847,20 +850,24 @@ class ViewerApp:
     def _draw_backdrop(self) -> None:
         ox, oy = self.canvas_origin()
         w, h = self.canvas_size()
-        key: tuple[float, ...] = (*self._window_size, ox, oy, w, h)
+        (tx, ty), (tw, th) = dpg.get_item_rect_min(self.body_group), dpg.get_item_rect_size(self.toolbox)
+        key: tuple[float, ...] = (*self._window_size, ox, oy, w, h, tx, ty, tw, th)
         if key == self._backdrop_key:
             return
         self._backdrop_key = key
         dpg.delete_item(self.backdrop, children_only=True)
         outer = Rect(0, 0, float(self._window_size[0]), float(self._window_size[1]))
-        for r in rects_around(outer, Rect(ox, oy, w, h)):
+        for r in rects_outside(outer, (Rect(ox, oy, w, h), Rect(tx, ty, tw, th))):
             dpg.draw_rectangle(
                 (r.x, r.y), (r.x + r.w, r.y + r.h), color=theme.BG, fill=theme.BG, parent=self.backdrop
             )
 
     def _draw_grid(self) -> None:
         w, h = self.canvas_size()
-        key = (w, h, self.grid_size, self.snap, bool(self.items))
+        # Widgets are opaque: the grid is drawn only where none hides it (the one being dragged aside).
+        moving = self._drag.item if self._drag is not None else None
+        covers = tuple(i.rect for i in self.items if i is not moving)
+        key = (w, h, self.grid_size, self.snap, bool(self.items), covers)
         if key == self._grid_key or w <= 0:
             return
         self._grid_key = key
@@ -872,9 +879,13 @@ class ViewerApp:
             step *= 2
         color = theme.GRID if self.snap else (31, 34, 41, 255)
         for x in range(0, w, step):
-            dpg.draw_line((x, 0), (x, h), color=color, parent=layer)
+            spans = [(r.y, r.y + r.h) for r in covers if r.x <= x - 1 and x + 1 <= r.x + r.w]
+            for a, b in uncovered(0, h, spans):
+                dpg.draw_line((x, a), (x, b), color=color, parent=layer)
         for y in range(0, h, step):
-            dpg.draw_line((0, y), (w, y), color=color, parent=layer)
+            spans = [(r.x, r.x + r.w) for r in covers if r.y <= y - 1 and y + 1 <= r.y + r.h]
+            for a, b in uncovered(0, w, spans):
+                dpg.draw_line((a, y), (b, y), color=color, parent=layer)
         if not self.items:
             msg = "Drag a widget from the toolbox onto the canvas"
             dpg.draw_text((w / 2 - len(msg) * 4.6, h / 2 - 10), msg, size=17, color=theme.DIM, parent=layer)
