@@ -159,7 +159,10 @@ def scenario_toolbox_lists_every_widget_with_drag_payload(
     app: ViewerApp, source: StaticSource, tmp_path: Path
 ) -> None:
     """The toolbox has a draggable button per registered widget, and the canvas accepts that payload."""
-    assert list(app.toolbox_buttons) == ["plot", "dial", "knob", "compass", "thermo", "string", "led"]
+    assert list(app.toolbox_buttons) == [
+        *("plot", "dial", "knob", "compass", "thermo", "string", "led"),
+        *("toggle", "slider", "button", "text_field", "publish"),
+    ]
     for button in app.toolbox_buttons.values():
         payloads = [
             c for c in dpg.get_item_children(button, 3) or [] if dpg.get_item_type(c).endswith("DragPayload")
