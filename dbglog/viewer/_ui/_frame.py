@@ -142,8 +142,13 @@ class CanvasItem:
     def _draw_header(self, w: int) -> None:
         dl = self.header
         dpg.delete_item(dl, children_only=True)
-        dpg.draw_rectangle((0, 0), (w, TITLE_H), color=HEADER, fill=HEADER, rounding=6, parent=dl)
-        dpg.draw_rectangle((0, TITLE_H - 8), (w, TITLE_H), color=HEADER, fill=HEADER, parent=dl)
+        # The strip with rounded top corners, as two rectangles and two corner discs: a rounded rectangle is a
+        # fan of long thin triangles, several times dearer for a software renderer than these few.
+        r, none = 6, (0, 0, 0, 0)
+        dpg.draw_rectangle((0, r), (w, TITLE_H), color=none, fill=HEADER, parent=dl)
+        dpg.draw_rectangle((r, 0), (w - r, r), color=none, fill=HEADER, parent=dl)
+        dpg.draw_circle((r, r), r, color=none, fill=HEADER, parent=dl)
+        dpg.draw_circle((w - r, r), r, color=none, fill=HEADER, parent=dl)
         status = self.status
         label = status.value
         pill_w = text_size(label, 13)[0] + 26

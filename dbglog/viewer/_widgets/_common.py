@@ -6,6 +6,7 @@ import math
 from collections.abc import Sequence
 
 import dearpygui.dearpygui as dpg
+import numpy as np
 
 from dbglog.viewer._geometry import format_tick, nice_ticks, polar
 from dbglog.viewer._model import SeriesSnapshot
@@ -69,6 +70,70 @@ def draw_centered_text(
     w, h = text_size(text, size)
     item: int | str = dpg.draw_text((x - w / 2, y - h / 2), text, size=size, color=color, parent=parent)
     return item
+
+
+_DISC_MIN_RADIUS = 10.0
+"""Below this radius a plain circle is as cheap as the textured quad."""
+
+
+def disc_texture(diameter: float) -> int | str:
+    """Return a white, anti-aliased disc texture at least `diameter` pixels wide (made once per context).
+
+    Sizes are powers of two from 32 to 1024, so a disc is never drawn more than twice smaller than its
+    texture (bilinear filtering keeps the edge smooth).
+    """
+    size = 32
+    while size < diameter and size < 1024:
+        size *= 2
+    tag = f"dbglog-disc-{size}"
+    if not dpg.does_item_exist(tag):
+        centre = size / 2
+        yy, xx = np.mgrid[0:size, 0:size].astype(np.float32) + 0.5
+        # Radius centre - 1 leaves a clear texel at the border; coverage gives a one-texel soft edge.
+        coverage = np.clip(centre - 1 - np.hypot(xx - centre, yy - centre) + 0.5, 0.0, 1.0)
+        rgba = np.ones((size, size, 4), dtype=np.float32)
+        rgba[..., 3] = coverage
+        with dpg.texture_registry():
+            dpg.add_static_texture(size, size, rgba.ravel(), tag=tag)
+    return tag
+
+
+def draw_disc(
+    parent: int | str,
+    center: tuple[float, float],
+    radius: float,
+    fill: Color,
+    *,
+    outline: Color | None = None,
+    thickness: float = 1.0,
+) -> int | str:
+    """Draw a filled circle (and an optional outline) and return the fill item; recolour it with `color=`.
+
+    The fill is one textured quad, not a triangle fan: a software renderer (Mesa llvmpipe) draws a large
+    fan several times slower than a quad of the same size. Small discs stay plain circles.
+    """
+    cx, cy = center
+    item: int | str
+    if radius < _DISC_MIN_RADIUS:
+        item = dpg.draw_circle(center, radius, color=fill, fill=fill, parent=parent)
+    else:
+        texture = disc_texture(2 * radius)
+        size = dpg.get_item_width(texture) or 32
+        half = radius * (size / 2) / (size / 2 - 1)  # the texture's disc stops a texel short of its edge
+        item = dpg.draw_image(
+            texture, (cx - half, cy - half), (cx + half, cy + half), color=fill, parent=parent
+        )
+    if outline is not None:
+        dpg.draw_circle(center, radius, color=outline, thickness=thickness, parent=parent)
+    return item
+
+
+def set_disc_color(item: int | str, color: Color) -> None:
+    """Recolour a disc made by `draw_disc` (a textured quad or, when small, a plain circle)."""
+    if dpg.get_item_type(item).endswith("mvDrawImage"):
+        dpg.configure_item(item, color=color)
+    else:
+        dpg.configure_item(item, color=color, fill=color)
 
 
 def arc_points(

@@ -26,6 +26,7 @@ from dbglog.viewer._widgets._common import (
     TRACK,
     arc_points,
     draw_centered_text,
+    draw_disc,
     draw_scale,
     format_value,
     latest_number,
@@ -81,7 +82,7 @@ class DialWidget(Widget):
         cx, cy, r = self._layout(width, height)
         self._geom = (cx, cy, r)
         dl = self.drawlist
-        dpg.draw_circle((cx, cy), r + 4, color=FACE_EDGE, fill=FACE, thickness=2, parent=dl)
+        draw_disc(dl, (cx, cy), r + 4, FACE, outline=FACE_EDGE, thickness=2)
         dpg.draw_polyline(
             arc_points(cx, cy, r - 2, self.START, self.START + self.SWEEP),
             color=TRACK,
@@ -96,7 +97,7 @@ class DialWidget(Widget):
             fill=self.color("color"),
             parent=dl,
         )
-        dpg.draw_circle((cx, cy), max(4, r * 0.09), color=HUB, fill=HUB, parent=dl)
+        draw_disc(dl, (cx, cy), max(4, r * 0.09), HUB)
         self._size = max(14.0, min(28.0, r / 3.2))
         self._readout = draw_centered_text("\u2014", cx, cy + r * 0.55, self._size, TEXT, dl)
 
@@ -146,8 +147,8 @@ class KnobWidget(DialWidget):
             parent=dl,
         )
         self._arc = dpg.draw_polyline([[cx, cy], [cx, cy]], color=self.color("color"), thickness=6, parent=dl)
-        dpg.draw_circle((cx, cy), ring, color=FACE_EDGE, fill=(44, 48, 57, 255), thickness=2, parent=dl)
-        dpg.draw_circle((cx, cy), ring * 0.82, color=(60, 66, 78, 255), fill=(38, 42, 50, 255), parent=dl)
+        draw_disc(dl, (cx, cy), ring, (44, 48, 57, 255), outline=FACE_EDGE, thickness=2)
+        draw_disc(dl, (cx, cy), ring * 0.82, (38, 42, 50, 255), outline=(60, 66, 78, 255))
         self._needle = dpg.draw_line((cx, cy), (cx, cy), color=HUB, thickness=4, parent=dl)
         self._size = max(14.0, min(26.0, r / 3.4))
         self._readout = draw_centered_text("\u2014", cx, cy + r * 0.9, self._size, TEXT, dl)
@@ -192,7 +193,7 @@ class CompassWidget(Widget):
         r = max(20.0, min(width / 2 - 8, (height - 34) / 2))
         cx, cy = width / 2, 6 + r
         self._geom = (cx, cy, r)
-        dpg.draw_circle((cx, cy), r, color=FACE_EDGE, fill=FACE, thickness=2, parent=dl)
+        draw_disc(dl, (cx, cy), r, FACE, outline=FACE_EDGE, thickness=2)
         for deg in range(0, 360, 10):
             major = deg % 30 == 0
             p1 = polar(cx, cy, r - 3, deg)
@@ -208,7 +209,7 @@ class CompassWidget(Widget):
         color = self.color("color")
         self._north = dpg.draw_polygon(self._half(0, 1), color=color, fill=color, parent=dl)
         self._south = dpg.draw_polygon(self._half(0, -1), color=HUB, fill=(120, 126, 136, 255), parent=dl)
-        dpg.draw_circle((cx, cy), max(3, r * 0.06), color=HUB, fill=HUB, parent=dl)
+        draw_disc(dl, (cx, cy), max(3, r * 0.06), HUB)
         self._size = max(14.0, min(24.0, r / 3.5))
         self._readout = draw_centered_text("\u2014", cx, height - self._size / 2 - 2, self._size, TEXT, dl)
 
@@ -274,9 +275,7 @@ class ThermoWidget(Widget):
             thickness=2,
             parent=dl,
         )
-        dpg.draw_circle(
-            (x0 + tube_w / 2, bottom + bulb_r), bulb_r + 3, color=FACE_EDGE, fill=FACE, thickness=2, parent=dl
-        )
+        draw_disc(dl, (x0 + tube_w / 2, bottom + bulb_r), bulb_r + 3, FACE, outline=FACE_EDGE, thickness=2)
         self._fill = dpg.draw_rectangle(
             (x0, bottom),
             (x0 + tube_w, bottom + bulb_r),
@@ -285,7 +284,7 @@ class ThermoWidget(Widget):
             rounding=tube_w / 2,
             parent=dl,
         )
-        dpg.draw_circle((x0 + tube_w / 2, bottom + bulb_r), bulb_r - 1, color=color, fill=color, parent=dl)
+        draw_disc(dl, (x0 + tube_w / 2, bottom + bulb_r), bulb_r - 1, color)
         span = hi - lo
         for t in nice_ticks(min(lo, hi), max(lo, hi), 6) if span else []:
             y = bottom - (bottom - top) * (t - lo) / span

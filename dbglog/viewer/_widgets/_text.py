@@ -9,7 +9,7 @@ import dearpygui.dearpygui as dpg
 
 from dbglog.viewer._geometry import led_on
 from dbglog.viewer._model import SeriesSnapshot, ValueKind
-from dbglog.viewer._widgets._common import DIM, TEXT, draw_centered_text, text_size
+from dbglog.viewer._widgets._common import DIM, TEXT, draw_centered_text, draw_disc, set_disc_color, text_size
 from dbglog.viewer.widget_api import Property, PropKind, Widget
 
 __all__ = ["LedWidget", "StringWidget", "history_lines"]
@@ -125,21 +125,10 @@ class LedWidget(Widget):
         cx, cy = width / 2, 8 + r + 6
         self._geom = (cx, cy, r)
         off = self.color("off_color")
-        self._glow = [
-            dpg.draw_circle((cx, cy), r + 3 + 3 * i, color=(0, 0, 0, 0), fill=(0, 0, 0, 0), parent=dl)
-            for i in range(3, 0, -1)
-        ]
-        dpg.draw_circle(
-            (cx, cy), r + 2, color=(70, 77, 90, 255), fill=(20, 22, 27, 255), thickness=2, parent=dl
-        )
-        self._lamp = dpg.draw_circle((cx, cy), r - 2, color=off, fill=off, parent=dl)
-        self._shine = dpg.draw_circle(
-            (cx - r * 0.3, cy - r * 0.3),
-            r * 0.25,
-            color=(255, 255, 255, 0),
-            fill=(255, 255, 255, 40),
-            parent=dl,
-        )
+        self._glow = [draw_disc(dl, (cx, cy), r + 3 + 3 * i, (0, 0, 0, 0)) for i in range(3, 0, -1)]
+        draw_disc(dl, (cx, cy), r + 2, (20, 22, 27, 255), outline=(70, 77, 90, 255), thickness=2)
+        self._lamp = draw_disc(dl, (cx, cy), r - 2, off)
+        self._shine = draw_disc(dl, (cx - r * 0.3, cy - r * 0.3), r * 0.25, (255, 255, 255, 40))
         self._size = 16.0
         self._caption = draw_centered_text("\u2014", cx, height - 12, self._size, DIM, dl)
         self.lit = False
@@ -150,10 +139,10 @@ class LedWidget(Widget):
         value = last if isinstance(last, bool | int | float | str) else None
         self.lit = led_on(value, self.num("threshold"), invert=bool(self.prop("invert")))
         color = self.color("on_color") if self.lit else self.color("off_color")
-        dpg.configure_item(self._lamp, color=color, fill=color)
+        set_disc_color(self._lamp, color)
         for i, glow in enumerate(self._glow):
             alpha = (20 + 25 * i) if self.lit else 0
-            dpg.configure_item(glow, fill=(color[0], color[1], color[2], alpha))
+            set_disc_color(glow, (color[0], color[1], color[2], alpha))
         text = str(self.prop("on_text") if self.lit else self.prop("off_text"))
         if value is None:
             text = "\u2014"
