@@ -169,16 +169,10 @@ def _receiver(args: argparse.Namespace) -> None:
 # --- orchestration -------------------------------------------------------------------------------
 
 
-_CHILD_ENV: dict[str, str] = {}
-"""Extra environment for receiver processes (``--malloc-arena-max``)."""
-
-
 def _child(role: str, *extra: str) -> subprocess.Popen[str]:
-    env = dict(os.environ) | (_CHILD_ENV if role != "publisher" else {})
     return subprocess.Popen(
         [sys.executable, "-m", "benchmarks.bench_engine", "--role", role, *extra],
         cwd=_ROOT,
-        env=env,
         stdin=subprocess.PIPE,
         stdout=subprocess.PIPE,
         text=True,
@@ -247,13 +241,6 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--soak-rate", type=float, default=10_000.0)
     parser.add_argument("--soak-seconds", type=float, default=60.0, help="600 for the 10-minute figure")
     parser.add_argument("--domain", type=int, default=None, help="ROS_DOMAIN_ID (random by default)")
-    parser.add_argument(
-        "--malloc-arena-max",
-        type=int,
-        default=None,
-        metavar="N",
-        help="run receivers with MALLOC_ARENA_MAX=N (glibc per-thread arenas make RSS creep otherwise)",
-    )
     args = parser.parse_args(argv)
     if args.role == "publisher":
         _publisher(args)
@@ -263,8 +250,6 @@ def main(argv: list[str] | None = None) -> int:
         return 0
 
     local_ros_env(args.domain if args.domain is not None else random.randint(150, 230))
-    if args.malloc_arena_max is not None:
-        _CHILD_ENV["MALLOC_ARENA_MAX"] = str(args.malloc_arena_max)
     print(f"ROS_DOMAIN_ID={os.environ['ROS_DOMAIN_ID']}, {os.cpu_count()} CPUs, {args.repeats} repeats")
     if args.only in (None, "flood"):
         _flood_table(args)
@@ -330,13 +315,24 @@ def _soak_table(args: argparse.Namespace) -> None:
     warm = pub["start"] + min(10.0, args.soak_seconds * 0.2)
     steady = [s[3] for s in samples if warm <= s[0] <= pub["end"]]
     first = steady[0] if steady else 0
+    quarters = (
+        [steady[min(len(steady) - 1, len(steady) * q // 4)] for q in (1, 2, 3)] if steady else [0, 0, 0]
+    )
     print_table(
         f"Memory: {args.soak_rate:,.0f} msg/s over {n} topics for {args.soak_seconds:.0f} s",
-        ["RSS after warm-up", "RSS max", "RSS at end", "growth (max - after warm-up)", "landed / sent"],
+        [
+            "RSS after warm-up",
+            "at 1/4",
+            "at 1/2",
+            "at 3/4",
+            "at end",
+            "growth (max - after warm-up)",
+            "landed / sent",
+        ],
         [
             [
                 f"{first / 2**20:.1f} MB",
-                f"{max(steady, default=0) / 2**20:.1f} MB",
+                *(f"{q / 2**20:.1f} MB" for q in quarters),
                 f"{(steady[-1] if steady else 0) / 2**20:.1f} MB",
                 f"{(max(steady, default=0) - first) / 2**20:.1f} MB",
                 f"{run['rx']['landed']:,} / {pub['sent']:,}",
