@@ -114,14 +114,17 @@ def run(args: argparse.Namespace) -> int:
         app.start()
         from dbglog.viewer._ui._auto import AutoDashboard, all_live, write_report
 
+        auto: AutoDashboard | None = None
         if result is not None:
             app.load(result, args.dashboard)
         else:
-            AutoDashboard(app, all_topics=args.all).install()
+            auto = AutoDashboard(app, all_topics=args.all)
+            auto.install()
         if args.screenshot is not None:
             app.run(seconds=args.after)
             deadline = time.monotonic() + args.wait_live
-            while not all_live(app) and time.monotonic() < deadline:
+            # Wait for every widget to be live, and for new array tags still learning their length.
+            while (not all_live(app) or (auto is not None and auto.pending)) and time.monotonic() < deadline:
                 app.frame()
             if args.report_json is not None:
                 write_report(app, args.report_json)

@@ -77,6 +77,11 @@ class AutoDashboard:
         if self._menu_item is not None:
             dpg.set_value(self._menu_item, on)
 
+    @property
+    def pending(self) -> bool:
+        """Whether new array tags are still waiting for their first message (their length) to be placed."""
+        return bool(self._probes)
+
     def tick(self) -> None:
         """Frame hook: about once per `period`, add widgets for topics that appeared."""
         now = time.monotonic()
