@@ -22,6 +22,8 @@ from pathlib import Path
 from types import FrameType
 from typing import IO
 
+from dbglog.viewer._cli_view import seconds_arg, size_arg
+
 __all__ = ["HELP", "Supervisor", "add_arguments", "dashboard_path", "rules_path", "run"]
 
 HELP = "Run a simulated robot (turtle arena + sound localizer) and open the live viewer on it."
@@ -42,16 +44,6 @@ def rules_path() -> Path:
     return Path(str(resources.files("dbglog._demo").joinpath("demo_rules.yaml")))
 
 
-def _seconds(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number of seconds: {text!r}") from None
-    if not 0 <= value <= 3600:
-        raise argparse.ArgumentTypeError(f"seconds must be within 0..3600, not {text}")
-    return value
-
-
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Declare ``dbglog demo``'s options."""
     parser.add_argument(
@@ -62,7 +54,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--after",
-        type=_seconds,
+        type=seconds_arg,
         default=8.0,
         metavar="SECONDS",
         help="with --screenshot: how long to render first (default 8)",
@@ -73,7 +65,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="PATH",
         help="on exit, write every widget's name, type and status as JSON",
     )
-    parser.add_argument("--size", default="1440x900", metavar="WxH", help="window size (default 1440x900)")
+    parser.add_argument(
+        "--size", type=size_arg, default=(1440, 900), metavar="WxH", help="window size (default 1440x900)"
+    )
 
 
 @dataclass
@@ -174,7 +168,7 @@ def _stop_on_signals() -> Iterator[None]:
 
 def _viewer_argv(args: argparse.Namespace) -> list[str]:
     argv = [sys.executable, "-m", "dbglog", "view", str(dashboard_path())]
-    argv += ["--stale-after", f"{DEMO_STALE_AFTER_S:g}", "--size", str(args.size)]
+    argv += ["--stale-after", f"{DEMO_STALE_AFTER_S:g}", "--size", "{}x{}".format(*args.size)]
     if args.screenshot is not None:
         argv += ["--screenshot", str(args.screenshot), "--after", f"{args.after:g}", "--wait-live", "20"]
     if args.report_json is not None:

@@ -7,12 +7,13 @@ import sys
 import time
 from pathlib import Path
 
-__all__ = ["HELP", "add_arguments", "run"]
+__all__ = ["HELP", "add_arguments", "run", "seconds_arg", "size_arg"]
 
 HELP = "Open the live dashboard viewer (drag widgets onto a canvas, bind them to topics, save dashboards)."
 
 
-def _size(text: str) -> tuple[int, int]:
+def size_arg(text: str) -> tuple[int, int]:
+    """Parse a window size ``WxH`` for argparse."""
     try:
         w, h = (int(part) for part in text.lower().split("x"))
     except ValueError:
@@ -22,7 +23,8 @@ def _size(text: str) -> tuple[int, int]:
     return w, h
 
 
-def _seconds(text: str) -> float:
+def seconds_arg(text: str) -> float:
+    """Parse a number of seconds (0..3600) for argparse."""
     try:
         value = float(text)
     except ValueError:
@@ -51,14 +53,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--after",
-        type=_seconds,
+        type=seconds_arg,
         default=2.0,
         metavar="SECONDS",
         help="with --screenshot: how long to render first (default 2)",
     )
     parser.add_argument(
         "--wait-live",
-        type=_seconds,
+        type=seconds_arg,
         default=0.0,
         metavar="SECONDS",
         help="with --screenshot: after --after, keep rendering up to this long until every widget is live",
@@ -70,11 +72,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="on exit, write every widget's name, type, status and bindings (and the dashboard) as JSON",
     )
     parser.add_argument(
-        "--size", type=_size, default=(1440, 900), metavar="WxH", help="window size (1440x900)"
+        "--size", type=size_arg, default=(1440, 900), metavar="WxH", help="window size (1440x900)"
     )
     parser.add_argument(
         "--stale-after",
-        type=_seconds,
+        type=seconds_arg,
         default=2.0,
         metavar="SECONDS",
         help="a series turns stale after this long without a message (default 2)",
