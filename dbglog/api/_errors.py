@@ -8,7 +8,7 @@ import sys
 import threading
 import warnings
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Literal, get_args
 
 __all__ = ["REASONS", "DbglogError", "DbglogWarning", "Reason", "Reporter", "Stats", "safe_repr"]
 
@@ -27,19 +27,7 @@ Reason = Literal[
 ]
 """Why a value was dropped (the keys of `Stats.dropped_by_reason`)."""
 
-REASONS: tuple[Reason, ...] = (
-    "bad_tag",
-    "bad_value",
-    "out_of_range",
-    "bad_type",
-    "type_conflict",
-    "bad_option",
-    "publish_failed",
-    "no_ros",
-    "forked",
-    "shut_down",
-    "recursion",
-)
+REASONS: tuple[Reason, ...] = get_args(Reason)
 
 _API_DIR = os.path.dirname(os.path.abspath(__file__)) + os.sep
 _REPR_LIMIT = 80
