@@ -19,7 +19,7 @@ from sensor_msgs.msg import LaserScan
 from std_msgs.msg import Bool, Float64, Float64MultiArray, Int32, MultiArrayDimension, String
 
 from dbglog.api._qos import tag_qos
-from dbglog.viewer._engine import Engine
+from dbglog.viewer._engine import Engine, queue_depth_for
 from dbglog.viewer._model import Binding, SeriesSnapshot, Status, ValueKind
 from tests._ros import RosPeer, wait_until
 
@@ -194,6 +194,7 @@ def test_strings_keep_text_kind_and_regex_extracts_numbers(engine: Engine, peer:
     assert set(tsnap.texts) >= set(lines)
     assert len(tsnap.times) == len(tsnap.texts)
     assert tsnap.values.size == 0
+    assert engine.stats().depths[topic] <= 100  # variable-size messages queue less
     nsnap = _snap_when(engine, temp, lambda s: s.count >= 2)
     assert nsnap.kind == ValueKind.NUMBER
     assert set(nsnap.values.tolist()) <= {21.5, -3.0}
@@ -345,8 +346,20 @@ def test_fifty_topics_under_load_lose_nothing(engine: Engine, peer: RosPeer) -> 
     assert wait_until(lambda: all(engine.snapshot(b).count >= 200 for b in bindings), TIMEOUT)
     for b in bindings:
         assert engine.snapshot(b).values.tolist() == [float(k) for k in range(200)]
-    per_topic = engine.stats().per_topic
-    assert all(per_topic[t] == 200 for t in topics)
+    stats = engine.stats()
+    assert all(stats.per_topic[t] == 200 for t in topics)
+    # The queue budget is shared: 50 or more topics get at most budget/50 each, never below 50.
+    assert all(50 <= stats.depths[t] <= engine.queue_budget // 50 for t in topics)
+
+
+def test_queue_depths_share_a_budget() -> None:
+    """Few topics queue deep, many share the budget, variable-size types stay shallow, floors hold."""
+    assert queue_depth_for(1, 8, max_depth=1000, budget=20_000) == 1000
+    assert queue_depth_for(50, 8, max_depth=1000, budget=20_000) == 400
+    assert queue_depth_for(5000, 8, max_depth=1000, budget=20_000) == 50
+    assert queue_depth_for(1, None, max_depth=1000, budget=20_000) == 100
+    assert queue_depth_for(1, 8, max_depth=10, budget=20_000) == 10
+    assert queue_depth_for(0, 8, max_depth=1000, budget=300) == 300
 
 
 def test_bindings_on_one_topic_share_one_subscription(engine: Engine, peer: RosPeer) -> None:
@@ -415,8 +428,13 @@ def test_bad_bindings_report_clear_errors(engine: Engine, peer: RosPeer) -> None
         assert expected in snap.reason, (binding, snap.reason)
 
 
-def test_snapshots_are_consistent_while_another_thread_ingests(engine: Engine, peer: RosPeer) -> None:
+def test_snapshots_are_consistent_while_another_thread_ingests(peer: RosPeer) -> None:
     """Snapshots taken on another thread during a flood are self-consistent and never go backwards."""
+    with Engine(graph_period=0.1) as engine:  # its own engine: the one topic gets the full queue depth
+        _check_consistent_snapshots(engine, peer)
+
+
+def _check_consistent_snapshots(engine: Engine, peer: RosPeer) -> None:
     topic = _topic("consistent")
     binding = Binding(topic)
     engine.bind(binding)
@@ -454,6 +472,7 @@ def test_snapshots_are_consistent_while_another_thread_ingests(engine: Engine, p
     assert seen[0] > 10
     final = engine.snapshot(binding)
     assert len(final.values) == min(final.count, engine.history)
+    assert engine.stats().depths[topic] == 1000
     assert final.count > 10_000  # flat out with a reader hammering: at most brief queue overflows
 
 
@@ -464,3 +483,5 @@ def test_defaults_and_validation() -> None:
         Engine(history=0)
     with pytest.raises(ValueError, match="stale_after"):
         Engine(stale_after=0)
+    with pytest.raises(ValueError, match="queue_budget"):
+        Engine(queue_budget=0)

@@ -6,7 +6,7 @@ import re
 import struct
 
 import pytest
-from geometry_msgs.msg import PoseWithCovariance, Twist
+from geometry_msgs.msg import PoseStamped, PoseWithCovariance, Twist
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from rclpy.serialization import serialize_message
@@ -14,7 +14,14 @@ from sensor_msgs.msg import Imu, LaserScan
 from std_msgs.msg import Bool, Byte, Float32, Float64, Float64MultiArray, Int8, Int64, String, UInt16
 
 from dbglog.viewer._cdr import decode_fixed
-from dbglog.viewer._fields import FieldPathError, list_fields, message_class, parse_path, resolve
+from dbglog.viewer._fields import (
+    FieldPathError,
+    fixed_size,
+    list_fields,
+    message_class,
+    parse_path,
+    resolve,
+)
 from dbglog.viewer._model import ValueKind
 
 finite = st.floats(allow_nan=False, allow_infinity=False, width=64)
@@ -104,6 +111,17 @@ def test_fixed_offsets_are_found_only_before_variable_fields() -> None:
     assert resolve(PoseWithCovariance, "covariance[1]").cdr == (64, "<f8")
     assert resolve(Imu, "orientation.x").cdr is None  # after header.frame_id (a string)
     assert resolve(LaserScan, "ranges[0]").cdr is None
+
+
+def test_fixed_size_matches_rclpy_serialization_or_is_none() -> None:
+    """Fixed-layout types report their CDR payload size; strings and sequences make the size unknown."""
+    for msg in (Float64(), Bool(), Twist(), PoseWithCovariance(), Int8(), UInt16()):
+        payload = serialize_message(msg)[4:]  # after the encapsulation header
+        size = fixed_size(type(msg))
+        assert size is not None
+        assert len(payload) - 3 <= size <= len(payload)  # CDR pads the payload to a multiple of 4
+    for cls in (String, Float64MultiArray, PoseStamped, LaserScan, Imu):
+        assert fixed_size(cls) is None
 
 
 @settings(max_examples=60, deadline=None)

@@ -26,12 +26,20 @@ import numpy.typing as npt
 
 from dbglog.regex_bridge._regex import CompiledRegex, RegexError, compile_regex, parse_number
 from dbglog.viewer._cdr import decode_fixed
-from dbglog.viewer._fields import FieldPathError, Resolved, list_fields, message_class, parse_path, resolve
+from dbglog.viewer._fields import (
+    FieldPathError,
+    Resolved,
+    fixed_size,
+    list_fields,
+    message_class,
+    parse_path,
+    resolve,
+)
 from dbglog.viewer._model import Binding, FieldInfo, SeriesSnapshot, Status, TopicInfo, ValueKind
 from dbglog.viewer._series import Series
 from dbglog.viewer._transforms import TransformChain
 
-__all__ = ["Engine", "EngineStats"]
+__all__ = ["Engine", "EngineStats", "queue_depth_for"]
 
 _log = logging.getLogger("dbglog.viewer.engine")
 _MAX_BATCH = 20_000
@@ -40,6 +48,24 @@ _RESUBSCRIBE_DEDUP_S = 1.0
 _LATENCY_SAMPLES = 1 << 20
 _FAIL_STREAK = 5
 """A binding's transforms that yield NaN with a reason this many samples in a row put it in ERROR."""
+_MIN_DEPTH = 50
+"""No subscription queues fewer messages than this, however many topics share the budget."""
+_VARIABLE_DEPTH = 100
+"""Queue depth cap for variable-size messages (strings, arrays, images): their size is unknown."""
+
+
+def queue_depth_for(n_topics: int, message_size: int | None, *, max_depth: int, budget: int) -> int:
+    """Return the KEEP_LAST depth of one subscription among `n_topics` sharing a queue budget.
+
+    DDS keeps the memory of every message it ever queued for a reader (its pools only grow), so the
+    depths share one budget of queued messages: a few topics get deep queues that ride out long
+    pauses, many topics get shallower ones, and a burst can never grow memory past the budget.
+    Variable-size messages (``message_size`` None) are capped lower because one may be megabytes.
+    """
+    depth = budget // max(1, n_topics)
+    if message_size is None:
+        depth = min(depth, _VARIABLE_DEPTH)
+    return max(1, min(max_depth, max(_MIN_DEPTH, depth)))
 
 
 @dataclass(frozen=True, slots=True)
@@ -49,6 +75,8 @@ class EngineStats:
     taken: int
     """Messages taken from all subscriptions so far."""
     per_topic: dict[str, int]
+    depths: dict[str, int]
+    """KEEP_LAST queue depth of each subscription, by topic."""
     cycles: int
     """Wait-set wake-ups so far."""
     subscriptions: int
@@ -114,7 +142,9 @@ class Engine:
         graph_period: seconds between ROS graph polls (topic list, late publishers, type changes).
         min_cycle: minimum seconds between two wake-ups; under load messages queue in DDS meanwhile
             and are decoded as one batch (bounded extra latency, far less per-message overhead).
-        queue_depth: KEEP_LAST depth of each subscription (absorbs bursts and pauses).
+        queue_depth: the deepest KEEP_LAST queue of one subscription (absorbs bursts and pauses).
+        queue_budget: messages queued in DDS across all subscriptions; each subscription's depth is
+            its share of this (see ``queue_depth_for``), which bounds memory after a long pause.
         node_name: the engine's ROS node name.
         measure_latency: record publish-to-buffer latencies (for the benchmark).
     """
@@ -127,6 +157,7 @@ class Engine:
         graph_period: float = 0.25,
         min_cycle: float = 0.005,
         queue_depth: int = 1000,
+        queue_budget: int = 20_000,
         node_name: str = "dbglog_viewer",
         measure_latency: bool = False,
     ) -> None:
@@ -138,11 +169,15 @@ class Engine:
             raise ValueError(f"graph_period must be > 0 seconds, not {graph_period}")
         if queue_depth < 1:
             raise ValueError(f"queue_depth must be at least 1, not {queue_depth}")
+        if queue_budget < 1:
+            raise ValueError(f"queue_budget must be at least 1 message, not {queue_budget}")
         self.history = history
         self.stale_after = stale_after
         self.graph_period = graph_period
         self.min_cycle = max(0.0, min_cycle)
         self.queue_depth = queue_depth
+        self.queue_budget = queue_budget
+        self._n_wanted = 0
         self.node_name = node_name
         self._lock = threading.Lock()
         self._series: dict[Binding, Series] = {}
@@ -273,6 +308,7 @@ class Engine:
         return EngineStats(
             taken=self._taken,
             per_topic={name: s.taken for name, s in subs.items()},
+            depths={name: int(s.sub.qos_profile.depth) for name, s in subs.items()},
             cycles=self._cycles,
             subscriptions=len(subs),
             thread_cpu_s=self._thread_cpu,
@@ -398,6 +434,7 @@ class Engine:
             for binding, series in self._series.items():
                 if binding not in self._static_errors:
                     wanted[_normalize(binding.topic)][binding] = series
+            self._n_wanted = len(wanted)
             return wanted
 
     def _reconcile(self, node: Any) -> None:
@@ -562,7 +599,12 @@ class Engine:
             return
         qos = QoSProfile(
             history=HistoryPolicy.KEEP_LAST,
-            depth=self.queue_depth,
+            depth=queue_depth_for(
+                max(self._n_wanted, len(self._subs) + 1),
+                fixed_size(cls),
+                max_depth=self.queue_depth,
+                budget=self.queue_budget,
+            ),
             reliability=ReliabilityPolicy.RELIABLE if reliable else ReliabilityPolicy.BEST_EFFORT,
             durability=DurabilityPolicy.TRANSIENT_LOCAL if transient else DurabilityPolicy.VOLATILE,
         )

@@ -24,6 +24,7 @@ __all__ = [
     "FieldPathError",
     "Resolved",
     "Scalar",
+    "fixed_size",
     "list_fields",
     "message_class",
     "parse_path",
@@ -350,32 +351,43 @@ class _VariableSizeError(Exception):
     """A field of variable size: offsets after it are not fixed."""
 
 
+def _skip(slot: Any, start: int) -> int:
+    """Return the CDR offset just after a whole field of fixed size starting at `start`."""
+    if isinstance(slot, rd.BasicType):
+        size, _ = _CDR_SIZES.get(slot.typename, (0, ""))
+        if not size:
+            raise _VariableSizeError
+        return -(-start // size) * size + size
+    if isinstance(slot, rd.Array) and isinstance(slot.value_type, rd.BasicType):
+        size, _ = _CDR_SIZES.get(slot.value_type.typename, (0, ""))
+        if not size:
+            raise _VariableSizeError
+        return int(-(-start // size) * size + size * slot.size)
+    if isinstance(slot, rd.Array) and isinstance(slot.value_type, rd.NamespacedType):
+        for _ in range(slot.size):
+            start = _skip(slot.value_type, start)
+        return start
+    if isinstance(slot, rd.NamespacedType):
+        for _, member, _ in _members(_nested_class(slot)):
+            start = _skip(member, start)
+        return start
+    raise _VariableSizeError
+
+
+def fixed_size(cls: Any) -> int | None:
+    """Return the CDR payload size of a message type whose every field has a fixed size, else None."""
+    offset = 0
+    try:
+        for _, member, _ in _members(cls):
+            offset = _skip(member, offset)
+    except _VariableSizeError:
+        return None
+    return offset
+
+
 def _cdr_offset(cls: Any, steps: tuple[Step, ...]) -> tuple[int, str] | None:
     """Return the fixed payload offset and dtype of a scalar path, or None when it is not fixed."""
     offset = 0
-
-    def skip(slot: Any, start: int) -> int:
-        """Return the offset just after a whole field of fixed size starting at `start`."""
-        if isinstance(slot, rd.BasicType):
-            size, _ = _CDR_SIZES.get(slot.typename, (0, ""))
-            if not size:
-                raise _VariableSizeError
-            return -(-start // size) * size + size
-        if isinstance(slot, rd.Array) and isinstance(slot.value_type, rd.BasicType):
-            size, _ = _CDR_SIZES.get(slot.value_type.typename, (0, ""))
-            if not size:
-                raise _VariableSizeError
-            return int(-(-start // size) * size + size * slot.size)
-        if isinstance(slot, rd.Array) and isinstance(slot.value_type, rd.NamespacedType):
-            for _ in range(slot.size):
-                start = skip(slot.value_type, start)
-            return start
-        if isinstance(slot, rd.NamespacedType):
-            for _, member, _ in _members(_nested_class(slot)):
-                start = skip(member, start)
-            return start
-        raise _VariableSizeError
-
     try:
         current = cls
         slot: Any = None
@@ -395,7 +407,7 @@ def _cdr_offset(cls: Any, steps: tuple[Step, ...]) -> tuple[int, str] | None:
                 if name == step:
                     slot = member
                     break
-                offset = skip(member, offset)
+                offset = _skip(member, offset)
         if not isinstance(slot, rd.BasicType) or slot.typename not in _CDR_SIZES:
             return None
         size, dtype = _CDR_SIZES[slot.typename]
