@@ -118,6 +118,36 @@ def test_current_file_with_problems_loads_the_rest() -> None:
     assert result.dashboard.grid_size == 10
 
 
+def _one_dial(**extra: Any) -> dict[str, Any]:
+    entry = {"type": "dial", "name": "Hits", "x": 0, "y": 0, "width": 200, "height": 200, **extra}
+    return {"format": FORMAT, "version": VERSION, "widgets": [entry]}
+
+
+def test_widget_stale_time_loads_saves_and_is_validated() -> None:
+    """A widget's own stale time round-trips; absent stays absent; nonsense is named and ignored."""
+    result = parse_dashboard(_one_dial(stale_after=30), LOOKUP)
+    assert result.messages == []
+    (dial,) = _widgets(result.dashboard.widgets)
+    assert dial.stale_after == 30.0
+    assert json.loads(dumps(result.dashboard))["widgets"][0]["stale_after"] == 30.0
+    plain = parse_dashboard(_one_dial(), LOOKUP)
+    assert _widgets(plain.dashboard.widgets)[0].stale_after is None
+    assert "stale_after" not in json.loads(dumps(plain.dashboard))["widgets"][0]
+    for bad, expected in (
+        (0, "must be more than 0"),
+        (-2.5, "must be more than 0"),
+        (1e9, "at most 86400 seconds"),
+        ("30", 'must be a number of seconds, got "30"'),
+        (True, "must be a number of seconds"),
+    ):
+        loaded = parse_dashboard(_one_dial(stale_after=bad), LOOKUP)
+        (message,) = loaded.messages
+        assert message.startswith("widget #1 'Hits': field 'stale_after' ")
+        assert expected in message
+        assert message.endswith("using the viewer's stale time")
+        assert _widgets(loaded.dashboard.widgets)[0].stale_after is None
+
+
 def test_unknown_entries_save_back_unchanged(tmp_path: Path) -> None:
     """An unknown-type entry is written back byte-for-byte equal as JSON data."""
     result = load_dashboard(GOLDEN / "current_with_problems.json", LOOKUP)
@@ -286,6 +316,7 @@ def _config(type_name: str) -> st.SearchStrategy[WidgetConfig]:
         st.floats(mh, 5000),
         st.lists(binding, max_size=cls.max_bindings).map(tuple),
         st.fixed_dictionaries(props),
+        st.none() | st.floats(0.001, 86_400),
     )
 
 

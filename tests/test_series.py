@@ -101,3 +101,25 @@ def test_capacity_must_be_positive() -> None:
     """A series that could hold nothing is refused."""
     with pytest.raises(ValueError, match="at least one"):
         Series(B, 0)
+
+
+def test_a_widgets_stale_time_rejudges_live_and_stale_only() -> None:
+    """with_stale_time turns live into stale past the time and back; waiting and error are untouched."""
+    series = Series(Binding("/t"), 10)
+    series.set_type("std_msgs/msg/Float64", ValueKind.NUMBER)
+    series.push_numbers(np.array([1.0]), np.array([2.0]), 2.0, now=100.0)
+    live = series.snapshot(stale_after=2.0, now=105.0)
+    assert live.status == Status.STALE
+    assert live.with_stale_time(30.0).status == Status.LIVE
+    assert live.with_stale_time(30.0).reason == ""
+    quick = series.snapshot(stale_after=30.0, now=101.5)
+    assert quick.status == Status.LIVE
+    judged = quick.with_stale_time(1.0)
+    assert judged.status == Status.STALE
+    assert judged.reason == "no message for 1.5 s"
+    assert quick.with_stale_time(2.0) is quick
+    waiting = Series(Binding("/w"), 10).snapshot(stale_after=2.0)
+    assert waiting.with_stale_time(0.001) is waiting
+    series.set_error("field missing")
+    error = series.snapshot(stale_after=2.0, now=105.0)
+    assert error.with_stale_time(30.0).status == Status.ERROR

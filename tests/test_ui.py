@@ -387,6 +387,55 @@ def scenario_properties_dialog_validates_and_applies(
     assert readout == "4.250 m/s"
 
 
+def scenario_widget_stale_time_overrides_the_viewers(
+    app: ViewerApp, source: StaticSource, tmp_path: Path
+) -> None:
+    """A widget's own stale time (Properties) judges its series live or stale, is validated and saved."""
+    topic = "/rosdashboard/hits"
+    source.push(topic, "data", 3.0)
+    source.set_status(topic, "data", Status.STALE, "no message for 5.0 s", age_s=5.0)
+    events = app.add_widget("dial", 40, 40)
+    plain = app.add_widget("dial", 300, 40)
+    assert events is not None
+    assert plain is not None
+    for item in (events, plain):
+        app.apply_bindings(item, (Binding(topic, "data"),))
+    frames(app)
+    assert [events.status, plain.status] == [Status.STALE, Status.STALE]
+    dialog = app.open_properties_dialog(events)
+    assert isinstance(dialog, PropertiesDialog)
+    for typed, expected in (("-3", "more than 0"), ("soon", "number of seconds, got 'soon'")):
+        dpg.set_value(dialog.stale_input, typed)
+        assert not dialog.apply()
+        assert expected in dpg.get_value(dialog.stale_error)
+    dpg.set_value(dialog.stale_input, "30")
+    assert dialog.apply()
+    frames(app)
+    # An event topic: 5 s of quiet is normal for it.
+    assert [events.status, plain.status] == [Status.LIVE, Status.STALE]
+    assert app.dirty
+    # A shorter time of its own makes a widget call a series stale that the viewer still calls live.
+    source.set_status(topic, "data", Status.LIVE, age_s=5.0)
+    dialog = app.open_properties_dialog(plain)
+    assert isinstance(dialog, PropertiesDialog)
+    dpg.set_value(dialog.stale_input, "1.5")
+    assert dialog.apply()
+    frames(app)
+    assert (events.status, plain.status) == (Status.LIVE, Status.STALE)
+    assert plain.reason.endswith("no message for 5.0 s")
+    path = tmp_path / "stale.json"
+    assert app.save(path)
+    saved = [w.get("stale_after") for w in json.loads(path.read_text())["widgets"]]
+    assert saved == [30.0, 1.5]
+    dialog = app.open_properties_dialog(events)
+    assert isinstance(dialog, PropertiesDialog)
+    assert dpg.get_value(dialog.stale_input) == "30"
+    dpg.set_value(dialog.stale_input, "")  # blank: back to the viewer's stale time
+    assert dialog.apply()
+    assert isinstance(events.config, WidgetConfig)
+    assert events.config.stale_after is None
+
+
 def scenario_save_and_reopen_round_trip(app: ViewerApp, source: StaticSource, tmp_path: Path) -> None:
     """A dashboard built in the UI saves atomically and reopens with the same widgets."""
     for i, kind in enumerate(["plot", "dial", "knob", "compass", "thermo", "string", "led"]):

@@ -30,8 +30,6 @@ HELP = "Run a simulated robot (turtle arena + sound localizer) and open the live
 
 STOP_TIMEOUT_S = 5.0
 """How long a child may take to stop after SIGTERM before it gets SIGKILL."""
-DEMO_STALE_AFTER_S = 30.0
-"""The demo viewer's stale time: wall hits are events, seconds apart, and must not look stale between."""
 
 
 def dashboard_path() -> Path:
@@ -168,7 +166,7 @@ def _stop_on_signals() -> Iterator[None]:
 
 def _viewer_argv(args: argparse.Namespace) -> list[str]:
     argv = [sys.executable, "-m", "dbglog", "view", str(dashboard_path())]
-    argv += ["--stale-after", f"{DEMO_STALE_AFTER_S:g}", "--size", "{}x{}".format(*args.size)]
+    argv += ["--size", "{}x{}".format(*args.size)]
     if args.screenshot is not None:
         argv += ["--screenshot", str(args.screenshot), "--after", f"{args.after:g}", "--wait-live", "20"]
     if args.report_json is not None:

@@ -29,12 +29,14 @@ from dbglog.viewer.widget_api import PropertyError, PropValue, Widget
 __all__ = [
     "FORMAT",
     "LEGACY_TYPES",
+    "MAX_STALE_AFTER",
     "VERSION",
     "Dashboard",
     "DashboardError",
     "LoadResult",
     "RawWidget",
     "WidgetConfig",
+    "check_stale_after",
     "dumps",
     "load_dashboard",
     "parse_dashboard",
@@ -79,10 +81,12 @@ class WidgetConfig:
     height: float
     bindings: tuple[Binding, ...] = ()
     properties: Mapping[str, PropValue] = field(default_factory=dict)
+    stale_after: float | None = None
+    """Seconds without a message before this widget shows stale; None: the viewer's setting."""
 
     def to_dict(self) -> dict[str, Any]:
         """Return the JSON form (current format)."""
-        return {
+        out: dict[str, Any] = {
             "type": self.type,
             "name": self.name,
             "x": self.x,
@@ -92,6 +96,9 @@ class WidgetConfig:
             "bindings": [_binding_dict(b) for b in self.bindings],
             "properties": dict(self.properties),
         }
+        if self.stale_after is not None:
+            out["stale_after"] = self.stale_after
+        return out
 
 
 def _binding_dict(b: Binding) -> dict[str, Any]:
@@ -312,10 +319,39 @@ def _parse_widget(index: int, entry: object, lookup: TypeLookup, result: LoadRes
     height = _coord(entry, "height", float(dh), float(mh), where, msgs)
     bindings = _parse_bindings(entry.get("bindings", []), cls, where, msgs)
     props = _parse_properties(entry.get("properties", {}), cls, where, msgs)
+    stale_after = _stale_after(entry, where, msgs)
     for key in entry:
-        if key not in {"type", "name", "x", "y", "width", "height", "bindings", "properties"}:
+        if key not in _WIDGET_KEYS:
             msgs.append(f"{where}: unknown field {key!r} ignored")
-    result.dashboard.widgets.append(WidgetConfig(type_name, name, x, y, width, height, bindings, props))
+    result.dashboard.widgets.append(
+        WidgetConfig(type_name, name, x, y, width, height, bindings, props, stale_after)
+    )
+
+
+_WIDGET_KEYS = frozenset(
+    {"type", "name", "x", "y", "width", "height", "bindings", "properties", "stale_after"}
+)
+MAX_STALE_AFTER = 86_400.0
+"""A widget's own stale time is at most a day."""
+
+
+def check_stale_after(value: object) -> float:
+    """Return a valid per-widget stale time in seconds or raise ValueError saying what is wrong."""
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+        raise ValueError(f"must be a number of seconds, got {_short(value)}")
+    if not 0 < value <= MAX_STALE_AFTER:
+        raise ValueError(f"must be more than 0 and at most {MAX_STALE_AFTER:g} seconds, got {value:g}")
+    return float(value)
+
+
+def _stale_after(entry: Mapping[str, Any], where: str, msgs: list[str]) -> float | None:
+    if "stale_after" not in entry or entry["stale_after"] is None:
+        return None
+    try:
+        return check_stale_after(entry["stale_after"])
+    except ValueError as exc:
+        msgs.append(f"{where}: field 'stale_after' {exc}; using the viewer's stale time")
+        return None
 
 
 def _coord(

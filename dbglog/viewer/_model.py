@@ -8,7 +8,7 @@ from __future__ import annotations
 import enum
 import json
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Protocol
 
 import numpy as np
@@ -106,6 +106,16 @@ class SeriesSnapshot:
     """Seconds since the latest message (None before the first)."""
     count: int = 0
     """Messages taken into this series so far; grows monotonically, so a reader can skip redraws."""
+
+    def with_stale_time(self, stale_after: float) -> SeriesSnapshot:
+        """Return the snapshot judged live or stale by another stale time (e.g. a widget's own)."""
+        if self.status not in (Status.LIVE, Status.STALE) or self.age_s is None:
+            return self
+        if self.age_s > stale_after:
+            if self.status is Status.STALE and self.reason:
+                return self
+            return replace(self, status=Status.STALE, reason=f"no message for {self.age_s:.1f} s")
+        return self if self.status is Status.LIVE else replace(self, status=Status.LIVE, reason="")
 
 
 @dataclass(frozen=True, slots=True)

@@ -7,6 +7,7 @@ from collections.abc import Callable
 import dearpygui.dearpygui as dpg
 
 from dbglog.regex_bridge._regex import RegexError, compile_regex
+from dbglog.viewer._dashboard import WidgetConfig, check_stale_after
 from dbglog.viewer._expr import FormulaError, parse_formula
 from dbglog.viewer._model import (
     Binding,
@@ -174,6 +175,20 @@ class PropertiesDialog(Dialog):
         self.name_input = dpg.add_input_text(
             label="Name", default_value=item.name, width=240, parent=self.window
         )
+        own = item.config.stale_after if isinstance(item.config, WidgetConfig) else None
+        self.stale_input = dpg.add_input_text(
+            label="Stale after (s)",
+            default_value="" if own is None else f"{own:g}",
+            hint="viewer default",
+            width=240,
+            parent=self.window,
+        )
+        with dpg.tooltip(self.stale_input):
+            dpg.add_text(
+                "Seconds without a message before this widget shows 'stale'.\n"
+                "Blank: the viewer's --stale-after. Give event topics (hits, button presses) more."
+            )
+        self.stale_error = dpg.add_text("", color=ERROR_COLOR, parent=self.window, show=False)
         dpg.add_separator(parent=self.window)
         for decl in cls.properties if cls is not None else ():
             value = props.get(decl.name, decl.default)
@@ -247,11 +262,25 @@ class PropertiesDialog(Dialog):
                 ok = False
                 dpg.set_value(self.errors[decl.name], str(exc))
                 dpg.configure_item(self.errors[decl.name], show=True)
+        stale_after: float | None = None
+        stale_text = str(dpg.get_value(self.stale_input)).strip()
+        if stale_text:
+            try:
+                stale_after = check_stale_after(float(stale_text))
+                dpg.configure_item(self.stale_error, show=False)
+            except ValueError as exc:
+                ok = False
+                detail = (
+                    str(exc) if "seconds" in str(exc) else f"must be a number of seconds, got {stale_text!r}"
+                )
+                dpg.set_value(self.stale_error, f"Stale after {detail}")
+                dpg.configure_item(self.stale_error, show=True)
         name = str(dpg.get_value(self.name_input)).strip()
         if not ok:
             return False
         if name and name != self.item.name:
             self.item.rename(name[:200])
+        self.item.set_stale_after(stale_after)
         self.item.set_properties(values)
         self.close()
         return True

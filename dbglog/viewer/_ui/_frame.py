@@ -184,6 +184,9 @@ class CanvasItem:
         snapshots = [source.snapshot(b) for b in self.bindings]
         try:
             own = self.widget.status()  # control widgets report their own state (publishing)
+        stale_after = self.config.stale_after if isinstance(self.config, WidgetConfig) else None
+        if stale_after is not None:
+            snapshots = [s.with_stale_time(stale_after) for s in snapshots]
         except Exception as exc:
             self._fail(f"widget failed to report its status: {exc!r}")
             return False
@@ -266,6 +269,12 @@ class CanvasItem:
             self.config = replace(self.config, bindings=bindings)
             self.invalidate()
             self._draw_header(int(self.geometry()[2]))
+    def set_stale_after(self, seconds: float | None) -> None:
+        """Give the widget its own stale time (None: the viewer's)."""
+        if isinstance(self.config, WidgetConfig) and seconds != self.config.stale_after:
+            self.config = replace(self.config, stale_after=seconds)
+            self.invalidate()
+
 
     def set_properties(self, props: dict[str, PropValue]) -> None:
         """Apply validated property values and rebuild the widget."""

@@ -68,11 +68,16 @@ class StaticSource:
                 count=count,
             )
 
-    def set_status(self, topic: str, field: str, status: Status, reason: str = "") -> None:
-        """Force the status (and reason) of a series, e.g. to show stale or error."""
+    def set_status(
+        self, topic: str, field: str, status: Status, reason: str = "", *, age_s: float | None = None
+    ) -> None:
+        """Force the status (and reason, and optionally the age) of a series, e.g. to show stale or error."""
         with self._lock:
             old = self._series.get((topic, field)) or SeriesSnapshot(Binding(topic, field), status)
-            self._series[(topic, field)] = replace(old, status=status, reason=reason, count=old.count + 1)
+            age = old.age_s if age_s is None else age_s
+            self._series[(topic, field)] = replace(
+                old, status=status, reason=reason, count=old.count + 1, age_s=age
+            )
 
     # -- DataSource ---------------------------------------------------------------------------------
 
