@@ -6,6 +6,7 @@ import time
 from collections.abc import Sequence
 
 import dearpygui.dearpygui as dpg
+import numpy as np
 
 from dbglog.viewer._geometry import led_on
 from dbglog.viewer._model import SeriesSnapshot, ValueKind
@@ -24,23 +25,37 @@ def _fmt(value: float) -> str:
     return f"{value:.6g}"
 
 
-def history_lines(snap: SeriesSnapshot, limit: int, *, with_time: bool) -> list[str]:
-    """Return the newest `limit` values of a snapshot as display lines, newest first."""
+def history_lines(snap: SeriesSnapshot, limit: int, *, with_time: bool, collapse: bool = True) -> list[str]:
+    """Return the newest `limit` history lines, newest first; a run of one repeated value is one line."""
     if snap.texts:
-        texts = list(snap.texts[-limit:])
-        times = snap.times[-len(texts) :] if len(snap.times) >= len(texts) else None
-        values = texts
+        texts = list(snap.texts)
+        times = snap.times if len(snap.times) == len(texts) else None
+        starts = [i for i in range(len(texts)) if i == 0 or not collapse or texts[i] != texts[i - 1]]
+        runs = [(texts[i], i) for i in starts[-limit:]]
+        total = len(texts)
+    elif len(snap.values):
+        values = snap.values
+        if collapse:
+            # Compare the numbers themselves (NaN == NaN here), not their formatted text.
+            same = (values[1:] == values[:-1]) | (np.isnan(values[1:]) & np.isnan(values[:-1]))
+            starts = np.concatenate(([0], np.flatnonzero(~same) + 1))[-limit:].tolist()
+        else:
+            starts = list(range(max(0, len(values) - limit), len(values)))
+        runs = [(_fmt(float(values[i])), i) for i in starts]
+        times = snap.times if len(snap.times) == len(values) else None
+        total = len(values)
+    elif snap.last is not None:
+        return [str(snap.last).replace("\n", " \u21b5 ")]
     else:
-        n = min(len(snap.values), limit)
-        values = [_fmt(float(v)) for v in snap.values[-n:]] if n else []
-        times = snap.times[-n:] if n and len(snap.times) >= n else None
-        if not values and snap.last is not None:
-            values = [str(snap.last)]
+        return []
     lines = []
-    for i, text in enumerate(values):
+    for k, (text, first) in enumerate(runs):
+        repeats = (runs[k + 1][1] if k + 1 < len(runs) else total) - first
         one = text.replace("\n", " \u21b5 ")
         if with_time and times is not None:
-            one = f"{_stamp(float(times[i]))}  {one}"
+            one = f"{_stamp(float(times[first]))}  {one}"
+        if repeats > 1:
+            one = f"{one}  \u00d7{repeats}"
         lines.append(one)
     lines.reverse()
     return lines
@@ -58,6 +73,13 @@ class StringWidget(Widget):
             "history", PropKind.NUMBER, 50.0, minimum=1, maximum=1000, integer=True, label="History lines"
         ),
         Property("timestamps", PropKind.BOOL, True, label="Show timestamps"),
+        Property(
+            "collapse",
+            PropKind.BOOL,
+            True,
+            label="Collapse repeats",
+            help="A value repeated in a row is one line: when it first came, and how often (\u00d7N).",
+        ),
     )
     default_size = (320, 200)
     min_size = (160, 100)
@@ -95,7 +117,12 @@ class StringWidget(Widget):
         max_chars = max(4, int(self.width / (self._size * 0.55)))
         shown = text if len(text) <= max_chars else text[: max_chars - 1] + "\u2026"
         dpg.configure_item(self._latest, text=shown)
-        lines = history_lines(snap, int(self.num("history")), with_time=bool(self.prop("timestamps")))
+        lines = history_lines(
+            snap,
+            int(self.num("history")),
+            with_time=bool(self.prop("timestamps")),
+            collapse=bool(self.prop("collapse")),
+        )
         dpg.set_value(self.history, "\n".join(lines))
 
 
