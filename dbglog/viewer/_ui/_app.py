@@ -33,6 +33,7 @@ from dbglog.viewer._model import Binding, DataSource
 from dbglog.viewer._ui import _theme as theme
 from dbglog.viewer._ui._dialogs import Dialog, MessageDialog, PropertiesDialog, RenameDialog, TopicDialog
 from dbglog.viewer._ui._frame import GRIP, TITLE_H, CanvasItem
+from dbglog.viewer._ui._quit import QuitDialog
 from dbglog.viewer._widgets import WidgetRegistry
 
 __all__ = ["PAYLOAD_TYPE", "ViewerApp", "keep_freed_memory"]
@@ -74,6 +75,14 @@ class _Drag:
     start: tuple[float, float]
     rect: Rect
     target: Rect
+
+
+@dataclass
+class _FileRequest:
+    item: int | str
+    save: bool
+    then: Callable[[], object] | None
+    """Called after a successful Save As (the quit prompt's Save: then quit)."""
 
 
 class ViewerApp:
@@ -123,6 +132,9 @@ class ViewerApp:
         self._started = False
         self._status_text = ""
         self._status_left = ""
+        self._quitting = False
+        self.file_request: _FileRequest | None = None
+        """The open file dialog (Open or Save As), or None."""
 
     # -- lifecycle ----------------------------------------------------------------------------------
 
@@ -137,9 +149,16 @@ class ViewerApp:
         theme.apply_theme()
         self._frame_theme = theme.frame_theme()
         self._selected_theme = theme.selected_frame_theme()
+        # The close button only asks (`request_quit`): the window closes when `quit` stops the loop.
         dpg.create_viewport(
-            title=self.title, width=self.width, height=self.height, min_width=640, min_height=400
+            title=self.title,
+            width=self.width,
+            height=self.height,
+            min_width=640,
+            min_height=400,
+            disable_close=True,
         )
+        dpg.set_exit_callback(lambda *_: self._on_close_request())
         dpg.setup_dearpygui()
         self._build()
         if visible:
@@ -151,6 +170,7 @@ class ViewerApp:
         """Unbind every series and destroy the context."""
         if not self._started:
             return
+        self._quitting = True  # Dear PyGui calls the exit callback once more while destroying the context
         if self.dialog is not None:
             self.dialog.close()
         for binding in list(self._refs):
@@ -243,6 +263,8 @@ class ViewerApp:
             )
         with dpg.handler_registry():
             dpg.add_key_press_handler(dpg.mvKey_Delete, callback=lambda *_: self.on_delete_key())
+            dpg.add_key_press_handler(dpg.mvKey_Q, callback=lambda *_: self.on_quit_key())
+            dpg.add_key_press_handler(dpg.mvKey_Escape, callback=lambda *_: self.on_escape_key())
         self._update_title()
 
     def _build_menus(self) -> None:
@@ -253,7 +275,9 @@ class ViewerApp:
                 dpg.add_menu_item(label="Save", callback=lambda *_: self.save())
                 dpg.add_menu_item(label="Save As\u2026", callback=lambda *_: self._file_dialog(save=True))
                 dpg.add_separator()
-                dpg.add_menu_item(label="Quit", callback=lambda *_: dpg.stop_dearpygui())
+                self.quit_menu = dpg.add_menu_item(
+                    label="Quit", shortcut="Ctrl+Q", callback=lambda *_: self.request_quit()
+                )
             with dpg.menu(label="View") as self.view_menu:
                 self.snap_menu = dpg.add_menu_item(
                     label="Snap to grid",
@@ -332,6 +356,9 @@ class ViewerApp:
         now = time.time()
         for item in self.items:
             item.refresh(self.source, now)
+            if item.edited:  # a control changed its own saved value (a toggle switched, a slider moved)
+                item.edited = False
+                self._mark_dirty()
         for hook in self.frame_hooks:
             hook()
         if self.dialog is not None:
@@ -537,6 +564,16 @@ class ViewerApp:
         if self.dialog is None and self.selected is not None:
             self.delete_item(self.selected)
 
+    def on_quit_key(self) -> None:
+        """Q key: with Ctrl held, as File \u203a Quit."""
+        if dpg.is_key_down(dpg.mvKey_ModCtrl):
+            self.request_quit()
+
+    def on_escape_key(self) -> None:
+        """Escape key: cancel the quit prompt."""
+        if isinstance(self.dialog, QuitDialog):
+            self.dialog.close()
+
     # -- drop from the toolbox ----------------------------------------------------------------------
 
     def on_drop(self, sender: int | str, app_data: Any, user_data: Any = None) -> None:
@@ -734,27 +771,94 @@ class ViewerApp:
         text = "\n".join(self.load_messages) or "The dashboard loaded without problems."
         self.show_message("Load messages", text)
 
-    def _file_dialog(self, *, save: bool) -> None:
-        def chosen(sender: int | str, app_data: dict[str, Any]) -> None:
-            path = app_data.get("file_path_name") if isinstance(app_data, dict) else None
-            dpg.delete_item(sender)
-            if path:
-                if save:
-                    self.save(path)
-                else:
-                    self.open_path(path)
-
+    def _file_dialog(self, *, save: bool, then: Callable[[], object] | None = None) -> None:
+        """Open the file dialog; after a successful Save As, call `then` (cancelling calls nothing)."""
+        self._close_file_dialog()
         with dpg.file_dialog(
             label="Save dashboard as" if save else "Open dashboard",
             width=700,
             height=450,
             modal=True,
-            callback=chosen,
-            cancel_callback=lambda s, a: dpg.delete_item(s),
+            callback=lambda _, a, *__: self.file_chosen(
+                a.get("file_path_name") if isinstance(a, dict) else None
+            ),
+            cancel_callback=lambda *_: self.file_cancelled(),
             default_path=str(self.path.parent if self.path else Path.cwd()),
-        ):
+        ) as item:
             dpg.add_file_extension(".json", color=(86, 166, 240, 255))
             dpg.add_file_extension(".*")
+        self.file_request = _FileRequest(item, save, then)
+
+    def file_chosen(self, path: str | None) -> None:
+        """The file dialog's OK: open or save `path` (then go on as asked, e.g. quit after saving)."""
+        request = self.file_request
+        self._close_file_dialog()
+        if request is None or not path:
+            return
+        if not request.save:
+            self.open_path(path)
+        elif self.save(path) and request.then is not None:
+            request.then()
+
+    def file_cancelled(self) -> None:
+        """The file dialog's Cancel: nothing happens (after the quit prompt's Save, the viewer stays open)."""
+        request = self.file_request
+        self._close_file_dialog()
+        if request is not None and request.then is not None:
+            self.set_status("not saved: the viewer stays open")
+
+    def _close_file_dialog(self) -> None:
+        if self.file_request is not None and dpg.does_item_exist(self.file_request.item):
+            dpg.delete_item(self.file_request.item)
+        self.file_request = None
+
+    # -- quitting -----------------------------------------------------------------------------------
+
+    @property
+    def quitting(self) -> bool:
+        """True once the window is closing (`quit` was called): the render loop ends."""
+        return self._quitting
+
+    def request_quit(self) -> QuitDialog | None:
+        """Close the window as the user asked (close button, File \u203a Quit, Ctrl+Q).
+
+        With nothing unsaved the window closes at once; otherwise the quit prompt opens and is returned.
+        """
+        if not self._started or self._quitting:
+            return None
+        if not self.dirty:
+            self.quit()
+            return None
+        if isinstance(self.dialog, QuitDialog):
+            return self.dialog
+        if self.dialog is not None:
+            self.dialog.close()  # one modal at a time: an open dialog is cancelled as by its Cancel
+        self._close_file_dialog()
+        if dpg.does_item_exist(self.menu):
+            dpg.hide_item(self.menu)
+        dialog = QuitDialog(
+            self.path.name if self.path else None, self._save_and_quit, self.quit, self._closed
+        )
+        self._open(dialog)
+        return dialog
+
+    def quit(self) -> None:
+        """Close the window now, whatever is unsaved: the render loop (`run`) ends."""
+        if not self._started:
+            return
+        self._quitting = True
+        dpg.stop_dearpygui()
+
+    def _save_and_quit(self) -> None:
+        if self.path is None:
+            self._file_dialog(save=True, then=self.quit)  # Save As; cancelling it keeps the viewer open
+        elif self.save():
+            self.quit()
+
+    def _on_close_request(self) -> None:
+        # Dear PyGui's exit callback: the window's close button (the viewport was made with disable_close).
+        if self._started and not self._quitting:
+            self.request_quit()
 
     # -- files --------------------------------------------------------------------------------------
 
@@ -845,8 +949,9 @@ class ViewerApp:
             dpg.set_value(self.status_msg, text)
 
     def _mark_dirty(self) -> None:
-        self.dirty = True
-        self._update_title()
+        if not self.dirty:  # a dragged slider marks it every frame: set the title once
+            self.dirty = True
+            self._update_title()
 
     def _update_title(self) -> None:
         name = self.path.name if self.path else "untitled"

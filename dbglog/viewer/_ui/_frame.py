@@ -56,6 +56,8 @@ class CanvasItem:
         self.reason = ""
         self.updates = 0
         """How many times the widget was redrawn (tests and the benchmark read this)."""
+        self.edited = False
+        """Set by `refresh` when the widget changed a saved property itself; the viewer clears it."""
         self._key: tuple[object, ...] | None = None
         self._pill_state: tuple[Status, str] | None = None
         x, y, w, h = self.geometry()
@@ -182,18 +184,22 @@ class CanvasItem:
         if self.widget is None or self.failed:
             return False
         snapshots = [source.snapshot(b) for b in self.bindings]
-        try:
-            own = self.widget.status()  # control widgets report their own state (publishing)
         stale_after = self.config.stale_after if isinstance(self.config, WidgetConfig) else None
         if stale_after is not None:
             snapshots = [s.with_stale_time(stale_after) for s in snapshots]
+        try:
+            own = self.widget.status()  # control widgets report their own state (publishing)
         except Exception as exc:
             self._fail(f"widget failed to report its status: {exc!r}")
             return False
         if self.widget.props_changed and isinstance(self.config, WidgetConfig):
-            # The widget changed a property itself (a control's value): keep it for saving.
+            # The widget changed a property itself (a control's value): keep it for saving, and say so
+            # when the value really differs (a slider let go where it was changes nothing).
             self.widget.props_changed = False
-            self.config = replace(self.config, properties=dict(self.widget.props))
+            props = dict(self.widget.props)
+            if props != dict(self.config.properties):
+                self.config = replace(self.config, properties=props)
+                self.edited = True
         key = (*((s.count, s.status, s.reason) for s in snapshots), own)
         if key == self._key:
             return False
@@ -263,18 +269,18 @@ class CanvasItem:
             self.config = RawWidget({**self.config.data, "name": name}, self.config.reason)
         self._draw_header(int(self.geometry()[2]))
 
-    def set_bindings(self, bindings: tuple[Binding, ...]) -> None:
-        """Point the widget at new series."""
-        if isinstance(self.config, WidgetConfig):
-            self.config = replace(self.config, bindings=bindings)
-            self.invalidate()
-            self._draw_header(int(self.geometry()[2]))
     def set_stale_after(self, seconds: float | None) -> None:
         """Give the widget its own stale time (None: the viewer's)."""
         if isinstance(self.config, WidgetConfig) and seconds != self.config.stale_after:
             self.config = replace(self.config, stale_after=seconds)
             self.invalidate()
 
+    def set_bindings(self, bindings: tuple[Binding, ...]) -> None:
+        """Point the widget at new series."""
+        if isinstance(self.config, WidgetConfig):
+            self.config = replace(self.config, bindings=bindings)
+            self.invalidate()
+            self._draw_header(int(self.geometry()[2]))
 
     def set_properties(self, props: dict[str, PropValue]) -> None:
         """Apply validated property values and rebuild the widget."""
