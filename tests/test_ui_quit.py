@@ -29,8 +29,8 @@ from tests._ros import wait_until
 pytestmark = pytest.mark.gui
 
 ROOT = Path(__file__).resolve().parent.parent
-DIALOG_BG = (36, 40, 48)
-"""Not used for matching: the prompt is found by its text colour and its buttons (see `prompt_pixels`)."""
+EXIT_S = 15.0
+"""How long a viewer that should close may take to exit (a few frames; generous for a loaded CI machine)."""
 
 
 # -- X11: the window manager's close request and key presses, as a desktop sends them -----------------
@@ -116,13 +116,20 @@ class X11:
         x.XStringToKeysym.restype, x.XStringToKeysym.argtypes = ul, [ctypes.c_char_p]
         for name in ("XFlush", "XCloseDisplay", "XFree"):
             getattr(x, name).argtypes = [vp]
+        # Xlib's default error handler exits the process: a key release sent to a window that has just
+        # closed (Ctrl+Q with nothing to save) must be a no-op, not the end of the test run.
+        handler_type = ctypes.CFUNCTYPE(ctypes.c_int, vp, vp)
+        self._on_error = handler_type(lambda _display, _event: 0)
+        x.XSetErrorHandler.restype, x.XSetErrorHandler.argtypes = vp, [handler_type]
+        self._previous_handler = x.XSetErrorHandler(self._on_error)
         self.x = x
         self.display = x.XOpenDisplay(display.encode())
         assert self.display, f"cannot open display {display}"
 
     def close(self) -> None:
-        """Close the connection."""
+        """Close the connection and give Xlib its previous error handler back."""
         self.x.XCloseDisplay(self.display)
+        self.x.XSetErrorHandler(ctypes.cast(self._previous_handler, type(self._on_error)))
 
     def window_of(self, pid: int) -> int | None:
         """The top-level window whose _NET_WM_PID is `pid` (GLFW sets it), or None."""
@@ -349,8 +356,14 @@ def run_here(scenario: str, tmp_dir: str) -> None:
             app.frame()
         assert not unsaved(app), "opening a dashboard (controls included) changes nothing"
         if scenario == "control":
-            lamp = app.items[0]
-            click(lamp.widget.button)  # type: ignore[union-attr]
+            speed = app.items[1].widget
+            speed.set_value(0.0)  # type: ignore[union-attr]  # let go where it was: nothing changed
+            app.frame()
+            assert not unsaved(app)
+            speed.set_value(0.5)  # type: ignore[union-attr]
+            app.frame()
+            assert unsaved(app)
+            click(app.items[0].widget.button)  # type: ignore[union-attr]  # switch the toggle on
             app.frame()
             assert unsaved(app)
             config = app.items[0].config
@@ -498,13 +511,11 @@ def viewer(display: str, tmp_path: Path) -> Iterator[Callable[[str], Viewer]]:
 
 
 def test_close_without_changes_exits_at_once(viewer: Callable[[str], Viewer], x11: X11) -> None:
-    """With nothing changed, the window manager's close request closes the viewer at once, no prompt."""
+    """With nothing changed, Ctrl+Q closes the viewer at once, without a prompt."""
     v = viewer("clean")
     assert v.ready(x11)["dirty"] is False
-    t0 = time.monotonic()
-    x11.request_close(v.window)
-    assert v.exits_within(10) == 0, v.output()
-    assert time.monotonic() - t0 < 5
+    x11.press(v.window, "q", ctrl=True)
+    assert v.exits_within(EXIT_S) == 0, v.output()
     state = v.state()
     assert state["phase"] == "loop-ended"
     assert state["prompts"] == []
@@ -544,7 +555,7 @@ def test_save_writes_file_with_backup_and_exits(
     prompt = state["prompts"][0]
     assert prompt["question"] == "Save changes to dash.json before closing?"
     assert_prompt_on_screen(prompt)
-    assert v.exits_within(10) == 0, v.output()
+    assert v.exits_within(EXIT_S) == 0, v.output()
     assert v.state()["events"] == ["prompt:save"]
     saved = json.loads((tmp_path / "dash.json").read_text())
     assert [w["type"] for w in saved["widgets"]] == ["toggle", "slider", "dial", "led"]
@@ -558,7 +569,7 @@ def test_dont_save_leaves_file_and_exits(viewer: Callable[[str], Viewer], x11: X
     v.ready(x11)
     before = (tmp_path / "dash.json").read_bytes()
     v.wait_prompt(1)  # the child chose File > Quit
-    assert v.exits_within(10) == 0, v.output()
+    assert v.exits_within(EXIT_S) == 0, v.output()
     assert v.state()["events"] == ["prompt:discard"]
     assert (tmp_path / "dash.json").read_bytes() == before
     assert not (tmp_path / "dash.json.bak").exists()
@@ -606,7 +617,7 @@ def test_save_as_when_untitled_cancel_stays_open(
     assert not (tmp_path / "new.json").exists()
     x11.request_close(v.window)
     v.wait_prompt(2)
-    assert v.exits_within(10) == 0, v.output()
+    assert v.exits_within(EXIT_S) == 0, v.output()
     assert v.state()["events"] == [
         "prompt:save:cancel",
         "save-as-opened",
@@ -620,16 +631,17 @@ def test_save_as_when_untitled_cancel_stays_open(
 def test_control_change_marks_dirty_and_is_saved(
     viewer: Callable[[str], Viewer], x11: X11, tmp_path: Path
 ) -> None:
-    """Switching a toggle marks the dashboard modified (title ' *'), so quitting asks, and Save keeps it."""
+    """A slider moved or a toggle switched marks the dashboard modified, so quitting asks; Save keeps both."""
     v = viewer("control")
     state = v.ready(x11)
     assert state["dirty"] is True
     assert state["title"].endswith(" *")
     x11.request_close(v.window)
     v.wait_prompt(1)
-    assert v.exits_within(10) == 0, v.output()
+    assert v.exits_within(EXIT_S) == 0, v.output()
     saved = json.loads((tmp_path / "dash.json").read_text())
     assert saved["widgets"][0]["properties"]["state"] is True
+    assert saved["widgets"][1]["properties"]["value"] == 0.5
 
 
 @pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGINT])
@@ -642,10 +654,8 @@ def test_signal_with_unsaved_changes_exits_promptly(
     before = (tmp_path / "dash.json").read_bytes()
     x11.request_close(v.window)
     v.wait_for(lambda s: s.get("phase") == "prompt-left-open")
-    t0 = time.monotonic()
     v.proc.send_signal(signum)
-    code = v.exits_within(10)
-    assert time.monotonic() - t0 < 5
+    code = v.exits_within(EXIT_S)
     assert code == (-signal.SIGTERM if signum == signal.SIGTERM else 130), v.output()
     assert (tmp_path / "dash.json").read_bytes() == before
 
@@ -666,7 +676,7 @@ def test_cli_view_closes_on_close_request(display: str, x11: X11, tmp_path: Path
             assert wait_until(lambda: x11.window_of(proc.pid) is not None, timeout=30), "no window"
             time.sleep(0.5)  # let it load the dashboard and render
             x11.request_close(x11.window_of(proc.pid) or 0)
-            assert proc.wait(10) == 0, (tmp_path / "view.log").read_text()
+            assert proc.wait(EXIT_S) == 0, (tmp_path / "view.log").read_text()
         finally:
             if proc.poll() is None:
                 proc.kill()
