@@ -119,7 +119,12 @@ def test_demo_screenshot_headless_widgets_live_nothing_left(display: dict[str, s
     out, err = demo.communicate(timeout=90)
     assert demo.returncode == 0, f"{out}\n{err}"
     assert png.stat().st_size > 10_000
-    widgets = json.loads(report.read_text())["widgets"]
+    shipped_before = dashboard_path().read_bytes()
+    data = json.loads(report.read_text())
+    widgets = data["widgets"]
+    # The shipped dashboard is a template: the viewer holds an untitled copy and never writes the file.
+    assert data["file"] is None
+    assert dashboard_path().read_bytes() == shipped_before
     shipped = load_dashboard(dashboard_path(), WidgetRegistry.builtin().get).dashboard.widgets
     assert [w["name"] for w in widgets] == [w.name for w in shipped]
     assert {w["type"] for w in widgets} >= {"plot", "led", "string", "compass", "dial", "thermo"}

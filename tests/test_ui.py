@@ -655,3 +655,30 @@ def test_cli_screenshot_of_legacy_dashboard(tmp_path: Path) -> None:
     assert count_color(img, STATUS_COLORS[Status.WAITING]) > 20, "unpublished topics show waiting"
     result = load_dashboard(path, WidgetRegistry.builtin().get)
     assert len([w for w in result.dashboard.widgets if isinstance(w, WidgetConfig)]) == 7
+
+
+def test_cli_template_opens_an_untitled_copy(tmp_path: Path) -> None:
+    """`--template` opens the file's widgets as a new, untitled dashboard; without a file it is refused."""
+    path = tmp_path / "team.json"
+    shutil.copyfile(GOLDEN / "legacy_all_widgets.json", path)
+    before = path.read_bytes()
+    report = tmp_path / "report.json"
+    proc = _run_cli(
+        str(path),
+        "--template",
+        "--screenshot",
+        str(tmp_path / "shot.png"),
+        "--after",
+        "0.3",
+        "--report-json",
+        str(report),
+    )
+    assert proc.returncode == 0, proc.stderr
+    data = json.loads(report.read_text())
+    assert data["file"] is None
+    assert data["modified"] is False
+    assert len(data["widgets"]) == 7
+    assert path.read_bytes() == before
+    refused = _run_cli("--template")
+    assert refused.returncode == 2
+    assert "--template needs a dashboard file" in refused.stderr

@@ -165,7 +165,8 @@ def _stop_on_signals() -> Iterator[None]:
 
 
 def _viewer_argv(args: argparse.Namespace) -> list[str]:
-    argv = [sys.executable, "-m", "dbglog", "view", str(dashboard_path())]
+    # A template: the shipped file is never overwritten; Save asks where to keep the user's version.
+    argv = [sys.executable, "-m", "dbglog", "view", str(dashboard_path()), "--template"]
     argv += ["--size", "{}x{}".format(*args.size)]
     if args.screenshot is not None:
         argv += ["--screenshot", str(args.screenshot), "--after", f"{args.after:g}", "--wait-live", "20"]

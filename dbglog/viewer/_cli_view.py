@@ -44,6 +44,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "live /rosdashboard/ tags",
     )
     parser.add_argument(
+        "--template",
+        action="store_true",
+        help="open DASHBOARD as a new, untitled dashboard: the file is never written, Save asks where "
+        "to keep your version (the demo opens its dashboard this way)",
+    )
+    parser.add_argument(
         "--all",
         action="store_true",
         help="automatic dashboard: also add widgets for topics that are not dbglog tags",
@@ -92,6 +98,9 @@ def run(args: argparse.Namespace) -> int:
     for problem in registry.problems:
         print(f"dbglog view: warning: {problem}", file=sys.stderr)
     result: LoadResult | None = None
+    if args.template and args.dashboard is None:
+        print("dbglog view: error: --template needs a dashboard file to start from", file=sys.stderr)
+        return 2
     if args.dashboard is not None:
         try:
             result = load_dashboard(args.dashboard, registry.get)
@@ -117,7 +126,10 @@ def run(args: argparse.Namespace) -> int:
         from dbglog.viewer._ui._auto import AutoDashboard, all_live, write_report
 
         auto: AutoDashboard | None = None
-        if result is not None:
+        if result is not None and args.template:
+            app.load(result, None)
+            app.set_status(f"opened {args.dashboard.name} as a new dashboard: Save asks where to keep it")
+        elif result is not None:
             app.load(result, args.dashboard)
         else:
             auto = AutoDashboard(app, all_topics=args.all)

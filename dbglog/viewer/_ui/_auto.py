@@ -179,6 +179,8 @@ def all_live(app: ViewerApp) -> bool:
 def widget_report(app: ViewerApp) -> dict[str, Any]:
     """Return every widget's name, type, status (and why) and bindings, with the dashboard as saved."""
     return {
+        "file": str(app.path) if app.path is not None else None,
+        "modified": app.dirty,
         "widgets": [
             {
                 "name": item.name,
