@@ -107,7 +107,8 @@ def _receiver(args: argparse.Namespace) -> None:
         from dbglog.viewer._engine import Engine
         from dbglog.viewer._model import Binding
 
-        engine = Engine(measure_latency=bool(args.latency), history=args.history)
+        kwargs = {"queue_budget": args.queue_budget} if args.queue_budget else {}
+        engine = Engine(measure_latency=bool(args.latency), history=args.history, **kwargs)
         engine.start()
         bindings = [Binding(t) for t in topics]
         for b in bindings:
@@ -169,9 +170,13 @@ def _receiver(args: argparse.Namespace) -> None:
 # --- orchestration -------------------------------------------------------------------------------
 
 
+_CHILD_ARGS: list[str] = []
+"""Options every receiver child gets (set from the command line)."""
+
+
 def _child(role: str, *extra: str) -> subprocess.Popen[str]:
     return subprocess.Popen(
-        [sys.executable, "-m", "benchmarks.bench_engine", "--role", role, *extra],
+        [sys.executable, "-m", "benchmarks.bench_engine", "--role", role, *_CHILD_ARGS, *extra],
         cwd=_ROOT,
         stdin=subprocess.PIPE,
         stdout=subprocess.PIPE,
@@ -231,6 +236,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--rate", type=float, default=0.0, help="total messages/s (0: flat out)")
     parser.add_argument("--duration", type=float, default=5.0, help="seconds per flood run")
     parser.add_argument("--history", type=int, default=10_000)
+    parser.add_argument(
+        "--queue-budget", type=int, default=0, help="the engine's queue_budget (0: the engine's default)"
+    )
     parser.add_argument("--latency", type=int, choices=[0, 1], default=1, help=argparse.SUPPRESS)
     parser.add_argument(
         "--only", choices=["flood", "rate", "soak"], default=None, help="run one part of the benchmark"
@@ -250,6 +258,8 @@ def main(argv: list[str] | None = None) -> int:
         return 0
 
     local_ros_env(args.domain if args.domain is not None else random.randint(150, 230))
+    if args.queue_budget:
+        _CHILD_ARGS[:] = ["--queue-budget", str(args.queue_budget)]
     print(f"ROS_DOMAIN_ID={os.environ['ROS_DOMAIN_ID']}, {os.cpu_count()} CPUs, {args.repeats} repeats")
     if args.only in (None, "flood"):
         _flood_table(args)

@@ -157,7 +157,7 @@ class Engine:
         graph_period: float = 0.25,
         min_cycle: float = 0.005,
         queue_depth: int = 1000,
-        queue_budget: int = 20_000,
+        queue_budget: int = 35_000,
         node_name: str = "dbglog_viewer",
         measure_latency: bool = False,
     ) -> None:
