@@ -45,12 +45,17 @@ def _publisher(args: argparse.Namespace) -> None:
     context = Context()
     rclpy.init(context=context)
     node = Node("bench_publisher", context=context)
-    qos = QoSProfile(
-        history=HistoryPolicy.KEEP_LAST,
-        depth=1000,
-        reliability=ReliabilityPolicy.RELIABLE,
-        durability=DurabilityPolicy.VOLATILE,
-    )
+    if args.pub_qos == "tag":
+        from dbglog.api._qos import tag_qos
+
+        qos = tag_qos()  # what dbglog.logfloat's publishers use: reliable, transient-local, depth 100
+    else:
+        qos = QoSProfile(
+            history=HistoryPolicy.KEEP_LAST,
+            depth=1000,
+            reliability=ReliabilityPolicy.RELIABLE,
+            durability=DurabilityPolicy.VOLATILE,
+        )
     pubs = [node.create_publisher(Float64, f"{args.prefix}{i}", qos) for i in range(args.topics)]
     deadline = time.monotonic() + 30
     while time.monotonic() < deadline and not all(p.get_subscription_count() > 0 for p in pubs):
@@ -237,6 +242,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--duration", type=float, default=5.0, help="seconds per flood run")
     parser.add_argument("--history", type=int, default=10_000)
     parser.add_argument(
+        "--pub-qos",
+        choices=["tag", "deep"],
+        default="tag",
+        help="publishers' QoS: 'tag' = dbglog's tag QoS (reliable, transient-local, depth 100); "
+        "'deep' = reliable, volatile, depth 1000 (Fast DDS then delays deliveries by 0.3-0.7 s now and then)",
+    )
+    parser.add_argument(
         "--queue-budget", type=int, default=0, help="the engine's queue_budget (0: the engine's default)"
     )
     parser.add_argument("--latency", type=int, choices=[0, 1], default=1, help=argparse.SUPPRESS)
@@ -258,9 +270,13 @@ def main(argv: list[str] | None = None) -> int:
         return 0
 
     local_ros_env(args.domain if args.domain is not None else random.randint(150, 230))
+    _CHILD_ARGS[:] = ["--pub-qos", args.pub_qos]
     if args.queue_budget:
-        _CHILD_ARGS[:] = ["--queue-budget", str(args.queue_budget)]
-    print(f"ROS_DOMAIN_ID={os.environ['ROS_DOMAIN_ID']}, {os.cpu_count()} CPUs, {args.repeats} repeats")
+        _CHILD_ARGS.extend(["--queue-budget", str(args.queue_budget)])
+    print(
+        f"ROS_DOMAIN_ID={os.environ['ROS_DOMAIN_ID']}, {os.cpu_count()} CPUs, {args.repeats} repeats, "
+        f"publisher QoS {args.pub_qos}"
+    )
     if args.only in (None, "flood"):
         _flood_table(args)
     if args.only in (None, "rate"):

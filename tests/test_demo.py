@@ -17,6 +17,7 @@ from dbglog._demo._cli import dashboard_path, rules_path
 from dbglog.viewer._dashboard import load_dashboard
 from dbglog.viewer._widgets import WidgetRegistry
 from tests._ros import wait_until
+from tests._xvfb import x_display
 
 pytestmark = pytest.mark.gui
 
@@ -26,27 +27,8 @@ ROOT = Path(__file__).resolve().parent.parent
 @pytest.fixture(scope="module")
 def display() -> Iterator[dict[str, str]]:
     """An environment with a display: the caller's, or a private Xvfb started for this module."""
-    env = dict(os.environ)
-    if env.get("DISPLAY"):
-        yield env
-        return
-    read, write = os.pipe()
-    xvfb = subprocess.Popen(
-        ["Xvfb", "-displayfd", str(write), "-screen", "0", "1920x1080x24", "-nolisten", "tcp"],
-        pass_fds=(write,),
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL,
-    )
-    os.close(write)
-    with os.fdopen(read) as f:
-        number = f.readline().strip()
-    assert number, "Xvfb did not start"
-    env["DISPLAY"] = f":{number}"
-    try:
-        yield env
-    finally:
-        xvfb.terminate()
-        xvfb.wait(10)
+    with x_display() as name:
+        yield {**os.environ, "DISPLAY": name}
 
 
 def descendants(pid: int) -> set[int]:

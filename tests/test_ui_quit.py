@@ -25,6 +25,7 @@ import numpy as np
 import pytest
 
 from tests._ros import wait_until
+from tests._xvfb import x_display
 
 pytestmark = pytest.mark.gui
 
@@ -391,25 +392,8 @@ def run_here(scenario: str, tmp_dir: str) -> None:
 @pytest.fixture(scope="module")
 def display() -> Iterator[str]:
     """The X display: the caller's, or a private Xvfb started for this module."""
-    if os.environ.get("DISPLAY"):
-        yield os.environ["DISPLAY"]
-        return
-    read, write = os.pipe()
-    xvfb = subprocess.Popen(
-        ["Xvfb", "-displayfd", str(write), "-screen", "0", "1920x1080x24", "-nolisten", "tcp"],
-        pass_fds=(write,),
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL,
-    )
-    os.close(write)
-    with os.fdopen(read) as f:
-        number = f.readline().strip()
-    assert number, "Xvfb did not start"
-    try:
-        yield f":{number}"
-    finally:
-        xvfb.terminate()
-        xvfb.wait(10)
+    with x_display() as name:
+        yield name
 
 
 @pytest.fixture
