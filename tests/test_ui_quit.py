@@ -37,13 +37,19 @@ EXIT_S = 15.0
 # -- X11: the window manager's close request and key presses, as a desktop sends them -----------------
 
 
+_X_EVENT_HEAD: list[tuple[str, Any]] = [
+    ("type", ctypes.c_int),
+    ("serial", ctypes.c_ulong),
+    ("send_event", ctypes.c_int),
+    ("display", ctypes.c_void_p),
+    ("window", ctypes.c_ulong),
+]
+"""The fields every Xlib event starts with."""
+
+
 class _ClientMessage(ctypes.Structure):
     _fields_ = [
-        ("type", ctypes.c_int),
-        ("serial", ctypes.c_ulong),
-        ("send_event", ctypes.c_int),
-        ("display", ctypes.c_void_p),
-        ("window", ctypes.c_ulong),
+        *_X_EVENT_HEAD,
         ("message_type", ctypes.c_ulong),
         ("format", ctypes.c_int),
         ("data", ctypes.c_long * 5),
@@ -52,11 +58,7 @@ class _ClientMessage(ctypes.Structure):
 
 class _KeyEvent(ctypes.Structure):
     _fields_ = [
-        ("type", ctypes.c_int),
-        ("serial", ctypes.c_ulong),
-        ("send_event", ctypes.c_int),
-        ("display", ctypes.c_void_p),
-        ("window", ctypes.c_ulong),
+        *_X_EVENT_HEAD,
         ("root", ctypes.c_ulong),
         ("subwindow", ctypes.c_ulong),
         ("time", ctypes.c_ulong),
