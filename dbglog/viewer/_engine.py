@@ -177,7 +177,6 @@ class Engine:
         self.min_cycle = max(0.0, min_cycle)
         self.queue_depth = queue_depth
         self.queue_budget = queue_budget
-        self._n_wanted = 0
         self.node_name = node_name
         self._lock = threading.Lock()
         self._series: dict[Binding, Series] = {}
@@ -434,7 +433,6 @@ class Engine:
             for binding, series in self._series.items():
                 if binding not in self._static_errors:
                     wanted[_normalize(binding.topic)][binding] = series
-            self._n_wanted = len(wanted)
             return wanted
 
     def _reconcile(self, node: Any) -> None:
@@ -600,7 +598,7 @@ class Engine:
         qos = QoSProfile(
             history=HistoryPolicy.KEEP_LAST,
             depth=queue_depth_for(
-                max(self._n_wanted, len(self._subs) + 1),
+                max(len(self._wanted()), len(self._subs) + 1),
                 fixed_size(cls),
                 max_depth=self.queue_depth,
                 budget=self.queue_budget,
@@ -639,21 +637,13 @@ class Engine:
     # --- ingest (ROS thread) ----------------------------------------------------------------------
 
     def _drain(self, topic: _TopicSub) -> None:
-        take = topic.sub.handle.take_message
         cls = topic.cls
-        stamps: list[int] = []
-        messages: list[Any] = []
+        taken, stamps = _take_batch(topic.sub.handle.take_message, cls, topic.fast is not None)
+        if not stamps:
+            return
+        self._count(topic, stamps)
         if topic.fast is not None:
-            buffers: list[bytes] = []
-            for _ in range(_MAX_BATCH):
-                taken = take(cls, True)
-                if taken is None:
-                    break
-                buffers.append(taken[0])
-                stamps.append(taken[1]["source_timestamp"])
-            if not buffers:
-                return
-            self._count(topic, stamps)
+            buffers: list[bytes] = taken
             columns = decode_fixed(buffers, [(offset, dtype) for _, offset, dtype in topic.fast])
             if columns is not None:
                 times = np.asarray(stamps, dtype=np.float64) * 1e-9
@@ -677,15 +667,7 @@ class Engine:
 
             messages = [deserialize_message(b, cls) for b in buffers]
         else:
-            for _ in range(_MAX_BATCH):
-                taken = take(cls, False)
-                if taken is None:
-                    break
-                messages.append(taken[0])
-                stamps.append(taken[1]["source_timestamp"])
-            if not messages:
-                return
-            self._count(topic, stamps)
+            messages = taken
         times_list = [s * 1e-9 for s in stamps]
         now = time.monotonic()
         skipping = now < topic.skip_deadline
@@ -717,6 +699,19 @@ class Engine:
         n = min(len(lat), _LATENCY_SAMPLES - start)
         self._latency[start : start + n] = lat[:n]
         self._latency_n += n
+
+
+def _take_batch(take: Any, cls: Any, raw: bool) -> tuple[list[Any], list[int]]:
+    """Take up to `_MAX_BATCH` ready messages (CDR bytes when `raw`) and their source stamps (ns)."""
+    items: list[Any] = []
+    stamps: list[int] = []
+    for _ in range(_MAX_BATCH):
+        got = take(cls, raw)
+        if got is None:
+            break
+        items.append(got[0])
+        stamps.append(got[1]["source_timestamp"])
+    return items, stamps
 
 
 def _typed_last(sink: _Sink, value: float) -> float | int | bool:

@@ -24,6 +24,7 @@ __all__ = [
     "ValueKind",
     "binding_transforms",
     "canonical_transforms",
+    "judge_age",
 ]
 
 TAG_PREFIX = "/rosdashboard/"
@@ -80,6 +81,13 @@ def binding_transforms(binding: Binding) -> list[dict[str, object]]:
     return items if isinstance(items, list) else []
 
 
+def judge_age(age_s: float, stale_after: float) -> tuple[Status, str]:
+    """Return LIVE, or STALE with its reason, for a series whose last message is `age_s` old."""
+    if age_s > stale_after:
+        return Status.STALE, f"no message for {age_s:.1f} s"
+    return Status.LIVE, ""
+
+
 @dataclass(frozen=True, slots=True)
 class SeriesSnapshot:
     """A consistent copy of one series at one moment, safe to read on any thread."""
@@ -111,11 +119,8 @@ class SeriesSnapshot:
         """Return the snapshot judged live or stale by another stale time (e.g. a widget's own)."""
         if self.status not in (Status.LIVE, Status.STALE) or self.age_s is None:
             return self
-        if self.age_s > stale_after:
-            if self.status is Status.STALE and self.reason:
-                return self
-            return replace(self, status=Status.STALE, reason=f"no message for {self.age_s:.1f} s")
-        return self if self.status is Status.LIVE else replace(self, status=Status.LIVE, reason="")
+        status, reason = judge_age(self.age_s, stale_after)
+        return self if status is self.status else replace(self, status=status, reason=reason)
 
 
 @dataclass(frozen=True, slots=True)

@@ -15,7 +15,7 @@ import numpy as np
 import numpy.typing as npt
 
 from dbglog.viewer._fields import Scalar
-from dbglog.viewer._model import Binding, SeriesSnapshot, Status, ValueKind
+from dbglog.viewer._model import Binding, SeriesSnapshot, Status, ValueKind, judge_age
 
 __all__ = ["RATE_WINDOW_S", "Series"]
 
@@ -175,10 +175,8 @@ class Series:
                 status, reason = Status.ERROR, self._error
             elif self._fresh == 0 or age is None:
                 status, reason = Status.WAITING, self._waiting
-            elif age > stale_after:
-                status, reason = Status.STALE, f"no message for {age:.1f} s"
             else:
-                status, reason = Status.LIVE, ""
+                status, reason = judge_age(age, stale_after)
             return SeriesSnapshot(
                 binding=self.binding,
                 status=status,

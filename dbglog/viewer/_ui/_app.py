@@ -171,8 +171,7 @@ class ViewerApp:
         if not self._started:
             return
         self._quitting = True  # Dear PyGui calls the exit callback once more while destroying the context
-        if self.dialog is not None:
-            self.dialog.close()
+        self._close_dialog()
         for binding in list(self._refs):
             self.source.unbind(binding)
         self._refs.clear()
@@ -718,6 +717,11 @@ class ViewerApp:
 
     # -- dialogs ------------------------------------------------------------------------------------
 
+    def _close_dialog(self) -> None:
+        """Cancel the open dialog, if any (as its Cancel button would)."""
+        if self.dialog is not None:
+            self.dialog.close()
+
     def _open(self, dialog: Dialog) -> Dialog:
         self.dialog = dialog
         return dialog
@@ -730,8 +734,7 @@ class ViewerApp:
         """Open the topic setup for `item` (placeholders have none)."""
         if item.widget_cls is None:
             return None
-        if self.dialog is not None:
-            self.dialog.close()
+        self._close_dialog()
         dialog = TopicDialog(item, self.source, self._closed, self.apply_bindings, self._bind, self._unbind)
         self._open(dialog)
         return dialog
@@ -740,16 +743,14 @@ class ViewerApp:
         """Open the properties dialog for `item`."""
         if item.widget_cls is None:
             return None
-        if self.dialog is not None:
-            self.dialog.close()
+        self._close_dialog()
         dialog = PropertiesDialog(item, self._closed_dirty)
         self._open(dialog)
         return dialog
 
     def open_rename_dialog(self, item: CanvasItem) -> RenameDialog:
         """Open the rename dialog for `item`."""
-        if self.dialog is not None:
-            self.dialog.close()
+        self._close_dialog()
         dialog = RenameDialog(item, self._closed_dirty)
         self._open(dialog)
         return dialog
@@ -760,8 +761,7 @@ class ViewerApp:
 
     def show_message(self, title: str, message: str) -> MessageDialog:
         """Show a message in a modal dialog."""
-        if self.dialog is not None:
-            self.dialog.close()
+        self._close_dialog()
         dialog = MessageDialog(title, message, self._closed)
         self._open(dialog)
         return dialog
@@ -831,8 +831,7 @@ class ViewerApp:
             return None
         if isinstance(self.dialog, QuitDialog):
             return self.dialog
-        if self.dialog is not None:
-            self.dialog.close()  # one modal at a time: an open dialog is cancelled as by its Cancel
+        self._close_dialog()  # one modal at a time: an open dialog is cancelled as by its Cancel
         self._close_file_dialog()
         if dpg.does_item_exist(self.menu):
             dpg.hide_item(self.menu)
@@ -923,8 +922,7 @@ class ViewerApp:
 
     def clear(self) -> None:
         """Remove every widget."""
-        if self.dialog is not None:
-            self.dialog.close()
+        self._close_dialog()
         for item in list(self.items):
             for b in item.bindings:
                 self._unbind(b)
