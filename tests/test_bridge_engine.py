@@ -54,8 +54,8 @@ def test_golden_lines_give_the_expected_values(case: str) -> None:
 
 
 def test_golden_cases_cover_the_demo_and_strictness() -> None:
-    """The golden set includes the demo robot's lines and the strict-number cases."""
-    assert {"demo", "strict_numbers", "filters"} <= set(_cases())
+    """The golden set includes the demo robot's lines, the strict-number and the per-group type cases."""
+    assert {"demo", "strict_numbers", "filters", "group_types"} <= set(_cases())
 
 
 def test_match_and_match_bytes_agree() -> None:

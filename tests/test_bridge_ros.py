@@ -240,6 +240,45 @@ def test_cli_check_rejects_a_bad_file_printing_every_problem(tmp_path: Path) -> 
     assert "Traceback" not in done.stderr
 
 
+def test_cli_check_reports_a_duplicate_topic_next_to_the_rules_other_problems(tmp_path: Path) -> None:
+    """`--check` lists a rule's duplicate topic even when the rule has other errors, and all of those."""
+    rules = tmp_path / "dup.yaml"
+    rules.write_text(
+        "rules:\n"
+        "  - tag: power\n"
+        "    pattern: 'battery=(?P<percent>\\d+)% (?P<volts>\\S+) V'\n"
+        "    type: {percent: int, volts: float}\n"
+        "  - tag: power/percent\n"
+        "    level: loud\n"
+        "    pattern: 'pct=(\\d+)'\n"
+        "    type: decimal\n",
+        encoding="utf-8",
+    )
+    done = _run_check(rules)
+    assert done.returncode == 2, done.stdout
+    assert "3 problems" in done.stderr, done.stderr
+    assert "dup.yaml:5: rule #2, tag 'power/percent': publishes to /rosdashboard/power/percent" in done.stderr
+    assert "dup.yaml:6: rule #2, tag 'power/percent': unknown level 'loud'" in done.stderr
+    assert "dup.yaml:8: rule #2, tag 'power/percent': unknown type 'decimal'" in done.stderr
+    # With the second rule gone the file is valid, each group with its own type.
+    rules.write_text("\n".join(rules.read_text(encoding="utf-8").splitlines()[:4]) + "\n", encoding="utf-8")
+    done = _run_check(rules)
+    assert done.returncode == 0, done.stderr
+    assert "/rosdashboard/power/percent (int)" in done.stdout
+    assert "/rosdashboard/power/volts (float)" in done.stdout
+
+
+def test_cli_error_for_a_100_kb_pattern_is_short(tmp_path: Path) -> None:
+    """A broken 100 KB pattern is quoted by its start and length: the whole error stays under 1 KB."""
+    rules = tmp_path / "huge.yaml"
+    rules.write_text("rules:\n  - tag: huge\n    pattern: '(" + "a" * 100_000 + "'\n", encoding="utf-8")
+    done = _run_check(rules)
+    assert done.returncode == 2
+    assert len(done.stderr) < 1_000, done.stderr[:2_000]
+    assert "huge.yaml:3: rule #1, tag 'huge': pattern '(aaaa" in done.stderr
+    assert "… (100001 chars) does not compile with RE2: missing ): (aaaa" in done.stderr
+
+
 def _run_check(path: Path) -> subprocess.CompletedProcess[Any]:
     return subprocess.run(
         [sys.executable, "-m", "dbglog", "bridge", "--check", str(path)],

@@ -268,3 +268,88 @@ def test_random_text_only_ever_raises_rules_error(text: str) -> None:
     """Arbitrary text, however broken as YAML, gives RulesError and nothing else."""
     outcome = _outcome(text)
     assert isinstance(outcome, RuleSet) or re.match(r"\d+ problems? in rules:\n", str(outcome))
+
+
+def test_named_groups_can_each_have_their_own_type() -> None:
+    """`type: {group: kind}` types each named group; unnamed groups take the default float."""
+    rules = parse_rules(
+        textwrap.dedent(
+            r"""
+            rules:
+              - tag: power
+                pattern: 'battery=(?P<percent>\d+)% (?P<volts>\S+) V (?P<charging>\w+) (?P<amps>\S+) A'
+                type: {percent: int, volts: float, charging: bool}
+              - tag: level
+                pattern: 'level (?P<value>\d+)'
+                type: {value: int}
+              - tag: plain
+                pattern: 'plain (\d+)'
+                type: int
+            """
+        )
+    )
+    power, level, plain = rules.rules
+    assert [(o.tag, o.kind) for o in power.outputs] == [
+        ("power/percent", "int"),
+        ("power/volts", "float"),
+        ("power/charging", "bool"),
+        ("power/amps", "float"),
+    ]
+    assert [(o.tag, o.kind) for o in level.outputs] == [("level", "int")]
+    assert [(o.tag, o.kind) for o in plain.outputs] == [("plain", "int")]
+
+
+@pytest.mark.parametrize(
+    ("type_yaml", "reason"),
+    [
+        ("{percent: int, amps: int}", "'type' gives a type to group 'amps', which the pattern lacks"),
+        ("{percent: decimal}", "unknown type 'decimal' for group 'percent'"),
+        ("{percent: [int]}", "unknown type a list for group 'percent'"),
+        ("{}", "'type' is an empty mapping"),
+        ("[int]", "'type' must be float, int or bool, or a mapping of group names to those"),
+        ("{3: int}", "'type' maps group names to types, but 3 (integer) is no group name"),
+        ("{percent: int, percent: float}", "'type' names group 'percent' twice"),
+    ],
+)
+def test_bad_per_group_types_are_clear_errors(type_yaml: str, reason: str) -> None:
+    """Every mistake in a per-group `type` mapping is an error naming the group and the reason."""
+    problems = _problems(
+        f"rules:\n  - tag: power\n    pattern: 'b=(?P<percent>\\d+) (?P<volts>\\S+)'\n    type: {type_yaml}\n"
+    )
+    assert any(reason in p.reason for p in problems), problems
+    assert all(p.line == 4 for p in problems), problems
+
+
+def test_a_rule_with_several_problems_reports_its_duplicate_topic_too() -> None:
+    """A rule with other errors still has its duplicate topic reported: every problem, never the first."""
+    problems = _problems(
+        """\
+        rules:
+          - tag: speed
+            pattern: 'speed (\\S+)'
+          - tag: speed
+            level: loud
+            node: ''
+            pattern: 'v=(?P<v>\\S+)'
+            type: {v: int, w: int}
+        """
+    )
+    reasons = [p.reason for p in problems]
+    assert len(problems) == 4, reasons
+    assert any("publishes to /rosdashboard/speed, which rule #1" in r for r in reasons)
+    assert any("unknown level 'loud'" in r for r in reasons)
+    assert any("'node' is empty" in r for r in reasons)
+    assert any("group 'w'" in r for r in reasons)
+
+
+def test_every_echoed_value_is_cut_in_messages() -> None:
+    """A 100 KB pattern, tag, key or level is quoted by its first 80 characters and its length."""
+    huge = "x" * 100_000
+    problems = _problems(
+        f"rules:\n  - tag: '{huge}!'\n    pattern: '({huge}'\n    level: {huge}\n    ? {huge}\n    : 1\n"
+    )
+    message = str(RulesError(problems))
+    assert len(problems) == 4
+    assert len(message) < 2_000, message[:3000]
+    assert "… (100001 chars)" in message
+    assert "… (100000 chars)" in message

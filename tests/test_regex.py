@@ -160,3 +160,14 @@ def test_fast_byte_parser_agrees_with_parse_number(text: str, kind: str) -> None
     assert _outcome(parse_number_bytes, text.encode("utf-8", "surrogatepass"), kind) == _outcome(
         parse_number, text, kind
     )
+
+
+@pytest.mark.parametrize("pattern", ["(" + "a" * 100_000, "[" + "b" * 100_000, "(?P<" + "x" * 100_000])
+def test_errors_for_huge_patterns_quote_only_their_start_and_length(pattern: str) -> None:
+    """RE2 names the rest of a broken pattern; a 100 KB pattern comes back cut, with its length."""
+    with pytest.raises(RegexError) as info:
+        compile_regex(pattern)
+    message = str(info.value)
+    assert len(message) < 200, message[:300]
+    assert f"… ({len(pattern)} chars)" in message
+    assert pattern[:40] in message

@@ -16,6 +16,7 @@ __all__ = [
     "BYTES_PARSERS",
     "MAX_LINE",
     "MAX_PROGRAM_SIZE",
+    "SHOWN_CHARS",
     "CompiledRegex",
     "NumberKind",
     "RegexError",
@@ -23,6 +24,7 @@ __all__ = [
     "parse_number",
     "parse_number_bytes",
     "re2_options",
+    "shorten",
 ]
 
 MAX_LINE = 4096
@@ -32,6 +34,16 @@ MAX_PROGRAM_SIZE = 1500
 """Largest RE2 program accepted: one match costs at most about ``MAX_LINE × MAX_PROGRAM_SIZE`` steps."""
 
 NumberKind = Literal["float", "int", "bool"]
+
+SHOWN_CHARS = 80
+"""Longest user text (a pattern, a fragment of it) quoted whole in an error message."""
+
+
+def shorten(text: str, limit: int = SHOWN_CHARS) -> str:
+    """Return `text`, or its first `limit` characters and ``… (N chars)`` when it is longer (for messages)."""
+    if len(text) <= limit:
+        return text
+    return f"{text[:limit]}… ({len(text)} chars)"
 
 
 class RegexError(ValueError):
@@ -95,6 +107,10 @@ def compile_regex(pattern: str) -> CompiledRegex:
 def _reason(pattern: str, exc: Exception) -> str:
     raw = exc.args[0] if exc.args else ""
     text = raw.decode("utf-8", "replace") if isinstance(raw, bytes) else str(raw)
+    # RE2 names what it stopped at after the first ": " (e.g. "missing ): (aaaa…"), often the whole
+    # rest of the pattern: cut it, so a 100 KB pattern does not come back as a 100 KB message.
+    what, sep, fragment = text.partition(": ")
+    text = f"{what}{sep}{shorten(fragment)}" if sep else shorten(text)
     text = text or "invalid pattern"
     if "\\1" in pattern or any(f"\\{d}" in pattern for d in "123456789"):
         return f"{text} (backreferences are not supported: RE2 matches in linear time)"

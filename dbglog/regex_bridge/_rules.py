@@ -15,7 +15,7 @@ from typing import Any, Final, get_args
 import yaml
 
 from dbglog.api._tags import tag_problem, topic_for_tag
-from dbglog.regex_bridge._regex import NumberKind, RegexError, compile_regex
+from dbglog.regex_bridge._regex import SHOWN_CHARS, NumberKind, RegexError, compile_regex
 
 __all__ = [
     "LEVELS",
@@ -68,8 +68,10 @@ class Rule:
     min_level: int
     """Minimum ``rcl_interfaces/msg/Log`` level (0 for any)."""
     kind: NumberKind
+    """The kind of every output whose group the rule's ``type`` does not name (``float`` by default)."""
     source_topic: str
     outputs: tuple[Output, ...]
+    """Each output's own kind may differ from `kind` (``type: {group: kind}``)."""
 
     def accepts(self, source: str, logger: str, level: int) -> bool:
         """Return whether a line from `source`, logged by `logger` at `level`, is for this rule."""
@@ -116,7 +118,7 @@ class Problem:
         where = f"{self.source}:{self.line}" if self.line else self.source
         if self.rule_index is None:
             return f"{where}: {self.reason}"
-        tag = f", tag {self.tag!r}" if self.tag else ""
+        tag = f", tag {_r(self.tag)}" if self.tag else ""
         return f"{where}: rule #{self.rule_index + 1}{tag}: {self.reason}"
 
 
@@ -256,24 +258,28 @@ def _validate(doc: Any, source: str) -> RuleSet:
         raise top("'rules' is empty: a bridge needs at least one rule", doc[_LINES]["rules"])
 
     rules: list[Rule] = []
+    checked: list[_Checked] = []
     item_lines = getattr(entries, "lines", None) or [doc[_LINES]["rules"]] * len(entries)
     for index, entry in enumerate(entries):
-        rule = _validate_rule(index, entry, item_lines[index], source, problems)
-        if rule is not None:
-            rules.append(rule)
+        one = _validate_rule(index, entry, item_lines[index], source, problems)
+        checked.append(one)
+        if one.rule is not None:
+            rules.append(one.rule)
 
-    seen: dict[str, Rule] = {}
-    for rule in rules:
-        for out in rule.outputs:
-            first = seen.setdefault(out.topic, rule)
-            if first is not rule:
+    # Every rule whose tag and pattern are good takes part, even with other problems: one problem of a
+    # rule never hides another.
+    seen: dict[str, _Checked] = {}
+    for one in checked:
+        for out in one.outputs:
+            first = seen.setdefault(out.topic, one)
+            if first is not one:
                 problems.append(
                     Problem(
                         source,
-                        rule.line,
-                        rule.index,
-                        rule.tag,
-                        f"publishes to {out.topic}, which rule #{first.index + 1} (tag {first.tag!r}, "
+                        one.line,
+                        one.index,
+                        one.tag,
+                        f"publishes to {out.topic}, which rule #{first.index + 1} (tag {_r(first.tag)}, "
                         f"line {first.line}) already publishes to",
                     )
                 )
@@ -282,28 +288,39 @@ def _validate(doc: Any, source: str) -> RuleSet:
     return RuleSet(tuple(rules), source)
 
 
-def _validate_rule(
-    index: int, entry: Any, item_line: int, source: str, problems: list[Problem]
-) -> Rule | None:
+@dataclass(frozen=True, slots=True)
+class _Checked:
+    """One entry of ``rules:`` once checked: the rule when valid, and the outputs it would have anyway."""
+
+    index: int
+    line: int
+    tag: str | None
+    rule: Rule | None
+    outputs: tuple[Output, ...]
+    """The topics the rule publishes to when its tag and pattern are good (for the duplicate check)."""
+
+
+def _validate_rule(index: int, entry: Any, item_line: int, source: str, problems: list[Problem]) -> _Checked:
     if not isinstance(entry, dict):
         problems.append(
             Problem(source, item_line, index, None, f"a rule must be a mapping, not a {_yaml_type(entry)}")
         )
-        return None
+        return _Checked(index, item_line, None, None, ())
     start = int(entry[_START])
     lines: dict[Any, int] = entry[_LINES]
     raw_tag = entry.get("tag")
     tag_name = raw_tag if isinstance(raw_tag, str) else None
     found: list[Problem] = []
 
-    def problem(reason: str, key: str | None = None) -> None:
-        found.append(Problem(source, lines.get(key, start) if key else start, index, tag_name, reason))
+    def problem(reason: str, key: str | None = None, line: int | None = None) -> None:
+        where = line if line is not None else lines.get(key, start) if key else start
+        found.append(Problem(source, where, index, tag_name, reason))
 
     for key, _line in entry.get(_DUPLICATES, []):
-        problem(f"duplicate key {key!r}", key)
+        problem(f"duplicate key {_r(key)}", key)
     for key in _public_keys(entry):
         if key not in _RULE_KEYS:
-            problem(f"unknown key {key!r} (known keys: {', '.join(_RULE_KEYS)})", key)
+            problem(f"unknown key {_r(key)} (known keys: {', '.join(_RULE_KEYS)})", key)
     for key in _REQUIRED:
         if key not in entry:
             problem(f"missing required key {key!r}")
@@ -315,14 +332,14 @@ def _validate_rule(
                 problem(f"{key!r} is empty", key)
             return None
         if not isinstance(value, str):
-            shown = f" ({value!r})" if isinstance(value, int | float) else ""
+            shown = f" ({_r(value)})" if isinstance(value, int | float) else ""
             problem(f"{key!r} must be a string, not a {_yaml_type(value)}{shown}", key)
             return None
         return value
 
     tag = text("tag")
     if tag is not None and (why := tag_problem(tag)) is not None:
-        problem(f"invalid tag {tag!r}: {why}", "tag")
+        problem(f"invalid tag {_r(tag)}: {why}", "tag")
         tag = None
 
     source_topic = ROSOUT
@@ -331,7 +348,7 @@ def _validate_rule(
         candidate = raw_topic if raw_topic.startswith("/") else "/" + raw_topic
         if _TOPIC.fullmatch(candidate) is None:
             problem(
-                f"invalid source_topic {raw_topic!r}: use a ROS topic name such as /chatter "
+                f"invalid source_topic {_r(raw_topic)}: use a ROS topic name such as /chatter "
                 "(letters, digits, _ and /; no part may start with a digit)",
                 "source_topic",
             )
@@ -350,19 +367,13 @@ def _validate_rule(
     level = text("level")
     if level is not None:
         if level.lower() not in LEVELS:
-            problem(f"unknown level {level!r} (one of: {', '.join(LEVELS)})", "level")
+            problem(f"unknown level {_r(level)} (one of: {', '.join(LEVELS)})", "level")
         elif not from_rosout:
             problem(f"'level' only applies to {ROSOUT} (a std_msgs/msg/String topic has no level)", "level")
         else:
             min_level = LEVELS[level.lower()]
 
-    kind: NumberKind = "float"
-    raw_kind = text("type")
-    if raw_kind is not None:
-        if raw_kind not in _KINDS:
-            problem(f"unknown type {raw_kind!r} (one of: float, int, bool)", "type")
-        else:
-            kind = raw_kind  # type: ignore[assignment]  # checked against the Literal's values above
+    kind, group_kinds = _kinds(entry, problem)
 
     pattern = text("pattern")
     outputs: tuple[Output, ...] = ()
@@ -370,19 +381,77 @@ def _validate_rule(
         try:
             compiled = compile_regex(pattern)
         except RegexError as exc:
-            problem(f"pattern '{pattern}' does not compile with RE2: {exc}", "pattern")
+            problem(f"pattern {_quoted(pattern)} does not compile with RE2: {exc}", "pattern")
         else:
-            outputs = _outputs(tag, kind, compiled.group_names, lambda why: problem(why, "pattern"))
+
+            def group_problem(why: str, line: int | None = None) -> None:
+                problem(why, "pattern", line)
+
+            outputs = _outputs(tag, kind, group_kinds, compiled.group_names, group_problem)
 
     problems.extend(found)
     if found or tag is None or pattern is None:
-        return None
-    return Rule(index, start, tag, pattern, node, min_level, kind, source_topic, outputs)
+        return _Checked(index, start, tag_name, None, outputs)
+    rule = Rule(index, start, tag, pattern, node, min_level, kind, source_topic, outputs)
+    return _Checked(index, start, tag_name, rule, outputs)
+
+
+_KINDS_HELP: Final = "float, int or bool"
+
+
+def _kinds(entry: dict[Any, Any], problem: Any) -> tuple[NumberKind, dict[str, tuple[NumberKind, int]]]:
+    """Read ``type``: one kind for the whole rule, or a mapping of group names to kinds (each with its
+    line); returns the rule's kind (``float`` when not given) and the per-group kinds."""
+    kind: NumberKind = "float"
+    per_group: dict[str, tuple[NumberKind, int]] = {}
+    if "type" not in entry:
+        return kind, per_group
+    raw = entry["type"]
+    if isinstance(raw, str):
+        if raw in _KINDS:
+            kind = raw  # type: ignore[assignment]  # checked against the Literal's values
+        else:
+            problem(f"unknown type {_r(raw)} (one of: float, int, bool)", "type")
+        return kind, per_group
+    if not isinstance(raw, dict):
+        problem(
+            f"'type' must be {_KINDS_HELP}, or a mapping of group names to those "
+            f"(e.g. {{percent: int, volts: float}}), not a {_yaml_type(raw)}",
+            "type",
+        )
+        return kind, per_group
+    where: dict[Any, int] = raw[_LINES]
+    for group, _line in raw.get(_DUPLICATES, []):
+        problem(f"'type' names group {_r(group)} twice", "type", where.get(group))
+    groups = list(_public_keys(raw))
+    if not groups:
+        problem("'type' is an empty mapping: give each named group its type (e.g. {percent: int})", "type")
+    for group in groups:
+        value, line = raw[group], where.get(group, 0)
+        if not isinstance(group, str):
+            why = f"'type' maps group names to types, but {_r(group)} ({_yaml_type(group)}) is no group name"
+            problem(why, "type", line)
+        elif not isinstance(value, str) or value not in _KINDS:
+            shown = _r(value) if isinstance(value, str | int | float) else f"a {_yaml_type(value)}"
+            problem(f"unknown type {shown} for group {_r(group)} (one of: float, int, bool)", "type", line)
+        else:
+            per_group[group] = (value, line)  # type: ignore[assignment]  # checked against the Literal
+    return kind, per_group
 
 
 def _outputs(
-    tag: str | None, kind: NumberKind, names: tuple[str | None, ...], problem: Any
+    tag: str | None,
+    kind: NumberKind,
+    group_kinds: dict[str, tuple[NumberKind, int]],
+    names: tuple[str | None, ...],
+    problem: Any,
 ) -> tuple[Output, ...]:
+    """The rule's outputs; every problem with its groups is reported (not only the first)."""
+    named = [n for n in names if n is not None]
+    for group, (_kind, line) in group_kinds.items():
+        if group not in named:
+            has = f"its named groups: {', '.join(map(_r, named))}" if named else "it has no named group"
+            problem(f"'type' gives a type to group {_r(group)}, which the pattern lacks ({has})", line)
     if not names:
         problem("the pattern has no capture group: put the number in parentheses, e.g. 'speed (\\S+)'")
         return ()
@@ -392,21 +461,38 @@ def _outputs(
             f"the pattern has {len(names)} capture groups, so each must be named (?P<name>...); "
             f"group(s) {', '.join(unnamed)} are unnamed (use (?:...) for grouping only)"
         )
-        return ()
     if tag is None:
         return ()
     if len(names) == 1:
-        return (Output(tag, topic_for_tag(tag), 1, kind),)
+        first = names[0]
+        one = group_kinds[first][0] if first is not None and first in group_kinds else kind
+        return (Output(tag, topic_for_tag(tag), 1, one),)
     outputs = []
     for i, name in enumerate(names):
-        assert name is not None
+        if name is None:
+            continue
         sub = f"{tag}/{name}"
         why = tag_problem(sub)
         if why is not None:
-            problem(f"group {name!r} gives the invalid tag {sub!r}: {why}")
+            problem(f"group {_r(name)} gives the invalid tag {_r(sub)}: {why}")
             continue
-        outputs.append(Output(sub, topic_for_tag(sub), i + 1, kind))
+        outputs.append(Output(sub, topic_for_tag(sub), i + 1, group_kinds.get(name, (kind, 0))[0]))
     return tuple(outputs)
+
+
+def _r(value: Any) -> str:
+    """`value`'s repr for a message; a string longer than `SHOWN_CHARS` is cut, with its length."""
+    if isinstance(value, str) and len(value) > SHOWN_CHARS:
+        return f"{value[:SHOWN_CHARS]!r}… ({len(value)} chars)"
+    text = repr(value)
+    return text if len(text) <= SHOWN_CHARS else f"{text[:SHOWN_CHARS]}… ({len(text)} chars)"
+
+
+def _quoted(text: str) -> str:
+    """`text` in single quotes as written (a pattern), cut after `SHOWN_CHARS` characters with its length."""
+    if len(text) <= SHOWN_CHARS:
+        return f"'{text}'"
+    return f"'{text[:SHOWN_CHARS]}'… ({len(text)} chars)"
 
 
 def _yaml_type(value: Any) -> str:
