@@ -204,3 +204,90 @@ def test_fork_child_goes_quiet_at_once_and_parent_carries_on() -> None:
     assert out["took"] < 1.0
     assert out["status"] == 0
     assert out["parent"] == [1.0, 2.0]
+
+
+_SIGNATURES_PROBE = """
+    import inspect, json
+    import dbglog
+    functions = {n: getattr(dbglog, n) for n in dbglog.__all__}
+    print(json.dumps({
+        n: str(inspect.signature(f))
+        for n, f in sorted(functions.items())
+        if inspect.isfunction(inspect.unwrap(f))
+    }))
+"""
+
+
+def test_every_public_signature_is_the_same_on_and_off() -> None:
+    """inspect.signature of every public function is identical with DBGLOG=on and DBGLOG=off."""
+    on, off = (_run(_SIGNATURES_PROBE, env={"DBGLOG": word}) for word in ("on", "off"))
+    assert on.returncode == 0, on.stderr
+    assert off.returncode == 0, off.stderr
+    on_sigs, off_sigs = json.loads(on.stdout), json.loads(off.stdout)
+    public = ["flush", "init", "log", "logbool", "logdata", "logfloat", "logint", "logstring", "shutdown"]
+    assert sorted(on_sigs) == [*public, "stats"]
+    assert off_sigs == on_sigs
+    assert "*, msg_type" in on_sigs["logfloat"]
+
+
+_CALL_SHAPES = [
+    'logfloat("x", 1.0)',
+    'logfloat(tag="x", value=1.0)',
+    'logfloat("x", 1.0, throttle=1.0, once=True, skip_first=False, msg_type=None)',
+    'logfloat("x", 1.0, None)',
+    'logfloat("x", 1.0, None, True)',
+    'logfloat("x", 1.0, None, False, None, False)',
+    'logfloat("x", 1.0, 1, 2, 3, 4, 5, 6)',
+    'logfloat("x")',
+    'logfloat("x", 1.0, bogus=1)',
+    'logfloat("x", 1.0, _positional=1)',
+    'logint("i", 1, None)',
+    'logint("i", 1, msg_type="std_msgs/msg/Int32")',
+    'logbool("b", True, None, True)',
+    'logstring("s", "v", None)',
+    'logstring("s", value="v", once=True)',
+    'logdata("p", {"x": 1.0}, "geometry_msgs/msg/Point")',
+    'logdata("p", {"x": 1.0}, msg_type="geometry_msgs/msg/Point", throttle=1.0)',
+    'logdata("p", {"x": 1.0}, "geometry_msgs/msg/Point", True)',
+    'logdata("p", {"x": 1.0})',
+    'log("d", 1.0)',
+    'log("d", data=1.0, once=True)',
+    'log("d", 1.0, True)',
+    'log("d", 1.0, msg_type=None)',
+    "init(None)",
+    "init(node=None)",
+    "flush(0.1)",
+    "flush(timeout=0.1)",
+    "flush(0.1, 2)",
+    "shutdown(1)",
+    "stats(1)",
+    "shutdown()",
+    "stats()",
+]
+
+_SHAPES_PROBE = """
+    import json, warnings
+    import dbglog
+    warnings.simplefilter("ignore", dbglog.DbglogWarning)
+    outcomes = []
+    for shape in SHAPES:
+        try:
+            eval("dbglog." + shape)
+        except TypeError:
+            outcomes.append("TypeError")
+        else:
+            outcomes.append("ok")
+    print(json.dumps(outcomes))
+"""
+
+
+def test_every_call_shape_behaves_the_same_on_and_off() -> None:
+    """Positional options, unknown keywords, missing arguments: a TypeError switched on is one off too."""
+    probe = _SHAPES_PROBE.replace("SHAPES", repr(_CALL_SHAPES))
+    on, off = (_run(probe, env={"DBGLOG": word}) for word in ("on", "off"))
+    assert on.returncode == 0, on.stderr
+    assert off.returncode == 0, off.stderr
+    on_out, off_out = json.loads(on.stdout), json.loads(off.stdout)
+    assert dict(zip(_CALL_SHAPES, off_out, strict=True)) == dict(zip(_CALL_SHAPES, on_out, strict=True))
+    assert on_out.count("ok") == 14
+    assert off_out[_CALL_SHAPES.index('logfloat("x", 1.0, None, True)')] == "TypeError"

@@ -1,13 +1,19 @@
-"""The public functions as fixed-arity no-ops, bound once at import when dbglog is switched off.
+"""The public functions as no-ops, bound once at import when dbglog is switched off.
 
-They take the same parameter names as the enabled functions. The options are ordinary parameters with
-defaults here rather than keyword-only: CPython calls such functions through its fastest path (a
-keyword-only parameter alone doubles the cost of a call). Nothing here imports rclpy or starts anything.
+Each behaves exactly like its switched-on twin at the call: the same parameters, the options keyword-only
+(a positional option is a ``TypeError`` switched off too), and ``inspect.signature`` reports the same
+signature. Nothing here imports rclpy or starts anything.
+
+Why the options are not written keyword-only below: CPython 3.11 takes its fastest call path only for
+functions without keyword-only parameters (a keyword-only no-op costs twice an empty function). So each
+no-op takes its options as ordinary parameters behind one guard parameter, ``_positional``: a third
+positional argument lands there and is refused, keywords fill the options. The keyword-only twin each
+no-op wraps (``__wrapped__``) is what ``inspect.signature`` and ``help()`` show; it is a no-op too.
 """
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, NoReturn
 
 from dbglog.api._errors import Stats
 
@@ -25,9 +31,32 @@ __all__ = [
 ]
 
 
-def logfloat(
+class _KeywordOnly:
+    """The guard's default: nothing a caller passes is this object."""
+
+    __slots__ = ()
+
+    def __repr__(self) -> str:
+        return "<keyword-only options follow>"
+
+
+_K = _KeywordOnly()
+
+
+def _refuse(name: str, positional: str) -> NoReturn:
+    """Raise the TypeError the switched-on function raises for a positional option."""
+    raise TypeError(
+        f"{name}() takes {positional} positional arguments but more were given (its options are keyword-only)"
+    )
+
+
+# ----- the signatures, exactly as switched on (what inspect.signature and help() show) --------------
+
+
+def _logfloat(
     tag: str,
     value: float,
+    *,
     msg_type: object = None,
     once: bool = False,
     throttle: float | None = None,
@@ -36,9 +65,10 @@ def logfloat(
     """Do nothing (dbglog is off)."""
 
 
-def logint(
+def _logint(
     tag: str,
     value: int,
+    *,
     msg_type: object = None,
     once: bool = False,
     throttle: float | None = None,
@@ -47,9 +77,10 @@ def logint(
     """Do nothing (dbglog is off)."""
 
 
-def logbool(
+def _logbool(
     tag: str,
     value: bool,
+    *,
     msg_type: object = None,
     once: bool = False,
     throttle: float | None = None,
@@ -58,9 +89,10 @@ def logbool(
     """Do nothing (dbglog is off)."""
 
 
-def logstring(
+def _logstring(
     tag: str,
     value: str,
+    *,
     msg_type: object = None,
     once: bool = False,
     throttle: float | None = None,
@@ -69,10 +101,11 @@ def logstring(
     """Do nothing (dbglog is off)."""
 
 
-def logdata(
+def _logdata(
     tag: str,
     data: object,
     msg_type: object,
+    *,
     once: bool = False,
     throttle: float | None = None,
     skip_first: bool = False,
@@ -80,10 +113,108 @@ def logdata(
     """Do nothing (dbglog is off)."""
 
 
-def log(
-    tag: str, data: object, once: bool = False, throttle: float | None = None, skip_first: bool = False
+def _log(
+    tag: str, data: object, *, once: bool = False, throttle: float | None = None, skip_first: bool = False
 ) -> None:
     """Do nothing (dbglog is off)."""
+
+
+# ----- the no-ops bound to the public names ---------------------------------------------------------
+
+
+def logfloat(
+    tag: object,
+    value: object,
+    _positional: object = _K,
+    msg_type: object = None,
+    once: object = False,
+    throttle: object = None,
+    skip_first: object = False,
+) -> None:
+    """Do nothing (dbglog is off)."""
+    if _positional is not _K:
+        _refuse("logfloat", "2")
+
+
+def logint(
+    tag: object,
+    value: object,
+    _positional: object = _K,
+    msg_type: object = None,
+    once: object = False,
+    throttle: object = None,
+    skip_first: object = False,
+) -> None:
+    """Do nothing (dbglog is off)."""
+    if _positional is not _K:
+        _refuse("logint", "2")
+
+
+def logbool(
+    tag: object,
+    value: object,
+    _positional: object = _K,
+    msg_type: object = None,
+    once: object = False,
+    throttle: object = None,
+    skip_first: object = False,
+) -> None:
+    """Do nothing (dbglog is off)."""
+    if _positional is not _K:
+        _refuse("logbool", "2")
+
+
+def logstring(
+    tag: object,
+    value: object,
+    _positional: object = _K,
+    msg_type: object = None,
+    once: object = False,
+    throttle: object = None,
+    skip_first: object = False,
+) -> None:
+    """Do nothing (dbglog is off)."""
+    if _positional is not _K:
+        _refuse("logstring", "2")
+
+
+def logdata(
+    tag: object,
+    data: object,
+    msg_type: object,
+    _positional: object = _K,
+    once: object = False,
+    throttle: object = None,
+    skip_first: object = False,
+) -> None:
+    """Do nothing (dbglog is off)."""
+    if _positional is not _K:
+        _refuse("logdata", "3")
+
+
+def log(
+    tag: object,
+    data: object,
+    _positional: object = _K,
+    once: object = False,
+    throttle: object = None,
+    skip_first: object = False,
+) -> None:
+    """Do nothing (dbglog is off)."""
+    if _positional is not _K:
+        _refuse("log", "2")
+
+
+for _fast, _spec in (
+    (logfloat, _logfloat),
+    (logint, _logint),
+    (logbool, _logbool),
+    (logstring, _logstring),
+    (logdata, _logdata),
+    (log, _log),
+):
+    setattr(_fast, "__wrapped__", _spec)  # noqa: B010  (a function attribute mypy does not model)
+del _fast, _spec
 
 
 def init(*, node: Any = None) -> None:
