@@ -11,11 +11,15 @@ import math
 import operator
 import struct
 from collections.abc import Callable, Mapping
+from copy import deepcopy
 from dataclasses import dataclass
 from typing import Any, Literal
 
+from dbglog.api._errors import safe_repr
+
 __all__ = [
     "CDR_HEADER",
+    "NUL_REPLACEMENT",
     "ConversionError",
     "ScalarSpec",
     "build_message",
@@ -23,6 +27,7 @@ __all__ = [
     "multiarray_message",
     "resolve_type",
     "scalar_spec",
+    "scrub_nul",
     "type_name",
 ]
 
@@ -31,6 +36,9 @@ CDR_HEADER = b"\x00\x01\x00\x00"
 
 MAX_STRING_CHARS = 65536
 """Longer strings are cut to this many characters (one warning), so a history of them stays small."""
+
+NUL_REPLACEMENT = "\ufffd"
+"""What a NUL character in a string becomes: ROS 2 strings are C strings and would end at the NUL."""
 
 _FLT_MAX = 3.4028234663852886e38
 
@@ -153,7 +161,9 @@ def check_int(value: object, spec: ScalarSpec) -> int:
     except TypeError:
         raise ConversionError("bad_value", f"expected an integer, got {type(value).__name__}") from None
     if not spec.low <= result <= spec.high:
-        raise ConversionError("out_of_range", f"the integer is outside the {spec.name} range")
+        raise ConversionError(
+            "out_of_range", f"the integer is outside the {spec.name} range [{spec.low}, {spec.high}]"
+        )
     return int(result)
 
 
@@ -194,8 +204,51 @@ def check_str(value: object) -> str:
     return text
 
 
+# rosidl field type -> the scalar spec its values are checked against (rclpy checks none of them by
+# default, so a bad value would only fail inside publish, counted as publish_failed).
+_FIELD_SPECS: dict[str, ScalarSpec] = {
+    "double": _SCALARS["Float64"],
+    "float": _SCALARS["Float32"],
+    "int8": _SCALARS["Int8"],
+    "int16": _SCALARS["Int16"],
+    "int32": _SCALARS["Int32"],
+    "int64": _SCALARS["Int64"],
+    "uint8": _SCALARS["UInt8"],
+    "uint16": _SCALARS["UInt16"],
+    "uint32": _SCALARS["UInt32"],
+    "uint64": _SCALARS["UInt64"],
+}
+
+
+def _element_type(field_type: str) -> tuple[str, bool]:
+    """Return (element type, is a sequence or array) of a rosidl field type such as ``sequence<int64, 3>``."""
+    collection = False
+    if field_type.startswith("sequence<"):
+        field_type = field_type[len("sequence<") : -1].split(",")[0].strip()
+        collection = True
+    if field_type.endswith("]") and "[" in field_type:
+        field_type = field_type[: field_type.index("[")]
+        collection = True
+    return field_type, collection
+
+
+def _check_field(cls: type, key: str, field_type: str, value: object) -> object:
+    """Return `value` checked for a primitive numeric field (type and range), else unchanged."""
+    spec = _FIELD_SPECS.get(field_type)
+    if spec is None or isinstance(value, Mapping):
+        return value
+    try:
+        return make_checker(spec)(value)
+    except ConversionError as exc:
+        raise ConversionError(
+            exc.reason, f"field {key!r} of {type_name(cls)} ({field_type}): {safe_repr(value)}: {exc}"
+        ) from None
+
+
 def build_message(cls: type, data: object) -> Any:
     """Return an instance of `cls` from an instance (as is) or a dict of its fields (recursively).
+
+    Numeric fields are checked here (type, and range: ``2**80`` for an ``int64`` field is out of range).
 
     Raises:
         ConversionError: unknown field, or a field value of the wrong type or range.
@@ -215,14 +268,96 @@ def build_message(cls: type, data: object) -> Any:
         current = getattr(msg, key)
         if isinstance(value, Mapping) and is_message(current):
             value = build_message(type(current), value)
+        value = _check_field(cls, key, fields[key], value)
         try:
             setattr(msg, key, value)
         except (AssertionError, TypeError, ValueError, OverflowError) as exc:
             detail = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+            element, collection = _element_type(fields[key])
+            spec = _FIELD_SPECS.get(element)
+            if isinstance(exc, OverflowError) and collection and spec is not None:
+                bounds = f"[{spec.low}, {spec.high}]" if spec.kind == "int" else "the float32 range"
+                raise ConversionError(
+                    "out_of_range",
+                    f"field {key!r} of {type_name(cls)} ({fields[key]}) holds a value outside {bounds}",
+                ) from None
             raise ConversionError(
                 "bad_value", f"field {key!r} of {type_name(cls)} does not accept that value ({detail})"
             ) from None
     return msg
+
+
+_StringPlan = tuple[tuple[str, bool, bool, "type | None"], ...]
+"""Per message class: (field, is a string field (else a nested message), is a collection, nested class)."""
+_STRING_PLANS: dict[type, _StringPlan] = {}
+
+
+def _string_plan(cls: type) -> _StringPlan:
+    """Return where `cls` (transitively) holds strings; cached per class, empty when it holds none."""
+    plan = _STRING_PLANS.get(cls)
+    if plan is not None:
+        return plan
+    entries: list[tuple[str, bool, bool, type | None]] = []
+    fields: dict[str, str] = cls.get_fields_and_field_types()  # type: ignore[attr-defined]
+    for name, field_type in fields.items():
+        element, collection = _element_type(field_type)
+        if element.startswith(("string", "wstring")):
+            entries.append((name, True, collection, None))
+        elif "/" in element:
+            try:
+                sub = resolve_type(element)
+            except ConversionError:
+                continue
+            if _string_plan(sub):
+                entries.append((name, False, collection, sub))
+    plan = tuple(entries)
+    _STRING_PLANS[cls] = plan
+    return plan
+
+
+def _find_nul(msg: Any, prefix: str, found: list[str], fix: bool) -> None:
+    """Append the paths of string fields of `msg` that hold a NUL; with `fix`, replace the NULs."""
+    for name, is_string, collection, _sub in _string_plan(type(msg)):
+        value: Any = getattr(msg, name, None)
+        if value is None:
+            continue
+        path = prefix + name
+        if is_string:
+            if collection:
+                if any(isinstance(s, str) and "\x00" in s for s in value):
+                    found.append(path)
+                    if fix:
+                        setattr(msg, name, [_replace_nul(s) for s in value])
+            elif isinstance(value, str) and "\x00" in value:
+                found.append(path)
+                if fix:
+                    setattr(msg, name, value.replace("\x00", NUL_REPLACEMENT))
+        elif collection:
+            for i, item in enumerate(value):
+                if is_message(item):
+                    _find_nul(item, f"{path}[{i}].", found, fix)
+        elif is_message(value):
+            _find_nul(value, path + ".", found, fix)
+
+
+def _replace_nul(value: object) -> object:
+    return value.replace("\x00", NUL_REPLACEMENT) if isinstance(value, str) else value
+
+
+def scrub_nul(msg: Any) -> tuple[Any, list[str]]:
+    """Return `msg`, or a copy with every NUL in its strings replaced by U+FFFD, and the fields that held one.
+
+    A ROS 2 string is a C string: a NUL would silently end it. The caller's message is never changed.
+    """
+    found: list[str] = []
+    if not _string_plan(type(msg)):
+        return msg, found
+    _find_nul(msg, "", found, fix=False)
+    if not found:
+        return msg, found
+    copy = deepcopy(msg)
+    _find_nul(copy, "", [], fix=True)
+    return copy, found
 
 
 # numpy dtype name -> (std_msgs MultiArray type, array typecode)

@@ -16,6 +16,7 @@ from dbglog.api._convert import (
     CDR_HEADER,
     KIND_DEFAULT,
     MAX_STRING_CHARS,
+    NUL_REPLACEMENT,
     SCALAR_DTYPES,
     ConversionError,
     ScalarKind,
@@ -25,6 +26,7 @@ from dbglog.api._convert import (
     multiarray_message,
     resolve_type,
     scalar_spec,
+    scrub_nul,
     type_name,
 )
 from dbglog.api._errors import _API_DIR, DbglogError, DbglogWarning, Reporter, Stats, safe_repr
@@ -115,7 +117,8 @@ def _begin(api: str, tag: object, once: object, throttle: object, skip_first: ob
     try:
         return _Options(once, throttle, skip_first)
     except ValueError as exc:
-        REPORTER.drop("bad_option", f"{api}:option", f"dbglog.{api}({safe_repr(tag)}): {exc}; value dropped")
+        key = tag if isinstance(tag, str) else f"<{type(tag).__name__}>{safe_repr(tag)}"
+        REPORTER.drop("bad_option", key, f"dbglog.{api}({safe_repr(tag)}): {exc}; value dropped")
         return None
 
 
@@ -150,6 +153,9 @@ def _publish_scalar(
             None,
         )
         checked = checked[:MAX_STRING_CHARS]
+    if spec.kind == "str" and isinstance(checked, str) and "\x00" in checked:
+        checked = checked.replace("\x00", NUL_REPLACEMENT)
+        _warn_nul(api, clean, "the string")
     if not opts.allow(clean):
         return
     ch = RUNTIME.channel(clean, cls, api)
@@ -348,9 +354,24 @@ def logdata(
         _unexpected("logdata", tag, exc)
 
 
+def _warn_nul(api: str, clean: str, where: str) -> None:
+    """Warn once per tag that NUL characters were replaced (a ROS 2 string would end at the first one)."""
+    REPORTER.warn(
+        "nul_replaced",
+        clean,
+        f"dbglog.{api}({clean!r}): {where} held NUL characters, which a ROS 2 string cannot carry "
+        f"(it would end at the first one); each was replaced with U+FFFD",
+        None,
+    )
+
+
 def _send_message(clean: str, msg: object, opts: _Options, api: str) -> None:
     if not opts.allow(clean):
         return
+    msg, nul_fields = scrub_nul(msg)
+    if nul_fields:
+        more = f" and {len(nul_fields) - 3} more" if len(nul_fields) > 3 else ""
+        _warn_nul(api, clean, "field " + ", ".join(nul_fields[:3]) + more)
     ch = RUNTIME.channel(clean, type(msg), api)
     if ch is not None and RUNTIME.send(ch, msg, api, message=True):
         _published()
