@@ -291,3 +291,55 @@ def test_every_call_shape_behaves_the_same_on_and_off() -> None:
     assert dict(zip(_CALL_SHAPES, off_out, strict=True)) == dict(zip(_CALL_SHAPES, on_out, strict=True))
     assert on_out.count("ok") == 14
     assert off_out[_CALL_SHAPES.index('logfloat("x", 1.0, None, True)')] == "TypeError"
+
+
+_WARNINGS_AS_ERRORS_PROBE = textwrap.dedent(
+    """
+    import json, sys
+    import dbglog
+    for i in range(3):
+        dbglog.logfloat("werror/x", float(i))
+    dbglog.logstring("werror/s", "up")
+    s = dbglog.stats()
+    print(json.dumps({"published": s.published, "dropped": s.dropped_by_reason}), flush=True)
+    sys.stdin.readline()  # stay up (a transient-local writer) until the test has its values
+    """
+)
+
+
+def test_deprecation_warnings_as_errors_do_not_stop_dbglogs_node() -> None:
+    """Under python -W error::DeprecationWarning values still reach a real subscriber, none dropped."""
+    from std_msgs.msg import Float64, String
+
+    from dbglog.api._qos import tag_qos
+    from tests._ros import RosPeer
+
+    env = {k: v for k, v in os.environ.items() if k not in ("DBGLOG", "DBGLOG_STRICT")}
+    env["PYTHONPATH"] = str(ROOT)
+    with RosPeer("werror_peer") as peer:
+        floats = peer.subscribe("/rosdashboard/werror/x", Float64, tag_qos())
+        strings = peer.subscribe("/rosdashboard/werror/s", String, tag_qos())
+        command = [sys.executable, "-W", "error::DeprecationWarning", "-c", _WARNINGS_AS_ERRORS_PROBE]
+        with subprocess.Popen(
+            command,
+            env=env,
+            cwd=ROOT,
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        ) as proc:
+            try:
+                assert proc.stdout is not None
+                line = proc.stdout.readline()
+                arrived = floats.wait_for(3, timeout=20) and strings.wait_for(1, timeout=20)
+                _, err = proc.communicate(input="\n", timeout=30)
+            finally:
+                if proc.poll() is None:
+                    proc.kill()
+        assert json.loads(line) == {"published": 4, "dropped": {}}, err
+        assert arrived
+        assert floats.values() == [0.0, 1.0, 2.0]
+        assert strings.values() == ["up"]
+        assert proc.returncode == 0, err
+        assert "Traceback" not in err

@@ -14,6 +14,7 @@ import os
 import sys
 import threading
 import time
+import warnings
 from collections.abc import Callable
 from typing import Any, Literal
 
@@ -271,7 +272,12 @@ class Runtime:
         return False
 
     def _start(self, user_node: Any, api: str) -> bool:
-        with self._lock:
+        # rclpy's first node imports modules that warn (lark imports the deprecated sre_parse): a user's
+        # -W error::DeprecationWarning must not stop dbglog's own node. catch_warnings swaps a global,
+        # so it is held only under the runtime's lock, for this start-up.
+        with self._lock, warnings.catch_warnings():
+            warnings.simplefilter("ignore", DeprecationWarning)
+            warnings.simplefilter("ignore", PendingDeprecationWarning)
             try:
                 import rclpy  # noqa: F401  (the C extension loads here, on first use)
                 from rclpy.context import Context
@@ -290,17 +296,30 @@ class Runtime:
                 self._user_node = user_node
             else:
                 context = Context()
-                # Our own context: no command-line remapping, no signal handlers, and the user's
-                # logging configuration is left alone.
-                context.init([], initialize_logging=False)
+                try:
+                    # Our own context: no command-line remapping, no signal handlers, and the user's
+                    # logging configuration is left alone.
+                    context.init([], initialize_logging=False)
+                    self._node = Node(
+                        f"dbglog_{os.getpid()}",
+                        context=context,
+                        use_global_arguments=False,
+                        enable_rosout=False,
+                        start_parameter_services=False,
+                    )
+                except Exception as exc:
+                    with contextlib.suppress(Exception):
+                        context.try_shutdown()
+                    self.state = "no_ros"
+                    self.reporter.drop(
+                        "no_ros",
+                        "no_ros",
+                        f"dbglog.{api}: cannot start ROS 2: creating dbglog's node failed "
+                        f"({type(exc).__name__}: {exc}); values are dropped until dbglog.init() succeeds",
+                        exc,
+                    )
+                    return False
                 self._context = context
-                self._node = Node(
-                    f"dbglog_{os.getpid()}",
-                    context=context,
-                    use_global_arguments=False,
-                    enable_rosout=False,
-                    start_parameter_services=False,
-                )
             self._pid = os.getpid()
             self.state = "ready"
             return True
