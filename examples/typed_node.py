@@ -1,7 +1,8 @@
 """An rclpy node that logs typed values with dbglog from a timer callback.
 
 Run: ``.venv/bin/python examples/typed_node.py [--duration S] [--rate HZ]`` (Ctrl-C to stop), then watch
-with ``ros2 topic echo /rosdashboard/proximity`` or the dbglog viewer.
+with ``ros2 topic echo /rosdashboard/proximity`` or the dbglog viewer. It uses only dbglog's public API and
+plain rclpy; to keep DDS discovery on this machine, set ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST``.
 """
 
 from __future__ import annotations
@@ -16,7 +17,6 @@ from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 
 import dbglog
-from dbglog._rosenv import localhost_discovery
 
 
 class TypedNode:
@@ -50,7 +50,6 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.rate <= 0:
         parser.error("--rate must be > 0")
-    localhost_discovery()
     rclpy.init()
     node = TypedNode(args.rate).node
     dbglog.init(node=node)  # optional: publish from this node instead of dbglog's own

@@ -2,13 +2,17 @@
 
 from __future__ import annotations
 
+import ast
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
 
+import pytest
 from std_msgs.msg import Float64, Int64
 
+import dbglog
 from dbglog.api._qos import tag_qos
 from tests._ros import RosPeer
 
@@ -53,3 +57,24 @@ def test_plain_script_runs_on_and_off() -> None:
     off = _run_example("plain_script.py", "--steps", "20", "--dt", "0.001", env={"DBGLOG": "off"})
     assert off.returncode == 0, off.stderr
     assert "enabled=False calls=0" in off.stdout
+
+
+def _dbglog_imports(path: Path) -> list[str]:
+    """Return every dbglog module or name `path` imports, as dotted names."""
+    found: list[str] = []
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.Import):
+            found += [a.name for a in node.names if a.name.split(".")[0] == "dbglog"]
+        elif isinstance(node, ast.ImportFrom) and (node.module or "").split(".")[0] == "dbglog":
+            found += [f"{node.module}.{a.name}" for a in node.names]
+    return found
+
+
+@pytest.mark.parametrize("name", ["typed_node.py", "plain_script.py"])
+def test_examples_use_only_the_public_api(name: str) -> None:
+    """The examples users copy import only `dbglog` and its public names, never a private module."""
+    imports = _dbglog_imports(ROOT / "examples" / name)
+    assert imports == ["dbglog"]
+    source = (ROOT / "examples" / name).read_text(encoding="utf-8")
+    used = set(re.findall(r"\bdbglog\.(\w+)", source))
+    assert used <= set(dbglog.__all__), used - set(dbglog.__all__)
