@@ -23,12 +23,21 @@ if [ ! -x "$VENV/bin/python" ]; then
   echo "setup: creating $VENV"
   "$PY" -m venv "$VENV"
 fi
+# Editable install, plus a .pth that puts the clone itself on sys.path. setuptools' editable import hook
+# is asked only after the path finder, so without the .pth a script run from the folder that holds the
+# clone (a folder named dbglog, no __init__.py) imported that folder as an empty namespace package:
+# "module 'dbglog' has no attribute 'logfloat'". With the clone on sys.path the path finder finds the
+# real package, which wins over a namespace portion. (setuptools' own editable_mode=compat does the same
+# but is marked transitional.) The stamp records the mode, so a venv installed the old way is redone once.
+install_mode="editable+clone-pth"
 stamp="$VENV/.dbglog-installed"
-if [ ! -f "$stamp" ] || [ "$ROOT/pyproject.toml" -nt "$stamp" ]; then
+if [ ! -f "$stamp" ] || [ "$ROOT/pyproject.toml" -nt "$stamp" ] || [ "$(cat "$stamp")" != "$install_mode" ]; then
   echo "setup: installing dbglog[ros,viewer,test] into $VENV"
   "$VENV/bin/python" -m pip install -q --upgrade pip >/dev/null
   "$VENV/bin/python" -m pip install -q -e "$ROOT[ros,viewer,test]"
-  touch "$stamp"
+  site="$("$VENV/bin/python" -c 'import sysconfig; print(sysconfig.get_paths()["purelib"])')"
+  printf '%s\n' "$ROOT" >"$site/dbglog_clone.pth"
+  echo "$install_mode" >"$stamp"
 fi
 export PATH="$VENV/bin:$PATH"
 # Demos, tests and benchmarks keep DDS discovery on this machine unless the user chose otherwise.

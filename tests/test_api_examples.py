@@ -78,3 +78,33 @@ def test_examples_use_only_the_public_api(name: str) -> None:
     source = (ROOT / "examples" / name).read_text(encoding="utf-8")
     used = set(re.findall(r"\bdbglog\.(\w+)", source))
     assert used <= set(dbglog.__all__), used - set(dbglog.__all__)
+
+
+_BESIDE_SCRIPT = """
+import dbglog
+
+dbglog.logfloat("beside/x", 1.0)
+print(dbglog.__file__, dbglog.stats().published)
+"""
+
+
+def test_script_beside_a_clone_named_dbglog_imports_the_package(tmp_path: Path) -> None:
+    """A script beside a clone folder named dbglog/ (no __init__.py) gets the package, not the folder."""
+    subprocess.run(["git", "clone", "-q", str(ROOT), str(tmp_path / "dbglog")], check=True, timeout=60)
+    (tmp_path / "script.py").write_text(_BESIDE_SCRIPT, encoding="utf-8")
+    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "DBGLOG")}
+    proc = subprocess.run(
+        [sys.executable, "script.py"],
+        cwd=tmp_path,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=False,
+    )
+    assert proc.returncode == 0, (
+        "the venv's dbglog must be installed as .ci/setup.sh does (editable_mode=compat):\n" + proc.stderr
+    )
+    location, published = proc.stdout.split()
+    assert Path(location).name == "__init__.py"
+    assert published == "1"
