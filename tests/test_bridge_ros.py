@@ -6,6 +6,7 @@ import signal
 import subprocess
 import sys
 import threading
+import time
 from collections.abc import Iterator
 from functools import partial
 from pathlib import Path
@@ -185,9 +186,9 @@ def test_cli_bridge_runs_until_signalled_and_exits_cleanly(
     robot, _camera, viewer = peers
     rules = tmp_path / "rules.yaml"
     rules.write_text(RULES, encoding="utf-8")
-    bridge = _Process(str(rules), "--name", "cli_bridge")
+    bridge = _Process(str(rules), "--name", "cli_bridge", "--state-dir", str(tmp_path / "state"))
     try:
-        assert wait_until(lambda: "running" in bridge.output(), TIMEOUT), bridge.output()
+        assert wait_until(lambda: "bridge: running" in bridge.output(), TIMEOUT), bridge.output()
         probes = viewer.subscribe("/rosdashboard/t/probe", Int64, LATCHED)
         speed = viewer.subscribe("/rosdashboard/t/speed", Float64, LATCHED)
         x = viewer.subscribe("/rosdashboard/t/pose/x", Float64, LATCHED)
@@ -287,3 +288,181 @@ def _run_check(path: Path) -> subprocess.CompletedProcess[Any]:
         timeout=60,
         check=False,
     )
+
+
+# ------------------------------------------------------------- lines written before the bridge hears them
+
+HISTORY_RULES = r"""
+rules:
+  - tag: boot/seq
+    type: int
+    pattern: 'boot seq=(\d+)'
+  - tag: boot/power
+    pattern: 'battery=(?P<percent>\d+)% (?P<volts>\S+) V'
+    type: {percent: int}
+"""
+
+# A node as users write them: rclpy's own logger, lines logged right after the node exists (so before any
+# subscriber can have discovered its /rosout writer); then one line per line of stdin; alive until EOF.
+NODE_SCRIPT = r"""
+import sys
+
+import rclpy
+from rclpy.node import Node
+
+rclpy.init()
+node = Node(sys.argv[1])
+log = node.get_logger()
+for line in sys.argv[2:]:
+    log.info(line)
+print("logged", flush=True)
+for line in sys.stdin:
+    log.info(line.rstrip("\n"))
+    print("logged", flush=True)
+node.destroy_node()
+rclpy.shutdown()
+"""
+
+DEEP_LATCHED = QoSProfile(
+    depth=1000, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL
+)
+
+
+class _Node:
+    """A separate process running an rclpy node that logs the given lines at once, then what it is sent."""
+
+    def __init__(self, name: str, lines: list[str]) -> None:
+        self.proc = subprocess.Popen(
+            [sys.executable, "-c", NODE_SCRIPT, name, *lines],
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            text=True,
+        )
+
+    def wait_logged(self) -> None:
+        assert self.proc.stdout is not None
+        line = self.proc.stdout.readline()
+        assert line == "logged\n", f"the node process said {line!r} (exit code {self.proc.poll()})"
+
+    def log(self, line: str) -> None:
+        assert self.proc.stdin is not None
+        self.proc.stdin.write(line + "\n")
+        self.proc.stdin.flush()
+        self.wait_logged()
+
+    def close(self) -> None:
+        if self.proc.stdin is not None:
+            self.proc.stdin.close()
+        try:
+            self.proc.wait(timeout=TIMEOUT)
+        finally:
+            if self.proc.poll() is None:
+                self.proc.kill()
+                self.proc.wait(timeout=TIMEOUT)
+            if self.proc.stdout is not None:
+                self.proc.stdout.close()
+
+
+def _boot_lines(base: int, count: int) -> list[str]:
+    return [f"boot seq={base + i}" for i in range(count)]
+
+
+def _settled(collector: Collector, want: int) -> list[Any]:
+    """Wait for `want` values, then a little longer (any duplicate would come now); return them all."""
+    assert collector.wait_for(want, TIMEOUT), f"{len(collector.values())} of {want} values arrived"
+    wait_until(lambda: len(collector.values()) > want, timeout=1.5)
+    return collector.values()
+
+
+def test_bridge_already_running_gets_every_first_line_of_nodes_starting_together(tmp_path: Path) -> None:
+    """Eight nodes start together (a launch file's load) and log 30 lines each at once: the running bridge
+    publishes every line, once."""
+    rules = tmp_path / "rules.yaml"
+    rules.write_text(HISTORY_RULES, encoding="utf-8")
+    with RosPeer("viewer") as viewer:
+        seqs = viewer.subscribe("/rosdashboard/boot/seq", Int64, DEEP_LATCHED)
+        bridge = _Process(str(rules), "--name", "bridge_first_lines", "--state-dir", str(tmp_path / "state"))
+        nodes: list[_Node] = []
+        try:
+            assert wait_until(lambda: "bridge: running" in bridge.output(), TIMEOUT), bridge.output()
+            assert wait_until(lambda: viewer.node.count_publishers("/rosdashboard/boot/seq") == 1, TIMEOUT)
+            nodes = [_Node(f"starting_node_{k}", _boot_lines(1000 * k, 30)) for k in range(8)]
+            for node in nodes:
+                node.wait_logged()
+            values = _settled(seqs, 240)
+        finally:
+            for node in nodes:
+                node.close()
+            code = bridge.stop(signal.SIGINT)
+    assert sorted(values) == [1000 * k + i for k in range(8) for i in range(30)]
+    assert code == 0, bridge.output()
+    assert "0 duplicates skipped, 0 errors" in bridge.output()
+
+
+def test_bridge_started_late_gets_the_startup_lines_and_a_restart_does_not_repeat_them(
+    tmp_path: Path,
+) -> None:
+    """A bridge started 2 s after a node publishes its 20 startup lines (typed per group); restarted, it
+    publishes only the new lines, not the history again; without its state file it would."""
+    rules = tmp_path / "rules.yaml"
+    rules.write_text(HISTORY_RULES, encoding="utf-8")
+    state = ["--name", "bridge_late", "--state-dir", str(tmp_path / "state")]
+    with RosPeer("viewer") as viewer:
+        seqs = viewer.subscribe("/rosdashboard/boot/seq", Int64, DEEP_LATCHED)
+        percent = viewer.subscribe("/rosdashboard/boot/power/percent", Int64, DEEP_LATCHED)
+        volts = viewer.subscribe("/rosdashboard/boot/power/volts", Float64, DEEP_LATCHED)
+        node = _Node("early_node", [*_boot_lines(0, 20), "battery=87% 12.5 V"])
+        bridges: list[_Process] = []
+        try:
+            node.wait_logged()
+            time.sleep(2.0)  # the scenario itself: the bridge starts 2 s after the node's lines
+            bridges.append(_Process(str(rules), *state))
+            assert _settled(seqs, 20) == list(range(20))
+            assert percent.wait_for(1, TIMEOUT)
+            assert volts.wait_for(1, TIMEOUT)
+            assert (percent.values(), volts.values()) == ([87], [12.5])
+            assert bridges[0].stop(signal.SIGINT) == 0, bridges[0].output()
+            assert "22 values published, 0 unparseable, 0 duplicates skipped" in bridges[0].output()
+
+            # Restarted within /rosout's 10 s history: the history comes again and is skipped.
+            bridges.append(_Process(str(rules), *state))
+            assert wait_until(lambda: "bridge: running" in bridges[1].output(), TIMEOUT), bridges[1].output()
+            node.log("boot seq=20")
+            assert _settled(seqs, 21) == list(range(21))
+            assert percent.values() == [87]
+            assert bridges[1].stop(signal.SIGINT) == 0, bridges[1].output()
+            assert "1 values published, 0 unparseable, 22 duplicates skipped" in bridges[1].output()
+
+            # Without the state file, the same restart publishes the history a second time.
+            bridges.append(_Process(str(rules), "--name", "bridge_late", "--no-state"))
+            assert wait_until(lambda: "bridge: running" in bridges[2].output(), TIMEOUT), bridges[2].output()
+            node.log("boot seq=21")
+            assert seqs.wait_for(21 + 22, TIMEOUT)
+        finally:
+            node.close()
+            for bridge in bridges:
+                if bridge.proc.poll() is None:
+                    bridge.stop(signal.SIGINT)
+    assert all("Traceback" not in b.output() for b in bridges)
+
+
+def test_a_log_line_delivered_twice_is_published_once(peers: tuple[RosPeer, RosPeer, RosPeer]) -> None:
+    """The same Log (logger, stamp, text) from two /rosout writers, e.g. a relay, gives one value."""
+    robot, camera, viewer = peers
+    with Bridge(parse_rules(HISTORY_RULES), node_name="bridge_dedup") as bridge:
+        seqs = viewer.subscribe("/rosdashboard/boot/seq", Int64, DEEP_LATCHED)
+        writers = [peer.publisher("/rosout", Log, DEEP_LATCHED) for peer in (robot, camera)]
+        for writer in writers:
+            assert robot.wait_for_subscribers(writer, timeout=TIMEOUT)
+        stamp = robot.node.get_clock().now().to_msg()
+        for seq in range(5):
+            line = Log(stamp=stamp, level=Log.INFO, name="relayed", msg=f"boot seq={seq}")
+            for writer in writers:
+                writer.publish(line)
+        # A line that differs only in its stamp is another line: published.
+        line = Log(level=Log.INFO, name="relayed", msg="boot seq=4")
+        line.stamp.sec, line.stamp.nanosec = stamp.sec + 1, stamp.nanosec
+        writers[0].publish(line)
+        assert _settled(seqs, 6) == [0, 1, 2, 3, 4, 4]
+        assert wait_until(lambda: bridge.stats.duplicates == 5, TIMEOUT), bridge.stats
+        assert bridge.stats.values == 6

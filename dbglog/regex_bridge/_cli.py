@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import argparse
+import os
 import signal
 import sys
 import threading
+from pathlib import Path
 from types import FrameType
 
 from dbglog.regex_bridge._rules import RulesError, load_rules
@@ -30,6 +32,27 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=10_000,
         help="history depth of the /rosout (and String) subscriptions (default: %(default)s)",
     )
+    parser.add_argument(
+        "--state-dir",
+        metavar="DIR",
+        type=Path,
+        help="where the bridge leaves, when stopped, what it published in its last seconds, so that a "
+        "restart does not publish lines from /rosout's history again (default: "
+        "$XDG_STATE_HOME/dbglog/bridge, or ~/.local/state/dbglog/bridge)",
+    )
+    parser.add_argument(
+        "--no-state",
+        action="store_true",
+        help="keep nothing between runs: a bridge restarted within 10 s publishes /rosout's recent "
+        "history again",
+    )
+
+
+def default_state_dir() -> Path:
+    """The XDG state directory for the bridge: ``$XDG_STATE_HOME/dbglog/bridge`` (``~/.local/state``)."""
+    base = os.environ.get("XDG_STATE_HOME", "").strip()
+    root = Path(base) if base and Path(base).is_absolute() else Path.home() / ".local" / "state"
+    return root / "dbglog" / "bridge"
 
 
 def run(args: argparse.Namespace) -> int:
@@ -59,7 +82,8 @@ def run(args: argparse.Namespace) -> int:
     try:
         from dbglog.regex_bridge._node import Bridge
 
-        with Bridge(rules, node_name=args.name, depth=args.depth) as bridge:
+        state_dir = None if args.no_state else args.state_dir or default_state_dir()
+        with Bridge(rules, node_name=args.name, depth=args.depth, state_dir=state_dir) as bridge:
             print(
                 f"dbglog bridge: running, {len(rules.rules)} rules -> {len(bridge.topics)} topics "
                 f"(Ctrl-C to stop)",
@@ -70,7 +94,7 @@ def run(args: argparse.Namespace) -> int:
             stats = bridge.stats
         print(
             f"dbglog bridge: stopped after {stats.lines} lines, {stats.values} values published, "
-            f"{stats.unparseable} unparseable, {stats.errors} errors",
+            f"{stats.unparseable} unparseable, {stats.duplicates} duplicates skipped, {stats.errors} errors",
             flush=True,
         )
     finally:

@@ -4,13 +4,25 @@ Ingest is a dedicated thread that takes serialized messages straight from the su
 in a tight loop, blocking on an rcl wait set only when every queue is empty: no executor, no callback
 and no Python message object per line. Each burst taken from a subscription is matched as one batch
 (`Matcher.match_many_bytes`). Output values are published as pre-serialized CDR.
+
+``/rosout`` is read transient-local, like its publishers write it, so lines written before the bridge
+(or its subscription) was discovered arrive from the publishers' history. A value is published once
+per log line (logger, stamp, text) and output topic: what DDS delivers again, or a relay repeats, within
+`DEDUP_WINDOW` is skipped, and on a clean stop the bridge leaves what it published lately in a state
+file, so that a restarted bridge does not publish it again from history.
 """
 
 from __future__ import annotations
 
+import base64
+import binascii
+import json
+import os
 import threading
 import time
 from dataclasses import dataclass
+from hashlib import blake2b
+from pathlib import Path
 from types import TracebackType
 from typing import Any, Final, Self
 
@@ -29,7 +41,7 @@ from dbglog.regex_bridge._cdr import encode_value, read_log, read_string
 from dbglog.regex_bridge._engine import Matcher
 from dbglog.regex_bridge._rules import ROSOUT, RuleSet
 
-__all__ = ["DEFAULT_DEPTH", "DEFAULT_NODE_NAME", "Bridge", "BridgeStats"]
+__all__ = ["DEDUP_WINDOW", "DEFAULT_DEPTH", "DEFAULT_NODE_NAME", "Bridge", "BridgeStats", "source_qos"]
 
 DEFAULT_NODE_NAME: Final = "dbglog_bridge"
 DEFAULT_DEPTH: Final = 10_000
@@ -39,6 +51,12 @@ _BURST: Final = 256
 _WAIT_NS: Final = 200_000_000
 _MSG_TYPES: Final = {"float": Float64, "int": Int64, "bool": Bool}
 _MAX_NAMES: Final = 1024
+DEDUP_WINDOW: Final = 12.0
+"""Seconds (at least, at most twice that) a published line is remembered: ``/rosout`` publishers keep a
+line for 10 s (their lifespan), so no history re-delivers it later."""
+_STATE_FORMAT: Final = "dbglog-bridge-published"
+_STATE_VERSION: Final = 1
+_DIGEST: Final = 16
 
 
 @dataclass(frozen=True, slots=True)
@@ -53,16 +71,107 @@ class BridgeStats:
     """Captures that were not numbers of their output's kind (never published)."""
     errors: int
     """Messages that could not be handled at all (unreadable, or a publish that failed)."""
+    duplicates: int = 0
+    """Values not published again: their line was already published on that topic (see `DEDUP_WINDOW`)."""
 
 
-def source_qos(depth: int = DEFAULT_DEPTH) -> QoSProfile:
-    """Return the QoS of a source subscription: reliable, volatile, deep keep-last history."""
+def source_qos(depth: int = DEFAULT_DEPTH, *, durable: bool = True) -> QoSProfile:
+    """Return the QoS of a source subscription: reliable, deep keep-last history.
+
+    Args:
+        depth: how many messages may wait to be taken.
+        durable: transient-local (``/rosout``: its publishers are transient-local, so the lines they wrote
+            before this subscription was discovered still arrive); volatile for String topics, whose
+            publishers are usually volatile (a transient-local reader would not match them).
+    """
     return QoSProfile(
         history=HistoryPolicy.KEEP_LAST,
         depth=depth,
         reliability=ReliabilityPolicy.RELIABLE,
-        durability=DurabilityPolicy.VOLATILE,
+        durability=DurabilityPolicy.TRANSIENT_LOCAL if durable else DurabilityPolicy.VOLATILE,
     )
+
+
+class _Published:
+    """Which (line digest, output topic) pairs were published lately: two sets, the older one dropped
+    every `window` seconds, so each pair is remembered between one and two windows."""
+
+    __slots__ = ("before", "now", "since", "window")
+
+    def __init__(self, window: float) -> None:
+        self.window = window
+        self.now: set[tuple[bytes, str]] = set()
+        self.before: set[tuple[bytes, str]] = set()
+        self.since = time.monotonic()
+
+    def age(self, now: float) -> None:
+        """Forget the pairs published more than two windows ago."""
+        if now - self.since >= self.window:
+            self.before, self.now, self.since = self.now, set(), now
+
+    def save(self, path: Path) -> None:
+        """Write every remembered pair to `path` (atomically, readable by the user only).
+
+        Raises:
+            OSError: the file could not be written.
+        """
+        by_topic: dict[str, list[bytes]] = {}
+        for digest, topic in self.now | self.before:
+            by_topic.setdefault(topic, []).append(digest)
+        doc = {
+            "format": _STATE_FORMAT,
+            "version": _STATE_VERSION,
+            "saved": time.time(),
+            "topics": {t: base64.b64encode(b"".join(ds)).decode("ascii") for t, ds in by_topic.items()},
+        }
+        path.parent.mkdir(parents=True, exist_ok=True, mode=0o700)
+        tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+        try:
+            tmp.write_text(json.dumps(doc), encoding="utf-8")
+            os.replace(tmp, path)
+        finally:
+            tmp.unlink(missing_ok=True)
+
+    def load(self, path: Path) -> int:
+        """Remember the pairs a previous bridge saved in `path` less than one window ago; return how many.
+
+        Raises:
+            OSError: the file exists but could not be read.
+            ValueError: the file is not a state file of this version.
+        """
+        try:
+            text = path.read_text(encoding="utf-8")
+        except FileNotFoundError:
+            return 0
+        except UnicodeDecodeError as exc:
+            raise ValueError(f"not UTF-8 ({exc.reason})") from None
+        try:
+            doc = json.loads(text)
+        except json.JSONDecodeError as exc:
+            raise ValueError(f"not JSON ({exc.msg}, line {exc.lineno})") from None
+        if not isinstance(doc, dict) or doc.get("format") != _STATE_FORMAT:
+            raise ValueError(f'not a bridge state file (no "format": "{_STATE_FORMAT}")')
+        if doc.get("version") != _STATE_VERSION:
+            raise ValueError(f"state file version {doc.get('version')!r}, this bridge reads {_STATE_VERSION}")
+        saved, topics = doc.get("saved"), doc.get("topics")
+        if not isinstance(saved, int | float) or not isinstance(topics, dict):
+            raise ValueError("'saved' must be a number and 'topics' a mapping")
+        if not 0 <= time.time() - saved <= self.window:
+            return 0  # older than /rosout's history: nothing in it can come back
+        count = 0
+        for topic, packed in topics.items():
+            if not isinstance(topic, str) or not isinstance(packed, str):
+                raise ValueError("'topics' must map topic names to base64 text")
+            try:
+                raw = base64.b64decode(packed, validate=True)
+            except binascii.Error:
+                raise ValueError(f"the digests of {topic!r} are not base64") from None
+            if len(raw) % _DIGEST:
+                raise ValueError(f"the digests of {topic!r} are not {_DIGEST}-byte digests")
+            for at in range(0, len(raw), _DIGEST):
+                self.before.add((raw[at : at + _DIGEST], topic))
+                count += 1
+        return count
 
 
 def _unused(_msg: Any) -> None:  # pragma: no cover - the ingest thread takes messages itself
@@ -87,6 +196,8 @@ class Bridge:
         node_name: str = DEFAULT_NODE_NAME,
         depth: int = DEFAULT_DEPTH,
         warn_every: float = 5.0,
+        state_dir: Path | None = None,
+        dedup_window: float = DEDUP_WINDOW,
     ) -> None:
         """Create the node, its publishers and subscriptions, and start the ingest thread.
 
@@ -95,9 +206,15 @@ class Bridge:
             node_name: the ROS node name.
             depth: history depth of each source subscription.
             warn_every: at most one warning about unparseable captures per this many seconds.
+            state_dir: where the bridge keeps what it published lately (one file per node name and ROS
+                domain, written by `close`, read at start), so that a restarted bridge does not publish
+                lines from ``/rosout``'s history twice; None keeps nothing between runs.
+            dedup_window: how long (at least) a published line is remembered.
         """
         self.matcher = Matcher(rules)
         self._warn_every = warn_every
+        self._published = _Published(dedup_window)
+        self._duplicates = 0
         self._context = Context()
         rclpy.init(context=self._context)
         try:
@@ -106,10 +223,18 @@ class Bridge:
             self._publishers = {
                 o.topic: self.node.create_publisher(_MSG_TYPES[o.kind], o.topic, qos) for o in rules.outputs
             }
+            self._state: Path | None = None
+            if state_dir is not None:
+                self._state = state_dir / f"{node_name}-domain{self._context.get_domain_id()}.json"
+                self._load_state(self._state)
             self._sources = [
                 (
                     self.node.create_subscription(
-                        Log if topic == ROSOUT else String, topic, _unused, source_qos(depth), raw=True
+                        Log if topic == ROSOUT else String,
+                        topic,
+                        _unused,
+                        source_qos(depth, durable=topic == ROSOUT),
+                        raw=True,
                     ),
                     topic,
                     topic == ROSOUT,
@@ -139,15 +264,29 @@ class Bridge:
     def stats(self) -> BridgeStats:
         """Counters so far."""
         m = self.matcher.stats
-        return BridgeStats(self._lines, m.values, m.unparseable_total, self._errors)
+        duplicates = self._duplicates
+        return BridgeStats(self._lines, m.values - duplicates, m.unparseable_total, self._errors, duplicates)
+
+    @property
+    def state_file(self) -> Path | None:
+        """The file that carries what was published lately over to the next run (None: not kept)."""
+        return self._state
 
     def close(self) -> None:
-        """Stop the ingest thread, destroy the node and shut its context down (idempotent)."""
+        """Stop the ingest thread, save the state file, destroy the node, end its context (idempotent)."""
         if self._stop.is_set():
             return
         self._stop.set()
         self._wake.trigger()
         self._thread.join(timeout=10)
+        if self._state is not None and not self._thread.is_alive():
+            try:
+                self._published.save(self._state)
+            except OSError as exc:
+                self.node.get_logger().warning(
+                    f"could not write the state file {self._state} ({exc.strerror or exc}): a bridge started "
+                    "within the next 10 s may publish lines from /rosout's history a second time"
+                )
         self.node.destroy_node()
         if self._context.ok():
             rclpy.shutdown(context=self._context)
@@ -160,15 +299,27 @@ class Bridge:
     ) -> None:
         self.close()
 
+    def _load_state(self, path: Path) -> None:
+        try:
+            self._published.load(path)
+        except (OSError, ValueError) as exc:
+            reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
+            self.node.get_logger().warning(
+                f"ignoring the state file {path} ({reason}): lines the previous bridge published may be "
+                "published again from /rosout's history"
+            )
+
     def _run(self) -> None:
         wait_set = _rclpy.WaitSet(len(self._sources), 1, 0, 0, 0, 0, self._context.handle)
         while not self._stop.is_set():
             busy = False
+            self._published.age(time.monotonic())
             for sub, topic, is_log in self._sources:
                 handle, msg_type = sub.handle, sub.msg_type
                 texts: list[bytes] = []
                 names: list[str] = []
                 levels: list[int] = []
+                raws: list[bytes] = []
                 for _ in range(_BURST):
                     try:
                         taken = handle.take_message(msg_type, True)
@@ -180,11 +331,11 @@ class Bridge:
                     busy = True
                     self._lines += 1
                     try:
-                        self._read(taken[0], is_log, texts, names, levels)
+                        self._read(taken[0], is_log, texts, names, levels, raws)
                     except Exception:  # a bad line never stops the bridge
                         self._errors += 1
                 if texts:
-                    self._match_and_publish(texts, names, levels, topic)
+                    self._match_and_publish(texts, names, levels, raws if is_log else None, topic)
             self._maybe_warn()
             if not busy and not self._stop.is_set():
                 wait_set.clear_entities()
@@ -198,9 +349,15 @@ class Bridge:
                         return
 
     def _read(
-        self, raw: bytes, is_log: bool, texts: list[bytes], names: list[str], levels: list[int]
+        self,
+        raw: bytes,
+        is_log: bool,
+        texts: list[bytes],
+        names: list[str],
+        levels: list[int],
+        raws: list[bytes],
     ) -> None:
-        """Append a taken message's text, logger and level to the batch (not the bridge's own lines)."""
+        """Add a taken message's text, logger, level and bytes to the batch (not the bridge's own lines)."""
         if is_log:
             fields = read_log(raw)
             if fields is None:
@@ -221,17 +378,43 @@ class Bridge:
         texts.append(text)
         names.append(name)
         levels.append(level)
+        raws.append(raw)
 
-    def _match_and_publish(self, texts: list[bytes], names: list[str], levels: list[int], topic: str) -> None:
-        """Match a batch of lines in one go (`Matcher.match_many_bytes`) and publish every value."""
+    def _match_and_publish(
+        self,
+        texts: list[bytes],
+        names: list[str],
+        levels: list[int],
+        raws: list[bytes] | None,
+        topic: str,
+    ) -> None:
+        """Match a batch of lines in one go (`Matcher.match_many_bytes`) and publish every value.
+
+        With `raws` (Log messages), a value is skipped when its line (logger, stamp, text) was already
+        published on its topic: history that DDS delivers again, or a line that a relay repeats.
+        """
         try:
             batch = self.matcher.match_many_bytes(texts, names, levels, topic)
         except Exception:  # never expected; counted, and the bridge goes on
             self._errors += len(texts)
             return
         publishers = self._publishers
-        for values in batch:
+        published = self._published
+        for i, values in enumerate(batch):
+            if not values:
+                continue
+            digest = b""
+            if raws is not None:
+                # The stamp is the 8 bytes after the CDR header (builtin_interfaces/Time) in every Log.
+                line_id = raws[i][4:12] + names[i].encode("utf-8", "surrogatepass") + b"\0" + texts[i]
+                digest = blake2b(line_id, digest_size=_DIGEST).digest()
             for out_topic, kind, value in values:
+                if raws is not None:
+                    key = (digest, out_topic)
+                    if key in published.now or key in published.before:
+                        self._duplicates += 1
+                        continue
+                    published.now.add(key)
                 try:
                     publishers[out_topic].publish(encode_value(kind, value))
                 except Exception:  # counted; the next value may well go through
