@@ -278,9 +278,13 @@ def _corpus_dashboard(path: Path, sentinel: Path) -> list[str]:
     return names
 
 
+REJECTED = "; kept as written, the widget shows this error until it is fixed"
+
+
 def test_escape_corpus_dashboard_through_the_loader_and_the_viewer(tmp_path: Path) -> None:
-    """A dashboard holding every corpus entry loads with each such binding rejected, naming its widget;
-    the real viewer process opens it, renders, and the sentinel file is never created."""
+    """A dashboard holding every corpus entry loads with each formula rejected (kept as written, the widget
+    in error), naming its widget; the real viewer process opens it, renders, and the sentinel file is never
+    created."""
     sentinel = tmp_path / "sentinel"
     board = tmp_path / "corpus.json"
     names = _corpus_dashboard(board, sentinel)
@@ -288,12 +292,13 @@ def test_escape_corpus_dashboard_through_the_loader_and_the_viewer(tmp_path: Pat
     result = load_dashboard(board, WidgetRegistry.discover().get)
     by_name = {w.name: w for w in result.dashboard.widgets}
     for i, name in enumerate(names):
-        assert by_name[name].bindings == (), name  # type: ignore[union-attr]
+        (kept,) = by_name[name].bindings  # type: ignore[union-attr]
+        assert json.loads(kept.transform)[0]["kind"] == "formula", name
         assert any(
             m.startswith(f"widget #{i + 1} {name!r}: bindings[0]: transforms[0] (formula)")
             for m in result.messages
         ), name
-    assert len([m for m in result.messages if m.endswith("; binding rejected")]) == len(names)
+    assert len([m for m in result.messages if m.endswith(REJECTED)]) == len(names)
     assert by_name["Good"].bindings[0].transform  # type: ignore[union-attr]
     report = tmp_path / "report.json"
     env = dict(os.environ)
@@ -321,13 +326,14 @@ def test_escape_corpus_dashboard_through_the_loader_and_the_viewer(tmp_path: Pat
         env=env,
     )
     assert proc.returncode == 0, proc.stderr[-3000:]
-    rejected = [line for line in proc.stderr.splitlines() if line.endswith("; binding rejected")]
+    rejected = [line for line in proc.stderr.splitlines() if line.endswith(REJECTED)]
     assert len(rejected) == len(names)
     for name in names:
         assert any(f"{name!r}: bindings[0]: transforms[0] (formula)" in line for line in rejected), name
     shown = {w["name"]: w for w in json.loads(report.read_text())["widgets"]}
     assert len(shown) == len(names) + 1
-    assert all(shown[name]["bindings"] == [] for name in names)
+    assert all(shown[name]["status"] == "error" for name in names)
+    assert all("bad transforms" in shown[name]["reason"] for name in names)
     assert shown["Good"]["bindings"] == [{"topic": "/xf/escape", "field": "", "regex": ""}]
     assert (tmp_path / "corpus.png").stat().st_size > 0
     assert not sentinel.exists()

@@ -5,21 +5,28 @@ the widget and the field while the rest still loads; unknown-type entries are ke
 back unchanged. Only a file that is not a dashboard at all raises `DashboardError`. Files from the
 original ROSDashboard (``DragDial`` ... with ``posX``/``posY`` and ``subscription``) open too; saving
 always writes the current format. Loading never writes.
+
+Hostile files are bounded here, once: only regular files of at most 16 MiB are read, every string that
+reaches the viewer is valid Unicode without NUL or control characters (`text_problem`), nesting is at
+most `MAX_DEPTH` levels, and at most `MAX_WIDGETS` widgets load (`LoadResult.left_out` counts the rest).
 """
 
 from __future__ import annotations
 
 import contextlib
 import copy
+import errno
 import json
 import math
 import os
-import shutil
-import tempfile
-from collections.abc import Callable, Mapping
+import re
+import stat
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 from dbglog.regex_bridge._regex import RegexError, compile_regex, parse_number
 from dbglog.viewer._model import Binding, binding_transforms, canonical_transforms
@@ -29,7 +36,11 @@ from dbglog.viewer.widget_api import PropertyError, PropValue, Widget
 __all__ = [
     "FORMAT",
     "LEGACY_TYPES",
+    "MAX_DEPTH",
+    "MAX_FILE_BYTES",
+    "MAX_MESSAGES",
     "MAX_STALE_AFTER",
+    "MAX_WIDGETS",
     "VERSION",
     "Dashboard",
     "DashboardError",
@@ -41,12 +52,26 @@ __all__ = [
     "load_dashboard",
     "parse_dashboard",
     "save_dashboard",
+    "text_problem",
 ]
 
 FORMAT = "dbglog-dashboard"
 VERSION = 1
 MAX_FILE_BYTES = 16 << 20
+"""Largest dashboard file read (16 MiB)."""
+MAX_WIDGETS = 1000
+"""Most widgets one dashboard loads: the rest are left out, with a message (`LoadResult.left_out`)."""
+MAX_DEPTH = 64
+"""Deepest nesting of arrays and objects in a file (the top-level object is level 1)."""
+MAX_MESSAGES = 500
+"""Most load messages kept; one more line says how many were not listed."""
 MAX_COORD = 100_000.0
+MAX_NAME = 200
+MAX_TOPIC = 1000
+MAX_FIELD = 1000
+MAX_REGEX = 10_000
+TEMP_MARK = ".dbglog-tmp-"
+"""Temporary files of a save are named ``.NAME.dbglog-tmp-PID`` in the dashboard's folder."""
 
 LEGACY_TYPES: dict[str, str] = {
     "DragDial": "dial",
@@ -104,7 +129,11 @@ class WidgetConfig:
 def _binding_dict(b: Binding) -> dict[str, Any]:
     out: dict[str, Any] = {"topic": b.topic, "field": b.field, "regex": b.regex}
     if b.transform:
-        out["transforms"] = binding_transforms(b)
+        # Rejected transforms are kept as the user wrote them (any JSON), valid ones canonically.
+        try:
+            out["transforms"] = json.loads(b.transform)
+        except ValueError:
+            out["transforms"] = binding_transforms(b)
     return out
 
 
@@ -133,9 +162,8 @@ class RawWidget:
         defaults = (20.0, 20.0, 220.0, 120.0)
         out = []
         for (key, legacy), default in zip(keys, defaults, strict=True):
-            value = self.data.get(key, self.data.get(legacy))
-            ok = isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
-            out.append(min(MAX_COORD, max(0.0, float(value))) if ok else default)
+            value = _as_float(self.data.get(key, self.data.get(legacy)))
+            out.append(min(MAX_COORD, max(0.0, value)) if value is not None else default)
         return out[0], out[1], max(out[2], 80.0), max(out[3], 60.0)
 
     def to_dict(self) -> dict[str, Any]:
@@ -169,6 +197,14 @@ class LoadResult:
     messages: list[str] = field(default_factory=list)
     legacy: bool = False
     """True when the file was in the original ROSDashboard format."""
+    left_out: int = 0
+    """Whole widget entries not loaded (more than `MAX_WIDGETS`, nested too deep, unsafe text in an
+    entry kept verbatim); saving over the file would lose them."""
+
+    @property
+    def complete(self) -> bool:
+        """True when every widget entry of the file is in `dashboard` (saving over the file loses none)."""
+        return self.left_out == 0
 
 
 def dumps(dashboard: Dashboard) -> str:
@@ -176,47 +212,148 @@ def dumps(dashboard: Dashboard) -> str:
     return json.dumps(dashboard.to_dict(), indent=2, ensure_ascii=False, allow_nan=False) + "\n"
 
 
-def load_dashboard(path: str | os.PathLike[str], lookup: TypeLookup) -> LoadResult:
+def load_dashboard(
+    path: str | os.PathLike[str], lookup: TypeLookup, *, max_widgets: int = MAX_WIDGETS
+) -> LoadResult:
     """Read and validate a dashboard file (never writes to it).
 
     Args:
-        path: the file.
+        path: the file; only a regular file of at most 16 MiB is read (a FIFO or device is refused).
         lookup: returns the widget class for a type name (None when unknown).
+        max_widgets: load at most this many widgets; the rest are counted in `LoadResult.left_out`.
 
     Raises:
         DashboardError: the file cannot be read, is not JSON, or is not a dashboard; the message
             names the file.
     """
     p = Path(path)
+    raw = _read_regular_file(p)
+    if raw.startswith(b"\xef\xbb\xbf"):
+        raw = raw[3:]
     try:
-        size = p.stat().st_size
-        if size > MAX_FILE_BYTES:
-            raise DashboardError(f"{p}: file is too large ({size} bytes; a dashboard is at most 16 MiB)")
-        raw = p.read_bytes()
+        raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise DashboardError(f"{p}: not UTF-8 text (byte {exc.start})") from None
+    data = _decode_json(raw, p)
+    try:
+        return parse_dashboard(data, lookup, max_widgets=max_widgets)
+    except DashboardError as exc:
+        raise DashboardError(f"{p}: {exc}") from None
+
+
+_FILE_KINDS = (
+    (stat.S_ISFIFO, "a FIFO (named pipe)"),
+    (stat.S_ISCHR, "a character device"),
+    (stat.S_ISBLK, "a block device"),
+    (stat.S_ISSOCK, "a socket"),
+)
+
+
+def _not_regular(p: Path, mode: int) -> DashboardError:
+    if stat.S_ISDIR(mode):
+        return DashboardError(f"{p}: is a directory, not a dashboard file")
+    kind = next((name for test, name in _FILE_KINDS if test(mode)), "not a regular file")
+    return DashboardError(f"{p}: is {kind}, not a regular file; a dashboard must be a regular file")
+
+
+def _read_regular_file(p: Path) -> bytes:
+    """Return the bytes of a regular file of at most `MAX_FILE_BYTES`; never blocks on a FIFO or device."""
+    too_large = f"{p}: file is too large (more than {MAX_FILE_BYTES} bytes; a dashboard is at most 16 MiB)"
+    try:
+        # Look before opening: opening some devices has effects; O_NONBLOCK covers a swap in between.
+        if not stat.S_ISREG(mode := os.stat(p).st_mode):
+            raise _not_regular(p, mode)
+        fd = os.open(p, os.O_RDONLY | os.O_NONBLOCK | os.O_CLOEXEC)
+        try:
+            st = os.fstat(fd)
+            if not stat.S_ISREG(st.st_mode):
+                raise _not_regular(p, st.st_mode)
+            if st.st_size > MAX_FILE_BYTES:
+                raise DashboardError(
+                    f"{p}: file is too large ({st.st_size} bytes; a dashboard is at most 16 MiB)"
+                )
+            chunks: list[bytes] = []
+            size = 0
+            while chunk := os.read(fd, min(1 << 20, MAX_FILE_BYTES + 1 - size)):
+                chunks.append(chunk)
+                size += len(chunk)
+                if size > MAX_FILE_BYTES:
+                    raise DashboardError(too_large)  # it grew while being read
+        finally:
+            os.close(fd)
     except DashboardError:
         raise
     except FileNotFoundError:
         raise DashboardError(f"{p}: no such file") from None
-    except IsADirectoryError:
-        raise DashboardError(f"{p}: is a directory, not a dashboard file") from None
+    except NotADirectoryError:
+        raise DashboardError(f"{p}: no such file (a folder on the way is a file)") from None
     except OSError as exc:
+        if exc.errno == errno.ELOOP:
+            raise DashboardError(f"{p}: cannot read: too many levels of symbolic links") from None
         raise DashboardError(f"{p}: cannot read: {exc.strerror or exc}") from None
+    return b"".join(chunks)
+
+
+def _decode_json(raw: bytes, p: Path) -> Any:
+    """Parse JSON text; arrays and objects nested past `MAX_DEPTH` + 1 levels are cut to null first."""
     try:
-        text = raw.decode("utf-8-sig")
-    except UnicodeDecodeError as exc:
-        raise DashboardError(f"{p}: not UTF-8 text (byte {exc.start})") from None
-    try:
-        data = json.loads(text, parse_constant=_reject_constant, parse_float=_finite_float)
+        return _json_loads(raw)
+    except RecursionError:
+        pass  # nested deeper than Python's JSON reader goes: cut, then parse what is left
     except json.JSONDecodeError as exc:
         raise DashboardError(
             f"{p}: not valid JSON: {exc.msg} at line {exc.lineno} column {exc.colno}"
         ) from None
+    except ValueError as exc:
+        if "integer string conversion" in str(exc):  # Python's int_max_str_digits guard
+            raise DashboardError(f"{p}: not valid JSON: a number has more than 4300 digits") from None
+        raise DashboardError(f"{p}: not valid JSON: {_cut(str(exc))}") from None
+    clipped = _clip_depth(raw, MAX_DEPTH + 1)
+    if clipped is None:
+        raise DashboardError(f"{p}: not valid JSON: nested deeper than {MAX_DEPTH} levels, unbalanced")
+    try:
+        return _json_loads(clipped)
     except (ValueError, RecursionError) as exc:
         raise DashboardError(f"{p}: not valid JSON: {exc}") from None
-    try:
-        return parse_dashboard(data, lookup)
-    except DashboardError as exc:
-        raise DashboardError(f"{p}: {exc}") from None
+
+
+def _json_loads(raw: bytes) -> Any:
+    return json.loads(raw.decode("utf-8"), parse_constant=_reject_constant, parse_float=_finite_float)
+
+
+def _clip_depth(raw: bytes, keep: int) -> bytes | None:
+    """Replace every array or object deeper than `keep` levels by ``null`` (None: brackets unbalanced).
+
+    Linear (vectorised over the bytes): the loader then sees level ``keep`` and reports the entry
+    holding it as too deep, however deep the file went.
+    """
+    b = np.frombuffer(raw, dtype=np.uint8)
+    quote = b == ord('"')
+    backslash = b == ord("\\")
+    if backslash.any():
+        # A quote is escaped when an odd run of backslashes precedes it.
+        idx = np.arange(b.size, dtype=np.int64)
+        last_other = np.maximum.accumulate(np.where(backslash, -1, idx))
+        run = np.zeros(b.size, dtype=np.int64)
+        run[1:] = idx[:-1] - last_other[:-1]
+        quote &= run % 2 == 0
+    in_string = (np.cumsum(quote, dtype=np.int64) & 1).astype(bool)
+    opens = ((b == ord("[")) | (b == ord("{"))) & ~in_string
+    closes = ((b == ord("]")) | (b == ord("}"))) & ~in_string
+    depth = np.cumsum(opens.astype(np.int32) - closes.astype(np.int32), dtype=np.int32)
+    starts = np.flatnonzero(opens & (depth == keep + 1))
+    ends = np.flatnonzero(closes & (depth == keep))
+    if starts.size != ends.size or not (
+        np.all(starts < ends) and np.all(ends[:-1] < starts[1:]) if starts.size else True
+    ):
+        return None
+    out: list[bytes] = []
+    pos = 0
+    for start, stop in zip(starts.tolist(), ends.tolist(), strict=True):
+        out += (raw[pos:start], b"null")
+        pos = stop + 1
+    out.append(raw[pos:])
+    return b"".join(out)
 
 
 def _finite_float(text: str) -> float:
@@ -230,8 +367,13 @@ def _reject_constant(name: str) -> Any:
     raise ValueError(f"{name} is not allowed in a dashboard file")
 
 
-def parse_dashboard(data: object, lookup: TypeLookup) -> LoadResult:
+def parse_dashboard(data: object, lookup: TypeLookup, *, max_widgets: int = MAX_WIDGETS) -> LoadResult:
     """Validate decoded JSON as a dashboard (current or legacy format).
+
+    Args:
+        data: the decoded JSON.
+        lookup: returns the widget class for a type name (None when unknown).
+        max_widgets: load at most this many widgets; the rest are counted in `LoadResult.left_out`.
 
     Raises:
         DashboardError: `data` is not a dashboard at all (not an object, no widget list, a newer version).
@@ -242,9 +384,14 @@ def parse_dashboard(data: object, lookup: TypeLookup) -> LoadResult:
     if "format" not in data:
         if not isinstance(widgets, list):
             raise DashboardError("not a dashboard: no 'format' key and no 'widgets' list")
-        return _parse_legacy(widgets, lookup)
+        result = LoadResult(Dashboard(), legacy=True)
+        result.dashboard.snap = False
+        _parse_entries(widgets, lookup, result, max_widgets, _parse_legacy_widget)
+        return _finish(result)
     if data["format"] != FORMAT:
-        raise DashboardError(f"'format' is {data['format']!r}, expected {FORMAT!r}")
+        fmt = data["format"]
+        shown = _q(fmt) if isinstance(fmt, str) else _short(fmt)
+        raise DashboardError(f"'format' is {shown}, expected {FORMAT!r}")
     version = data.get("version")
     if isinstance(version, bool) or not isinstance(version, int):
         raise DashboardError(f"'version' must be an integer, got {_kind(version)}")
@@ -258,9 +405,37 @@ def parse_dashboard(data: object, lookup: TypeLookup) -> LoadResult:
     _parse_grid(data.get("grid"), result)
     for key in data:
         if key not in {"format", "version", "grid", "widgets"}:
-            result.messages.append(f"top level: unknown key {key!r} ignored")
-    for index, entry in enumerate(widgets):
-        _parse_widget(index, entry, lookup, result)
+            result.messages.append(f"top level: unknown key {_q(key)} ignored")
+    _parse_entries(widgets, lookup, result, max_widgets, _parse_widget)
+    return _finish(result)
+
+
+def _parse_entries(
+    widgets: list[Any],
+    lookup: TypeLookup,
+    result: LoadResult,
+    max_widgets: int,
+    parse: Callable[[int, object, TypeLookup, LoadResult], None],
+) -> None:
+    for index, entry in enumerate(widgets[:max_widgets]):
+        parse(index, entry, lookup, result)
+    extra = len(widgets) - max_widgets
+    if extra > 0:
+        result.left_out += extra
+        result.messages.insert(
+            0,
+            f"the file holds {len(widgets)} widgets, more than the {max_widgets} a dashboard can show: "
+            f"widgets #{max_widgets + 1} to #{len(widgets)} are left out (saving over this file would "
+            "lose them, so Save asks for a new name)",
+        )
+
+
+def _finish(result: LoadResult) -> LoadResult:
+    msgs = result.messages
+    if len(msgs) > MAX_MESSAGES:
+        hidden = len(msgs) - (MAX_MESSAGES - 1)
+        del msgs[MAX_MESSAGES - 1 :]
+        msgs.append(f"... and {hidden} more problems not listed")
     return result
 
 
@@ -282,35 +457,134 @@ def _parse_grid(grid: object, result: LoadResult) -> None:
         result.messages.append(f"grid: field 'snap' must be true or false, got {_short(snap)}")
 
 
-def _parse_widget(index: int, entry: object, lookup: TypeLookup, result: LoadResult) -> None:
-    where = f"widget #{index + 1}"
-    if not isinstance(entry, dict):
-        result.messages.append(f"{where}: expected an object, got {_kind(entry)}; skipped")
+# -- text and nesting ------------------------------------------------------------------------------------
+
+_UNSAFE_TEXT = re.compile("[\x00-\x08\x0b\x0c\x0e-\x1f\x7f-\x9f\ud800-\udfff]")
+_UNSAFE_LINE = re.compile("[\x00-\x1f\x7f-\x9f\ud800-\udfff]")
+
+
+def text_problem(text: str, *, line: bool = True) -> str | None:
+    """Return why `text` cannot be handed to Dear PyGui or ROS, or None when it is fine.
+
+    Refused: lone surrogates (not valid Unicode, so not UTF-8 encodable), NUL, and the C0/C1 control
+    characters and DEL; tab, line feed and carriage return are allowed unless `line` (names, topics,
+    field paths are single-line). Right-to-left text, combining marks and other valid Unicode are fine.
+    """
+    found = (_UNSAFE_LINE if line else _UNSAFE_TEXT).search(text)
+    if found is None:
+        return None
+    code = ord(found.group())
+    if 0xD800 <= code <= 0xDFFF:
+        what = f"a lone surrogate U+{code:04X} (not valid Unicode)"
+    elif code == 0:
+        what = "a NUL character"
+    else:
+        what = f"the control character U+{code:04X}"
+    return f"contains {what} at character {found.start() + 1}"
+
+
+def _entry_problem(entry: object, base: int, *, strings: bool) -> str | None:
+    """Say what makes an entry unfit to load: nesting past `MAX_DEPTH` or (``strings``) unsafe text.
+
+    `base` is the entry's own level in the file. Iterative, so any depth is safe; linear in the entry.
+    """
+    stack: list[tuple[object, int, str]] = [(entry, base, "")]
+    while stack:
+        value, level, path = stack.pop()
+        if level > MAX_DEPTH:
+            shown = _cut(path, 40) if path else "the entry"
+            return f"field '{shown}' is nested deeper than {MAX_DEPTH} levels (arrays and objects)"
+        pairs: Iterable[tuple[object, object]]
+        if isinstance(value, dict):
+            pairs = value.items()
+        elif isinstance(value, list):
+            pairs = enumerate(value)
+        else:
+            continue
+        for key, item in pairs:
+            if strings and isinstance(key, str) and (problem := text_problem(key, line=False)):
+                return f"key {_q(key)}{f' in field {_cut(path, 40)!r}' if path else ''} {problem}"
+            if isinstance(item, str):
+                if strings and (problem := text_problem(item, line=False)):
+                    return f"field '{_cut(_sub(path, key), 40)}' {problem}"
+            elif isinstance(item, dict | list):
+                stack.append((item, level + 1, _sub(path, key)))
+    return None
+
+
+def _sub(path: str, key: object) -> str:
+    if isinstance(key, int):
+        return f"{path}[{key}]"
+    name = key if isinstance(key, str) and len(key) <= 40 and text_problem(key) is None else "..."
+    return f"{path}.{name}" if path else name
+
+
+def _where(index: int, entry: Mapping[str, Any]) -> str:
+    name = entry.get("name")
+    return f"widget #{index + 1} {_q(name)}" if isinstance(name, str) and name else f"widget #{index + 1}"
+
+
+def _leave_out(where: str, problem: str, result: LoadResult) -> None:
+    result.left_out += 1
+    result.messages.append(
+        f"{where}: {problem}; left out (saving over this file would lose it, so Save asks for a new name)"
+    )
+
+
+def _keep_raw(where: str, entry: dict[str, Any], reason: str, result: LoadResult, note: str) -> None:
+    """Keep an entry the viewer cannot show verbatim, unless its text could not be shown or saved."""
+    problem = _entry_problem(entry, 3, strings=True)
+    for key in ("type", "name"):  # the placeholder's title: one line
+        value = entry.get(key)
+        if problem is None and isinstance(value, str) and (line := text_problem(value)) is not None:
+            problem = f"field '{key}' {line}"
+    if problem is not None:
+        _leave_out(where, f"{reason}, and {problem}", result)
         return
-    name_value = entry.get("name")
-    if isinstance(name_value, str) and name_value:
-        where = f"{where} {name_value!r}"
+    result.messages.append(f"{where}: {reason}; {note}")
+    result.dashboard.widgets.append(RawWidget(copy.deepcopy(entry), reason))
+
+
+# -- widgets ---------------------------------------------------------------------------------------------
+
+
+def _parse_widget(index: int, entry: object, lookup: TypeLookup, result: LoadResult) -> None:
+    if not isinstance(entry, dict):
+        result.messages.append(f"widget #{index + 1}: expected an object, got {_kind(entry)}; skipped")
+        return
+    where = _where(index, entry)
+    if (problem := _entry_problem(entry, 3, strings=False)) is not None:
+        _leave_out(where, problem, result)
+        return
     type_name = entry.get("type")
     if not isinstance(type_name, str) or not type_name:
         reason = f"field 'type' must be a widget type name, got {_short(type_name)}"
-        result.messages.append(f"{where}: {reason}; kept as is")
-        result.dashboard.widgets.append(RawWidget(copy.deepcopy(entry), reason))
+        _keep_raw(where, entry, reason, result, "kept as is")
         return
     cls = lookup(type_name)
     if cls is None:
-        reason = f"unknown widget type {type_name!r} (not installed?)"
-        result.messages.append(f"{where}: {reason}; kept as is and saved back unchanged")
-        result.dashboard.widgets.append(RawWidget(copy.deepcopy(entry), reason))
+        reason = f"unknown widget type {_q(type_name)} (not installed?)"
+        _keep_raw(where, entry, reason, result, "kept as is and saved back unchanged")
         return
+    _parse_known(where, entry, type_name, cls, result)
+
+
+def _parse_known(
+    where: str, entry: dict[str, Any], type_name: str, cls: type[Widget], result: LoadResult
+) -> None:
     msgs = result.messages
+    name_value = entry.get("name")
     name = name_value if isinstance(name_value, str) and name_value else cls.label
     if not (isinstance(name_value, str) and name_value):
         msgs.append(
             f"{where}: field 'name' must be a non-empty string, got {_short(name_value)}; using {name!r}"
         )
-    elif len(name) > 200:
-        msgs.append(f"{where}: field 'name' is longer than 200 characters; cut")
-        name = name[:200]
+    elif problem := text_problem(name):
+        msgs.append(f"{where}: field 'name' {problem}; using {cls.label!r}")
+        name = cls.label
+    elif len(name) > MAX_NAME:
+        msgs.append(f"{where}: field 'name' is longer than {MAX_NAME} characters; cut")
+        name = name[:MAX_NAME]
     dw, dh = cls.default_size
     mw, mh = cls.min_size
     x = _coord(entry, "x", 0.0, 0.0, where, msgs)
@@ -322,7 +596,7 @@ def _parse_widget(index: int, entry: object, lookup: TypeLookup, result: LoadRes
     stale_after = _stale_after(entry, where, msgs)
     for key in entry:
         if key not in _WIDGET_KEYS:
-            msgs.append(f"{where}: unknown field {key!r} ignored")
+            msgs.append(f"{where}: unknown field {_q(key)} ignored")
     result.dashboard.widgets.append(
         WidgetConfig(type_name, name, x, y, width, height, bindings, props, stale_after)
     )
@@ -337,11 +611,12 @@ MAX_STALE_AFTER = 86_400.0
 
 def check_stale_after(value: object) -> float:
     """Return a valid per-widget stale time in seconds or raise ValueError saying what is wrong."""
-    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+    number = _as_float(value)
+    if number is None:
         raise ValueError(f"must be a number of seconds, got {_short(value)}")
-    if not 0 < value <= MAX_STALE_AFTER:
-        raise ValueError(f"must be more than 0 and at most {MAX_STALE_AFTER:g} seconds, got {value:g}")
-    return float(value)
+    if not 0 < number <= MAX_STALE_AFTER:
+        raise ValueError(f"must be more than 0 and at most {MAX_STALE_AFTER:g} seconds, got {number:g}")
+    return number
 
 
 def _stale_after(entry: Mapping[str, Any], where: str, msgs: list[str]) -> float | None:
@@ -360,15 +635,15 @@ def _coord(
     if key not in entry:
         msgs.append(f"{where}: field {key!r} is missing; using {default:g}")
         return default
-    value = entry[key]
-    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
-        msgs.append(f"{where}: field {key!r} must be a number, got {_short(value)}; using {default:g}")
+    value = _as_float(entry[key])
+    if value is None:
+        msgs.append(f"{where}: field {key!r} must be a number, got {_short(entry[key])}; using {default:g}")
         return default
     if not low <= value <= MAX_COORD:
-        fixed = min(MAX_COORD, max(low, float(value)))
+        fixed = min(MAX_COORD, max(low, value))
         msgs.append(f"{where}: field {key!r} = {value:g} is outside {low:g}..{MAX_COORD:g}; using {fixed:g}")
         return fixed
-    return float(value)
+    return value
 
 
 def _parse_bindings(raw: object, cls: type[Widget], where: str, msgs: list[str]) -> tuple[Binding, ...]:
@@ -386,25 +661,41 @@ def _parse_bindings(raw: object, cls: type[Widget], where: str, msgs: list[str])
             continue
         binding = _binding(item.get("topic"), item.get("field", ""), item.get("regex", ""), at, msgs)
         if binding is not None and item.get("transforms") is not None:
-            # Checked here, before anything is evaluated: a bad formula drops this binding only.
-            try:
-                chain = TransformChain.from_json(item["transforms"], where=at)
-            except TransformError as exc:
-                msgs.append(f"{exc}; binding rejected")
-                binding = None
-            else:
-                binding = replace(binding, transform=canonical_transforms(chain.to_json()))
+            binding = _with_transforms(binding, item["transforms"], at, msgs)
         if binding is not None:
             out.append(binding)
         for key in item:
             if key not in {"topic", "field", "regex", "transforms"}:
-                msgs.append(f"{at}: unknown field {key!r} ignored")
+                msgs.append(f"{at}: unknown field {_q(key)} ignored")
     return tuple(out)
+
+
+def _with_transforms(binding: Binding, raw: object, at: str, msgs: list[str]) -> Binding | None:
+    """Checked here, before anything is evaluated. A rejected list is kept as written (the widget shows
+    the error and saving gives it back); text that cannot be shown or saved drops the binding."""
+    problem = _entry_problem([raw], 1, strings=True)
+    if problem is not None:
+        inner = problem.replace("field '[0]", "field 'transforms", 1)
+        msgs.append(f"{at}: {inner}; binding dropped (it cannot be shown or saved)")
+        return None
+    try:
+        chain = TransformChain.from_json(raw, where=at)
+    except (TransformError, OverflowError) as exc:
+        msgs.append(f"{_cut(str(exc))}; kept as written, the widget shows this error until it is fixed")
+        text = json.dumps(raw, ensure_ascii=False, separators=(",", ":"), allow_nan=False)
+        return replace(binding, transform=text)
+    return replace(binding, transform=canonical_transforms(chain.to_json()))
 
 
 def _binding(topic: object, fld: object, regex: object, at: str, msgs: list[str]) -> Binding | None:
     if not isinstance(topic, str) or not topic.strip():
         msgs.append(f"{at}: field 'topic' must be a topic name, got {_short(topic)}; dropped")
+        return None
+    if problem := text_problem(topic):
+        msgs.append(f"{at}: field 'topic' {problem}; dropped")
+        return None
+    if len(topic) > MAX_TOPIC:
+        msgs.append(f"{at}: field 'topic' is longer than {MAX_TOPIC} characters; dropped")
         return None
     topic = topic.strip()
     if not topic.startswith("/"):
@@ -414,17 +705,32 @@ def _binding(topic: object, fld: object, regex: object, at: str, msgs: list[str]
     if not isinstance(fld, str):
         msgs.append(f"{at}: field 'field' must be a string, got {_short(fld)}; using the whole message")
         fld = ""
+    elif problem := text_problem(fld):
+        msgs.append(f"{at}: field 'field' {problem}; using the whole message")
+        fld = ""
+    elif len(fld) > MAX_FIELD:
+        msgs.append(f"{at}: field 'field' is longer than {MAX_FIELD} characters; using the whole message")
+        fld = ""
     if regex is None:
         regex = ""
     if not isinstance(regex, str):
         msgs.append(f"{at}: field 'regex' must be a string, got {_short(regex)}; no regex used")
         regex = ""
+    elif problem := text_problem(regex, line=False):
+        msgs.append(f"{at}: field 'regex' {problem}; no regex used")
+        regex = ""
+    elif len(regex) > MAX_REGEX:
+        msgs.append(f"{at}: field 'regex' is longer than {MAX_REGEX} characters; no regex used")
+        regex = ""
     if regex:
         try:
             compile_regex(regex)
         except RegexError as exc:
-            msgs.append(f"{at}: field 'regex' {regex!r} does not compile ({exc}); no regex used")
-            regex = ""
+            # Kept as written: the widget shows the error until it is fixed, and saving gives it back.
+            msgs.append(
+                f"{at}: field 'regex' {_q(regex)} does not compile ({_cut(str(exc))}); kept as written, "
+                "the widget shows this error until it is fixed"
+            )
     return Binding(topic, fld.strip(), regex)
 
 
@@ -436,51 +742,52 @@ def _parse_properties(raw: object, cls: type[Widget], where: str, msgs: list[str
     for key, value in raw.items():
         decl = cls.property_named(key)
         if decl is None:
-            msgs.append(f"{where}: unknown property {key!r} for a {cls.type_name}; ignored")
+            msgs.append(f"{where}: unknown property {_q(key)} for a {cls.type_name}; ignored")
+            continue
+        if isinstance(value, str) and (problem := text_problem(value, line=False)):
+            msgs.append(f"{where}: property {key!r} {problem}; using the default {decl.default!r}")
+            continue
+        if isinstance(value, int) and not isinstance(value, bool) and _as_float(value) is None:
+            msgs.append(
+                f"{where}: property {key!r}: number {_short(value)} is out of range; using the default"
+            )
             continue
         try:
             props[key] = decl.validate(value)
         except PropertyError as exc:
-            msgs.append(f"{where}: {exc}; using the default {decl.default!r}")
+            msgs.append(f"{where}: {_cut(str(exc))}; using the default {decl.default!r}")
     return props
 
 
-def _parse_legacy(widgets: list[Any], lookup: TypeLookup) -> LoadResult:
-    """Translate the original ROSDashboard format entry by entry, then validate as current entries."""
-    result = LoadResult(Dashboard(), legacy=True)
-    result.dashboard.snap = False
-    for index, entry in enumerate(widgets):
-        where = f"widget #{index + 1}"
-        if not isinstance(entry, dict):
-            result.messages.append(f"{where}: expected an object, got {_kind(entry)}; skipped")
-            continue
-        if isinstance(entry.get("name"), str) and entry["name"]:
-            where = f"{where} {entry['name']!r}"
-        legacy_type = entry.get("type")
-        new_type = LEGACY_TYPES.get(legacy_type) if isinstance(legacy_type, str) else None
-        if new_type is None or lookup(new_type) is None:
-            reason = f"unknown ROSDashboard widget type {_short(legacy_type)}"
-            result.messages.append(f"{where}: {reason}; kept as is and saved back unchanged")
-            result.dashboard.widgets.append(RawWidget(copy.deepcopy(entry), reason))
-            continue
-        converted: dict[str, Any] = {"type": new_type, "name": entry.get("name", legacy_type)}
-        for old, new in (("posX", "x"), ("posY", "y"), ("width", "width"), ("height", "height")):
-            if old in entry:
-                converted[new] = entry[old]
-        cls = lookup(new_type)
-        assert cls is not None
-        # ROSDashboard drew its widgets at a fixed size whatever the file said: grow small ones quietly.
-        for key, low in (("width", cls.min_size[0]), ("height", cls.min_size[1])):
-            value = converted.get(key)
-            if isinstance(value, int | float) and not isinstance(value, bool) and 0 <= value < low:
-                converted[key] = float(low)
-        props, extra_binding = _legacy_properties(entry.get("properties"), where, result.messages)
-        converted["properties"] = props
-        converted["bindings"] = _legacy_bindings(
-            entry.get("subscription"), extra_binding, where, result.messages
-        )
-        _parse_widget(index, converted, lookup, result)
-    return result
+def _parse_legacy_widget(index: int, entry: object, lookup: TypeLookup, result: LoadResult) -> None:
+    """Translate one entry of the original ROSDashboard format, then validate it as a current entry."""
+    if not isinstance(entry, dict):
+        result.messages.append(f"widget #{index + 1}: expected an object, got {_kind(entry)}; skipped")
+        return
+    where = _where(index, entry)
+    if (problem := _entry_problem(entry, 3, strings=False)) is not None:
+        _leave_out(where, problem, result)
+        return
+    legacy_type = entry.get("type")
+    new_type = LEGACY_TYPES.get(legacy_type) if isinstance(legacy_type, str) else None
+    cls = lookup(new_type) if new_type is not None else None
+    if new_type is None or cls is None:
+        reason = f"unknown ROSDashboard widget type {_short(legacy_type)}"
+        _keep_raw(where, entry, reason, result, "kept as is and saved back unchanged")
+        return
+    converted: dict[str, Any] = {"type": new_type, "name": entry.get("name", legacy_type)}
+    for old, new in (("posX", "x"), ("posY", "y"), ("width", "width"), ("height", "height")):
+        if old in entry:
+            converted[new] = entry[old]
+    # ROSDashboard drew its widgets at a fixed size whatever the file said: grow small ones quietly.
+    for key, low in (("width", cls.min_size[0]), ("height", cls.min_size[1])):
+        value = converted.get(key)
+        if isinstance(value, int | float) and not isinstance(value, bool) and 0 <= value < low:
+            converted[key] = float(low)
+    props, extra_binding = _legacy_properties(entry.get("properties"), where, result.messages)
+    converted["properties"] = props
+    converted["bindings"] = _legacy_bindings(entry.get("subscription"), extra_binding, where, result.messages)
+    _parse_known(where, converted, new_type, cls, result)
 
 
 def _legacy_properties(raw: object, where: str, msgs: list[str]) -> tuple[dict[str, Any], dict[str, Any]]:
@@ -501,10 +808,11 @@ def _legacy_properties(raw: object, where: str, msgs: list[str]) -> tuple[dict[s
             binding["field" if name == "datafield" else "topic"] = value
             continue
         if kind == "numeric" and isinstance(value, str):
+            text = value
             try:
-                value = parse_number(value)
+                value = parse_number(text)
             except ValueError:
-                msgs.append(f"{at}: {name!r} value {value!r} is not a number; ignored")
+                msgs.append(f"{at}: {_q(name)} value {_q(text)} is not a number; ignored")
                 continue
         props[_LEGACY_PROPS.get(name) or name] = value
     return props, binding
@@ -529,44 +837,119 @@ def _legacy_bindings(
 def save_dashboard(dashboard: Dashboard, path: str | os.PathLike[str]) -> None:
     """Write `dashboard` atomically: a temp file in the same folder, fsync, keep a ``.bak``, then rename.
 
+    A symbolic link is written through (its target is replaced, the link stays). The file keeps the
+    previous file's permission bits; a new file gets the user's umask. Temporary files are named
+    ``.NAME.dbglog-tmp-PID``; those left by a save that was killed are removed by the next save.
     A failure at any step leaves the previous file as it was.
 
     Raises:
         DashboardError: the file cannot be written; the message names the file and the reason.
     """
-    target = Path(path)
+    given = Path(path)
     try:
-        text = dumps(dashboard)
-    except (TypeError, ValueError) as exc:
-        raise DashboardError(f"{target}: cannot serialise the dashboard: {exc}") from None
-    folder = target.parent if str(target.parent) else Path(".")
-    tmp_name: str | None = None
+        data = dumps(dashboard).encode("utf-8")
+    except (TypeError, ValueError) as exc:  # UnicodeEncodeError is a ValueError
+        raise DashboardError(f"{given}: cannot serialise the dashboard: {_cut(str(exc))}") from None
+    target = Path(os.path.realpath(given))
+    folder = target.parent
+    tmp: Path | None = None
     try:
-        fd, tmp_name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=folder)
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text)
-            fh.flush()
-            os.fsync(fh.fileno())
+        _remove_stale_temps(folder, (target.name, target.name + ".bak"))
         if target.is_dir():
-            raise IsADirectoryError(21, "is a directory", str(target))
-        if target.exists():
+            raise IsADirectoryError(errno.EISDIR, "is a directory", str(given))
+        try:
+            previous: int | None = stat.S_IMODE(os.stat(target).st_mode)
+        except FileNotFoundError:
+            previous = None
+        tmp = _write_temp(folder, target.name, data, previous)
+        if previous is not None:
             bak = target.with_name(target.name + ".bak")
-            bak_fd, bak_tmp = tempfile.mkstemp(prefix=f".{bak.name}.", suffix=".tmp", dir=folder)
-            os.close(bak_fd)
+            with open(target, "rb") as src:
+                old = src.read()
+            bak_tmp = _write_temp(folder, bak.name, old, previous)
             try:
-                shutil.copyfile(target, bak_tmp)
                 os.replace(bak_tmp, bak)
             finally:
                 with contextlib.suppress(OSError):
                     os.unlink(bak_tmp)  # already gone after a successful replace
-        os.replace(tmp_name, target)
-        tmp_name = None
+        os.replace(tmp, target)
+        tmp = None
+        _fsync_folder(folder)
     except OSError as exc:
-        raise DashboardError(f"{target}: cannot save: {exc.strerror or exc}") from None
+        raise DashboardError(f"{given}: cannot save: {exc.strerror or exc}") from None
     finally:
-        if tmp_name is not None:
+        if tmp is not None:
             with contextlib.suppress(OSError):
-                os.unlink(tmp_name)
+                os.unlink(tmp)
+
+
+def _temp_path(folder: Path, name: str, pid: int) -> Path:
+    return folder / f".{name}{TEMP_MARK}{pid}"
+
+
+def _write_temp(folder: Path, name: str, data: bytes, mode: int | None) -> Path:
+    """Write `data` to a new ``.NAME.dbglog-tmp-PID`` file, synced; `mode` None: the umask's default."""
+    tmp = _temp_path(folder, name, os.getpid())
+    flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_CLOEXEC | os.O_NOFOLLOW
+    try:
+        fd = os.open(tmp, flags, 0o666)  # the kernel applies the umask
+    except FileExistsError:  # left by a killed process that had our pid
+        os.unlink(tmp)
+        fd = os.open(tmp, flags, 0o666)
+    try:
+        view = memoryview(data)
+        while view:
+            view = view[os.write(fd, view) :]
+        if mode is not None:
+            os.fchmod(fd, mode)
+        os.fsync(fd)
+    except BaseException:
+        os.close(fd)
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
+    os.close(fd)
+    return tmp
+
+
+_TEMP_RE = re.compile(r"\.(?P<name>.+)" + re.escape(TEMP_MARK) + r"(?P<pid>[0-9]{1,10})")
+
+
+def _remove_stale_temps(folder: Path, names: tuple[str, ...]) -> None:
+    """Delete this file's temporary files whose saving process is gone (a save killed half-way)."""
+    try:
+        entries = os.listdir(folder)
+    except OSError:
+        return
+    for entry in entries:
+        found = _TEMP_RE.fullmatch(entry)
+        if found is None or found["name"] not in names:
+            continue
+        pid = int(found["pid"])
+        if pid != os.getpid() and not _alive(pid):
+            with contextlib.suppress(OSError):
+                os.unlink(folder / entry)
+
+
+def _alive(pid: int) -> bool:
+    if not 0 < pid < 1 << 22:
+        return False
+    try:
+        os.kill(pid, 0)  # signal 0: only asks whether the process exists
+    except ProcessLookupError:
+        return False
+    except OSError:
+        return True  # exists, owned by someone else
+    return True
+
+
+def _fsync_folder(folder: Path) -> None:
+    with contextlib.suppress(OSError):
+        fd = os.open(folder, os.O_RDONLY | os.O_DIRECTORY | os.O_CLOEXEC)
+        try:
+            os.fsync(fd)
+        finally:
+            os.close(fd)
 
 
 def _kind(value: object) -> str:
@@ -585,8 +968,39 @@ def _kind(value: object) -> str:
     return type(value).__name__
 
 
+def _as_float(value: object) -> float | None:
+    """Return a JSON number as a finite float, or None (not a number, a bool, too large)."""
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        return None
+    try:
+        number = float(value)
+    except OverflowError:
+        return None
+    return number if math.isfinite(number) else None
+
+
+def _cut(text: str, limit: int = 300) -> str:
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+def _q(text: str) -> str:
+    """Quote a string from the file for a message: escaped (repr), cut to 60 characters."""
+    return repr(text) if len(text) <= 60 else repr(text[:57]) + "..."
+
+
 def _short(value: object) -> str:
-    text = (
-        json.dumps(value, ensure_ascii=False, default=repr) if not isinstance(value, float) else repr(value)
-    )
+    """Show a value from the file in a message: short, escaped where it is not plain text, never deep."""
+    if isinstance(value, str):
+        text = json.dumps(value[:61], ensure_ascii=text_problem(value[:61]) is not None)
+    elif isinstance(value, float):
+        text = repr(value)
+    elif isinstance(value, int) and not isinstance(value, bool):
+        digits = len(str(abs(value))) if abs(value) < 10**60 else 61
+        text = str(value) if digits <= 60 else f"a {'negative ' if value < 0 else ''}number of over 60 digits"
+    elif isinstance(value, dict | list):
+        if len(value) > 8 or _entry_problem(value, MAX_DEPTH - 2, strings=False) is not None:
+            return f"{_kind(value)} of {len(value)} items"
+        text = json.dumps(value, ensure_ascii=True, default=repr)
+    else:
+        text = json.dumps(value, default=repr)
     return text if len(text) <= 60 else text[:57] + "..."

@@ -1,0 +1,684 @@
+"""Hostile dashboard files: bad text, deep nesting, huge files, special files, hostile saves (issue 13).
+
+Every case runs against the loader, and the corpus also against the real ``dbglog view FILE --screenshot``
+process: no crash, hang or traceback, a clear message naming the widget and field, the file unchanged.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import signal
+import socket
+import stat
+import subprocess
+import sys
+import time
+from collections.abc import Iterator
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+from typing import Any
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from dbglog.viewer._dashboard import (
+    FORMAT,
+    MAX_DEPTH,
+    MAX_FILE_BYTES,
+    MAX_MESSAGES,
+    MAX_WIDGETS,
+    TEMP_MARK,
+    Dashboard,
+    DashboardError,
+    LoadResult,
+    RawWidget,
+    WidgetConfig,
+    dumps,
+    load_dashboard,
+    parse_dashboard,
+    save_dashboard,
+    text_problem,
+)
+from dbglog.viewer._model import Binding
+from dbglog.viewer._widgets import WidgetRegistry
+from tests._xvfb import x_display
+
+LOOKUP = WidgetRegistry.builtin().get
+DATA = Path(__file__).parent / "data" / "hostile"
+
+UNSAFE = {
+    "surrogate": "\ud800",
+    "low surrogate": "ab\udfff",
+    "nul": "a\x00b",
+    "bell": "x\x07",
+    "escape": "\x1b[31mred",
+    "c1": "a\x85b",
+    "del": "a\x7f",
+}
+"""Text that cannot be handed to Dear PyGui or ROS: refused with a message naming widget and field."""
+ODD_BUT_FINE = {
+    "rtl": "\u05e9\u05dc\u05d5\u05dd \u0645\u0631\u062d\u0628\u0627",
+    "bidi override": "\u202egnp.exe",
+    "combining": "e\u0301\u0301\u0301\u0308\u0308",
+    "zero width": "a\u200bb\u200d",
+    "emoji": "\U0001f600\U0001f1ef\U0001f1f5",
+}
+"""Valid Unicode that looks odd: kept as it is."""
+
+
+def _doc(*widgets: dict[str, Any], **top: Any) -> dict[str, Any]:
+    return {"format": FORMAT, "version": 1, "widgets": list(widgets), **top}
+
+
+def _dial(name: str = "Dial", **extra: Any) -> dict[str, Any]:
+    return {"type": "dial", "name": name, "x": 0, "y": 0, "width": 200, "height": 200, **extra}
+
+
+def _write(path: Path, data: object) -> Path:
+    # ensure_ascii writes lone surrogates as \\ud800 escapes: the file itself is valid UTF-8.
+    path.write_text(json.dumps(data, ensure_ascii=True), encoding="ascii")
+    return path
+
+
+def _strings(value: object) -> Iterator[str]:
+    stack = [value]
+    while stack:
+        item = stack.pop()
+        if isinstance(item, str):
+            yield item
+        elif isinstance(item, dict):
+            for key, sub in item.items():
+                yield key
+                stack.append(sub)
+        elif isinstance(item, list):
+            stack.extend(item)
+
+
+def _assert_safe(result: LoadResult) -> None:
+    """Everything loaded and every message is valid, displayable text, and saves as UTF-8."""
+    saved = result.dashboard.to_dict()
+    for text in _strings(saved):
+        assert text_problem(text, line=False) is None, repr(text)
+    for w in result.dashboard.widgets:
+        assert text_problem(w.name) is None, repr(w.name)
+        if isinstance(w, WidgetConfig):
+            for b in w.bindings:
+                assert text_problem(b.topic) is None
+                assert text_problem(b.field) is None
+    for message in result.messages:
+        assert text_problem(message) is None, repr(message)
+        assert len(message) < 2000
+    dumps(result.dashboard).encode("utf-8")
+
+
+def _string_fields(text: str) -> list[dict[str, Any]]:
+    """One widget per string field of the format, each carrying `text` in that field."""
+    return [
+        _dial(text),
+        _dial("topic", bindings=[{"topic": "/t" + text, "field": "", "regex": ""}]),
+        _dial("field", bindings=[{"topic": "/t", "field": "data" + text, "regex": ""}]),
+        _dial("regex", bindings=[{"topic": "/t", "field": "", "regex": "(\\d+)" + text}]),
+        _dial("formula", bindings=[{"topic": "/t", "transforms": [{"kind": "formula", "expr": "v" + text}]}]),
+        _dial("unit", properties={"unit": text}),
+        _dial("key", properties={text: 1}),
+        _dial("unknown key", **{text: text}),
+        {"type": "some_plugin", "name": "plugin", "x": 0, "y": 0, "content": {"deep": [text]}},
+        {"type": "some_plugin", "name": "plugin key", "content": {text: 1}},
+        {"type": "plugin" + text, "name": "plugin type"},
+        {"type": "DragDial" + text, "name": "legacy type"},
+    ]
+
+
+@pytest.mark.parametrize("kind", sorted(UNSAFE))
+def test_unsafe_text_in_every_string_field_is_refused_by_name(tmp_path: Path, kind: str) -> None:
+    """A lone surrogate, NUL or control character in any string field is refused, naming widget and field."""
+    text = UNSAFE[kind]
+    path = _write(tmp_path / "d.json", _doc(*_string_fields(text), grid={"size": text}, **{text: 1}))
+    result = load_dashboard(path, LOOKUP)
+    _assert_safe(result)
+    joined = "\n".join(result.messages)
+    by_name = {w.name: w for w in result.dashboard.widgets if isinstance(w, WidgetConfig)}
+    assert "widget #1 " in joined
+    assert "field 'name' contains" in joined
+    assert "widget #2 'topic': bindings[0]: field 'topic' contains" in joined
+    assert "widget #3 'field': bindings[0]: field 'field' contains" in joined
+    assert "widget #4 'regex': bindings[0]: field 'regex' contains" in joined
+    assert "widget #5 'formula': bindings[0]: field 'transforms[0].expr' contains" in joined
+    assert "widget #6 'unit': property 'unit' contains" in joined
+    assert "widget #9 'plugin': unknown widget type 'some_plugin'" in joined
+    assert "field 'content.deep[0]' contains" in joined
+    assert "widget #10 'plugin key'" in joined
+    assert "in field 'content' contains" in joined
+    assert by_name["topic"].bindings == ()
+    assert by_name["formula"].bindings == ()
+    assert by_name["field"].bindings == (Binding("/t", "", ""),)
+    assert not {"plugin", "plugin key", "plugin type", "legacy type"} & {
+        w.name for w in result.dashboard.widgets
+    }
+    assert result.left_out == 4
+    assert not result.complete
+    assert "Save asks for a new name" in joined
+
+
+@pytest.mark.parametrize("kind", sorted(ODD_BUT_FINE))
+def test_rtl_combining_and_emoji_text_is_kept_as_written(tmp_path: Path, kind: str) -> None:
+    """Right-to-left text, combining marks, zero-width and emoji are valid text: kept and saved back as is."""
+    text = ODD_BUT_FINE[kind]
+    path = _write(tmp_path / "d.json", _doc(*_string_fields(text)))
+    result = load_dashboard(path, LOOKUP)
+    _assert_safe(result)
+    assert result.complete
+    widgets = result.dashboard.widgets
+    assert widgets[0].name == text
+    assert isinstance(widgets[1], WidgetConfig)
+    assert widgets[1].bindings[0].topic == "/t" + text
+    assert isinstance(widgets[5], WidgetConfig)
+    assert widgets[5].properties["unit"] == text
+    raw = widgets[8]
+    assert isinstance(raw, RawWidget)
+    assert raw.data["content"] == {"deep": [text]}
+    out = tmp_path / "out.json"
+    save_dashboard(result.dashboard, out)
+    assert json.loads(out.read_text("utf-8"))["widgets"][8]["content"] == {"deep": [text]}
+
+
+def test_a_lone_surrogate_name_no_longer_reaches_the_viewer(tmp_path: Path) -> None:
+    """The issue's file: the dial loads under its type's label with a message instead of a SIGSEGV."""
+    path = tmp_path / "s.json"
+    path.write_text(
+        '{"format":"dbglog-dashboard","version":1,"widgets":[{"type":"dial","name":"\\ud800",'
+        '"x":0,"y":0,"width":200,"height":200}]}'
+    )
+    result = load_dashboard(path, LOOKUP)
+    assert [w.name for w in result.dashboard.widgets] == ["Dial"]
+    assert result.messages == [
+        "widget #1 '\\ud800': field 'name' contains a lone surrogate U+D800 (not valid Unicode) at "
+        "character 1; using 'Dial'"
+    ]
+
+
+# --- nesting ------------------------------------------------------------------------------------------
+
+
+def _nested(levels: int) -> str:
+    return "[" * levels + "]" * levels
+
+
+@pytest.mark.parametrize("levels", [MAX_DEPTH - 3, MAX_DEPTH - 2, 500, 989, 5000, 2_000_000])
+def test_deep_nesting_leaves_out_that_widget_only(tmp_path: Path, levels: int) -> None:
+    """An unknown widget holding arrays nested past MAX_DEPTH levels is left out by name; the rest loads."""
+    path = tmp_path / "deep.json"
+    path.write_text(
+        '{"format":"dbglog-dashboard","version":1,"widgets":['
+        f'{{"type":"plugin","name":"Deep","data":{_nested(levels)}}},'
+        '{"type":"dial","name":"Fine","x":0,"y":0,"width":200,"height":200}]}'
+    )
+    result = load_dashboard(path, LOOKUP)
+    names = [w.name for w in result.dashboard.widgets]
+    # The widget entry is level 3 of the file, its "data" array level 4.
+    if 3 + levels <= MAX_DEPTH:
+        assert names == ["Deep", "Fine"]
+        assert result.complete
+        return
+    assert names == ["Fine"]
+    assert result.left_out == 1
+    assert result.messages[0].startswith(
+        "widget #1 'Deep': field 'data[0][0]" if levels > 3 else "widget #1 'Deep': field 'data"
+    )
+    assert f"nested deeper than {MAX_DEPTH} levels" in result.messages[0]
+    assert "left out (saving over this file would lose it, so Save asks for a new name)" in result.messages[0]
+
+
+def test_deep_nesting_anywhere_never_raises(tmp_path: Path) -> None:
+    """Deep values in known widgets, bindings, the grid or unknown keys give messages, never a traceback."""
+    deep = json.loads(_nested(900))
+    doc = _doc(
+        _dial("props", properties={"minimum": deep}),
+        _dial("bindings", bindings=[{"topic": "/t", "transforms": deep}]),
+        _dial("good"),
+        grid=deep,
+        extra=deep,
+    )
+    path = tmp_path / "d.json"
+    path.write_text(json.dumps(doc))  # json.dumps nests this deep fine; loads must too
+    result = load_dashboard(path, LOOKUP)
+    _assert_safe(result)
+    assert [w.name for w in result.dashboard.widgets] == ["good"]
+    assert result.left_out == 2
+    assert "grid: expected an object, got a list; defaults used" in result.messages
+
+
+def test_brackets_inside_strings_do_not_count_as_nesting(tmp_path: Path) -> None:
+    """Brackets and escaped quotes inside strings are text, not nesting, even when the file is cut."""
+    name = '\\"[[[{' * 300
+    path = tmp_path / "d.json"
+    path.write_text(
+        '{"format":"dbglog-dashboard","version":1,"widgets":['
+        f'{{"type":"plugin","name":"Deep","data":{_nested(3000)}}},'
+        f'{{"type":"dial","name":"{name[:190]}","x":0,"y":0,"width":200,"height":200}}]}}'
+    )
+    result = load_dashboard(path, LOOKUP)
+    assert [w.name for w in result.dashboard.widgets] == [json.loads(f'"{name[:190]}"')]
+
+
+def test_unbalanced_deep_file_is_refused_clearly(tmp_path: Path) -> None:
+    """A file of only opening brackets is not JSON: a DashboardError naming the file, no RecursionError."""
+    path = tmp_path / "open.json"
+    path.write_text('{"widgets": ' + "[" * 100_000)
+    with pytest.raises(DashboardError, match=r"open\.json: not valid JSON"):
+        load_dashboard(path, LOOKUP)
+
+
+# --- size ---------------------------------------------------------------------------------------------
+
+
+def _many(count: int, entry: str = '{"type":"dial"}') -> str:
+    return '{"format":"dbglog-dashboard","version":1,"widgets":[' + ",".join([entry] * count) + "]}"
+
+
+def test_a_million_widgets_stop_at_the_cap_quickly(tmp_path: Path) -> None:
+    """1,000,000 widgets under the size cap: the first MAX_WIDGETS load in seconds, the rest are counted."""
+    path = tmp_path / "big.json"
+    path.write_text(_many(1_000_000))
+    assert path.stat().st_size <= MAX_FILE_BYTES
+    start = time.perf_counter()
+    result = load_dashboard(path, LOOKUP)
+    elapsed = time.perf_counter() - start
+    assert elapsed < 15, f"{elapsed:.1f} s"
+    assert len(result.dashboard.widgets) == MAX_WIDGETS
+    assert result.left_out == 1_000_000 - MAX_WIDGETS
+    assert not result.complete
+    assert result.messages[0] == (
+        f"the file holds 1000000 widgets, more than the {MAX_WIDGETS} a dashboard can show: widgets "
+        f"#{MAX_WIDGETS + 1} to #1000000 are left out (saving over this file would lose them, so Save asks "
+        "for a new name)"
+    )
+    assert len(result.messages) == MAX_MESSAGES
+    assert result.messages[-1].endswith("more problems not listed")
+
+
+def test_loading_is_linear(tmp_path: Path) -> None:
+    """Four times the widgets take about four times as long (not sixteen): no quadratic step."""
+    entry = json.dumps(_dial("w", bindings=[{"topic": "/a", "field": "data", "regex": "(\\d+)"}]))
+    bad = json.dumps({"type": "dial", "name": 5, "x": "a", "y": [], "width": {}, "bindings": [{"topic": 3}]})
+
+    def rate(count: int, text: str) -> float:
+        data = json.loads(_many(count, text))
+        best = float("inf")
+        for _ in range(2):
+            start = time.perf_counter()
+            parse_dashboard(data, LOOKUP, max_widgets=count)
+            best = min(best, time.perf_counter() - start)
+        return best
+
+    for text in (entry, bad):
+        small, large = rate(5_000, text), rate(20_000, text)
+        assert large < small * 8, f"{small:.3f} s for 5,000, {large:.3f} s for 20,000"
+    assert rate(4_796, bad) < 5  # the issue's 4,796 widgets of wrong types took 50 s
+
+
+def test_too_large_file_is_refused_by_size(tmp_path: Path) -> None:
+    """A file over 16 MiB is refused with its size, before it is parsed."""
+    path = tmp_path / "huge.json"
+    with path.open("wb") as f:
+        f.truncate(MAX_FILE_BYTES + 1)
+    with pytest.raises(DashboardError, match=r"huge\.json: file is too large \(16777217 bytes"):
+        load_dashboard(path, LOOKUP)
+
+
+# --- special files ------------------------------------------------------------------------------------
+
+
+def test_special_files_are_refused_without_blocking(tmp_path: Path) -> None:
+    """A FIFO, /dev/zero, a socket, a directory and links to them are refused at once, saying what each is."""
+    fifo = tmp_path / "pipe.json"
+    os.mkfifo(fifo)
+    sock_path = tmp_path / "sock.json"
+    sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+    sock.bind(str(sock_path))
+    link = tmp_path / "zero.json"
+    link.symlink_to("/dev/zero")
+    loop = tmp_path / "loop.json"
+    loop.symlink_to(loop)
+    dangling = tmp_path / "gone.json"
+    dangling.symlink_to(tmp_path / "nothing")
+    cases = {
+        fifo: "is a FIFO (named pipe), not a regular file",
+        Path("/dev/zero"): "is a character device, not a regular file",
+        link: "is a character device, not a regular file",
+        sock_path: "is a socket, not a regular file",
+        tmp_path: "is a directory, not a dashboard file",
+        loop: "cannot read: too many levels of symbolic links",
+        dangling: "no such file",
+        fifo / "x.json": "no such file",
+    }
+    try:
+        for path, expected in cases.items():
+            start = time.monotonic()
+            with pytest.raises(DashboardError) as info:
+                load_dashboard(path, LOOKUP)
+            assert str(info.value).startswith(f"{path}: {expected}"), str(info.value)
+            assert time.monotonic() - start < 5
+    finally:
+        sock.close()
+
+
+# --- property tests -----------------------------------------------------------------------------------
+
+any_text = st.text(st.characters(codec=None), max_size=12)
+"""Any code points, lone surrogates and controls included."""
+leaf = st.none() | st.booleans() | st.integers(-(10**400), 10**400) | st.floats(allow_nan=False) | any_text
+junk = st.recursive(
+    leaf,
+    lambda inner: st.lists(inner, max_size=3) | st.dictionaries(any_text, inner, max_size=3),
+    max_leaves=12,
+)
+field_values = junk | any_text | st.sampled_from(["dial", "plot", "led", "DragDial", "/t", "data", "(\\d+)"])
+binding_like = st.dictionaries(st.sampled_from(["topic", "field", "regex", "transforms"]), field_values)
+widget_like = st.fixed_dictionaries(
+    {"type": st.sampled_from(["dial", "plot", "string", "led", "plugin"]) | any_text},
+    optional={
+        "name": any_text | junk,
+        "x": junk,
+        "bindings": st.lists(binding_like, max_size=3) | junk,
+        "properties": st.dictionaries(
+            st.sampled_from(["unit", "minimum", "color", "window"]) | any_text, junk
+        ),
+        "stale_after": junk,
+    },
+).map(lambda d: {**d, "extra": d.get("name")})
+
+
+@given(st.lists(widget_like | junk, max_size=4), junk)
+@settings(max_examples=120, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+def test_any_text_and_types_load_safely(widgets: list[Any], grid: Any) -> None:
+    """Random text (surrogates, controls) and wrong types in any field: a partial load of safe text only."""
+    try:
+        result = parse_dashboard(_doc(*widgets, grid=grid), LOOKUP)
+    except DashboardError:
+        return
+    _assert_safe(result)
+    assert len(result.dashboard.widgets) + result.left_out <= len(widgets)
+
+
+@given(st.text(st.characters(codec=None), max_size=30))
+@settings(max_examples=150, deadline=None)
+def test_text_problem_accepts_exactly_utf8_text_without_controls(text: str) -> None:
+    """text_problem refuses a string exactly when it has a surrogate, NUL or a control character."""
+    bad = any(0xD800 <= ord(c) <= 0xDFFF or ord(c) < 0x20 or 0x7F <= ord(c) <= 0x9F for c in text)
+    assert (text_problem(text) is not None) == bad
+    if text_problem(text, line=False) is None:
+        text.encode("utf-8")
+        assert "\x00" not in text
+
+
+# --- saves --------------------------------------------------------------------------------------------
+
+
+def _board(name: str) -> Dashboard:
+    return Dashboard([WidgetConfig("dial", name, 0, 0, 200, 200)])
+
+
+def _temps(folder: Path) -> list[str]:
+    return sorted(p.name for p in folder.iterdir() if TEMP_MARK in p.name)
+
+
+def test_save_writes_through_a_symlink(tmp_path: Path) -> None:
+    """Saving through a symlink replaces the link's target; the link stays, .bak goes beside the target."""
+    real_dir = tmp_path / "shared"
+    real_dir.mkdir()
+    target = real_dir / "team.json"
+    save_dashboard(_board("One"), target)
+    link = tmp_path / "mine.json"
+    link.symlink_to(target)
+    save_dashboard(_board("Two"), link)
+    assert link.is_symlink()
+    assert link.resolve() == target
+    assert json.loads(target.read_text())["widgets"][0]["name"] == "Two"
+    assert json.loads((real_dir / "team.json.bak").read_text())["widgets"][0]["name"] == "One"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["mine.json", "shared"]
+    chain = tmp_path / "chain.json"
+    chain.symlink_to(link)
+    save_dashboard(_board("Three"), chain)
+    assert chain.is_symlink()
+    assert link.is_symlink()
+    assert json.loads(target.read_text())["widgets"][0]["name"] == "Three"
+
+
+def test_save_keeps_the_mode_and_new_files_follow_the_umask(tmp_path: Path) -> None:
+    """A saved file and its .bak keep the previous file's mode; a new file gets the umask's mode, not 0600."""
+    path = tmp_path / "d.json"
+    save_dashboard(_board("One"), path)
+    path.chmod(0o664)
+    save_dashboard(_board("Two"), path)
+    assert stat.S_IMODE(path.stat().st_mode) == 0o664
+    assert stat.S_IMODE((tmp_path / "d.json.bak").stat().st_mode) == 0o664
+    code = (
+        "import os, sys; from dbglog.viewer._dashboard import Dashboard, save_dashboard; "
+        "os.umask(int(sys.argv[2], 8)); save_dashboard(Dashboard(), sys.argv[1])"
+    )
+    for umask, mode in (("022", 0o644), ("027", 0o640), ("002", 0o664)):
+        new = tmp_path / f"new{umask}.json"
+        subprocess.run([sys.executable, "-c", code, str(new), umask], check=True, timeout=60)
+        assert stat.S_IMODE(new.stat().st_mode) == mode, umask
+
+
+def test_stale_temp_files_of_dead_savers_are_removed(tmp_path: Path) -> None:
+    """Temp files are named .NAME.dbglog-tmp-PID; the next save removes a dead pid's, keeps a live one's."""
+    path = tmp_path / "d.json"
+    dead = subprocess.run(
+        [sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True
+    )
+    dead_pid = int(dead.stdout)
+    live = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+    try:
+        for name in (f".d.json{TEMP_MARK}{dead_pid}", f".d.json.bak{TEMP_MARK}{dead_pid}"):
+            (tmp_path / name).write_text("partial")
+        (tmp_path / f".d.json{TEMP_MARK}{live.pid}").write_text("in progress")
+        (tmp_path / f".other.json{TEMP_MARK}{dead_pid}").write_text("not ours")
+        save_dashboard(_board("One"), path)
+        assert _temps(tmp_path) == sorted(
+            [f".d.json{TEMP_MARK}{live.pid}", f".other.json{TEMP_MARK}{dead_pid}"]
+        )
+    finally:
+        live.kill()
+        live.wait()
+
+
+def test_killed_saves_leave_nothing_after_the_next_save(tmp_path: Path) -> None:
+    """SIGKILL during saves: the file is always a whole dashboard; the next save clears every temp file."""
+    path = tmp_path / "d.json"
+    save_dashboard(_board("start"), path)
+    code = (
+        "import sys; from dbglog.viewer._dashboard import Dashboard, WidgetConfig, save_dashboard\n"
+        "ws = [WidgetConfig('dial', 'w%d' % i + 'x' * 4000, 0, 0, 200, 200) for i in range(1500)]\n"
+        "while True: save_dashboard(Dashboard(ws), sys.argv[1])\n"
+    )
+    killed_mid_save = 0
+    for _ in range(6):
+        proc = subprocess.Popen([sys.executable, "-c", code, str(path)])
+        deadline = time.monotonic() + 30
+        while not _temps(tmp_path) and time.monotonic() < deadline:
+            pass  # kill while a temporary file exists: half-way through a save
+        proc.send_signal(signal.SIGKILL)
+        proc.wait()
+        killed_mid_save += bool(_temps(tmp_path))
+        assert load_dashboard(path, LOOKUP).dashboard.widgets  # never a torn file
+    save_dashboard(_board("after"), path)
+    assert _temps(tmp_path) == []
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["d.json", "d.json.bak"]
+    assert killed_mid_save > 0, "no save was killed half-way: the test proved nothing"
+
+
+# --- 12.19: the user's text survives a bad regex or a rejected formula --------------------------------
+
+
+def _kept_doc() -> dict[str, Any]:
+    return _doc(
+        _dial("Regex", bindings=[{"topic": "/t", "field": "data", "regex": "(?<=x)\\d"}]),
+        _dial(
+            "Formula",
+            bindings=[
+                {
+                    "topic": "/t",
+                    "field": "",
+                    "regex": "",
+                    "transforms": [
+                        {"kind": "scale", "scale": 2, "offset": 1},
+                        {"expr": "__import__('os')", "kind": "formula"},
+                    ],
+                }
+            ],
+        ),
+        _dial(
+            "Not a list", bindings=[{"topic": "/t", "field": "", "regex": "", "transforms": {"kind": "abs"}}]
+        ),
+        grid={"size": 20, "snap": True},
+    )
+
+
+def test_bad_regex_and_rejected_formula_are_kept_byte_for_byte(tmp_path: Path) -> None:
+    """Load then save: the bindings with a bad regex or a rejected formula are saved back byte-identical."""
+    path = tmp_path / "d.json"
+    original = json.dumps(_kept_doc(), indent=2, ensure_ascii=False) + "\n"
+    path.write_text(original)
+    result = load_dashboard(path, LOOKUP)
+    text = "\n".join(result.messages)
+    assert "widget #1 'Regex': bindings[0]: field 'regex' '(?<=x)\\\\d' does not compile" in text
+    assert "widget #2 'Formula': bindings[0]: transforms[1] (formula)" in text
+    assert "kept as written, the widget shows this error until it is fixed" in text
+    assert result.complete
+    out = tmp_path / "saved.json"
+    save_dashboard(result.dashboard, out)
+    saved = json.loads(out.read_text())
+    before = json.loads(original)
+    for i in range(3):
+        old = json.dumps(before["widgets"][i]["bindings"], indent=2, ensure_ascii=False)
+        new = json.dumps(saved["widgets"][i]["bindings"], indent=2, ensure_ascii=False)
+        assert new == old
+        # The same bytes in both files (each binding list sits 6 spaces deep in a saved dashboard).
+        assert old in original.replace("\n      ", "\n")
+        assert old in out.read_text().replace("\n      ", "\n")
+
+
+# --- the real viewer ----------------------------------------------------------------------------------
+
+
+def _sha(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def _view(
+    path: Path, out_dir: Path, display: str
+) -> tuple[subprocess.CompletedProcess[str], dict[str, Any] | None]:
+    report = out_dir / f"{path.name}.report.json"
+    env = {**os.environ, "DISPLAY": display}
+    proc = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "dbglog",
+            "view",
+            str(path),
+            "--screenshot",
+            str(out_dir / f"{path.name}.png"),
+            "--after",
+            "1",
+            "--size",
+            "800x600",
+            "--report-json",
+            str(report),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=240,
+        check=False,
+        env=env,
+    )
+    return proc, (json.loads(report.read_text()) if report.exists() else None)
+
+
+def _corpus(folder: Path) -> dict[str, tuple[Path, int]]:
+    """The hostile files (checked-in ones and large ones generated here), each with its expected exit code."""
+    files: dict[str, tuple[Path, int]] = {}
+    for path in sorted(DATA.glob("*.json")):
+        files[path.name] = (path, 0 if not path.name.startswith("refused_") else 2)
+    strings = [w for text in [*UNSAFE.values(), *ODD_BUT_FINE.values()] for w in _string_fields(text)]
+    files["strings"] = (_write(folder / "strings.json", _doc(*strings)), 0)
+    deep = folder / "deep.json"
+    deep.write_text(
+        '{"format":"dbglog-dashboard","version":1,"widgets":['
+        f'{{"type":"plugin","name":"Deep","data":{_nested(989)}}},'
+        f'{{"type":"plugin","name":"Deeper","data":{_nested(100_000)}}},'
+        '{"type":"dial","name":"Fine","x":0,"y":0,"width":200,"height":200}]}'
+    )
+    files["deep"] = (deep, 0)
+    big = folder / "big.json"
+    big.write_text(_many(400_000, '{"type":"led","name":"L","x":0,"y":0}'))
+    files["big"] = (big, 0)
+    fifo = folder / "fifo.json"
+    os.mkfifo(fifo)
+    files["fifo"] = (fifo, 2)
+    files["zero"] = (Path("/dev/zero"), 2)
+    huge = folder / "huge.json"
+    with huge.open("wb") as f:
+        f.truncate(MAX_FILE_BYTES + 10)
+    files["huge"] = (huge, 2)
+    return files
+
+
+def test_hostile_corpus_through_the_real_viewer(tmp_path: Path) -> None:
+    """`dbglog view FILE --screenshot`: every hostile file exits 0 with messages or 2 with the reason, fast,
+    no traceback, the file byte-identical afterwards; a cut or partial load opens untitled."""
+    files = _corpus(tmp_path)
+    hashes = {
+        name: _sha(path)
+        for name, (path, _) in files.items()
+        if path.is_file() and path.stat().st_size < 1 << 25
+    }
+    out = tmp_path / "out"
+    out.mkdir()
+    with x_display() as display, ThreadPoolExecutor(3) as pool:
+        runs = dict(
+            zip(files, pool.map(lambda item: _view(item[0], out, display), files.values()), strict=True)
+        )
+    for name, (proc, report) in runs.items():
+        path, code = files[name]
+        assert proc.returncode == code, f"{name}: {proc.returncode}\n{proc.stderr[-2000:]}"
+        assert "Traceback" not in proc.stderr, f"{name}:\n{proc.stderr[-3000:]}"
+        if name in hashes:
+            assert _sha(path) == hashes[name], f"{name} was modified"
+        if code == 2:
+            assert proc.stderr.startswith(f"dbglog view: error: {path}: "), proc.stderr
+            continue
+        assert report is not None
+        for text in _strings(report):
+            assert text_problem(text, line=False) is None, (name, text)
+    assert "is a FIFO (named pipe), not a regular file" in runs["fifo"][0].stderr
+    assert "is a character device, not a regular file" in runs["zero"][0].stderr
+    assert "file is too large" in runs["huge"][0].stderr
+    strings_err = runs["strings"][0].stderr
+    assert "field 'name' contains a lone surrogate U+D800" in strings_err
+    assert "bindings[0]: field 'topic' contains a NUL character" in strings_err
+    deep_report = runs["deep"][1]
+    assert deep_report is not None
+    assert [w["name"] for w in deep_report["widgets"]] == ["Fine"]
+    assert deep_report["file"] is None, "a partial load must not save over the file"
+    assert "widget #2 'Deeper': field 'data[0][0]" in runs["deep"][0].stderr
+    big_report = runs["big"][1]
+    assert big_report is not None
+    assert len(big_report["widgets"]) == MAX_WIDGETS
+    assert big_report["file"] is None
+    assert f"the file holds 400000 widgets, more than the {MAX_WIDGETS}" in runs["big"][0].stderr
+    kept = runs["kept_user_text.json"][1]
+    assert kept is not None
+    assert kept["file"] == str(files["kept_user_text.json"][0])
+    status = {w["name"]: (w["status"], w["reason"]) for w in kept["widgets"]}
+    assert status["Regex"][0] == "error"
+    assert "bad regex" in status["Regex"][1]
+    assert status["Formula"][0] == "error"
+    assert "bad transforms" in status["Formula"][1]
+    assert kept["dashboard"]["widgets"][1]["bindings"] == _kept_doc()["widgets"][1]["bindings"]
