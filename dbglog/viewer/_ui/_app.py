@@ -881,7 +881,9 @@ class ViewerApp:
             self.items.append(item)
             for b in item.bindings:
                 self._bind(b)
-        self.path = path
+        # Widgets were left out (too many, too deep, unsafe text): saving over the file would lose them,
+        # so it opens untitled and Save asks for a name (docs/viewer.md, Dashboard files).
+        self.path = path if result.complete else None
         self.dirty = False
         self.load_messages = list(result.messages)
         kind = "legacy ROSDashboard file" if result.legacy else "dashboard"
