@@ -20,6 +20,7 @@ Reason = Literal[
     "type_conflict",
     "bad_option",
     "publish_failed",
+    "queue_full",
     "no_ros",
     "forked",
     "shut_down",

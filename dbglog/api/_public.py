@@ -1,19 +1,20 @@
 """The logging functions as they work when dbglog is switched on.
 
 Every function counts the call, never raises into the caller (except in strict mode), and returns
-quickly: ``logfloat``/``logint`` to a known tag publish pre-serialized CDR bytes straight away.
+quickly: scalar values are checked here and queued with their source time; dbglog's publisher thread
+sends them (see ``_pipe``). ``logfloat``/``logint`` to a known tag only append to the queue.
 """
 
 from __future__ import annotations
 
+import contextlib
 import math
-import struct
 import sys
+import time
 from collections.abc import Mapping
 from typing import Any
 
 from dbglog.api._convert import (
-    CDR_HEADER,
     KIND_DEFAULT,
     MAX_STRING_CHARS,
     NUL_REPLACEMENT,
@@ -64,9 +65,12 @@ _fast_float = RUNTIME.fast_float
 _fast_int = RUNTIME.fast_int
 _calls = REPORTER.calls.incr
 _published = REPORTER.published.incr
-_pack_d = struct.Struct("<d").pack
-_pack_q = struct.Struct("<q").pack
-_HDR = CDR_HEADER
+_PIPE = RUNTIME.pipe
+_queue = _PIPE.queue
+_append = _queue.append
+_now = time.time_ns
+_STATS_DRAIN_SECONDS = 10.0
+"""stats() publishes what is queued first, for at most this long (a full queue takes about a second)."""
 
 
 def _std_type(name: str) -> type:
@@ -161,10 +165,12 @@ def _publish_scalar(
     ch = RUNTIME.channel(clean, cls, api)
     if ch is None:
         return
-    if RUNTIME.send(ch, checked, api):
-        _published()
+    if ch.queued:
+        RUNTIME.enqueue(ch, checked, api)
         if fast and isinstance(given, str):
             RUNTIME.remember_fast_path(given, ch)
+    elif RUNTIME.send(ch, checked, api):
+        _published()
 
 
 def _scalar_call(
@@ -225,13 +231,14 @@ def logfloat(
     """
     if type(value) is float and msg_type is None and not once and throttle is None and not skip_first:
         try:
-            publish = _fast_float.get(tag)
-            if publish is not None:
-                publish(_HDR + _pack_d(value))
+            ch = _fast_float.get(tag)
+            if ch is not None and len(_queue) < _PIPE.capacity:
+                _append((ch, value, _now()))
                 _calls()
-                _published()
+                if _PIPE.sleeping:
+                    _PIPE.wake()
                 return
-        except Exception:  # noqa: S110  (unhashable tag, failing publisher...: the general path reports)
+        except Exception:  # noqa: S110  (unhashable tag...: the general path reports)
             pass
     _scalar_call("logfloat", "float", tag, value, msg_type, once, throttle, skip_first)
 
@@ -255,15 +262,23 @@ def logint(
         throttle: publish at most once per this many seconds from this line.
         skip_first: drop the first call from this line.
     """
-    if type(value) is int and msg_type is None and not once and throttle is None and not skip_first:
+    if (
+        type(value) is int
+        and -0x8000000000000000 <= value <= 0x7FFFFFFFFFFFFFFF
+        and msg_type is None
+        and not once
+        and throttle is None
+        and not skip_first
+    ):
         try:
-            publish = _fast_int.get(tag)
-            if publish is not None:
-                publish(_HDR + _pack_q(value))
+            ch = _fast_int.get(tag)
+            if ch is not None and len(_queue) < _PIPE.capacity:
+                _append((ch, value, _now()))
                 _calls()
-                _published()
+                if _PIPE.sleeping:
+                    _PIPE.wake()
                 return
-        except Exception:  # noqa: S110  (beyond int64, failing publisher...: the general path reports)
+        except Exception:  # noqa: S110  (unhashable tag...: the general path reports)
             pass
     _scalar_call("logint", "int", tag, value, msg_type, once, throttle, skip_first)
 
@@ -373,7 +388,11 @@ def _send_message(clean: str, msg: object, opts: _Options, api: str) -> None:
         more = f" and {len(nul_fields) - 3} more" if len(nul_fields) > 3 else ""
         _warn_nul(api, clean, "field " + ", ".join(nul_fields[:3]) + more)
     ch = RUNTIME.channel(clean, type(msg), api)
-    if ch is not None and RUNTIME.send(ch, msg, api, message=True):
+    if ch is None:
+        return
+    if ch.queued:
+        RUNTIME.enqueue(ch, msg.data, api)  # type: ignore[attr-defined]
+    elif RUNTIME.send(ch, msg, api, message=True):
         _published()
 
 
@@ -486,7 +505,12 @@ def flush(timeout: float = 1.0) -> bool:
 
 
 def stats() -> Stats:
-    """Return dbglog's counters: calls, published, rate-limited and dropped values per reason."""
+    """Return dbglog's counters: calls, published, rate-limited and dropped values per reason.
+
+    Values still queued are published first (for at most 10 s), so the counts add up.
+    """
+    with contextlib.suppress(Exception):  # the counters are still worth returning
+        RUNTIME.pipe.drain(_STATS_DRAIN_SECONDS)
     return REPORTER.stats(len(RUNTIME.channels))
 
 

@@ -18,6 +18,7 @@ import warnings
 from collections.abc import Callable
 from typing import Any, Literal
 
+from dbglog._ros._batch import BATCH_TOPIC, SCALAR_TYPES, type_code
 from dbglog.api._convert import (
     ScalarSpec,
     encode_scalar,
@@ -25,7 +26,8 @@ from dbglog.api._convert import (
     type_name,
 )
 from dbglog.api._errors import Reporter, safe_repr
-from dbglog.api._qos import tag_qos
+from dbglog.api._pipe import Pipe, slot_packer
+from dbglog.api._qos import batch_qos, tag_qos
 from dbglog.api._tags import TAG_PREFIX, sanitize_tag, tag_problem, topic_for_tag
 
 __all__ = ["MAX_TAGS", "Channel", "Runtime"]
@@ -34,6 +36,8 @@ MAX_TAGS = 10_000
 """More distinct tags than this are refused (a bug such as a value formatted into the tag)."""
 
 _EXIT_FLUSH_SECONDS = 0.5
+_EXIT_DRAIN_SECONDS = 2.0
+"""At exit, queued samples are published for at most this long (then acknowledgements are awaited)."""
 _FORKED_MESSAGE = (
     "dbglog.{api}: this process was forked from one that used ROS 2, whose middleware does not "
     "survive a fork; dbglog drops values in the child (start workers with multiprocessing's "
@@ -43,20 +47,42 @@ State = Literal["idle", "ready", "no_ros", "forked", "closed"]
 
 
 class Channel:
-    """One tag's topic, message type and publisher."""
+    """One tag's topic, message type and publisher (and, for scalars, its place in a batch)."""
 
-    __slots__ = ("encode", "msg_class", "publish", "publisher", "spec", "tag", "topic")
+    __slots__ = (
+        "alive",
+        "code",
+        "encode",
+        "msg_class",
+        "publish",
+        "publisher",
+        "queued",
+        "slot",
+        "spec",
+        "tag",
+        "tag_bytes",
+        "topic",
+    )
 
     def __init__(self, tag: str, msg_class: type, publisher: Any, spec: ScalarSpec | None, raw: bool) -> None:
         self.tag = tag
+        self.tag_bytes = tag.encode()
         self.topic = topic_for_tag(tag)
         self.msg_class = msg_class
         self.publisher = publisher
         self.publish: Callable[[object], None] = publisher.publish
         self.spec = spec
+        self.alive = True
+        """False once the publisher was destroyed (samples still queued for it go to its successor)."""
         self.encode: Callable[[object], bytes] | None = None
         if spec is not None and raw:
             self.encode = lambda value, s=spec: encode_scalar(s, value)
+        self.queued = (
+            spec is not None and spec.name in SCALAR_TYPES and msg_class.__module__.startswith("std_msgs.")
+        )
+        """Scalar std_msgs values go through the queue and the batch; other messages are sent at once."""
+        self.code = type_code(spec.name) if self.queued and spec is not None else 0
+        self.slot = slot_packer(spec.name) if self.queued and spec is not None else None
 
     def send(self, value: object, *, message: bool) -> None:
         """Publish a message, or a checked scalar value (as CDR bytes when verified)."""
@@ -101,10 +127,14 @@ class Runtime:
         self.aliases: dict[object, str] = {}
         """Tag as given -> valid tag (valid tags map to themselves)."""
         self._owners: dict[str, str] = {}
-        self.fast_float: dict[object, Callable[[bytes], None]] = {}
-        """Tag as given -> ``publish`` of its Float64 publisher with verified CDR bytes (the hot path)."""
-        self.fast_int: dict[object, Callable[[bytes], None]] = {}
+        self.fast_float: dict[object, Channel] = {}
+        """Tag as given -> its Float64 channel (the hot path queues floats for it without checks)."""
+        self.fast_int: dict[object, Channel] = {}
         """Same for Int64."""
+        self.pipe = Pipe(self)
+        """The queue of scalar samples and the thread that publishes them."""
+        self.batch_publish: Callable[[bytes], None] | None = None
+        self._batch_publisher: Any = None
         self.state: State = "idle"
         self._context: Any = None
         self._node: Any = None
@@ -157,6 +187,7 @@ class Runtime:
             self._owners.clear()
             self.fast_float.clear()
             self.fast_int.clear()
+        self.pipe.clear()
 
     # ----- publishers -----------------------------------------------------------------------------
 
@@ -206,9 +237,41 @@ class Runtime:
             if len(self.fast_float) + len(self.fast_int) >= 4 * MAX_TAGS:
                 return
             if ch.spec.name == "Float64":
-                self.fast_float[given] = ch.publish
+                self.fast_float[given] = ch
             elif ch.spec.name == "Int64":
-                self.fast_int[given] = ch.publish
+                self.fast_int[given] = ch
+
+    def enqueue(self, ch: Channel, value: object, api: str) -> None:
+        """Queue a checked scalar for the publisher thread; count and warn (once) when the queue is full."""
+        pipe = self.pipe
+        if len(pipe.queue) >= pipe.capacity:
+            self.reporter.drop(
+                "queue_full",
+                "queue_full",
+                f"dbglog.{api}: {pipe.capacity} samples are waiting to be published (the middleware "
+                "cannot keep up); values are dropped until the queue drains",
+            )
+            return
+        pipe.queue.append((ch, value, time.time_ns()))
+        if pipe.sleeping:
+            pipe.wake()
+
+    def send_queued(self, ch: Channel, value: object) -> bool:
+        """Publish a queued sample on its tag's topic (publisher thread); False when it was dropped."""
+        if not ch.alive:
+            current = self.channels.get(ch.tag)
+            if current is None or current.msg_class is not ch.msg_class:
+                with self._lock:
+                    current = self.channels.get(ch.tag)
+                    if current is None:
+                        current = self._create_channel(ch.tag, ch.msg_class, "log")
+            if current is None or current.msg_class is not ch.msg_class:
+                return False
+            ch = current
+        try:
+            return self.send(ch, value, "log")
+        except Exception:  # strict mode raises on this thread: the user's thread is not here
+            return False
 
     def send(self, ch: Channel, value: object, api: str, *, message: bool = False) -> bool:
         """Publish on `ch`; on failure fall back to dbglog's own node once, else count and warn."""
@@ -320,6 +383,22 @@ class Runtime:
                     )
                     return False
                 self._context = context
+            node = self._user_node if self._user_node is not None else self._node
+            try:
+                from std_msgs.msg import UInt8MultiArray
+
+                self._batch_publisher = node.create_publisher(UInt8MultiArray, BATCH_TOPIC, batch_qos())
+                self.batch_publish = self._batch_publisher.publish
+            except Exception as exc:
+                self._batch_publisher = self.batch_publish = None
+                self.reporter.warn(
+                    "publish_failed",
+                    "batch_publisher",
+                    f"dbglog.{api}: cannot create the batch publisher on {BATCH_TOPIC} "
+                    f"({type(exc).__name__}: {exc}); the viewer falls back to the per-tag topics",
+                    exc,
+                )
+            self.pipe.new_writer()
             self._pid = os.getpid()
             self.state = "ready"
             return True
@@ -339,25 +418,29 @@ class Runtime:
 
     def flush(self, timeout: float) -> bool:
         """Wait up to `timeout` seconds in total until every subscriber acknowledged every message."""
+        deadline = time.monotonic() + timeout
+        ok = self.pipe.drain(timeout)
         if self.state != "ready":
-            return True
+            return ok
         from rclpy.duration import Duration
 
-        deadline = time.monotonic() + timeout
-        ok = True
-        for ch in list(self.channels.values()):
+        publishers = [ch.publisher for ch in list(self.channels.values())]
+        if self._batch_publisher is not None:
+            publishers.append(self._batch_publisher)
+        for publisher in publishers:
             remaining = deadline - time.monotonic()
             if remaining <= 0:
                 return False
             try:
-                if ch.publisher.get_subscription_count() > 0:
-                    ok = bool(ch.publisher.wait_for_all_acked(Duration(seconds=remaining))) and ok
+                if publisher.get_subscription_count() > 0:
+                    ok = bool(publisher.wait_for_all_acked(Duration(seconds=remaining))) and ok
             except Exception:
                 ok = False
         return ok
 
     def shutdown(self) -> None:
-        """Destroy every publisher (and dbglog's own node and context); the next call reconnects."""
+        """Publish what is queued, then destroy every publisher (and dbglog's own node and context)."""
+        self.pipe.drain(_EXIT_FLUSH_SECONDS)
         with self._lock:
             if self.state == "ready":
                 self._drop_ros_objects(destroy=True)
@@ -370,15 +453,18 @@ class Runtime:
         self.channels.clear()
         self.fast_float.clear()
         self.fast_int.clear()
+        for ch in channels:
+            ch.alive = False
+        batch, self._batch_publisher, self.batch_publish = self._batch_publisher, None, None
         node, context = self._node, self._context
         self._node = self._context = None
         if not destroy:
             return
         owner = self._user_node if self._user_node is not None else node
         # Each may fail when the node or context is already gone: nothing is left to release then.
-        for ch in channels:
+        for publisher in [ch.publisher for ch in channels] + ([batch] if batch is not None else []):
             with contextlib.suppress(Exception):
-                owner.destroy_publisher(ch.publisher)
+                owner.destroy_publisher(publisher)
         if node is not None:
             with contextlib.suppress(Exception):
                 node.destroy_node()
@@ -387,9 +473,16 @@ class Runtime:
                 context.try_shutdown()
 
     def _forget_parent_objects(self) -> None:
-        for obj in (*self.channels.values(), self._node, self._context, self._user_node):
+        for obj in (
+            *self.channels.values(),
+            self._batch_publisher,
+            self._node,
+            self._context,
+            self._user_node,
+        ):
             if obj is not None:
                 _leak(obj)
+        self._batch_publisher = self.batch_publish = None
         self.channels.clear()
         self.fast_float.clear()
         self.fast_int.clear()
@@ -399,6 +492,7 @@ class Runtime:
         # Locks may have been held by another thread at the fork: start with fresh ones.
         self._lock = threading.RLock()
         self.reporter.after_fork()
+        self.pipe.after_fork_in_child()
         if self.state == "ready":
             self._forget_parent_objects()
         if self.state == "ready" or "rclpy" in sys.modules:
@@ -412,6 +506,7 @@ class Runtime:
             self.state = "closed" if self.state != "forked" else self.state
             return
         try:
+            self.pipe.drain(_EXIT_DRAIN_SECONDS)
             self.flush(_EXIT_FLUSH_SECONDS)
         finally:
             with self._lock:

@@ -24,7 +24,9 @@ from typing import Any, Self
 import numpy as np
 import numpy.typing as npt
 
+from dbglog._ros._batch import BATCH_TOPIC
 from dbglog.regex_bridge._regex import CompiledRegex, RegexError, compile_regex, parse_number
+from dbglog.viewer._batchsub import BatchIngest, BatchStats
 from dbglog.viewer._cdr import decode_fixed
 from dbglog.viewer._fields import (
     FieldPathError,
@@ -195,6 +197,15 @@ class Engine:
         self._cycles = 0
         self._thread_cpu = 0.0
         self._subs: dict[str, _TopicSub] = {}
+        self._batches = BatchIngest(
+            make_sink=self._make_sink,
+            feed=_feed,
+            record_latency=self._record_latency,
+            message_class=message_class,
+            keep=history,
+            claim=self._claim_for_batch,
+        )
+        """dbglog SDK tags arrive in batches on one hidden topic (see ``_batchsub``)."""
         self._latency: npt.NDArray[np.float64] | None = (
             np.full(_LATENCY_SAMPLES, np.nan) if measure_latency else None  # pages touched now
         )
@@ -313,6 +324,10 @@ class Engine:
             thread_cpu_s=self._thread_cpu,
         )
 
+    def batch_stats(self) -> BatchStats:
+        """Return what arrived on dbglog's batch topic (batches, samples, lost batches, covered topics)."""
+        return self._batches.stats()
+
     def latencies(self) -> npt.NDArray[np.float64]:
         """Return recorded publish-to-buffer latencies in seconds (``measure_latency=True`` only)."""
         if self._latency is None:
@@ -375,6 +390,7 @@ class Engine:
             self._loop(node, context)
         finally:
             self._guard = None
+            self._batches.close(node)
             for topic in list(self._subs.values()):
                 node.destroy_subscription(topic.sub)
             self._subs = {}
@@ -388,6 +404,7 @@ class Engine:
         next_graph = 0.0
         wait_set: Any = None
         wait_subs: list[_TopicSub] = []
+        wait_batch: Any = None
         while self._running and context.ok():
             cycle_start = time.monotonic()
             try:
@@ -399,12 +416,15 @@ class Engine:
                     self._refresh_graph(node)
                     next_graph = time.monotonic() + self.graph_period
                 subs = list(self._subs.values())
-                if wait_set is None or subs != wait_subs:
-                    wait_subs = subs
-                    wait_set = _rclpy.WaitSet(len(subs), 1, 0, 0, 0, 0, context.handle)
+                batch_sub = self._batches.sub
+                if wait_set is None or subs != wait_subs or batch_sub is not wait_batch:
+                    wait_subs, wait_batch = subs, batch_sub
+                    wait_set = _rclpy.WaitSet(len(subs) + 1, 1, 0, 0, 0, 0, context.handle)
                 wait_set.clear_entities()
                 for topic in wait_subs:
                     wait_set.add_subscription(topic.sub.handle)
+                if batch_sub is not None:
+                    wait_set.add_subscription(batch_sub.handle)
                 wait_set.add_guard_condition(self._guard.handle)
                 timeout = max(0.0, next_graph - time.monotonic())
                 wait_set.wait(int(timeout * 1e9))
@@ -414,6 +434,8 @@ class Engine:
                     for topic in wait_subs:
                         if topic.sub.handle.pointer in ready:
                             self._drain(topic)
+                    if batch_sub is not None and batch_sub.handle.pointer in ready:
+                        self._batches.drain()
             except Exception:
                 if not (self._running and context.ok()):
                     return
@@ -438,6 +460,7 @@ class Engine:
     def _reconcile(self, node: Any) -> None:
         """Drop subscriptions nobody needs; attach new bindings to existing subscriptions."""
         wanted = self._wanted()
+        self._batches.keep_only(wanted)
         for name, topic in list(self._subs.items()):
             want = wanted.get(name, {})
             for binding in list(topic.sinks):
@@ -516,7 +539,8 @@ class Engine:
         return plan
 
     def _refresh_graph(self, node: Any) -> None:
-        names_types = node.get_topic_names_and_types()
+        names_types = [(n, t) for n, t in node.get_topic_names_and_types() if n != BATCH_TOPIC]
+        self._batches.refresh(node)
         wanted = self._wanted()
         topics: list[TopicInfo] = []
         types: dict[str, tuple[str, ...]] = {}
@@ -557,10 +581,19 @@ class Engine:
                 if topic is None
                 else "the topic has no publisher now"
             )
+            self._batches.detach(name)
             for series in bindings.values():
                 series.set_waiting(reason)
             return
         pub_types = sorted({info.topic_type for info in infos})
+        if self._batches.covers(infos) and len(pub_types) == 1:
+            # Every publisher is a dbglog SDK that also sends batches: read every sample from those.
+            if topic is not None:
+                node.destroy_subscription(topic.sub)
+                del self._subs[name]
+            self._batches.attach(name, pub_types[0], bindings)
+            return
+        self._batches.detach(name)
         best_effort = any(i.qos_profile.reliability == ReliabilityPolicy.BEST_EFFORT for i in infos)
         transient = all(i.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL for i in infos)
         if topic is not None and topic.msg_type in pub_types:
@@ -572,6 +605,14 @@ class Engine:
                 series.set_error(f"publishers disagree on the type of {name}: {', '.join(pub_types)}")
             return
         self._subscribe(node, name, pub_types[0], bindings, not best_effort, transient, topic)
+
+    def _claim_for_batch(self, name: str, msg_type: str) -> bool:
+        """Feed a bound topic from batches before the graph shows its publisher (none of its own yet)."""
+        bindings = self._wanted().get(name)
+        if name in self._subs or not bindings:
+            return False
+        self._batches.attach(name, msg_type, bindings)
+        return True
 
     def _subscribe(
         self,

@@ -1,0 +1,1 @@
+"""ROS conventions shared below ``api/`` and ``viewer/``: imports no feature package."""

@@ -1,0 +1,223 @@
+"""The batch wire format: many tag samples with their source times in one ``UInt8MultiArray`` message.
+
+The SDK's publisher thread sends one batch per flush on the hidden topic `BATCH_TOPIC`; the viewer's
+engine reads every sample (in order, with its own source time) from it instead of one message per
+sample on ``/rosdashboard/<tag>``. Version 1 layout, little-endian, in the message's ``data`` field::
+
+    header   "DBGL" u8 version u8 flags u16 n_tags u32 n_samples u64 writer u64 seq u32 n_strings
+    tags     n_tags x (u8 type code, u16 name length, name UTF-8); the sample tag index is the position
+    pad      zero bytes to a multiple of 8 from the start of the payload
+    index    u16 x n_samples, padded to 8
+    times    i64 x n_samples (source time, ns since the epoch)
+    values   8 bytes x n_samples: f64 (Float*), i64 (Int*, Bool), u64 (UInt*), i64 string number (String)
+    strings  u32 x n_strings lengths, then the UTF-8 texts back to back
+
+`writer` is random per connection and `seq` counts its batches from 0, so a reader sees lost batches.
+No import of rclpy or numpy at module level.
+"""
+
+from __future__ import annotations
+
+import struct
+from array import array
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    import numpy as np
+    import numpy.typing as npt
+
+__all__ = [
+    "BATCH_DEPTH",
+    "BATCH_TOPIC",
+    "BATCH_TYPE",
+    "SCALAR_TYPES",
+    "BatchError",
+    "DecodedBatch",
+    "TagSamples",
+    "decode_batch",
+    "encode_batch",
+    "type_code",
+]
+
+BATCH_TOPIC = "/_dbglog/samples"
+"""Hidden (``_``) topic of the batches: ``ros2 topic list`` leaves it out unless asked."""
+BATCH_TYPE = "std_msgs/msg/UInt8MultiArray"
+BATCH_DEPTH = 1000
+"""KEEP_LAST depth of the batch writer and reader: seconds of batches at a few ms per flush."""
+
+SCALAR_TYPES: tuple[str, ...] = (
+    "Float64",
+    "Float32",
+    "Int8",
+    "Int16",
+    "Int32",
+    "Int64",
+    "UInt8",
+    "UInt16",
+    "UInt32",
+    "UInt64",
+    "Bool",
+    "String",
+)
+"""std_msgs types a batch carries, by type code (their index)."""
+
+_MAGIC = b"DBGL"
+_VERSION = 1
+_HEADER = struct.Struct("<4sBBHIQQI")
+_TAG = struct.Struct("<BH")
+_CDR_PREFIX = struct.Struct("<4sIII")
+_CDR_HEADER = b"\x00\x01\x00\x00"
+_CDR_PREFIX_SIZE = _CDR_PREFIX.size
+_VALUE_DTYPES = {
+    "Float64": "<f8",
+    "Float32": "<f8",
+    "UInt8": "<u8",
+    "UInt16": "<u8",
+    "UInt32": "<u8",
+    "UInt64": "<u8",
+}
+"""Value slot dtype per type; the others are i64."""
+
+
+class BatchError(ValueError):
+    """A batch message that does not follow the layout (truncated, unknown version, bad index)."""
+
+
+def type_code(std_type: str) -> int:
+    """Return the code of a std_msgs scalar type name (``Float64`` ...), as the tag table stores it."""
+    return SCALAR_TYPES.index(std_type)
+
+
+def _pad8(n: int) -> int:
+    return (-n) % 8
+
+
+def encode_batch(
+    writer: int,
+    seq: int,
+    tags: Sequence[tuple[int, bytes]],
+    index: array[int],
+    times: array[int],
+    values: bytes | bytearray,
+    strings: Sequence[bytes],
+) -> bytes:
+    """Return the full CDR message (``UInt8MultiArray``) of one batch.
+
+    Args:
+        writer: the writer's id (u64).
+        seq: the batch's sequence number (u64).
+        tags: (type code, tag UTF-8) per tag; samples refer to them by position.
+        index: ``array('H')``: each sample's tag position.
+        times: ``array('q')``: each sample's source time in ns.
+        values: 8 bytes per sample, see the module docstring.
+        strings: the texts of String samples, numbered in order.
+    """
+    n = len(index)
+    parts = [_HEADER.pack(_MAGIC, _VERSION, 0, len(tags), n, writer, seq, len(strings))]
+    size = _HEADER.size
+    for code, name in tags:
+        parts.append(_TAG.pack(code, len(name)))
+        parts.append(name)
+        size += _TAG.size + len(name)
+    parts.append(bytes(_pad8(size)))
+    idx = index.tobytes()
+    parts.append(idx)
+    parts.append(bytes(_pad8(len(idx))))
+    parts.append(times.tobytes())
+    parts.append(bytes(values))
+    if strings:
+        parts.append(array("I", [len(s) for s in strings]).tobytes())
+        parts.extend(strings)
+    payload = b"".join(parts)
+    return _CDR_PREFIX.pack(_CDR_HEADER, 0, 0, len(payload)) + payload
+
+
+@dataclass(frozen=True, slots=True)
+class TagSamples:
+    """One tag's samples in a batch, in the order they were logged."""
+
+    tag: str
+    std_type: str
+    """``Float64``, ``Int32``, ``String`` ... (the per-tag topic's std_msgs type)."""
+    times_ns: npt.NDArray[np.int64]
+    values: npt.NDArray[np.float64] | list[str]
+    """Numbers as float64 (bools 0/1), or the texts of a String tag."""
+
+
+@dataclass(frozen=True, slots=True)
+class DecodedBatch:
+    """A decoded batch: who wrote it, its number, and its samples grouped by tag."""
+
+    writer: int
+    seq: int
+    samples: int
+    tags: list[TagSamples]
+
+
+def decode_batch(cdr: bytes) -> DecodedBatch:
+    """Decode one batch message from its CDR bytes (as a raw subscription takes them).
+
+    Raises:
+        BatchError: the bytes are not a version-1 batch.
+    """
+    import numpy as np
+
+    buf = memoryview(cdr)
+    if len(buf) < _CDR_PREFIX_SIZE + _HEADER.size:
+        raise BatchError(f"a batch of {len(buf)} bytes is too short")
+    _, dims, _, length = _CDR_PREFIX.unpack_from(buf, 0)
+    if dims != 0 or _CDR_PREFIX_SIZE + length > len(buf):
+        raise BatchError("not a dbglog batch (unexpected UInt8MultiArray layout)")
+    data = buf[_CDR_PREFIX_SIZE : _CDR_PREFIX_SIZE + length]
+    magic, version, _, n_tags, n, writer, seq, n_strings = _HEADER.unpack_from(data, 0)
+    if magic != _MAGIC:
+        raise BatchError("not a dbglog batch (bad magic)")
+    if version != _VERSION:
+        raise BatchError(f"batch version {version} is not supported (this dbglog reads {_VERSION})")
+    pos = _HEADER.size
+    table: list[tuple[str, str]] = []
+    try:
+        for _ in range(n_tags):
+            code, name_len = _TAG.unpack_from(data, pos)
+            pos += _TAG.size
+            name = bytes(data[pos : pos + name_len]).decode()
+            pos += name_len
+            table.append((name, SCALAR_TYPES[code]))
+        pos += _pad8(pos)
+        index = np.frombuffer(data, dtype="<u2", count=n, offset=pos)
+        pos += 2 * n + _pad8(2 * n)
+        times = np.frombuffer(data, dtype="<i8", count=n, offset=pos)
+        pos += 8 * n
+        raw = data[pos : pos + 8 * n]
+        pos += 8 * n
+        lengths = np.frombuffer(data, dtype="<u4", count=n_strings, offset=pos) if n_strings else None
+        pos += 4 * n_strings
+    except (struct.error, ValueError, IndexError, UnicodeDecodeError) as exc:
+        raise BatchError(f"truncated or corrupt batch: {exc}") from exc
+    if len(raw) != 8 * n or (n and int(index.max()) >= n_tags):
+        raise BatchError("truncated or corrupt batch (sample section)")
+    texts: list[str] = []
+    if lengths is not None:
+        for size in lengths.tolist():
+            texts.append(bytes(data[pos : pos + size]).decode(errors="replace"))
+            pos += size
+    order = np.argsort(index, kind="stable")
+    bounds = np.searchsorted(index[order], np.arange(n_tags + 1))
+    out: list[TagSamples] = []
+    for i, (name, std_type) in enumerate(table):
+        sel = order[bounds[i] : bounds[i + 1]]
+        if not len(sel):
+            continue
+        column = np.frombuffer(raw, dtype=_VALUE_DTYPES.get(std_type, "<i8"))[sel]
+        values: npt.NDArray[np.float64] | list[str]
+        if std_type == "String":
+            try:
+                values = [texts[k] for k in column.tolist()]
+            except IndexError as exc:
+                raise BatchError("a String sample refers to a missing text") from exc
+        else:
+            values = column.astype(np.float64)
+        out.append(TagSamples(name, std_type, times[sel], values))
+    return DecodedBatch(writer, seq, n, out)

@@ -1,0 +1,241 @@
+"""The publishing path: the calling thread appends (channel, value, source time) to a queue; a daemon
+thread drains it every few ms into one batch message and the per-tag std_msgs messages.
+
+The calling thread never publishes a scalar itself: a deque append is atomic under the GIL, so the hot
+path takes no lock and sets no event (the thread is woken only when it went to sleep after being idle).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import struct
+import threading
+import time
+from array import array
+from collections import deque
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
+
+from dbglog._ros._batch import encode_batch
+
+if TYPE_CHECKING:
+    from dbglog.api._runtime import Channel, Runtime
+
+__all__ = ["FLUSH_PERIOD", "QUEUE_CAPACITY", "Pipe"]
+
+QUEUE_CAPACITY = 100_000
+"""Queued samples at most (about 10 s at 10k samples/s, ~15 MB); more are dropped and counted."""
+FLUSH_PERIOD = 0.005
+"""Seconds between two drains while samples flow: the batch latency and the batch size."""
+_IDLE_AFTER = 0.2
+"""Seconds without samples after which the thread blocks until the next sample wakes it."""
+_MAX_BATCH = 4096
+"""Samples per batch message at most (a longer backlog goes out as several batches)."""
+_YIELD_NS = 50_000
+"""Let a waiting thread (the user's loop) have the GIL at least this often while publishing."""
+
+Item = tuple["Channel", object, int]
+
+
+class Pipe:
+    """The queue between the logging calls and the publisher thread."""
+
+    def __init__(self, runtime: Runtime) -> None:
+        self.runtime = runtime
+        self.queue: deque[Item] = deque()
+        self.capacity = QUEUE_CAPACITY
+        self.sleeping = True
+        """True while the thread waits for a sample: the next append must call `wake`."""
+        self.writer = int.from_bytes(os.urandom(8), "little")
+        self.seq = 0
+        self.batches = 0
+        self._event = threading.Event()
+        self._drain_lock = threading.Lock()
+        self._thread: threading.Thread | None = None
+        self._pid = os.getpid()
+
+    # ----- calling threads ------------------------------------------------------------------------
+
+    def wake(self) -> None:
+        """Wake the thread (started on first use) after it went to sleep."""
+        self.sleeping = False
+        if self._thread is None or self._pid != os.getpid():
+            self._start_thread()
+        self._event.set()
+
+    def _start_thread(self) -> None:
+        with self.runtime._lock:
+            if self._thread is not None and self._pid == os.getpid():
+                return
+            self._pid = os.getpid()
+            self._thread = threading.Thread(target=self._run, name="dbglog-publisher", daemon=True)
+            self._thread.start()
+
+    def new_writer(self) -> None:
+        """Start a new batch sequence (a new connection is a new writer for readers)."""
+        self.writer = int.from_bytes(os.urandom(8), "little")
+        self.seq = 0
+
+    def drain(self, timeout: float) -> bool:
+        """Publish everything queued now, on this thread; False when `timeout` ran out first."""
+        deadline = time.monotonic() + timeout
+        if not self._drain_lock.acquire(timeout=max(0.0, timeout)):
+            return False
+        try:
+            todo = len(self.queue)
+            while todo > 0 and self.queue:
+                if time.monotonic() > deadline:
+                    return False
+                todo -= self._flush_once(yield_gil=False)
+            return True
+        finally:
+            self._drain_lock.release()
+
+    def clear(self) -> None:
+        """Forget queued samples (after a fork, or a reset)."""
+        self.queue.clear()
+
+    def after_fork_in_child(self) -> None:
+        """The parent's thread does not exist here: start afresh (a new thread on first use)."""
+        self.queue.clear()  # the same deque: the hot path holds it
+        self._event = threading.Event()
+        self._drain_lock = threading.Lock()
+        self._thread = None
+        self.sleeping = True
+        self._pid = os.getpid()
+        self.new_writer()
+
+    # ----- the publisher thread -------------------------------------------------------------------
+
+    def _run(self) -> None:
+        idle_since = time.monotonic()
+        queue = self.queue
+        while True:
+            if self._pid != os.getpid():  # pragma: no cover - a thread never survives a fork
+                return
+            if queue:
+                with self._drain_lock:
+                    try:
+                        while queue:
+                            self._flush_once(yield_gil=True)
+                    except Exception:  # noqa: S110  (reported per sample; the thread must survive)
+                        pass
+                idle_since = time.monotonic()
+            elif time.monotonic() - idle_since > _IDLE_AFTER:
+                self.sleeping = True
+                if not self.queue:
+                    self._event.wait()
+                self._event.clear()
+                self.sleeping = False
+                idle_since = time.monotonic()
+                continue
+            time.sleep(FLUSH_PERIOD)
+            queue = self.queue
+
+    def _flush_once(self, *, yield_gil: bool) -> int:
+        """Take up to `_MAX_BATCH` samples: one batch message, then each sample on its tag's topic."""
+        queue = self.queue
+        popleft = queue.popleft
+        items: list[Item] = []
+        for _ in range(min(len(queue), _MAX_BATCH)):
+            items.append(popleft())
+        if not items:
+            return 0
+        runtime = self.runtime
+        if runtime.state != "ready":
+            for _ in items:
+                runtime.reporter.count("shut_down")
+            return len(items)
+        self._publish_batch(items)
+        send = runtime.send_queued
+        published = runtime.reporter.published.incr
+        clock = time.perf_counter_ns
+        last = clock()
+        for ch, value, _ in items:
+            encode = ch.encode
+            if encode is not None and ch.alive:
+                try:
+                    ch.publish(encode(value))
+                except Exception:  # the general path retries, recovers and reports
+                    if send(ch, value):
+                        published()
+                else:
+                    published()
+            elif send(ch, value):
+                published()
+            if yield_gil and clock() - last > _YIELD_NS:
+                time.sleep(0)
+                last = clock()
+        return len(items)
+
+    def _publish_batch(self, items: list[Item]) -> None:
+        """Publish `items` as one batch message (best effort: the per-tag copies carry on)."""
+        publish = self.runtime.batch_publish
+        if publish is None:
+            return
+        table: dict[Channel, int] = {}
+        tags: list[tuple[int, bytes]] = []
+        index = array("H")
+        times = array("q")
+        values = bytearray()
+        strings: list[bytes] = []
+        add_index, add_time = index.append, times.append
+        for ch, value, t in items:
+            i = table.get(ch)
+            if i is None:
+                i = table[ch] = len(tags)
+                tags.append((ch.code, ch.tag_bytes))
+            add_index(i)
+            add_time(t)
+            if ch.slot is None:
+                values += _pack_q(len(strings))
+                strings.append(str(value).encode("utf-8", "replace"))
+            else:
+                values += ch.slot(value)
+        message = encode_batch(self.writer, self.seq, tags, index, times, values, strings)
+        self.seq += 1
+        try:
+            publish(message)
+            self.batches += 1
+        except Exception as exc:
+            with contextlib.suppress(Exception):  # strict mode raises here: not the user's thread
+                self.runtime.reporter.warn(
+                    "publish_failed",
+                    "batch",
+                    f"dbglog: publishing a batch of {len(items)} samples failed "
+                    f"({type(exc).__name__}: {exc}); the viewer misses them, ROS tools still get them",
+                    exc,
+                )
+
+
+_pack_q = struct.Struct("<q").pack
+_pack_d = struct.Struct("<d").pack
+_pack_f = struct.Struct("<f").pack
+_unpack_f = struct.Struct("<f").unpack
+_pack_uq = struct.Struct("<Q").pack
+_TRUE = _pack_q(1)
+_FALSE = _pack_q(0)
+
+
+def _float32_slot(value: Any) -> bytes:
+    return _pack_d(_unpack_f(_pack_f(value))[0])
+
+
+def _bool_slot(value: Any) -> bytes:
+    return _TRUE if value else _FALSE
+
+
+def slot_packer(std_type: str) -> Callable[[Any], bytes] | None:
+    """Return the 8-byte batch value packer of a std_msgs scalar type (None for String)."""
+    if std_type == "String":
+        return None
+    if std_type == "Float64":
+        return _pack_d
+    if std_type == "Float32":
+        return _float32_slot
+    if std_type == "Bool":
+        return _bool_slot
+    if std_type.startswith("UInt"):
+        return _pack_uq
+    return _pack_q

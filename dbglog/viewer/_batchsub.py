@@ -1,0 +1,303 @@
+"""The engine's reader of dbglog's batch topic: every sample of every SDK tag, in order, with its time.
+
+A per-tag topic whose every publisher belongs to a node that also publishes batches is *covered*: the
+engine does not subscribe to it (so the SDK's per-tag copies cost it nothing) and feeds the topic's
+bindings from the batches instead. Topics with any other publisher (the bridge, a user's node) keep
+their own subscription. Runs on the engine's ROS thread only; no Dear PyGui.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from collections import deque
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from dbglog._ros._batch import (
+    BATCH_DEPTH,
+    BATCH_TOPIC,
+    BATCH_TYPE,
+    SCALAR_TYPES,
+    BatchError,
+    TagSamples,
+    decode_batch,
+)
+from dbglog.viewer._model import Binding, ValueKind
+from dbglog.viewer._series import Series
+
+__all__ = ["BatchIngest", "BatchStats"]
+
+_log = logging.getLogger("dbglog.viewer.engine")
+_TAG_PREFIX = "/rosdashboard/"
+_RECENT = 100
+"""Samples kept per tag that nothing binds yet: what a binding made later starts with (as the per-tag
+topics' transient-local history of 100 would give it)."""
+_MAX_TAKE = 2000
+"""Batches taken per wake-up at most (others get their turn)."""
+_SCALAR_TYPE_NAMES = frozenset(f"std_msgs/msg/{name}" for name in SCALAR_TYPES)
+
+
+@dataclass(frozen=True, slots=True)
+class BatchStats:
+    """What the batch reader received."""
+
+    batches: int
+    samples: int
+    lost_batches: int
+    """Batches a writer sent that never arrived (gaps in its sequence numbers)."""
+    writers: int
+    covered: tuple[str, ...]
+    """Topics fed from batches instead of their own subscription."""
+
+
+@dataclass(eq=False, slots=True)
+class _Covered:
+    """A per-tag topic fed from batches, and its bindings' sinks."""
+
+    msg_type: str
+    sinks: dict[Binding, Any] = field(default_factory=dict)
+
+
+class BatchIngest:
+    """Subscribes to `BATCH_TOPIC` while a writer exists and routes samples to covered topics' sinks.
+
+    Args:
+        make_sink: the engine's ``(binding, series, cls, msg_type) -> sink``.
+        feed: the engine's ``(sink, messages, times, now)`` for typed values (text, regex).
+        record_latency: the engine's latency recorder (times in seconds since the epoch).
+        message_class: ``type name -> class``.
+        keep: samples kept per bound topic that is not fed from batches yet (the series' history):
+            a binding made just before its writer is seen on the graph still gets every sample.
+        claim: the engine's ``(topic, msg_type) -> attached``, asked when samples of a bound topic
+            arrive before the graph shows its publishers (a short-lived writer may be gone by then).
+    """
+
+    def __init__(
+        self,
+        *,
+        make_sink: Callable[[Binding, Series, Any, str], Any],
+        feed: Callable[..., None],
+        record_latency: Callable[[Any], None],
+        message_class: Callable[[str], Any],
+        keep: int = 10_000,
+        claim: Callable[[str, str], bool] | None = None,
+    ) -> None:
+        self._make_sink = make_sink
+        self._feed = feed
+        self._record_latency = record_latency
+        self._message_class = message_class
+        self._keep = keep
+        self._claim = claim
+        self._wanted: frozenset[str] = frozenset()
+        self.sub: Any = None
+        self._cls: Any = None
+        self._writer_nodes: frozenset[tuple[str, str]] = frozenset()
+        self._covered: dict[str, _Covered] = {}
+        self._recent: dict[str, _Recent] = {}
+        self._last_seq: dict[int, int] = {}
+        self._newest: dict[Binding, float] = {}
+        """Newest sample time each binding holds: a re-attached binding is seeded only past it."""
+        self._batches = 0
+        self._samples = 0
+        self._lost = 0
+
+    # --- graph (engine thread) ----------------------------------------------------------------------
+
+    def refresh(self, node: Any) -> None:
+        """Follow the batch writers on the graph: subscribe while there is one."""
+        infos = node.get_publishers_info_by_topic(BATCH_TOPIC)
+        self._writer_nodes = frozenset(
+            (i.node_namespace, i.node_name) for i in infos if i.topic_type == BATCH_TYPE
+        )
+        if self._writer_nodes and self.sub is None:
+            from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+            self._cls = self._message_class(BATCH_TYPE)
+            qos = QoSProfile(
+                history=HistoryPolicy.KEEP_LAST,
+                depth=BATCH_DEPTH,
+                reliability=ReliabilityPolicy.RELIABLE,
+                durability=DurabilityPolicy.TRANSIENT_LOCAL,
+            )
+            self.sub = node.create_subscription(self._cls, BATCH_TOPIC, _noop, qos, raw=True)
+
+    def covers(self, infos: list[Any]) -> bool:
+        """True when every publisher of a topic is a batch writer's node publishing a std_msgs scalar."""
+        return bool(infos) and all(
+            (i.node_namespace, i.node_name) in self._writer_nodes and i.topic_type in _SCALAR_TYPE_NAMES
+            for i in infos
+        )
+
+    def is_covered(self, name: str) -> bool:
+        """True when `name` is fed from batches now."""
+        return name in self._covered
+
+    def attach(self, name: str, msg_type: str, bindings: dict[Binding, Series]) -> None:
+        """Feed `bindings` of topic `name` from batches (new ones start with the tag's recent samples)."""
+        covered = self._covered.get(name)
+        if covered is None or covered.msg_type != msg_type:
+            covered = self._covered[name] = _Covered(msg_type)
+        for binding in [b for b in covered.sinks if b not in bindings]:
+            del covered.sinks[binding]
+        cls = self._message_class(msg_type)
+        for binding, series in bindings.items():
+            if binding in covered.sinks:
+                continue
+            sink = self._make_sink(binding, series, cls, msg_type)
+            covered.sinks[binding] = sink
+            if sink.kind is None:
+                continue
+            held = series.snapshot(1e9).last_time  # values it already has (an earlier subscription)
+            if held is not None:
+                self._newest[binding] = max(self._newest.get(binding, held), held)
+            series.set_type(msg_type, sink.kind)
+            if series.count == 0:
+                series.set_waiting("subscribed; no message yet")
+            recent = self._recent.get(name)
+            if recent is not None and recent.chunks:
+                newest = self._newest.get(binding)
+                chunks = list(recent.chunks)
+                if newest is not None:
+                    chunks = [
+                        (
+                            t[t > newest],
+                            v[t > newest]
+                            if not isinstance(v, list)
+                            else [x for x, k in zip(v, (t > newest).tolist(), strict=True) if k],
+                        )
+                        for t, v in chunks
+                    ]
+                self._push(sink, [c for c in chunks if len(c[0])])
+
+    def detach(self, name: str) -> None:
+        """Stop feeding topic `name` from batches (it has another publisher, or none)."""
+        self._covered.pop(name, None)
+
+    def keep_only(self, wanted: dict[str, dict[Binding, Series]]) -> None:
+        """Forget covered topics and bindings nothing binds any more."""
+        self._wanted = frozenset(wanted)
+        for name in [n for n in self._covered if n not in wanted]:
+            del self._covered[name]
+        bound = {b for bindings in wanted.values() for b in bindings}
+        for binding in [b for b in self._newest if b not in bound]:
+            del self._newest[binding]
+
+    def close(self, node: Any) -> None:
+        """Destroy the subscription (engine stop)."""
+        if self.sub is not None:
+            node.destroy_subscription(self.sub)
+            self.sub = None
+
+    def stats(self) -> BatchStats:
+        """Return the counters."""
+        return BatchStats(
+            self._batches, self._samples, self._lost, len(self._last_seq), tuple(sorted(self._covered))
+        )
+
+    # --- ingest (engine thread) ---------------------------------------------------------------------
+
+    def drain(self) -> None:
+        """Take the ready batches and feed their samples to covered topics (or keep them as recent)."""
+        take = self.sub.handle.take_message
+        for _ in range(_MAX_TAKE):
+            got = take(self._cls, True)
+            if got is None:
+                return
+            try:
+                batch = decode_batch(got[0])
+            except BatchError as exc:
+                _log.debug("viewer engine: skipping a batch: %s", exc)
+                continue
+            last = self._last_seq.get(batch.writer)
+            if last is not None:
+                if batch.seq <= last:
+                    continue  # re-sent history after a re-subscription: already taken
+                self._lost += batch.seq - last - 1
+            self._last_seq[batch.writer] = batch.seq
+            self._batches += 1
+            self._samples += batch.samples
+            for samples in batch.tags:
+                self._ingest(samples)
+
+    def _ingest(self, samples: TagSamples) -> None:
+        name = _TAG_PREFIX + samples.tag
+        times = samples.times_ns.astype(np.float64) * 1e-9
+        chunk = (times, samples.values)
+        recent = self._recent.get(name)
+        if recent is None:
+            recent = self._recent[name] = _Recent()
+        limit = self._keep if name in self._wanted and name not in self._covered else _RECENT
+        recent.add(chunk, limit)
+        covered = self._covered.get(name)
+        if covered is None:
+            claimed = name in self._wanted and self._claim is not None
+            if claimed and self._claim is not None and self._claim(name, "std_msgs/msg/" + samples.std_type):
+                self._record_latency(times)  # attaching fed this chunk from the recent samples
+            return
+        for sink in covered.sinks.values():
+            self._push(sink, [chunk])
+        self._record_latency(times)
+
+    def _push(self, sink: Any, chunks: list[tuple[Any, Any]]) -> None:
+        """Feed one sink, guarding the others from its failure."""
+        if sink.resolved is None:
+            return
+        now = time.monotonic()
+        try:
+            for times, values in chunks:
+                self._newest[sink.binding] = max(self._newest.get(sink.binding, -np.inf), float(times[-1]))
+                if isinstance(values, list):
+                    self._feed(sink, [_Sample(v) for v in values], times.tolist(), now)
+                elif sink.kind not in (ValueKind.NUMBER, ValueKind.BOOL) or sink.regex or sink.extra:
+                    self._feed(sink, [_Sample(v) for v in _typed(values, sink)], times.tolist(), now)
+                elif sink.chain is not None:
+                    self._feed(sink, [_Sample(v) for v in values.tolist()], times.tolist(), now)
+                else:  # the common case: a column of numbers straight into the series
+                    sink.series.push_numbers(times, values, _typed(values[-1:], sink)[0], now)
+        except Exception as exc:  # this binding's error alone
+            _log.debug("viewer engine: batch feed for %s failed", sink.binding, exc_info=True)
+            sink.resolved = None
+            sink.series.set_error(f"cannot read batch samples: {type(exc).__name__}: {exc}")
+
+
+def _typed(values: Any, sink: Any) -> list[Any]:
+    """Numbers back as the field's Python type (bool, int or float), as typed messages hold them."""
+    if sink.kind == ValueKind.BOOL:
+        return [bool(v) for v in values.tolist()]
+    if sink.resolved.leaf_type in ("float", "double"):
+        return list(values.tolist())
+    return [int(v) for v in values.tolist()]
+
+
+class _Recent:
+    """A tag's newest samples, as the chunks they arrived in, trimmed to a number of samples."""
+
+    __slots__ = ("chunks", "size")
+
+    def __init__(self) -> None:
+        self.chunks: deque[tuple[Any, Any]] = deque()
+        self.size = 0
+
+    def add(self, chunk: tuple[Any, Any], limit: int) -> None:
+        """Append a chunk; drop the oldest while the rest still hold `limit` samples."""
+        self.chunks.append(chunk)
+        self.size += len(chunk[0])
+        while len(self.chunks) > 1 and self.size - len(self.chunks[0][0]) >= limit:
+            self.size -= len(self.chunks.popleft()[0])
+
+
+class _Sample:
+    """Stands in for a std_msgs scalar message: the engine's field accessors read ``.data``."""
+
+    __slots__ = ("data",)
+
+    def __init__(self, data: object) -> None:
+        self.data = data
+
+
+def _noop(_msg: object) -> None:
+    """Subscription callback that never runs (the engine takes batches itself)."""

@@ -1,0 +1,311 @@
+"""The queued publishing path on real ROS 2: every sample reaches the engine and ``dbglog echo`` in order
+with its own source time; drops, shutdown, fork, the off switch, strict mode and a user's node."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import textwrap
+import threading
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+import pytest
+import rclpy
+from rclpy.context import Context
+from rclpy.node import Node
+from std_msgs.msg import Float64
+
+import dbglog
+from dbglog import DbglogWarning
+from dbglog._ros._batch import BATCH_TOPIC
+from dbglog.api._public import RUNTIME
+from dbglog.api._qos import tag_qos
+from dbglog.viewer._engine import Engine
+from dbglog.viewer._model import Binding, SeriesSnapshot
+from tests._ros import RosPeer, wait_until
+
+ROOT = Path(__file__).resolve().parent.parent
+TIMEOUT = 30.0
+
+
+@pytest.fixture(scope="module")
+def engine() -> Iterator[Engine]:
+    """One real viewer engine (own context and node) for the module."""
+    with Engine(node_name="probe_engine") as e:
+        yield e
+
+
+def _env(**extra: str) -> dict[str, str]:
+    env = {k: v for k, v in os.environ.items() if k not in ("DBGLOG", "DBGLOG_STRICT")}
+    env["PYTHONPATH"] = str(ROOT)
+    env.update(extra)
+    return env
+
+
+def _run(code: str, **extra: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-c", textwrap.dedent(code)],
+        env=_env(**extra),
+        capture_output=True,
+        text=True,
+        timeout=90,
+        cwd=ROOT,
+        check=False,
+    )
+
+
+def _when(engine: Engine, binding: Binding, count: int) -> SeriesSnapshot:
+    wait_until(lambda: engine.snapshot(binding).count >= count, TIMEOUT)
+    return engine.snapshot(binding)
+
+
+def _loop_1khz(tags: list[str], n: int) -> list[tuple[int, int]]:
+    """Log `n` iterations of one float per tag at 1 kHz; return each iteration's (before, after) ns."""
+    windows = []
+    deadline = time.monotonic()
+    for k in range(n):
+        before = time.time_ns()
+        for tag in tags:
+            dbglog.logfloat(tag, float(k))
+        windows.append((before, time.time_ns()))
+        deadline += 0.001
+        rest = deadline - time.monotonic()
+        if rest > 0:
+            time.sleep(rest)
+    return windows
+
+
+def test_three_tags_at_1khz_every_sample_reaches_the_engine_in_order_with_source_times(
+    engine: Engine,
+) -> None:
+    """3 tags x 1 kHz x 3 s: the engine's series hold every value, in order, each at its call time."""
+    tags = [f"probe/d{i}" for i in range(3)]
+    bindings = [Binding("/rosdashboard/" + t) for t in tags]
+    for tag in tags:
+        dbglog.logfloat(tag, -1.0)
+    for b in bindings:
+        engine.bind(b)
+    assert wait_until(lambda: all(engine.snapshot(b).count >= 1 for b in bindings), TIMEOUT)
+    assert set(engine.batch_stats().covered) >= {b.topic for b in bindings}
+    n = 3000
+    windows = _loop_1khz(tags, n)
+    for b in bindings:
+        snap = _when(engine, b, n + 1)
+        assert snap.count == n + 1
+        assert snap.values.tolist() == [-1.0, *map(float, range(n))]
+        stamps = np.asarray(snap.times[1:])
+        lo = np.asarray([w[0] for w in windows]) * 1e-9
+        hi = np.asarray([w[1] for w in windows]) * 1e-9
+        assert np.all(stamps >= lo - 1e-6)
+        assert np.all(stamps <= hi + 1e-6)
+    assert engine.stats().per_topic.keys().isdisjoint(b.topic for b in bindings)  # no per-tag copies
+    assert engine.batch_stats().lost_batches == 0
+    s = dbglog.stats()
+    assert (s.calls, s.published, s.dropped) == (3 * (n + 1), 3 * (n + 1), 0)
+
+
+def test_dbglog_echo_prints_every_sample_in_order_with_its_stamp() -> None:
+    """A ``dbglog echo`` process prints all 2000 values of a 1 kHz tag, in order, with source stamps."""
+    dbglog.logint("probe/echo", -1)
+    echo = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "dbglog",
+            "echo",
+            "probe/echo",
+            "--count",
+            "2001",
+            "--stamp",
+            "--timeout",
+            "30",
+        ],
+        env=_env(),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        cwd=ROOT,
+    )
+    try:
+        batch = RUNTIME._batch_publisher
+        assert wait_until(lambda: batch.get_subscription_count() >= 1, TIMEOUT)
+        deadline = time.monotonic()
+        sent = []
+        for k in range(2000):
+            sent.append(time.time())
+            dbglog.logint("probe/echo", k)
+            deadline += 0.001
+            time.sleep(max(0.0, deadline - time.monotonic()))
+        out, err = echo.communicate(timeout=60)
+    finally:
+        echo.kill()
+    rows = [line.split() for line in out.splitlines()]
+    assert [int(v) for _, v in rows] == [-1, *range(2000)], err
+    stamps = [float(t) for t, _ in rows[1:]]
+    assert all(abs(s - t) < 0.005 for s, t in zip(stamps, sent, strict=True))
+    assert stamps == sorted(stamps)
+
+
+def test_a_full_queue_drops_count_and_warn_once_and_the_rest_arrive_in_order(engine: Engine) -> None:
+    """With room for 50 queued samples, a burst drops the overflow: counted (queue_full), warned once."""
+    binding = Binding("/rosdashboard/probe/full")
+    dbglog.logfloat("probe/full", -1.0)
+    engine.bind(binding)
+    assert _when(engine, binding, 1).count == 1
+    RUNTIME.pipe.capacity = 50
+    try:
+        with pytest.warns(DbglogWarning, match="cannot keep up") as rec:
+            _burst("probe/full", 20_000)
+    finally:
+        RUNTIME.pipe.capacity = 100_000
+    assert len(rec) == 1
+    s = dbglog.stats()
+    dropped = s.dropped_by_reason.get("queue_full", 0)
+    assert dropped > 0
+    assert s.calls == s.published + dropped == 20_001
+    snap = _when(engine, binding, s.published)
+    assert snap.count == s.published
+    assert np.all(np.diff(snap.values) > 0)  # what arrived is in order, nothing twice
+
+
+def _burst(tag: str, n: int) -> None:
+    for k in range(n):
+        dbglog.logfloat(tag, float(k))
+
+
+_EXIT_SCRIPT = """
+    import time
+    import dbglog
+    from dbglog.api._public import RUNTIME
+    dbglog.logint("probe/exit", -1)
+    batch = RUNTIME._batch_publisher
+    deadline = time.monotonic() + 30
+    while batch.get_subscription_count() < 1 and time.monotonic() < deadline:
+        time.sleep(0.01)
+    for k in range(5000):
+        dbglog.logint("probe/exit", k)
+    print("queued", len(RUNTIME.pipe.queue))
+"""
+
+
+def test_exit_publishes_everything_still_queued(engine: Engine) -> None:
+    """A script that queues 5000 samples and ends at once still delivers all of them (atexit drain)."""
+    binding = Binding("/rosdashboard/probe/exit")
+    engine.bind(binding)
+    proc = _run(_EXIT_SCRIPT)
+    assert proc.returncode == 0, proc.stderr
+    assert int(proc.stdout.split()[1]) > 0  # samples were still queued when the script ended
+    snap = _when(engine, binding, 5001)
+    assert snap.values.tolist() == [-1.0, *map(float, range(5000))]
+
+
+_FORK_SCRIPT = """
+    import json, os, time
+    import dbglog
+    from dbglog.api._public import RUNTIME
+    dbglog.logint("probe/fork", -1)
+    batch = RUNTIME._batch_publisher
+    deadline = time.monotonic() + 30
+    while batch.get_subscription_count() < 1 and time.monotonic() < deadline:
+        time.sleep(0.01)
+    for k in range(2000):
+        dbglog.logint("probe/fork", k)
+    queued = len(RUNTIME.pipe.queue)
+    pid = os.fork()
+    if pid == 0:
+        dbglog.logint("probe/fork", 99999)
+        s = dbglog.stats()
+        os._exit(0 if s.dropped_by_reason == {"forked": 1} and s.published < 2001 else 3)
+    _, status = os.waitpid(pid, 0)
+    print(json.dumps({"queued": queued, "child": status, "flushed": dbglog.flush(10.0)}))
+"""
+
+
+def test_fork_child_never_publishes_the_parents_queue(engine: Engine) -> None:
+    """Samples queued at a fork are published once, by the parent; the child stays quiet."""
+    binding = Binding("/rosdashboard/probe/fork")
+    engine.bind(binding)
+    proc = _run(_FORK_SCRIPT)
+    assert proc.returncode == 0, proc.stderr
+    out = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert out["child"] == 0
+    assert out["flushed"]
+    snap = _when(engine, binding, 2001)
+    time.sleep(0.3)  # a duplicate from the child would land now
+    assert engine.snapshot(binding).values.tolist() == [-1.0, *map(float, range(2000))], snap.count
+
+
+def test_off_switch_starts_no_thread() -> None:
+    """DBGLOG=off: 10k calls start no publisher thread and import no rclpy."""
+    proc = _run(
+        """
+        import sys, threading
+        import dbglog
+        for k in range(10_000):
+            dbglog.logfloat("x", 1.0)
+            dbglog.logint("y", k)
+        print(sorted(t.name for t in threading.enumerate()), "rclpy" in sys.modules)
+        """,
+        DBGLOG="off",
+    )
+    assert proc.stdout.strip() == "['MainThread'] False", proc.stderr
+
+
+def test_strict_mode_still_raises_on_the_calling_thread_for_a_known_tag() -> None:
+    """Strict mode: after a tag's fast path is set up, a bad value still raises at the call."""
+    proc = _run(
+        """
+        import dbglog
+        dbglog.logint("t", 1)
+        dbglog.logint("t", 2)
+        for bad in (2**63, 1.5):
+            try:
+                dbglog.logint("t", bad)
+            except dbglog.DbglogError as exc:
+                print("raised", type(bad).__name__)
+        s = dbglog.stats()
+        print(s.published, s.dropped)
+        """,
+        DBGLOG_STRICT="1",
+    )
+    assert proc.stdout.split("\n")[:3] == ["raised int", "raised float", "2 2"], proc.stderr
+
+
+def test_user_node_carries_the_batch_and_the_engine_reads_it(engine: Engine) -> None:
+    """With dbglog.init(node=...), the batch and per-tag publishers are the user's; all samples arrive."""
+    ctx = Context()
+    rclpy.init(context=ctx)
+    node = Node("probe_user_node", context=ctx)
+    try:
+        dbglog.init(node=node)
+        binding = Binding("/rosdashboard/probe/user")
+        dbglog.logfloat("probe/user", -1.0)
+        engine.bind(binding)
+        assert _when(engine, binding, 1).count == 1
+        _loop_1khz(["probe/user"], 500)
+        snap = _when(engine, binding, 501)
+        assert snap.values.tolist() == [-1.0, *map(float, range(500))]
+        writers = [i.node_name for i in node.get_publishers_info_by_topic(BATCH_TOPIC)]
+        assert writers == ["probe_user_node"]
+    finally:
+        dbglog.shutdown()
+        node.destroy_node()
+        rclpy.shutdown(context=ctx)
+
+
+def test_plain_ros_subscriber_gets_every_sample_of_a_1khz_tag_in_order() -> None:
+    """A plain rclpy subscriber on /rosdashboard/<tag> receives each sample as Float64, in order."""
+    with RosPeer("probe_plain") as peer:
+        got = peer.subscribe("/rosdashboard/probe/plain", Float64, tag_qos())
+        dbglog.logfloat("probe/plain", -1.0)
+        assert got.wait_for(1, TIMEOUT)
+        thread = threading.Thread(target=_loop_1khz, args=(["probe/plain"], 500))
+        thread.start()
+        thread.join(30)
+        assert got.wait_for(501, TIMEOUT)
+        assert got.values() == [-1.0, *map(float, range(500))]
