@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import signal
 import subprocess
 import sys
@@ -18,7 +19,7 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import Bool, Float64, Int64, String
 
 from dbglog.regex_bridge import parse_rules
-from dbglog.regex_bridge._node import Bridge
+from dbglog.regex_bridge._node import DEDUP_WINDOW, Bridge, _Published
 from tests._ros import Collector, RosPeer, wait_until
 
 RULES = r"""
@@ -466,3 +467,62 @@ def test_a_log_line_delivered_twice_is_published_once(peers: tuple[RosPeer, RosP
         assert _settled(seqs, 6) == [0, 1, 2, 3, 4, 4]
         assert wait_until(lambda: bridge.stats.duplicates == 5, TIMEOUT), bridge.stats
         assert bridge.stats.values == 6
+
+
+def test_state_file_round_trips_and_stale_or_broken_files_are_refused(tmp_path: Path) -> None:
+    """What a bridge saves is read back while young; an old file is ignored, a broken one named as such."""
+    saved = _Published(DEDUP_WINDOW)
+    saved.now.add((b"a" * 16, "/rosdashboard/x"))
+    saved.before.add((b"b" * 16, "/rosdashboard/y"))
+    path = tmp_path / "deep" / "state.json"
+    saved.save(path)
+    assert path.parent.stat().st_mode & 0o777 == 0o700
+    loaded = _Published(DEDUP_WINDOW)
+    assert loaded.load(path) == 2
+    assert loaded.before == saved.now | saved.before
+    assert _Published(DEDUP_WINDOW).load(tmp_path / "missing.json") == 0
+
+    doc = json.loads(path.read_text(encoding="utf-8"))
+    doc["saved"] -= DEDUP_WINDOW + 1  # older than /rosout's history: nothing in it can come back
+    path.write_text(json.dumps(doc), encoding="utf-8")
+    assert _Published(DEDUP_WINDOW).load(path) == 0
+
+    for text, reason in [
+        ("{", "not JSON"),
+        ('{"format": "x"}', "not a bridge state file"),
+        ('{"format": "dbglog-bridge-published", "version": 9}', "version 9"),
+        ('{"format": "dbglog-bridge-published", "version": 1, "saved": 1e18, "topics": {}}', ""),
+        (json.dumps({**doc, "saved": time.time(), "topics": {"/t": "%%%"}}), "not base64"),
+        (json.dumps({**doc, "saved": time.time(), "topics": {"/t": "YWJj"}}), "16-byte digests"),
+    ]:
+        path.write_text(text, encoding="utf-8")
+        if not reason:  # saved in the future (clock change): ignored, like a stale file
+            assert _Published(DEDUP_WINDOW).load(path) == 0
+            continue
+        with pytest.raises(ValueError, match=reason):
+            _Published(DEDUP_WINDOW).load(path)
+
+
+def test_bridge_with_a_broken_state_file_warns_runs_and_rewrites_it(
+    tmp_path: Path, peers: tuple[RosPeer, RosPeer, RosPeer]
+) -> None:
+    """A state file that cannot be read is named in a warning on /rosout; the bridge runs and saves anew."""
+    robot, _camera, viewer = peers
+    warnings = viewer.subscribe("/rosout", Log, DEEP_LATCHED)
+    with Bridge(parse_rules(RULES), node_name="bridge_state", state_dir=tmp_path) as bridge:
+        path = bridge.state_file
+    assert path is not None
+    assert path.name.startswith("bridge_state-domain")
+    assert json.loads(path.read_text(encoding="utf-8"))["format"] == "dbglog-bridge-published"
+    path.write_bytes(b"\xff not a state file")
+    with Bridge(parse_rules(RULES), node_name="bridge_state", state_dir=tmp_path) as bridge:
+        probes = viewer.subscribe("/rosdashboard/t/probe", Int64, LATCHED)
+        _probe(robot, probes, 7)
+        assert wait_until(
+            lambda: any(
+                m.name == "bridge_state" and f"ignoring the state file {path} (not UTF-8" in m.msg
+                for m in warnings.messages
+            ),
+            TIMEOUT,
+        )
+    assert json.loads(path.read_text(encoding="utf-8"))["topics"]["/rosdashboard/t/probe"]
