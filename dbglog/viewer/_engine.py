@@ -39,6 +39,7 @@ from dbglog.viewer._fields import (
 )
 from dbglog.viewer._model import Binding, FieldInfo, SeriesSnapshot, Status, TopicInfo, ValueKind
 from dbglog.viewer._series import Series
+from dbglog.viewer._suggest import close_matches, sub_topics, unpublished_reason
 from dbglog.viewer._transforms import TransformChain
 
 __all__ = ["Engine", "EngineStats", "queue_depth_for"]
@@ -54,6 +55,15 @@ _MIN_DEPTH = 50
 """No subscription queues fewer messages than this, however many topics share the budget."""
 _VARIABLE_DEPTH = 100
 """Queue depth cap for variable-size messages (strings, arrays, images): their size is unknown."""
+_SUGGEST_AFTER_S = 3.0
+"""A wanted topic still without a publisher this long is probably misspelled: say what the graph has."""
+_EVERY_NODE_TOPICS = frozenset({"/parameter_events"})
+"""Topics every rclpy node publishes, the engine's own included: they don't make the graph non-empty."""
+LOG_TYPE = "rcl_interfaces/msg/Log"
+"""The type of ``/rosout`` and other log topics."""
+LOG_DEPTH = 1000
+"""Queue depth of a log topic's subscription: the history rcl's rosout publishers keep (reliable,
+transient-local, depth 1000, 10 s lifespan), all of which a viewer started late is re-sent."""
 
 
 def queue_depth_for(n_topics: int, message_size: int | None, *, max_depth: int, budget: int) -> int:
@@ -206,6 +216,12 @@ class Engine:
             claim=self._claim_for_batch,
         )
         """dbglog SDK tags arrive in batches on one hidden topic (see ``_batchsub``)."""
+        self._reported: set[tuple[str, str]] = set()
+        """(topic, error) pairs already logged with a traceback."""
+        self._absent_since: dict[str, float] = {}
+        """When each wanted topic was first seen without a publisher (monotonic seconds)."""
+        self._graph_since = 0.0
+        """When the engine's node joined the graph: discovery needs a moment before absence means much."""
         self._latency: npt.NDArray[np.float64] | None = (
             np.full(_LATENCY_SAMPLES, np.nan) if measure_latency else None  # pages touched now
         )
@@ -385,6 +401,7 @@ class Engine:
             self._start_error = exc
             self._ready.set()
             return
+        self._graph_since = time.monotonic()
         self._ready.set()
         try:
             self._loop(node, context)
@@ -484,6 +501,15 @@ class Engine:
             topic.fast = self._fast_plan(topic)
 
     def _make_sink(self, binding: Binding, series: Series, cls: Any, msg_type: str) -> _Sink:
+        """Resolve one binding against the topic's type; any failure is that binding's error alone."""
+        try:
+            return self._build_sink(binding, series, cls, msg_type)
+        except Exception as exc:  # a binding must never take its topic's other bindings down
+            _log.debug("viewer engine: binding %s failed", binding, exc_info=True)
+            series.set_error(f"cannot bind {_describe(binding)} on {msg_type}: {exc}", msg_type=msg_type)
+            return _Sink(binding, series, None)
+
+    def _build_sink(self, binding: Binding, series: Series, cls: Any, msg_type: str) -> _Sink:
         sink = _Sink(binding, series, self._regexes.get(binding))
         try:
             resolved = resolve(cls, binding.field)
@@ -558,11 +584,15 @@ class Engine:
         self._types = types
         self._topics = tuple(sorted(topics, key=lambda t: t.name))
         graph_names = {name for name, _ in names_types}
+        for name in [n for n in self._absent_since if n not in wanted]:
+            del self._absent_since[name]
         for name, bindings in wanted.items():
             try:
                 self._follow(node, name, bindings, name in graph_names, publishers.get(name, []))
             except Exception as exc:  # one odd topic must not stop the others
-                _log.exception("viewer engine: topic %s failed", name)
+                if (name, str(exc)) not in self._reported:  # once, not every graph poll
+                    self._reported.add((name, str(exc)))
+                    _log.exception("viewer engine: topic %s failed", name)
                 for series in bindings.values():
                     series.set_error(f"internal error on {name}: {exc}")
 
@@ -574,17 +604,23 @@ class Engine:
 
         topic = self._subs.get(name)
         if not infos:
-            reason = (
-                "topic is not on the ROS graph yet"
-                if not on_graph
-                else "the topic has no publisher (yet)"
-                if topic is None
-                else "the topic has no publisher now"
-            )
+            now = time.monotonic()
+            since = self._absent_since.setdefault(name, now)
+            if topic is not None:
+                reason = "the topic has no publisher now"
+            elif now - max(since, self._graph_since) >= _SUGGEST_AFTER_S:
+                reason = self._unpublished(name, on_graph)
+            else:
+                reason = (
+                    "topic is not on the ROS graph yet"
+                    if not on_graph
+                    else "the topic has no publisher (yet)"
+                )
             self._batches.detach(name)
             for series in bindings.values():
                 series.set_waiting(reason)
             return
+        self._absent_since.pop(name, None)
         pub_types = sorted({info.topic_type for info in infos})
         if self._batches.covers(infos) and len(pub_types) == 1:
             # Every publisher is a dbglog SDK that also sends batches: read every sample from those.
@@ -614,6 +650,13 @@ class Engine:
         self._batches.attach(name, msg_type, bindings)
         return True
 
+    def _unpublished(self, name: str, on_graph: bool) -> str:
+        """Say why nothing arrives on `name` after a while: close matches, sub-topics or an empty graph."""
+        known = {t.name for t in self._topics if t.publishers} - _EVERY_NODE_TOPICS
+        if on_graph and known and not sub_topics(name, known) and not close_matches(name, known):
+            return f"nothing publishes {name} (it has subscribers only)"
+        return unpublished_reason(name, known)
+
     def _subscribe(
         self,
         node: Any,
@@ -636,14 +679,17 @@ class Engine:
             for series in bindings.values():
                 series.set_error(str(exc), msg_type=msg_type)
             return
+        depth = queue_depth_for(
+            max(len(self._wanted()), len(self._subs) + 1),
+            fixed_size(cls),
+            max_depth=self.queue_depth,
+            budget=self.queue_budget,
+        )
+        if msg_type == LOG_TYPE:
+            depth = max(depth, LOG_DEPTH)  # room for every line a late-joining reader is re-sent
         qos = QoSProfile(
             history=HistoryPolicy.KEEP_LAST,
-            depth=queue_depth_for(
-                max(len(self._wanted()), len(self._subs) + 1),
-                fixed_size(cls),
-                max_depth=self.queue_depth,
-                budget=self.queue_budget,
-            ),
+            depth=depth,
             reliability=ReliabilityPolicy.RELIABLE if reliable else ReliabilityPolicy.BEST_EFFORT,
             durability=DurabilityPolicy.TRANSIENT_LOCAL if transient else DurabilityPolicy.VOLATILE,
         )
@@ -690,18 +736,21 @@ class Engine:
                 times = np.asarray(stamps, dtype=np.float64) * 1e-9
                 now = time.monotonic()
                 skipping = now < topic.skip_deadline
+                broken = False
                 for (sink, _, _), values in zip(topic.fast, columns, strict=True):
+                    if sink.resolved is None:
+                        continue
                     t = times
                     if skipping and sink.skip_until_ns:
                         keep = np.asarray(stamps, dtype=np.int64) > sink.skip_until_ns
                         t, values = times[keep], values[keep]
-                    if len(values):
-                        if sink.chain is not None:
-                            out = _transform(sink, t, values, None)
-                            sink.series.push_numbers(t, out, float(out[-1]), now)
-                            _check_failures(sink, out, (float(t[-1]), float(values[-1]), {}))
-                        else:
-                            sink.series.push_numbers(t, values, _typed_last(sink, values[-1]), now)
+                    try:
+                        _feed_numbers(sink, t, values, now)
+                    except Exception as exc:  # this binding's error alone; the others keep going
+                        _break(sink, exc)
+                        broken = True
+                if broken:
+                    topic.fast = self._fast_plan(topic)
                 self._record_latency(times)
                 return
             from rclpy.serialization import deserialize_message
@@ -715,16 +764,19 @@ class Engine:
         for sink in topic.sinks.values():
             if sink.resolved is None:
                 continue
-            if skipping and sink.skip_until_ns:
-                fresh = [s > sink.skip_until_ns for s in stamps]
-                _feed(
-                    sink,
-                    [m for m, k in zip(messages, fresh, strict=True) if k],
-                    [t for t, k in zip(times_list, fresh, strict=True) if k],
-                    now,
-                )
-            else:
-                _feed(sink, messages, times_list, now)
+            try:
+                if skipping and sink.skip_until_ns:
+                    fresh = [s > sink.skip_until_ns for s in stamps]
+                    _feed(
+                        sink,
+                        [m for m, k in zip(messages, fresh, strict=True) if k],
+                        [t for t, k in zip(times_list, fresh, strict=True) if k],
+                        now,
+                    )
+                else:
+                    _feed(sink, messages, times_list, now)
+            except Exception as exc:  # this binding's error alone; the others keep going
+                _break(sink, exc)
         self._record_latency(np.asarray(times_list))
 
     def _count(self, topic: _TopicSub, stamps: list[int]) -> None:
@@ -753,6 +805,33 @@ def _take_batch(take: Any, cls: Any, raw: bool) -> tuple[list[Any], list[int]]:
         items.append(got[0])
         stamps.append(got[1]["source_timestamp"])
     return items, stamps
+
+
+def _describe(binding: Binding) -> str:
+    """Name a binding's field for a message: ``field 'data.x'`` or ``the whole message``."""
+    return f"field {binding.field.strip()!r}" if binding.field.strip() else "the whole message"
+
+
+def _break(sink: _Sink, exc: Exception) -> None:
+    """Stop feeding a binding whose extraction raised; its series shows why (no traceback, once)."""
+    _log.debug("viewer engine: binding %s failed", sink.binding, exc_info=True)
+    where = sink.resolved.path if sink.resolved is not None else sink.binding.field
+    sink.resolved = None
+    sink.series.set_error(f"cannot read {where!r}: {type(exc).__name__}: {exc}")
+
+
+def _feed_numbers(
+    sink: _Sink, times: npt.NDArray[np.float64], values: npt.NDArray[np.float64], now: float
+) -> None:
+    """Push one binding's column of numbers decoded from raw CDR (transformed when it has transforms)."""
+    if not len(values):
+        return
+    if sink.chain is not None:
+        out = _transform(sink, times, values, None)
+        sink.series.push_numbers(times, out, float(out[-1]), now)
+        _check_failures(sink, out, (float(times[-1]), float(values[-1]), {}))
+    else:
+        sink.series.push_numbers(times, values, _typed_last(sink, values[-1]), now)
 
 
 def _typed_last(sink: _Sink, value: float) -> float | int | bool:

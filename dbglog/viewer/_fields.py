@@ -196,6 +196,19 @@ def resolve(cls: Any, path: str) -> Resolved:
     for i, step in enumerate(steps):
         if isinstance(step, str):
             if slot is not None:  # descend into the previous nested message
+                if isinstance(slot, rd.AbstractNestedType):
+                    example = f"{walked}[0]" + (
+                        f".{step}" if isinstance(slot.value_type, rd.NamespacedType) else ""
+                    )
+                    raise FieldPathError(
+                        f"{type_label} has no field {path.strip()!r}: {walked!r} is a "
+                        f"{_nested_label(slot)}; index one element first, e.g. {example}"
+                    )
+                if not isinstance(slot, rd.NamespacedType):
+                    raise FieldPathError(
+                        f"{type_label} has no field {path.strip()!r}: {walked!r} is a {_slot_label(slot)}, "
+                        f"not a message (fields: {_choices(cls, '')})"
+                    )
                 current_cls = _nested_class(slot)
             fields = {name: (t, s) for name, t, s in _members(current_cls)}
             if step not in fields:
@@ -310,6 +323,15 @@ def _leaf(slot: Any, walked: str) -> tuple[ValueKind, str, Callable[[Any], Scala
             + (".<field>" if isinstance(inner, rd.NamespacedType) else "")
         )
     raise FieldPathError(f"{walked!r} has a type the viewer cannot show")
+
+
+def _slot_label(slot: Any) -> str:
+    """Name the type of a value field for a message: ``double``, ``string``."""
+    if isinstance(slot, rd.BasicType):
+        return str(slot.typename)
+    if isinstance(slot, rd.AbstractGenericString):
+        return "string"
+    return "value"
 
 
 def _nested_label(slot: Any) -> str:

@@ -38,8 +38,10 @@ import enum
 import math
 import re
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import ClassVar
+
+import numpy as np
 
 from dbglog.viewer._model import Binding, SeriesSnapshot, Status, ValueKind
 from dbglog.viewer._publish import PublishRequest, PublishService, PublishState
@@ -59,7 +61,9 @@ __all__ = [
     "ValueKind",
     "Widget",
     "format_color",
+    "kind_problem",
     "parse_color",
+    "shown_as",
 ]
 
 PropValue = float | str | bool
@@ -306,3 +310,53 @@ class Widget(abc.ABC):
 
         if self.parent and dpg.does_item_exist(self.parent):
             dpg.delete_item(self.parent, children_only=True)
+
+
+_KIND_WORDS = {
+    ValueKind.BOOL: "bool",
+    ValueKind.NUMBER: "numbers",
+    ValueKind.TEXT: "text",
+    ValueKind.ARRAY: "arrays",
+}
+
+
+def kind_problem(widget_cls: type[Widget], snapshot: SeriesSnapshot) -> str:
+    """Say why a widget cannot show a series of this value kind (``""`` when it can, or while unknown).
+
+    The rule is the class's declared `Widget.accepts`, the same for built-ins and plugins, e.g.
+    ``LED shows bool or numbers; /x is std_msgs/msg/String text``.
+    """
+    kind = snapshot.kind
+    accepts: frozenset[ValueKind] = getattr(widget_cls, "accepts", frozenset())
+    if kind is None or kind in accepts:
+        return ""
+    shown = " or ".join(word for k, word in _KIND_WORDS.items() if k in accepts) or "nothing"
+    binding = snapshot.binding
+    where = binding.topic if not binding.field.strip() else f"{binding.topic} field {binding.field.strip()!r}"
+    what = f"{snapshot.msg_type} {_KIND_WORDS[kind]}" if snapshot.msg_type else _KIND_WORDS[kind]
+    hint = ""
+    if kind is ValueKind.TEXT and accepts & {ValueKind.NUMBER, ValueKind.BOOL}:
+        hint = " (a regex can turn text into numbers or bools: right-click \u203a Topic setup)"
+    label = getattr(widget_cls, "label", "") or getattr(widget_cls, "type_name", "this widget")
+    return f"{label} shows {shown}; {where} is {what}{hint}"
+
+
+def shown_as(widget_cls: type[Widget], snapshot: SeriesSnapshot) -> SeriesSnapshot:
+    """Return the snapshot a widget of `widget_cls` is given: an ERROR without data for a kind it can't show.
+
+    The viewer passes every snapshot through this before `Widget.update`, so a widget only ever sees
+    the value kinds it declared, and its status pill says why nothing is shown.
+    """
+    problem = kind_problem(widget_cls, snapshot)
+    if not problem:
+        return snapshot
+    return replace(
+        snapshot,
+        status=Status.ERROR,
+        reason=problem,
+        times=np.empty(0),
+        values=np.empty(0),
+        texts=(),
+        last=None,
+        last_time=None,
+    )

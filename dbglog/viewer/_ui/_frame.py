@@ -13,7 +13,7 @@ from dbglog.viewer._geometry import Rect
 from dbglog.viewer._model import Binding, DataSource, SeriesSnapshot, Status
 from dbglog.viewer._ui._theme import DIM, HEADER, STATUS_COLORS, TEXT
 from dbglog.viewer._widgets._common import text_size
-from dbglog.viewer.widget_api import PropValue, Widget
+from dbglog.viewer.widget_api import PropValue, Widget, shown_as
 
 __all__ = ["TITLE_H", "CanvasItem", "combined_status"]
 
@@ -187,6 +187,8 @@ class CanvasItem:
         stale_after = self.config.stale_after if isinstance(self.config, WidgetConfig) else None
         if stale_after is not None:
             snapshots = [s.with_stale_time(stale_after) for s in snapshots]
+        if self.widget_cls is not None:  # a kind the widget did not declare is an error, not shown
+            snapshots = [shown_as(self.widget_cls, s) for s in snapshots]
         try:
             own = self.widget.status()  # control widgets report their own state (publishing)
         except Exception as exc:

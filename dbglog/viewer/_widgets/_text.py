@@ -132,7 +132,7 @@ class LedWidget(Widget):
     type_name = "led"
     label = "LED"
     description = "Lamp for a bool, or a number against a threshold"
-    accepts = frozenset({ValueKind.BOOL, ValueKind.NUMBER, ValueKind.TEXT})
+    accepts = frozenset({ValueKind.BOOL, ValueKind.NUMBER})
     properties = (
         Property("threshold", PropKind.NUMBER, 0.5, minimum=-1e12, maximum=1e12),
         Property("invert", PropKind.BOOL, False, label="Invert"),
