@@ -315,8 +315,8 @@ def test_loading_is_linear(tmp_path: Path) -> None:
         return best
 
     for text in (entry, bad):
-        small, large = rate(5_000, text), rate(20_000, text)
-        assert large < small * 8, f"{small:.3f} s for 5,000, {large:.3f} s for 20,000"
+        small, large = rate(2_500, text), rate(10_000, text)
+        assert large < small * 8, f"{small:.3f} s for 2,500, {large:.3f} s for 10,000"
     assert rate(4_796, bad) < 5  # the issue's 4,796 widgets of wrong types took 50 s
 
 
@@ -601,24 +601,96 @@ def _view(
     return proc, (json.loads(report.read_text()) if report.exists() else None)
 
 
-def _corpus(folder: Path) -> dict[str, tuple[Path, int]]:
-    """The hostile files (checked-in ones and large ones generated here), each with its expected exit code."""
-    files: dict[str, tuple[Path, int]] = {}
-    for path in sorted(DATA.glob("*.json")):
-        files[path.name] = (path, 0 if not path.name.startswith("refused_") else 2)
-    strings = [w for text in [*UNSAFE.values(), *ODD_BUT_FINE.values()] for w in _string_fields(text)]
-    files["strings"] = (_write(folder / "strings.json", _doc(*strings)), 0)
-    deep = folder / "deep.json"
-    deep.write_text(
-        '{"format":"dbglog-dashboard","version":1,"widgets":['
-        f'{{"type":"plugin","name":"Deep","data":{_nested(989)}}},'
-        f'{{"type":"plugin","name":"Deeper","data":{_nested(100_000)}}},'
-        '{"type":"dial","name":"Fine","x":0,"y":0,"width":200,"height":200}]}'
+REFUSED = {
+    "refused_not_utf8.json": "not UTF-8 text (byte 75)",
+    "refused_nan.json": "not valid JSON: NaN is not allowed in a dashboard file",
+    "refused_huge_int.json": "not valid JSON: a number has more than 4300 digits",
+}
+
+
+@pytest.mark.parametrize("name", sorted(p.name for p in DATA.glob("*.json")))
+def test_checked_in_corpus_through_the_loader(name: str) -> None:
+    """Each checked-in hostile file loads safely with messages, or is refused saying why; never changed."""
+    path = DATA / name
+    before = _sha(path)
+    if name in REFUSED:
+        with pytest.raises(DashboardError) as info:
+            load_dashboard(path, LOOKUP)
+        assert str(info.value) == f"{path}: {REFUSED[name]}"
+    else:
+        result = load_dashboard(path, LOOKUP)
+        _assert_safe(result)
+        assert result.messages
+    assert _sha(path) == before
+
+
+def test_wrong_types_in_every_field_are_named() -> None:
+    """Every field of a widget given every wrong JSON type: one message per field naming it; all load."""
+    result = load_dashboard(DATA / "wrong_types.json", LOOKUP)
+    text = "\n".join(result.messages)
+    for field in ("x", "y", "width", "height"):
+        assert f"widget #1 '{field}=0': field {field!r} must be a number, got 1" not in text
+        assert f"'{field}=1': field {field!r} must be a number, got \"str\"; using" in text
+    assert (
+        "widget #7 'bindings=0': field 'bindings' must be a list, got a number; widget left unbound" in text
     )
-    files["deep"] = (deep, 0)
-    big = folder / "big.json"
-    big.write_text(_many(400_000, '{"type":"led","name":"L","x":0,"y":0}'))
-    files["big"] = (big, 0)
+    assert "'properties=1': field 'properties' must be an object, got a string; defaults used" in text
+    assert "'stale_after=1': field 'stale_after' must be a number of seconds, got \"str\"" in text
+    assert "'name=8' " not in text  # 10**30 as a name is refused, shown as the type's label
+    assert "field 'name' must be a non-empty string, got 1000000000000000000000000000000" in text
+    assert "field 'x' must be a number, got 1000000000000000000000000000000" not in text
+    assert "grid: field 'size' must be a whole number 2..400, got \"big\"" in text
+    assert result.complete
+
+
+# --- the real viewer ----------------------------------------------------------------------------------
+
+
+def _sha(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def _view(
+    path: Path, out_dir: Path, display: str
+) -> tuple[subprocess.CompletedProcess[str], dict[str, Any] | None]:
+    report = out_dir / f"{path.name}.report.json"
+    env = {**os.environ, "DISPLAY": display}
+    command = [
+        sys.executable,
+        "-m",
+        "dbglog",
+        "view",
+        str(path),
+        "--screenshot",
+        str(out_dir / f"{path.name}.png"),
+    ]
+    command += ["--after", "1", "--size", "800x600", "--report-json", str(report)]
+    proc = subprocess.run(command, capture_output=True, text=True, timeout=240, check=False, env=env)
+    return proc, (json.loads(report.read_text()) if report.exists() else None)
+
+
+def _corpus(folder: Path) -> dict[str, tuple[Path, int]]:
+    """The hostile files, each with its expected exit code: few viewer runs, each holding many cases."""
+    files = {name: (DATA / name, 2) for name in REFUSED}
+    files["legacy"] = (DATA / "legacy_hostile.json", 0)
+    # Complete: every wrong type in every field, and the user's bad regex and formula kept.
+    wrong = json.loads((DATA / "wrong_types.json").read_text())
+    wrong["widgets"] += json.loads((DATA / "kept_user_text.json").read_text())["widgets"]
+    files["complete"] = (_write(folder / "complete.json", wrong), 0)
+    # Cut: hostile text in every field, deep nesting, and 400,000 widgets (the first MAX_WIDGETS load).
+    strings = [w for text in [*UNSAFE.values(), *ODD_BUT_FINE.values()] for w in _string_fields(text)]
+    head = json.dumps(_doc(*strings), ensure_ascii=True)[: -len("]}")]
+    deep = (
+        f',{{"type":"plugin","name":"Deep","data":{_nested(989)}}},'
+        f'{{"type":"plugin","name":"Deeper","data":{_nested(100_000)}}},'
+        '{"type":"dial","name":"Fine","x":0,"y":0,"width":200,"height":200},'
+    )
+    cut = folder / "cut.json"
+    # 300 real widgets then bare entries: the viewer builds few widgets (each costs it ~10 ms), while the
+    # loader still meets 400,000 entries (test_a_million_widgets_stop_at_the_cap_quickly loads real ones).
+    many = ",".join(['{"type":"led","name":"L","x":0,"y":0}'] * 300 + ["0"] * 399_700)
+    cut.write_text(head + deep + many + "]}")
+    files["cut"] = (cut, 0)
     fifo = folder / "fifo.json"
     os.mkfifo(fifo)
     files["fifo"] = (fifo, 2)
@@ -634,17 +706,14 @@ def test_hostile_corpus_through_the_real_viewer(tmp_path: Path) -> None:
     """`dbglog view FILE --screenshot`: every hostile file exits 0 with messages or 2 with the reason, fast,
     no traceback, the file byte-identical afterwards; a cut or partial load opens untitled."""
     files = _corpus(tmp_path)
-    hashes = {
-        name: _sha(path)
-        for name, (path, _) in files.items()
-        if path.is_file() and path.stat().st_size < 1 << 25
-    }
+    hashes = {name: _sha(path) for name, (path, _) in files.items() if path.is_file()}
     out = tmp_path / "out"
     out.mkdir()
     with x_display() as display, ThreadPoolExecutor(3) as pool:
-        runs = dict(
-            zip(files, pool.map(lambda item: _view(item[0], out, display), files.values()), strict=True)
-        )
+        # The slow ones first, so the quick refusals fill the gaps.
+        order = sorted(files, key=lambda name: files[name][1])
+        done = pool.map(lambda name: _view(files[name][0], out, display), order)
+        runs = dict(zip(order, done, strict=True))
     for name, (proc, report) in runs.items():
         path, code = files[name]
         assert proc.returncode == code, f"{name}: {proc.returncode}\n{proc.stderr[-2000:]}"
@@ -653,32 +722,45 @@ def test_hostile_corpus_through_the_real_viewer(tmp_path: Path) -> None:
             assert _sha(path) == hashes[name], f"{name} was modified"
         if code == 2:
             assert proc.stderr.startswith(f"dbglog view: error: {path}: "), proc.stderr
+            assert proc.stderr.count("\n") == 1, proc.stderr
             continue
         assert report is not None
         for text in _strings(report):
             assert text_problem(text, line=False) is None, (name, text)
+    for name, reason in REFUSED.items():
+        assert runs[name][0].stderr == f"dbglog view: error: {DATA / name}: {reason}\n"
     assert "is a FIFO (named pipe), not a regular file" in runs["fifo"][0].stderr
     assert "is a character device, not a regular file" in runs["zero"][0].stderr
     assert "file is too large" in runs["huge"][0].stderr
-    strings_err = runs["strings"][0].stderr
-    assert "field 'name' contains a lone surrogate U+D800" in strings_err
-    assert "bindings[0]: field 'topic' contains a NUL character" in strings_err
-    deep_report = runs["deep"][1]
-    assert deep_report is not None
-    assert [w["name"] for w in deep_report["widgets"]] == ["Fine"]
-    assert deep_report["file"] is None, "a partial load must not save over the file"
-    assert "widget #2 'Deeper': field 'data[0][0]" in runs["deep"][0].stderr
-    big_report = runs["big"][1]
-    assert big_report is not None
-    assert len(big_report["widgets"]) == MAX_WIDGETS
-    assert big_report["file"] is None
-    assert f"the file holds 400000 widgets, more than the {MAX_WIDGETS}" in runs["big"][0].stderr
-    kept = runs["kept_user_text.json"][1]
-    assert kept is not None
-    assert kept["file"] == str(files["kept_user_text.json"][0])
-    status = {w["name"]: (w["status"], w["reason"]) for w in kept["widgets"]}
+    cut_err = runs["cut"][0].stderr
+    assert "field 'name' contains a lone surrogate U+D800" in cut_err
+    assert "bindings[0]: field 'topic' contains a NUL character" in cut_err
+    assert "'Deeper': field 'data[0][0]" in cut_err
+    assert "nested deeper than 64 levels" in cut_err
+    assert "the file holds 400147 widgets, more than the 1000 a dashboard can show" in cut_err
+    cut_report = runs["cut"][1]
+    assert cut_report is not None
+    assert cut_report["file"] is None, "a partial load must not save over the file"
+    names = [w["name"] for w in cut_report["widgets"]]
+    assert "Fine" in names
+    assert "Deep" not in names
+    assert "Deeper" not in names
+    assert ODD_BUT_FINE["rtl"] in names
+    assert names.count("L") == 300
+    loaded = load_dashboard(files["cut"][0], LOOKUP)
+    assert names == [w.name for w in loaded.dashboard.widgets]
+    assert loaded.left_out == 400_147 - MAX_WIDGETS + 30  # 30 entries of hostile text or depth
+    complete = runs["complete"][1]
+    assert complete is not None
+    assert complete["file"] == str(files["complete"][0])
+    status = {w["name"]: (w["status"], w["reason"]) for w in complete["widgets"]}
     assert status["Regex"][0] == "error"
     assert "bad regex" in status["Regex"][1]
     assert status["Formula"][0] == "error"
     assert "bad transforms" in status["Formula"][1]
-    assert kept["dashboard"]["widgets"][1]["bindings"] == _kept_doc()["widgets"][1]["bindings"]
+    saved = {w.get("name"): w for w in complete["dashboard"]["widgets"] if isinstance(w, dict)}
+    assert saved["Formula"]["bindings"] == _kept_doc()["widgets"][1]["bindings"]
+    legacy = runs["legacy"]
+    assert "widget #2 'Button': unknown ROSDashboard widget type" in legacy[0].stderr
+    assert legacy[1] is not None
+    assert legacy[1]["file"] is None
