@@ -564,43 +564,6 @@ def test_bad_regex_and_rejected_formula_are_kept_byte_for_byte(tmp_path: Path) -
         assert old in out.read_text().replace("\n      ", "\n")
 
 
-# --- the real viewer ----------------------------------------------------------------------------------
-
-
-def _sha(path: Path) -> str:
-    return hashlib.sha256(path.read_bytes()).hexdigest()
-
-
-def _view(
-    path: Path, out_dir: Path, display: str
-) -> tuple[subprocess.CompletedProcess[str], dict[str, Any] | None]:
-    report = out_dir / f"{path.name}.report.json"
-    env = {**os.environ, "DISPLAY": display}
-    proc = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "dbglog",
-            "view",
-            str(path),
-            "--screenshot",
-            str(out_dir / f"{path.name}.png"),
-            "--after",
-            "1",
-            "--size",
-            "800x600",
-            "--report-json",
-            str(report),
-        ],
-        capture_output=True,
-        text=True,
-        timeout=240,
-        check=False,
-        env=env,
-    )
-    return proc, (json.loads(report.read_text()) if report.exists() else None)
-
-
 REFUSED = {
     "refused_not_utf8.json": "not UTF-8 text (byte 75)",
     "refused_nan.json": "not valid JSON: NaN is not allowed in a dashboard file",
