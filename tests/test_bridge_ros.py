@@ -377,8 +377,7 @@ def _settled(collector: Collector, want: int) -> list[Any]:
 
 
 def test_bridge_already_running_gets_every_first_line_of_nodes_starting_together(tmp_path: Path) -> None:
-    """Eight nodes start together (a launch file's load) and log 30 lines each at once: the running bridge
-    publishes every line, once."""
+    """Eight nodes start together and log 30 lines each at once: a running bridge publishes all, once each."""
     rules = tmp_path / "rules.yaml"
     rules.write_text(HISTORY_RULES, encoding="utf-8")
     with RosPeer("viewer") as viewer:
@@ -404,8 +403,7 @@ def test_bridge_already_running_gets_every_first_line_of_nodes_starting_together
 def test_bridge_started_late_gets_the_startup_lines_and_a_restart_does_not_repeat_them(
     tmp_path: Path,
 ) -> None:
-    """A bridge started 2 s after a node publishes its 20 startup lines (typed per group); restarted, it
-    skips the history it already published; without its state file it publishes it again."""
+    """A bridge started 2 s late gets all 20 startup lines; restarted, it skips what it already published."""
     rules = tmp_path / "rules.yaml"
     rules.write_text(HISTORY_RULES, encoding="utf-8")
     state = ["--name", "bridge_late", "--state-dir", str(tmp_path / "state")]
