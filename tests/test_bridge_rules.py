@@ -271,7 +271,7 @@ def test_random_text_only_ever_raises_rules_error(text: str) -> None:
 
 
 def test_named_groups_can_each_have_their_own_type() -> None:
-    """`type: {group: kind}` types each named group; unnamed groups take the default float."""
+    """`type: {group: kind}` types each named group; groups it leaves out are floats."""
     rules = parse_rules(
         textwrap.dedent(
             r"""
@@ -353,3 +353,30 @@ def test_every_echoed_value_is_cut_in_messages() -> None:
     assert len(message) < 2_000, message[:3000]
     assert "… (100001 chars)" in message
     assert "… (100000 chars)" in message
+
+
+_GROUP_NAMES = st.lists(
+    st.from_regex(r"[a-y][a-z0-9_]{0,6}", fullmatch=True), min_size=1, max_size=5, unique=True
+)
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    names=_GROUP_NAMES,
+    data=st.data(),
+)
+def test_per_group_types_give_each_output_its_kind(names: list[str], data: st.DataObject) -> None:
+    """Any mapping of some named groups to kinds gives those outputs those kinds and the others float."""
+    kinds = data.draw(st.dictionaries(st.sampled_from(names), st.sampled_from(["float", "int", "bool"])))
+    extra = data.draw(st.lists(st.from_regex(r"z[a-z]{1,4}", fullmatch=True), max_size=2, unique=True))
+    pattern = " ".join(f"{n}=(?P<{n}>\\S+)" for n in names)
+    mapping = {**kinds, **dict.fromkeys(extra, "int")}
+    rule = {"tag": "t", "pattern": pattern, **({"type": mapping} if mapping else {})}
+    outcome = _outcome(yaml.safe_dump({"rules": [rule]}))
+    if extra:  # groups the pattern lacks: one problem each, naming the group
+        assert isinstance(outcome, RulesError)
+        assert sorted(p.reason.split("'")[3] for p in outcome.problems) == sorted(extra)
+        return
+    assert isinstance(outcome, RuleSet), outcome
+    expected = [kinds.get(n, "float") for n in names]
+    assert [o.kind for o in outcome.rules[0].outputs] == expected
