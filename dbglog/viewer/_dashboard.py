@@ -295,7 +295,7 @@ def _read_regular_file(p: Path) -> bytes:
 
 
 def _decode_json(raw: bytes, p: Path) -> Any:
-    """Parse JSON text; arrays and objects nested past `MAX_DEPTH` + 1 levels are cut to null first."""
+    """Parse JSON text; if too deep for Python's reader, cut what lies past `MAX_DEPTH` + 1 levels first."""
     try:
         return _json_loads(raw)
     except RecursionError:
@@ -332,12 +332,12 @@ def _clip_depth(raw: bytes, keep: int) -> bytes | None:
     backslash = b == ord("\\")
     if backslash.any():
         # A quote is escaped when an odd run of backslashes precedes it.
-        idx = np.arange(b.size, dtype=np.int64)
-        last_other = np.maximum.accumulate(np.where(backslash, -1, idx))
-        run = np.zeros(b.size, dtype=np.int64)
+        idx = np.arange(b.size, dtype=np.int32)  # at most 16 MiB: int32 is enough
+        last_other = np.maximum.accumulate(np.where(backslash, np.int32(-1), idx))
+        run = np.zeros(b.size, dtype=np.int32)
         run[1:] = idx[:-1] - last_other[:-1]
         quote &= run % 2 == 0
-    in_string = (np.cumsum(quote, dtype=np.int64) & 1).astype(bool)
+    in_string = (np.cumsum(quote, dtype=np.int32) & 1).astype(bool)
     opens = ((b == ord("[")) | (b == ord("{"))) & ~in_string
     closes = ((b == ord("]")) | (b == ord("}"))) & ~in_string
     depth = np.cumsum(opens.astype(np.int32) - closes.astype(np.int32), dtype=np.int32)
