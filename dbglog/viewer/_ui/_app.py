@@ -888,6 +888,8 @@ class ViewerApp:
         self.load_messages = list(result.messages)
         kind = "legacy ROSDashboard file" if result.legacy else "dashboard"
         note = f"; {len(result.messages)} problem(s): View \u203a Load messages" if result.messages else ""
+        if not result.complete:
+            note += f"; {result.left_out} widget(s) left out, so it is untitled: Save asks for a name"
         self.set_status(f"opened {kind} {path.name if path else ''}{note}")
         self._update_title()
 
