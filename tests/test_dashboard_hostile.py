@@ -415,6 +415,38 @@ def test_text_problem_accepts_exactly_utf8_text_without_controls(text: str) -> N
         assert "\x00" not in text
 
 
+def _cut_reference(value: object, keep: int, level: int = 1) -> object:
+    """What _clip_depth should give: containers deeper than `keep` levels become None."""
+    if isinstance(value, dict | list) and level > keep:
+        return None
+    if isinstance(value, dict):
+        return {k: _cut_reference(v, keep, level + 1) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_cut_reference(v, keep, level + 1) for v in value]
+    return value
+
+
+tricky_text = st.text(st.sampled_from([*'ab[]{}"\\,:', "\u00e9", "\U0001f600"]), max_size=8)
+nested = st.recursive(
+    st.none() | st.integers() | tricky_text,
+    lambda inner: st.lists(inner, max_size=3) | st.dictionaries(tricky_text, inner, max_size=3),
+    max_leaves=25,
+)
+
+
+@given(nested, st.integers(1, 6))
+@settings(max_examples=200, deadline=None)
+def test_depth_cut_matches_a_reference(value: object, keep: int) -> None:
+    """The vectorised depth cut treats brackets, quotes and backslashes inside strings as text."""
+    from dbglog.viewer._dashboard import _clip_depth
+
+    raw = json.dumps(value, ensure_ascii=False).encode("utf-8")
+    clipped = _clip_depth(raw, keep)
+    assert clipped is not None
+    assert json.loads(clipped) == _cut_reference(value, keep)
+    assert _clip_depth(raw, 100) == raw
+
+
 # --- saves --------------------------------------------------------------------------------------------
 
 
