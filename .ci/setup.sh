@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Idempotent setup for a fresh machine: system packages (virtual display, Mesa, iproute2) and a venv
+# Idempotent setup for a fresh machine: system packages (virtual display, Mesa, iproute2, xdotool) and a venv
 # with dbglog, the ROS 2 Jazzy wheels, Dear PyGui and the test tools. Sourced by .ci/run and .ci/demo.
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -10,6 +10,7 @@ command -v Xvfb >/dev/null 2>&1 || need_apt+=(xvfb xauth)
 [ -e /usr/lib/x86_64-linux-gnu/dri/swrast_dri.so ] || [ -e /usr/lib/x86_64-linux-gnu/dri/llvmpipe_dri.so ] \
   || ls /usr/lib/*/dri/*swrast* >/dev/null 2>&1 || need_apt+=(libgl1-mesa-dri)
 command -v ip >/dev/null 2>&1 || need_apt+=(iproute2)
+command -v xdotool >/dev/null 2>&1 || need_apt+=(xdotool)
 if [ ${#need_apt[@]} -gt 0 ]; then
   echo "setup: installing system packages: ${need_apt[*]}"
   SUDO=""; [ "$(id -u)" -eq 0 ] || SUDO="sudo"

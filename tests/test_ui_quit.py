@@ -312,9 +312,10 @@ class Child:
             if action == "save:cancel":
                 self.app.file_cancelled()  # what the dialog's Cancel button calls
             else:
-                choose = dpg.get_item_callback(request.item)
-                assert callable(choose)
-                choose(request.item, {"file_path_name": str(self.tmp / "new.json")}, None)
+                save_as = request.dialog
+                assert save_as is not None
+                dpg.set_value(save_as.name_input, str(self.tmp / "new.json"))
+                click(save_as.save_button)
         self.write(phase=f"after-{action}", quitting=self.app.quitting)
 
 

@@ -212,6 +212,8 @@ class Widget(abc.ABC):
     properties: ClassVar[tuple[Property, ...]] = ()
     max_bindings: ClassVar[int] = 1
     """How many series the widget shows (a plot takes several)."""
+    publishes: ClassVar[bool] = False
+    """True for a control: its binding is where it publishes, so Topic setup offers no regex or transforms."""
     default_size: ClassVar[tuple[int, int]] = (220, 220)
     min_size: ClassVar[tuple[int, int]] = (120, 90)
 

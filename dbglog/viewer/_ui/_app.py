@@ -9,8 +9,10 @@ from __future__ import annotations
 import collections
 import ctypes
 import os
+import re
 import sys
 import time
+import weakref
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -31,7 +33,15 @@ from dbglog.viewer._dashboard import (
 from dbglog.viewer._geometry import Part, Rect, hit_test, rects_outside, snap_rect, uncovered
 from dbglog.viewer._model import Binding, DataSource
 from dbglog.viewer._ui import _theme as theme
-from dbglog.viewer._ui._dialogs import Dialog, MessageDialog, PropertiesDialog, RenameDialog, TopicDialog
+from dbglog.viewer._ui._dialogs import (
+    Dialog,
+    MessageDialog,
+    PropertiesDialog,
+    RenameDialog,
+    SaveAsDialog,
+    TopicDialog,
+    topic_widget_name,
+)
 from dbglog.viewer._ui._frame import GRIP, TITLE_H, CanvasItem
 from dbglog.viewer._ui._quit import QuitDialog
 from dbglog.viewer._widgets import WidgetRegistry
@@ -83,6 +93,8 @@ class _FileRequest:
     save: bool
     then: Callable[[], object] | None
     """Called after a successful Save As (the quit prompt's Save: then quit)."""
+    dialog: SaveAsDialog | None = None
+    """The Save As dialog (Open uses Dear PyGui's file dialog)."""
 
 
 class ViewerApp:
@@ -126,6 +138,10 @@ class ViewerApp:
         self._left_down = False
         self._right_down = False
         self._menu_item: CanvasItem | None = None
+        self._menu_shown = False
+        """Whether the context menu was open at the last poll (ImGui closes it before a click is seen)."""
+        self._auto_names: weakref.WeakKeyDictionary[CanvasItem, str] = weakref.WeakKeyDictionary()
+        """Widget -> the name its topic gave it (while it keeps that name, a new topic renames it)."""
         self._grid_key: tuple[int, int, int, bool, bool, tuple[Rect, ...]] | None = None
         self._window_size = (0, 0)
         self._backdrop_key: tuple[float, ...] | None = None
@@ -233,7 +249,10 @@ class ViewerApp:
         dpg.bind_item_theme(self.toolbox, unfilled)
         self.backdrop = dpg.add_viewport_drawlist(front=False)
         self.overlay = dpg.add_viewport_drawlist(front=True)
+        # A real popup: Dear ImGui keeps its submenu part of it (a click there is a click in the menu), and
+        # closes the whole menu on a click outside it.
         with dpg.window(
+            popup=True,
             show=False,
             no_title_bar=True,
             no_move=True,
@@ -251,8 +270,10 @@ class ViewerApp:
             dpg.add_menu_item(label="Rename\u2026", callback=lambda *_: self._menu(self.open_rename_dialog))
             dpg.add_menu_item(label="Bring to front", callback=lambda *_: self._menu(self.bring_to_front))
             with dpg.menu(label="Change widget type"):
+                self.type_entries: dict[str, int | str] = {}
+                """Widget type -> its entry in the submenu (the widget's own type is shown selected)."""
                 for cls in self.registry:
-                    dpg.add_menu_item(
+                    self.type_entries[cls.type_name] = dpg.add_selectable(
                         label=cls.label,
                         callback=lambda *_, t=cls.type_name: self._menu(lambda i: self.change_type(i, t)),
                     )
@@ -263,6 +284,9 @@ class ViewerApp:
         with dpg.handler_registry():
             dpg.add_key_press_handler(dpg.mvKey_Delete, callback=lambda *_: self.on_delete_key())
             dpg.add_key_press_handler(dpg.mvKey_Q, callback=lambda *_: self.on_quit_key())
+            dpg.add_key_press_handler(dpg.mvKey_S, callback=lambda *_: self.on_save_key())
+            dpg.add_key_press_handler(dpg.mvKey_Down, callback=lambda *_: self.on_arrow_key(1))
+            dpg.add_key_press_handler(dpg.mvKey_Up, callback=lambda *_: self.on_arrow_key(-1))
             dpg.add_key_press_handler(dpg.mvKey_Escape, callback=lambda *_: self.on_escape_key())
         self._update_title()
 
@@ -271,8 +295,12 @@ class ViewerApp:
             with dpg.menu(label="File"):
                 dpg.add_menu_item(label="New", callback=lambda *_: self.new_dashboard())
                 dpg.add_menu_item(label="Open\u2026", callback=lambda *_: self._file_dialog(save=False))
-                dpg.add_menu_item(label="Save", callback=lambda *_: self.save())
-                dpg.add_menu_item(label="Save As\u2026", callback=lambda *_: self._file_dialog(save=True))
+                dpg.add_menu_item(label="Save", shortcut="Ctrl+S", callback=lambda *_: self.save())
+                self.save_as_menu = dpg.add_menu_item(
+                    label="Save As\u2026",
+                    shortcut="Ctrl+Shift+S",
+                    callback=lambda *_: self._file_dialog(save=True),
+                )
                 dpg.add_separator()
                 self.quit_menu = dpg.add_menu_item(
                     label="Quit", shortcut="Ctrl+Q", callback=lambda *_: self.request_quit()
@@ -360,9 +388,11 @@ class ViewerApp:
                 self._mark_dirty()
         for hook in self.frame_hooks:
             hook()
-        if self.dialog is not None:
+        for dialog in (self.dialog, self.file_request.dialog if self.file_request is not None else None):
+            if dialog is None:
+                continue
             try:
-                self.dialog.tick()
+                dialog.tick()
             except Exception as exc:  # a dialog must never stop the render loop
                 self.set_status(f"dialog error: {exc!r}")
         self._fit_window()
@@ -465,14 +495,11 @@ class ViewerApp:
             if right and not self._right_down and self.dialog is None and self._over_canvas(pos):
                 self.context_menu(pos)
         self._left_down, self._right_down = left, right
+        self._menu_shown = bool(dpg.is_item_shown(self.menu))
 
     def _on_left_press(self, pos: tuple[float, float]) -> None:
-        if dpg.is_item_shown(self.menu):
-            mx, my = dpg.get_item_pos(self.menu)
-            mw, mh = dpg.get_item_rect_size(self.menu)
-            if not Rect(mx, my, mw, mh).contains(*pos):
-                dpg.hide_item(self.menu)
-            return
+        if self._menu_shown or dpg.is_item_shown(self.menu):
+            return  # a click in the context menu, or one that closes it, is not a click on the canvas
         if self.dialog is not None or not self._over_canvas(pos):
             return
         self.press(pos)
@@ -549,8 +576,9 @@ class ViewerApp:
         item = self.items[hit[0]]
         self.select(item)
         self._menu_item = item
+        for type_name, entry in self.type_entries.items():
+            dpg.set_value(entry, type_name == item.config.type)
         dpg.configure_item(self.menu, pos=(int(pos[0]), int(pos[1])), show=True)
-        dpg.focus_item(self.menu)
         return item
 
     def _menu(self, action: Any) -> None:
@@ -568,9 +596,27 @@ class ViewerApp:
         if dpg.is_key_down(dpg.mvKey_ModCtrl):
             self.request_quit()
 
+    def on_save_key(self) -> None:
+        """S key: with Ctrl held, File \u203a Save (Save As without a file); with Shift too, Save As."""
+        if not dpg.is_key_down(dpg.mvKey_ModCtrl) or self.dialog is not None or self.file_request is not None:
+            return
+        if dpg.is_key_down(dpg.mvKey_ModShift):
+            self._file_dialog(save=True)
+        else:
+            self.save()
+
+    def on_arrow_key(self, step: int) -> None:
+        """Up/Down keys: in Topic setup, highlight the previous/next suggested topic (Enter takes it)."""
+        if isinstance(self.dialog, TopicDialog):
+            self.dialog.move_highlight(step)
+
     def on_escape_key(self) -> None:
-        """Escape key: cancel the quit prompt."""
-        if isinstance(self.dialog, QuitDialog):
+        """Escape key: close the context menu, or cancel the open dialog as its Cancel button would."""
+        if dpg.is_item_shown(self.menu):
+            dpg.hide_item(self.menu)
+        elif self.file_request is not None:
+            self.file_cancelled()
+        elif self.dialog is not None:
             self.dialog.close()
 
     # -- drop from the toolbox ----------------------------------------------------------------------
@@ -663,6 +709,8 @@ class ViewerApp:
         config = retype(item.config, cls, min_frame=(cls.min_size[0], cls.min_size[1] + TITLE_H))
         new = CanvasItem(config, cls, self.canvas, self._frame_theme)
         self.items[self.items.index(item)] = new
+        if self._auto_names.get(item) == item.name:
+            self._auto_names[new] = new.name
         for b in new.bindings:
             self._bind(b)
         for b in item.bindings:
@@ -681,13 +729,29 @@ class ViewerApp:
         self._mark_dirty()
 
     def apply_bindings(self, item: CanvasItem, bindings: tuple[Binding, ...]) -> None:
-        """Point a widget at new series (binding the new ones before releasing the old)."""
+        """Point a widget at new series (binding the new ones before releasing the old).
+
+        A widget still called by its type ("Dial 2") or by the name its last topic gave it is named
+        after its new topic; a name the user gave it stays.
+        """
+        auto = self._auto_named(item)
         for b in bindings:
             self._bind(b)
         for b in item.bindings:
             self._unbind(b)
         item.set_bindings(bindings)
+        if auto:
+            name = topic_widget_name(bindings, {i.name for i in self.items if i is not item})
+            if name is not None and name != item.name:
+                item.rename(name)
+                self._auto_names[item] = name
         self._mark_dirty()
+
+    def _auto_named(self, item: CanvasItem) -> bool:
+        if self._auto_names.get(item) == item.name:
+            return True
+        label = item.widget_cls.label if item.widget_cls is not None else None
+        return label is not None and re.fullmatch(re.escape(label) + r"( \d+)?", item.name) is not None
 
     def set_snap(self, on: bool) -> None:
         """Switch snap-to-grid on or off."""
@@ -774,8 +838,17 @@ class ViewerApp:
     def _file_dialog(self, *, save: bool, then: Callable[[], object] | None = None) -> None:
         """Open the file dialog; after a successful Save As, call `then` (cancelling calls nothing)."""
         self._close_file_dialog()
+        if save:
+            dialog = SaveAsDialog(
+                self.path.parent if self.path else Path.cwd(),
+                self.path.name if self.path else "dashboard.json",
+                lambda p: self.file_chosen(str(p)),
+                self._save_as_closed,
+            )
+            self.file_request = _FileRequest(dialog.window, save, then, dialog)
+            return
         with dpg.file_dialog(
-            label="Save dashboard as" if save else "Open dashboard",
+            label="Open dashboard",
             width=700,
             height=450,
             modal=True,
@@ -807,10 +880,19 @@ class ViewerApp:
         if request is not None and request.then is not None:
             self.set_status("not saved: the viewer stays open")
 
+    def _save_as_closed(self, dialog: Dialog) -> None:
+        # Closed by its Cancel or close button, or Escape (choosing a file forgets the request first).
+        if self.file_request is not None and self.file_request.dialog is dialog:
+            self.file_cancelled()
+
     def _close_file_dialog(self) -> None:
-        if self.file_request is not None and dpg.does_item_exist(self.file_request.item):
-            dpg.delete_item(self.file_request.item)
-        self.file_request = None
+        request, self.file_request = self.file_request, None
+        if request is None:
+            return
+        if request.dialog is not None:
+            request.dialog.close()
+        elif dpg.does_item_exist(request.item):
+            dpg.delete_item(request.item)
 
     # -- quitting -----------------------------------------------------------------------------------
 

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import os
+from collections.abc import Callable, Collection, Sequence
+from pathlib import Path
 
 import dearpygui.dearpygui as dpg
 
@@ -10,6 +12,7 @@ from dbglog.regex_bridge._regex import RegexError, compile_regex
 from dbglog.viewer._dashboard import WidgetConfig, check_stale_after
 from dbglog.viewer._expr import FormulaError, parse_formula
 from dbglog.viewer._model import (
+    TAG_PREFIX,
     Binding,
     DataSource,
     FieldInfo,
@@ -29,9 +32,12 @@ __all__ = [
     "MessageDialog",
     "PropertiesDialog",
     "RenameDialog",
+    "SaveAsDialog",
     "TopicDialog",
+    "dashboard_file_name",
     "formula_check",
     "regex_preview",
+    "topic_widget_name",
 ]
 
 TRANSFORM_KINDS: dict[str, tuple[str, str, str]] = {
@@ -93,10 +99,13 @@ class Dialog:
     def __init__(self, title: str, width: int, on_close: Callable[[Dialog], None]) -> None:
         self._on_close = on_close
         vw, vh = dpg.get_viewport_client_width() or 1200, dpg.get_viewport_client_height() or 800
+        # The height follows the content; the width stays as asked, whatever is typed or shown.
         self.window = dpg.add_window(
             label=title,
             modal=True,
             width=width,
+            min_size=(width, 40),
+            max_size=(width, max(200, vh - 40)),
             autosize=True,
             no_collapse=True,
             no_saved_settings=True,
@@ -104,9 +113,23 @@ class Dialog:
             on_close=lambda *_: self.close(),
         )
         self.closed = False
+        self._focus_next: tuple[int | str, int] | None = None
+        """An item to give the keyboard, and the rendered frame from which to do it."""
 
     def tick(self) -> None:
-        """Called once per frame while open."""
+        """Called once per frame while open (subclasses call this first)."""
+        if self._focus_next is not None and dpg.get_frame_count() >= self._focus_next[1]:
+            item, self._focus_next = self._focus_next[0], None
+            if dpg.does_item_exist(item):
+                dpg.focus_item(item)
+
+    def focus_soon(self, item: int | str) -> None:
+        """Give `item` the keyboard two frames from now, once the key that opened the dialog has passed.
+
+        A shortcut's own character (the S of Ctrl+Shift+S) reaches Dear ImGui after the key press that
+        opened the dialog: a field focused at once would take it.
+        """
+        self._focus_next = (item, dpg.get_frame_count() + 2)
 
     def close(self) -> None:
         """Remove the dialog."""
@@ -159,6 +182,146 @@ class RenameDialog(Dialog):
             return False
         self.item.rename(text[:200])
         self.close()
+        return True
+
+
+def _tag_parts(topic: str) -> list[str]:
+    tag = topic[len(TAG_PREFIX) :] if topic.startswith(TAG_PREFIX) else topic
+    return [p for p in tag.split("/") if p]
+
+
+def topic_widget_name(bindings: Sequence[Binding], taken: Collection[str] = ()) -> str | None:
+    """Return a title for a widget showing `bindings`, or None when none has a topic.
+
+    The last component of the tag (``/rosdashboard/motor/speed`` -> ``speed``), with the field unless it
+    is ``data`` (``cmd_vel.linear.x``); several topics are listed. A name in `taken` gets the tag's
+    components before it, then a number.
+    """
+    bound = [b for b in bindings if b.topic.strip("/")]
+    if not bound:
+        return None
+    topics = list(dict.fromkeys(b.topic for b in bound))
+    field = bound[0].field.strip() if len(bound) == 1 else ""
+    suffix = f".{field}" if field and field != "data" else ""
+    parts = [_tag_parts(t) for t in topics]
+    for depth in range(1, max(len(p) for p in parts) + 1):
+        name = ", ".join("/".join(p[-depth:]) for p in parts[:3]) + ("\u2026" if len(parts) > 3 else "")
+        name = (name + suffix)[:200]
+        if name not in taken:
+            return name
+    n = 2
+    while f"{name} {n}" in taken:
+        n += 1
+    return f"{name} {n}"
+
+
+def dashboard_file_name(text: str) -> str:
+    """Return the file name to save a dashboard as for what was typed: ``.json`` added once.
+
+    Raises:
+        ValueError: the name is blank, or names a folder rather than a file.
+    """
+    name = text.strip()
+    if not name:
+        raise ValueError("type a file name, e.g. dashboard.json")
+    if name.endswith(("/", os.sep)) or Path(name).name in (".", ".."):
+        raise ValueError(f"{name!r} is a folder: add a file name")
+    return name if name.lower().endswith(".json") else name + ".json"
+
+
+class SaveAsDialog(Dialog):
+    """Save the dashboard under a new name: the name field has the keyboard, Enter saves, Esc cancels.
+
+    Args:
+        folder: where the file goes unless the name says otherwise (the dashboard's folder).
+        name: the name the field starts with (the dashboard's file name, or ``dashboard.json``).
+        on_save: called with the chosen path; the caller saves and closes the dialog.
+        on_close: called whenever the dialog closes, as for every `Dialog`.
+    """
+
+    def __init__(
+        self,
+        folder: Path,
+        name: str,
+        on_save: Callable[[Path], object],
+        on_close: Callable[[Dialog], None],
+    ) -> None:
+        super().__init__("Save dashboard as", 560, on_close)
+        self.folder = folder
+        self._on_save = on_save
+        self._replace: Path | None = None
+        w = self.window
+        dpg.add_text("File name (.json is added if missing)", color=DIM, parent=w)
+        self.name_input = dpg.add_input_text(
+            default_value=name,
+            width=-1,
+            parent=w,
+            on_enter=True,
+            auto_select_all=True,
+            callback=lambda *_: self.apply(),
+        )
+        self.folder_text = dpg.add_text("", color=DIM, parent=w, wrap=530)
+        self.entries = dpg.add_child_window(height=150, width=-1, parent=w)
+        self.error = dpg.add_text("", color=ERROR_COLOR, parent=w, wrap=530)
+        dpg.add_spacer(height=4, parent=w)
+        with dpg.group(horizontal=True, parent=w):
+            self.save_button = dpg.add_button(label="Save", width=100, callback=lambda *_: self.apply())
+            self.cancel_button = dpg.add_button(label="Cancel", width=100, callback=lambda *_: self.close())
+        self._list_folder()
+        self.focus_soon(self.name_input)
+
+    def _list_folder(self) -> None:
+        dpg.set_value(self.folder_text, f"in {self.folder}")
+        dpg.delete_item(self.entries, children_only=True)
+        try:
+            found = sorted(os.scandir(self.folder), key=lambda e: e.name.lower())
+        except OSError as exc:
+            dpg.set_value(self.error, f"cannot list {self.folder}: {exc.strerror or exc}")
+            return
+        dirs = [e.name + "/" for e in found if e.is_dir() and not e.name.startswith(".")]
+        files = [e.name for e in found if e.is_file() and e.name.lower().endswith(".json")]
+        up = ["../"] if self.folder.parent != self.folder else []
+        for entry in up + dirs + files:
+            dpg.add_selectable(
+                label=entry, parent=self.entries, callback=lambda *_, e=entry: self._on_entry(e)
+            )
+
+    def _on_entry(self, entry: str) -> None:
+        if entry.endswith("/"):
+            self.folder = (self.folder / entry[:-1]).resolve()
+            self._list_folder()
+        else:
+            dpg.set_value(self.name_input, entry)
+        dpg.focus_item(self.name_input)
+
+    def target(self) -> Path:
+        """The path the typed name stands for (relative names are inside the shown folder).
+
+        Raises:
+            ValueError: the name is blank or names a folder.
+        """
+        typed = str(dpg.get_value(self.name_input))
+        return (self.folder / Path(dashboard_file_name(typed)).expanduser()).absolute()
+
+    def apply(self) -> bool:
+        """Save as the typed name; an existing file is replaced only when Save is pressed a second time."""
+        try:
+            path = self.target()
+        except ValueError as exc:
+            dpg.set_value(self.error, str(exc))
+            return False
+        if not path.parent.is_dir():
+            dpg.set_value(self.error, f"no such folder: {path.parent}")
+            return False
+        if path.is_dir():
+            dpg.set_value(self.error, f"{path} is a folder: type a file name")
+            return False
+        if path.exists() and path != self._replace:
+            self._replace = path
+            dpg.set_value(self.error, f"{path.name} already exists: Save (or Enter) again to replace it.")
+            dpg.focus_item(self.name_input)
+            return False
+        self._on_save(path)
         return True
 
 
@@ -315,6 +478,10 @@ class TopicDialog(Dialog):
         self._fields: list[FieldInfo] = []
         self._preview_binding: Binding | None = None
         self._suggestions: list[str] = []
+        self._typed = ""
+        """The topic field's text when last seen: a change refreshes the suggestions."""
+        self.control = bool(cls is not None and cls.publishes)
+        """A control publishes to its topic: no regex or transforms apply to what it sends."""
         self.preview_ok = True
         self.preview_text = ""
         w = self.window
@@ -323,28 +490,42 @@ class TopicDialog(Dialog):
                 self.series_combo = dpg.add_combo([], label="Series", width=300, callback=self._on_series)
                 dpg.add_button(label="Add series", callback=lambda *_: self.add_series())
                 dpg.add_button(label="Remove", callback=lambda *_: self.remove_series())
-        dpg.add_text("Topic", color=DIM, parent=w)
+        topic_help = "Topic this control publishes to" if self.control else "Topic"
+        dpg.add_text(
+            f"{topic_help}   (Enter takes the highlighted topic, \u2191/\u2193 pick another)",
+            color=DIM,
+            parent=w,
+        )
+        # Enter is the dialog's (take the suggestion, then OK); each keystroke is seen by `tick`.
         self.topic_input = dpg.add_input_text(
             width=-1,
             hint="start typing, e.g. /rosdashboard/",
             parent=w,
-            callback=lambda *_: self._on_topic_typed(),
+            on_enter=True,
+            callback=lambda *_: self.enter(),
         )
         self.suggest_list = dpg.add_listbox(
             [], num_items=5, width=-1, parent=w, callback=lambda s, a: self.choose_topic(a.split("   ")[0])
         )
         dpg.add_text("Field", color=DIM, parent=w)
         self.field_combo = dpg.add_combo([], width=-1, parent=w, callback=lambda s, a: self._on_field(a))
-        self.field_note = dpg.add_text("", color=DIM, parent=w)
-        dpg.add_text("Regex (optional, RE2: the first group or the whole match is used)", color=DIM, parent=w)
-        self.regex_input = dpg.add_input_text(
-            width=-1, hint="e.g. speed=([0-9.]+)", parent=w, callback=lambda *_: self._store()
+        self.field_note = dpg.add_text("", color=DIM, parent=w, wrap=590)
+        self.data_only = dpg.add_group(parent=w, show=not self.control)
+        """The regex and transform sections, which only apply to widgets that show data."""
+        dpg.add_text(
+            "Regex (optional, RE2: the first group or the whole match is used)",
+            color=DIM,
+            parent=self.data_only,
         )
-        self.preview = dpg.add_text("", parent=w, wrap=590)
+        self.regex_input = dpg.add_input_text(
+            width=-1, hint="e.g. speed=([0-9.]+)", parent=self.data_only, callback=lambda *_: self._store()
+        )
+        self.preview = dpg.add_text("", parent=self.data_only, wrap=590)
         self.latest = dpg.add_text("", color=DIM, parent=w, wrap=590)
-        self._build_transforms(w)
+        self._build_transforms(self.data_only)
         self._buttons("OK", self.apply)
         self._load_current()
+        self.focus_soon(self.topic_input)
 
     # -- series list (plots) ------------------------------------------------------------------------
 
@@ -383,6 +564,7 @@ class TopicDialog(Dialog):
             dpg.configure_item(self.series_combo, items=labels)
             dpg.set_value(self.series_combo, labels[self.index])
         dpg.set_value(self.topic_input, b.topic)
+        self._typed = b.topic
         dpg.set_value(self.regex_input, b.regex)
         self._refresh_suggestions()
         self._refresh_fields(b.field)
@@ -417,10 +599,41 @@ class TopicDialog(Dialog):
     def _refresh_suggestions(self) -> None:
         self._suggestions = self.suggestions()
         dpg.configure_item(self.suggest_list, items=self._suggestions)
+        self.highlight(0)
+
+    def highlighted(self) -> str | None:
+        """The topic Enter would take (the highlighted suggestion), or None when nothing matches."""
+        label = str(dpg.get_value(self.suggest_list) or "")
+        return label.split("   ")[0] if label in self._suggestions else None
+
+    def highlight(self, index: int) -> None:
+        """Highlight suggestion `index` (kept within the list)."""
+        if self._suggestions:
+            index = max(0, min(len(self._suggestions) - 1, index))
+            dpg.set_value(self.suggest_list, self._suggestions[index])
+
+    def move_highlight(self, step: int) -> None:
+        """Highlight the next (+1) or previous (-1) suggestion, as the arrow keys do."""
+        current = str(dpg.get_value(self.suggest_list) or "")
+        index = self._suggestions.index(current) if current in self._suggestions else -step
+        self.highlight(index + step)
+
+    def enter(self) -> None:
+        """Enter in the topic field: take the highlighted suggestion; once a known topic is there, OK."""
+        typed = str(dpg.get_value(self.topic_input)).strip()
+        known = {t.name for t in self.source.topics()}
+        choice = self.highlighted()
+        if typed in known or choice is None:
+            self.apply()  # a topic not on the graph yet (its node not started) is taken as typed
+            return
+        self.choose_topic(choice)
+        self.focus_soon(self.topic_input)
 
     def choose_topic(self, topic: str) -> None:
         """Take a topic (as clicking a suggestion does) and list its fields."""
         dpg.set_value(self.topic_input, topic.strip())
+        self._typed = topic.strip()
+        self._refresh_suggestions()
         self._refresh_fields("")
         self._store()
 
@@ -584,7 +797,12 @@ class TopicDialog(Dialog):
     # -- live preview -------------------------------------------------------------------------------
 
     def tick(self) -> None:
-        """Keep a preview series bound for the edited topic/field and show what the regex extracts."""
+        """Follow the typing; keep the edited topic/field's preview series bound; show the regex result."""
+        super().tick()
+        typed = str(dpg.get_value(self.topic_input))
+        if typed != self._typed:
+            self._typed = typed
+            self._on_topic_typed()
         b = self.bindings[self.index]
         want = Binding(b.topic, b.field) if b.topic else None
         if want != self._preview_binding:

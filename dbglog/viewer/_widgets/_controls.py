@@ -93,6 +93,7 @@ _TYPE_HELP = (
 class _Control(Widget):
     """What every control shares: its target from the binding, the publisher state as its status."""
 
+    publishes = True
     default_type: ClassVar[str] = "std_msgs/msg/Float64"
     value_kind: ClassVar[str] = "number"
 

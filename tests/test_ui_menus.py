@@ -1,0 +1,495 @@
+"""The viewer's menus under Xvfb, clicked with the real mouse: the context menu and its widget types, Save As.
+
+Each test starts the real `ViewerApp.run` loop in a process of its own. A frame hook there reports what is
+on screen (widgets, menu entries and dialogs with their window-pixel rectangles, the keyboard focus) to a
+JSON file; this process reads it to know where to point, and moves, clicks and types with xdotool (XTEST:
+the same events a real mouse and keyboard make). Nothing here calls a callback or handler directly.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+import time
+import warnings
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from tests._ros import wait_until
+from tests._xvfb import x_display
+
+pytestmark = pytest.mark.gui
+
+ROOT = Path(__file__).resolve().parent.parent
+WAIT_S = 30.0
+"""How long the viewer may take to show what a click asked for (generous for a loaded CI machine)."""
+
+
+# -- the child: a real viewer whose frame hook reports what is on screen ---------------------------------
+
+
+def _rect(item: int | str) -> list[float] | None:
+    """An item's rectangle in window pixels [x, y, w, h], or None when it is not drawn."""
+    import dearpygui.dearpygui as dpg
+
+    if not dpg.does_item_exist(item):
+        return None
+    state = dpg.get_item_state(item)
+    if not state.get("visible") or "rect_min" not in state:
+        return None
+    (x, y), (w, h) = state["rect_min"], state["rect_size"]
+    return [float(x), float(y), float(w), float(h)]
+
+
+def _window_rect(window: int | str) -> list[float] | None:
+    import dearpygui.dearpygui as dpg
+
+    if not dpg.does_item_exist(window) or not dpg.is_item_shown(window):
+        return None
+    (x, y), (w, h) = dpg.get_item_pos(window), dpg.get_item_rect_size(window)
+    return [float(x), float(y), float(w), float(h)]
+
+
+def _labelled(window: int | str) -> dict[str, list[float] | None]:
+    """Every labelled item in `window` (menu entries, buttons) -> its rectangle in window pixels.
+
+    Dear PyGui reports no rectangle for a menu entry, only where it starts inside its window: its
+    rectangle is then that line across the window, or for an entry of an open submenu, that line in
+    the submenu Dear ImGui places to the right of the menu, level with the submenu's own entry.
+    """
+    import dearpygui.dearpygui as dpg
+
+    (wx, wy), (ww, _) = dpg.get_item_pos(window), dpg.get_item_rect_size(window)
+    out: dict[str, list[float] | None] = {}
+    origin: dict[int | str, tuple[float, float]] = {window: (float(wx), float(wy))}
+    stack = [window]
+    while stack:
+        item = stack.pop()
+        for slot in (1, 2):
+            for child in dpg.get_item_children(item, slot) or []:
+                label = dpg.get_item_label(child)
+                rect = _rect(child)
+                state = dpg.get_item_state(child)
+                if rect is None and item in origin and "pos" in state:
+                    x, y = state["pos"]
+                    h = dpg.get_text_size(label)[1] if label else 0.0
+                    ox, oy = origin[item]
+                    rect = [ox + x, oy + y, float(ww - 2 * x), float(h)]
+                if rect is not None and dpg.get_item_type(child) == "mvAppItemType::mvMenu":
+                    origin[child] = (float(wx + ww - 4), rect[1] - 8)
+                if label and label not in out:
+                    out[label] = rect
+                stack.append(child)
+    return out
+
+
+class Probe:
+    """Frame hook: writes the viewer's visible state to `state.json` whenever it changes."""
+
+    def __init__(self, app: Any, tmp: Path) -> None:
+        self.app, self.tmp = app, tmp
+        self.frame = 0
+
+    def state(self) -> dict[str, Any]:
+        """What is on screen now."""
+        import dearpygui.dearpygui as dpg
+
+        from dbglog.viewer._ui._dialogs import TopicDialog
+
+        app = self.app
+        ox, oy = app.canvas_origin()
+        items = [
+            {
+                "name": i.name,
+                "type": i.config.type,
+                "rect": [i.rect.x + ox, i.rect.y + oy, i.rect.w, i.rect.h],
+                "topics": [b.topic for b in i.bindings],
+                "fields": [b.field for b in i.bindings],
+            }
+            for i in app.items
+        ]
+        state: dict[str, Any] = {
+            "pid": os.getpid(),
+            "items": items,
+            "toolbox": {dpg.get_item_label(b): _rect(b) for b in app.toolbox_buttons.values()},
+            "selected": app.selected.name if app.selected is not None else None,
+            "dirty": app.dirty,
+            "path": str(app.path) if app.path else None,
+            "mouse": list(dpg.get_mouse_pos(local=False)),
+            "menu": _labelled(app.menu) if dpg.is_item_shown(app.menu) else None,
+            "menu_rect": _window_rect(app.menu),
+            "file_dialog": None,
+            "dialog": None,
+            "status": app._status_text,
+        }
+        request = app.file_request
+        if request is not None and dpg.does_item_exist(request.item):
+            state["file_dialog"] = {"save": request.save, "shown": bool(dpg.is_item_shown(request.item))}
+            save_as = request.dialog
+            if save_as is not None:
+                state["file_dialog"].update(
+                    name=dpg.get_value(save_as.name_input),
+                    name_active=bool(dpg.is_item_active(save_as.name_input)),
+                    folder=str(save_as.folder),
+                    error=dpg.get_value(save_as.error),
+                    rect=_window_rect(save_as.window),
+                    controls=_labelled(save_as.window),
+                )
+        dialog = app.dialog
+        if dialog is not None:
+            info: dict[str, Any] = {
+                "kind": type(dialog).__name__,
+                "title": dpg.get_item_label(dialog.window),
+                "rect": _window_rect(dialog.window),
+                "controls": _labelled(dialog.window),
+            }
+            if isinstance(dialog, TopicDialog):
+                info.update(
+                    topic=dpg.get_value(dialog.topic_input),
+                    topic_rect=_rect(dialog.topic_input),
+                    topic_active=bool(dpg.is_item_active(dialog.topic_input)),
+                    suggestions=list(dialog._suggestions),
+                    highlighted=dpg.get_value(dialog.suggest_list),
+                    texts=[
+                        str(dpg.get_value(t))
+                        for t in _all_children(dialog.window)
+                        if dpg.get_item_type(t) == "mvAppItemType::mvText"
+                        and dpg.get_item_state(t).get("visible")
+                    ],
+                )
+            state["dialog"] = info
+        return state
+
+    def hook(self) -> None:
+        """Report; answer screenshot requests (`shot-NAME` files the test drops into the folder)."""
+        import dearpygui.dearpygui as dpg
+
+        self.frame += 1
+        for request in sorted(self.tmp.glob("shot-*.request")):
+            name = request.stem.removeprefix("shot-")
+            request.unlink()
+            dpg.output_frame_buffer(file=str(self.tmp / f"{name}.png"))
+            pacer = getattr(self.app, "pacer", None)  # a viewer that renders only on change: render now
+            if pacer is not None:
+                pacer.request()
+        state = self.state()
+        state["frame"] = getattr(self.app, "rendered", self.frame)  # frames drawn (input is read then)
+        out = self.tmp / "state.json.tmp"
+        out.write_text(json.dumps(state, indent=1))
+        out.replace(self.tmp / "state.json")
+
+
+def _all_children(parent: int | str) -> list[int | str]:
+    import dearpygui.dearpygui as dpg
+
+    out: list[int | str] = []
+    stack = [parent]
+    while stack:
+        item = stack.pop()
+        for slot in (1, 2):
+            kids = dpg.get_item_children(item, slot) or []
+            out.extend(kids)
+            stack.extend(kids)
+    return out
+
+
+def start_dashboard(tmp: Path) -> Path:
+    """The dashboard the tests open: a dial on the speed topic and an LED without one."""
+    from dbglog.viewer._dashboard import Dashboard, RawWidget, WidgetConfig, save_dashboard
+    from dbglog.viewer._model import Binding
+
+    widgets = [
+        WidgetConfig("dial", "Speed", 40, 40, 240, 260, (Binding("/rosdashboard/speed", "data"),), {}),
+        WidgetConfig("led", "Lamp", 340, 40, 200, 160, (), {}),
+        WidgetConfig("toggle", "Fan", 600, 40, 200, 98, (Binding("/fan/on"),), {"state": False}),
+    ]
+    path = tmp / "dash.json"
+    save_dashboard(Dashboard(list[WidgetConfig | RawWidget](widgets), 20, True), path)
+    return path
+
+
+def run_here(scenario: str, tmp_dir: str) -> None:
+    """Child-process entry: open the start dashboard (or none) and run the viewer until it closes."""
+    warnings.simplefilter("error")
+    from dbglog.viewer._dashboard import load_dashboard
+    from dbglog.viewer._ui import ViewerApp
+    from dbglog.viewer._widgets import WidgetRegistry
+    from tests.test_ui import make_source
+
+    tmp = Path(tmp_dir)
+    registry = WidgetRegistry.builtin()
+    source = make_source()
+    source.push("/rosdashboard/speed", "data", 3.5)
+    app = ViewerApp(source, registry, width=1200, height=760)
+    app.start()
+    try:
+        if scenario == "dashboard":
+            path = start_dashboard(tmp)
+            app.load(load_dashboard(path, registry.get), path)
+        probe = Probe(app, tmp / "probe")
+        app.frame_hooks.append(probe.hook)
+        app.run()
+    finally:
+        app.close()
+
+
+# -- this side: a desktop with a mouse and a keyboard ----------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def display() -> Iterator[str]:
+    """The X display: the caller's, or a private Xvfb started for this module."""
+    with x_display() as name:
+        yield name
+
+
+class Viewer:
+    """A child process running the real viewer, and the mouse and keyboard (xdotool) on its display."""
+
+    def __init__(self, scenario: str, tmp: Path, display: str, module: str) -> None:
+        self.tmp, self.display = tmp / "probe", display
+        self.tmp.mkdir()
+        code = (
+            f"import sys; sys.path.insert(0, {str(ROOT)!r}); "
+            f"from tests import {module}; {module}.run_here(sys.argv[1], sys.argv[2])"
+        )
+        self.log = (self.tmp / "child.log").open("w")
+        self.proc = subprocess.Popen(
+            [sys.executable, "-c", code, scenario, str(tmp)],
+            env={**os.environ, "DISPLAY": display},
+            stdout=self.log,
+            stderr=subprocess.STDOUT,
+            cwd=ROOT,
+        )
+        self.window = ""
+
+    # -- the child's reports --
+
+    def output(self) -> str:
+        """What the child printed."""
+        self.log.flush()
+        return (self.tmp / "child.log").read_text()
+
+    def state(self) -> dict[str, Any]:
+        """The child's last reported state (empty before the first report)."""
+        try:
+            return dict(json.loads((self.tmp / "state.json").read_text()))
+        except (OSError, ValueError):
+            return {}
+
+    def wait_for(self, what: Callable[[dict[str, Any]], Any], timeout: float = WAIT_S) -> dict[str, Any]:
+        """Wait until the reported state satisfies `what`; fail if the child dies or time runs out."""
+
+        def check() -> bool:
+            state = self.state()
+            return self.proc.poll() is not None or (bool(state) and bool(what(state)))
+
+        ok = wait_until(check, timeout=timeout)
+        state = self.state()
+        assert ok, f"timed out; state {json.dumps(state, indent=1)}\n{self.output()}"
+        assert what(state), f"child exited with {self.proc.returncode}; state {state}\n{self.output()}"
+        return state
+
+    def frames(self, n: int = 3) -> dict[str, Any]:
+        """Wait until the viewer drew `n` more frames (so it has seen the last input) and return the state."""
+        start = int(self.state().get("frame", 0))
+        return self.wait_for(lambda s: int(s.get("frame", 0)) >= start + n)
+
+    def ready(self) -> dict[str, Any]:
+        """Wait for the first report and the window, and give the window the keyboard."""
+        state = self.wait_for(lambda s: s.get("frame", 0) >= 3)
+        out = self.xdo("search", "--sync", "--pid", str(self.proc.pid))
+        self.window = out.split()[0]
+        self.xdo("windowfocus", "--sync", self.window)
+        return state
+
+    def shot(self, name: str) -> Path:
+        """Ask the child for a screenshot of the window; return the PNG once written."""
+        path = self.tmp / f"{name}.png"
+        (self.tmp / f"shot-{name}.request").touch()
+        assert wait_until(lambda: path.exists() and path.stat().st_size > 0, timeout=WAIT_S), self.output()
+        time.sleep(0.2)  # the PNG is written in one go, but give the writer a moment to close it
+        return path
+
+    # -- the mouse and the keyboard --
+
+    def xdo(self, *args: str) -> str:
+        """Run xdotool on the child's display and return what it printed."""
+        done = subprocess.run(
+            ["xdotool", *args],
+            env={**os.environ, "DISPLAY": self.display},
+            capture_output=True,
+            text=True,
+            timeout=WAIT_S,
+            check=True,
+        )
+        return done.stdout
+
+    def move(self, x: float, y: float) -> None:
+        """Move the mouse to window pixel (x, y) and wait until the viewer saw it there."""
+        self.xdo("mousemove", "--window", self.window, str(round(x)), str(round(y)))
+        self.wait_for(lambda s: abs(s["mouse"][0] - round(x)) <= 1 and abs(s["mouse"][1] - round(y)) <= 1)
+        self.frames(3)
+
+    def click(self, x: float, y: float, button: int = 1) -> None:
+        """Move to (x, y) and click `button` (1 left, 3 right), holding it for a few frames as a hand does."""
+        self.move(x, y)
+        self.xdo("mousedown", str(button))
+        self.frames(3)
+        self.xdo("mouseup", str(button))
+        self.frames(3)
+
+    def drag(self, start: tuple[float, float], end: tuple[float, float], steps: int = 8) -> None:
+        """Press the left button at `start`, move to `end` in steps with it held, and let go there."""
+        self.move(*start)
+        self.xdo("mousedown", "1")
+        self.frames(3)
+        for i in range(1, steps + 1):
+            x = start[0] + (end[0] - start[0]) * i / steps
+            y = start[1] + (end[1] - start[1]) * i / steps
+            self.move(x, y)
+        self.frames(3)
+        self.xdo("mouseup", "1")
+        self.frames(3)
+
+    def key(self, *names: str) -> None:
+        """Press keys (xdotool names: "Return", "ctrl+shift+s")."""
+        for name in names:  # held for a few frames, as a hand does: the viewer sees the chord together
+            self.xdo("keydown", name)
+            self.frames(3)
+            self.xdo("keyup", name)
+            self.frames(3)
+
+    def type(self, text: str) -> None:
+        """Type `text` on the keyboard."""
+        self.xdo("type", "--delay", "60", text)
+        self.frames(3)
+
+    def stop(self) -> None:
+        """Kill the child if it still runs."""
+        if self.proc.poll() is None:
+            self.proc.kill()
+            self.proc.wait(10)
+        self.log.close()
+
+
+def center(rect: list[float]) -> tuple[float, float]:
+    """The middle of an [x, y, w, h] rectangle."""
+    return rect[0] + rect[2] / 2, rect[1] + rect[3] / 2
+
+
+def start_viewers(display: str, tmp_path: Path) -> Iterator[Callable[[str], Viewer]]:
+    """Fixture body: start viewers on the display (ready for input); each is killed at the end."""
+    assert shutil.which("xdotool"), "xdotool is missing: .ci/setup.sh installs it"
+    started: list[Viewer] = []
+
+    def start(scenario: str) -> Viewer:
+        v = Viewer(scenario, tmp_path, display, "test_ui_menus")
+        started.append(v)
+        v.ready()
+        return v
+
+    yield start
+    for v in started:
+        v.stop()
+
+
+@pytest.fixture
+def viewer(display: str, tmp_path: Path) -> Iterator[Callable[[str], Viewer]]:
+    """Start viewers on the display; each is killed at the end if it still runs."""
+    yield from start_viewers(display, tmp_path)
+
+
+def item_named(state: dict[str, Any], name: str) -> dict[str, Any]:
+    """The reported widget called `name`."""
+    return next(i for i in state["items"] if i["name"] == name)
+
+
+# -- the context menu ---------------------------------------------------------------------------------------
+
+
+def test_context_menu_change_type_by_clicking(viewer: Callable[[str], Viewer]) -> None:
+    """Right-click a widget, Change widget type, click Plot: the dial becomes a plot on the same topic."""
+    v = viewer("dashboard")
+    state = v.state()
+    dial = item_named(state, "Speed")
+    assert dial["type"] == "dial"
+    x, y, w, h = dial["rect"]
+    v.click(x + w / 2, y + h / 2, button=3)
+    state = v.wait_for(lambda s: s["menu"] is not None and s["menu"].get("Change widget type"))
+    v.move(*center(state["menu"]["Change widget type"]))
+    state = v.wait_for(lambda s: s["menu"] is not None and s["menu"].get("Plot"))
+    shot = v.shot("type-menu")
+    v.click(*center(state["menu"]["Plot"]))
+    state = v.wait_for(lambda s: item_named(s, "Speed")["type"] == "plot")
+    plot = item_named(state, "Speed")
+    assert plot["topics"] == ["/rosdashboard/speed"]
+    assert plot["rect"][:2] == dial["rect"][:2]
+    assert state["menu"] is None
+    assert state["dirty"] is True
+    assert shot.stat().st_size > 0
+
+
+# -- Save As ------------------------------------------------------------------------------------------------
+
+
+def test_save_as_starts_with_the_file_name_and_adds_json_once(
+    viewer: Callable[[str], Viewer], tmp_path: Path
+) -> None:
+    """Ctrl+Shift+S opens Save As on the dashboard's name, ready to type over; .json is added once."""
+    v = viewer("dashboard")
+    v.key("ctrl+shift+s")
+    state = v.wait_for(lambda s: s["file_dialog"] is not None and s["file_dialog"]["name_active"])
+    assert state["file_dialog"]["name"] == "dash.json"
+    assert state["file_dialog"]["folder"] == str(tmp_path)
+    shot = v.shot("save-as")
+    v.type("mydash")
+    state = v.wait_for(lambda s: s["file_dialog"]["name"] == "mydash")
+    v.key("Return")
+    state = v.wait_for(lambda s: s["file_dialog"] is None and s["path"] == str(tmp_path / "mydash.json"))
+    assert state["dirty"] is False
+    saved = json.loads((tmp_path / "mydash.json").read_text())
+    assert [w["name"] for w in saved["widgets"]] == ["Speed", "Lamp", "Fan"]
+    assert not [p.name for p in tmp_path.iterdir() if p.name.startswith(".")], "no hidden file"
+
+    v.key("ctrl+shift+s")  # a name typed with .json keeps it as it is
+    state = v.wait_for(lambda s: s["file_dialog"] is not None and s["file_dialog"]["name_active"])
+    assert state["file_dialog"]["name"] == "mydash.json"
+    v.type("other.json")
+    v.key("Return")
+    v.wait_for(lambda s: s["path"] == str(tmp_path / "other.json"))
+    assert sorted(p.name for p in tmp_path.glob("*.json")) == ["dash.json", "mydash.json", "other.json"]
+    assert shot.stat().st_size > 0
+
+
+def test_save_as_asks_before_replacing_and_escape_cancels(
+    viewer: Callable[[str], Viewer], tmp_path: Path
+) -> None:
+    """Enter on an existing name asks first (a second Enter replaces it); Escape closes Save As unsaved."""
+    v = viewer("dashboard")
+    before = (tmp_path / "dash.json").read_bytes()
+    v.key("ctrl+shift+s")
+    v.wait_for(lambda s: s["file_dialog"] is not None and s["file_dialog"]["name_active"])
+    v.key("Return")
+    state = v.wait_for(lambda s: "already exists" in (s["file_dialog"] or {}).get("error", ""))
+    assert (tmp_path / "dash.json").read_bytes() == before
+    shot = v.shot("replace")
+    v.click(*center(state["file_dialog"]["controls"]["Save"]))
+    v.wait_for(lambda s: s["file_dialog"] is None)
+    assert (tmp_path / "dash.json.bak").read_bytes() == before
+
+    v.key("ctrl+shift+s")
+    v.wait_for(lambda s: s["file_dialog"] is not None and s["file_dialog"]["name_active"])
+    v.type("never")
+    v.key("Escape")
+    v.wait_for(lambda s: s["file_dialog"] is None)
+    v.frames(5)
+    assert not (tmp_path / "never.json").exists()
+    assert v.state()["path"] == str(tmp_path / "dash.json")
+    assert shot.stat().st_size > 0
