@@ -370,7 +370,13 @@ def test_special_files_are_refused_without_blocking(tmp_path: Path) -> None:
 
 any_text = st.text(st.characters(codec=None), max_size=12)
 """Any code points, lone surrogates and controls included."""
-leaf = st.none() | st.booleans() | st.integers(-(10**400), 10**400) | st.floats(allow_nan=False) | any_text
+leaf = (
+    st.none()
+    | st.booleans()
+    | st.integers(-(10**400), 10**400)
+    | st.floats(allow_nan=False, allow_infinity=False)
+    | any_text
+)
 junk = st.recursive(
     leaf,
     lambda inner: st.lists(inner, max_size=3) | st.dictionaries(any_text, inner, max_size=3),
@@ -402,6 +408,36 @@ def test_any_text_and_types_load_safely(widgets: list[Any], grid: Any) -> None:
         return
     _assert_safe(result)
     assert len(result.dashboard.widgets) + result.left_out <= len(widgets)
+
+
+legacy_like = st.fixed_dictionaries(
+    {"type": st.sampled_from(["DragDial", "DragPlot", "DragLed", "DragButton"]) | any_text},
+    optional={
+        "name": any_text | junk,
+        "posX": junk,
+        "width": junk,
+        "subscription": st.dictionaries(st.sampled_from(["topic", "datafield", "regex"]), field_values)
+        | junk,
+        "properties": st.lists(
+            st.dictionaries(
+                st.sampled_from(["name", "type", "value"]),
+                field_values | st.sampled_from(["numeric", "minimum", "datafield", "topic"]),
+            )
+        )
+        | junk,
+    },
+)
+
+
+@given(st.lists(legacy_like | junk, max_size=4))
+@settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+def test_any_text_and_types_in_legacy_files_load_safely(widgets: list[Any]) -> None:
+    """ROSDashboard files with random text and types: a partial load of safe text only, or a clear error."""
+    try:
+        result = parse_dashboard({"widgets": widgets}, LOOKUP)
+    except DashboardError:
+        return
+    _assert_safe(result)
 
 
 @given(st.text(st.characters(codec=None), max_size=30))
