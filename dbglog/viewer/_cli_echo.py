@@ -8,16 +8,28 @@ import sys
 import time
 from typing import TYPE_CHECKING
 
+from dbglog.viewer._cli_tags import DISCOVERY_HORIZON_S
+
 if TYPE_CHECKING:
     from dbglog.viewer._engine import Engine
-    from dbglog.viewer._model import SeriesSnapshot
+    from dbglog.viewer._model import SeriesSnapshot, TopicInfo
 
-__all__ = ["HELP", "add_arguments", "format_line", "run", "split_target"]
+__all__ = ["HELP", "add_arguments", "format_line", "graph_names", "run", "split_target"]
 
 HELP = "Print the values of a dbglog tag or of a topic field, one per line."
 
 _POLL_S = 0.02
 _TAG_PREFIX = "/rosdashboard/"
+_HINT_AFTER_S = DISCOVERY_HORIZON_S + 0.5
+"""Without a value this long, say once on stderr why (nothing publishes it, close matches): not before
+discovery can have found every publisher, or the note would blame a topic that is merely not seen yet."""
+_SETTLE_QUIET_S = 0.15
+"""The kept history has fully arrived once no sample came for this long after the first one, or once a
+sample published after echo started arrives (a writer sends its history first, in order)..."""
+_SETTLE_MAX_S = 1.0
+"""...and at the latest this long after the first sample (clock skew, very fast publishers)."""
+_ARRIVAL_SLACK_S = 0.05
+"""How much earlier than echo noticed it the first sample may have landed (poll period, engine cycle)."""
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -27,13 +39,28 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="a dbglog tag (proximity) or a topic with an optional field path: "
         "/turtle1/cmd_vel.linear.x, /scan.ranges[3] (rqt style /turtle1/pose/x works too)",
     )
-    parser.add_argument("--count", "-n", type=int, default=0, metavar="N", help="exit after N values")
+    parser.add_argument(
+        "--count",
+        "-n",
+        type=int,
+        default=0,
+        metavar="N",
+        help="exit after N values: first the current value (the newest one a latched tag kept), then "
+        "the next N-1 as they arrive; 0 (default) runs until Ctrl-C",
+    )
+    parser.add_argument(
+        "--history",
+        action="store_true",
+        help="start with every value the publishers kept (a tag keeps its last 100), oldest first, "
+        "instead of only the newest; --count counts them too",
+    )
     parser.add_argument(
         "--timeout",
         type=float,
         default=None,
         metavar="S",
-        help="exit with status 1, saying why, when no value arrives for S seconds",
+        help="exit with status 1, saying why, when no value arrives for S seconds (without it, echo "
+        "keeps waiting and says on stderr after a few seconds if nothing publishes the target)",
     )
     parser.add_argument("--regex", default="", help="extract a number from text values (first group)")
     parser.add_argument("--stamp", action="store_true", help="prefix each value with its source time")
@@ -74,11 +101,22 @@ def format_line(value: object, stamp: float | None = None) -> str:
     return text if stamp is None else f"{stamp:.6f} {text}"
 
 
+def graph_names(topics: list[TopicInfo]) -> set[str]:
+    """Return the topics that some other participant publishes.
+
+    The engine's own node publishes ``/parameter_events``: with one publisher that topic is ours
+    alone, so a graph holding nothing else counts as empty.
+    """
+    return {t.name for t in topics if t.publishers > (1 if t.name == "/parameter_events" else 0)}
+
+
 def _why(engine: Engine, topic: str, snap: SeriesSnapshot | None, waited: float) -> str:
     domain = os.environ.get("ROS_DOMAIN_ID", "0")
     names = {t.name: t for t in engine.topics()}
     if topic not in names:
-        return f"topic {topic} does not exist on the ROS graph (ROS_DOMAIN_ID={domain}) after {waited:g} s"
+        why = f"topic {topic} does not exist on the ROS graph (ROS_DOMAIN_ID={domain}) after {waited:g} s"
+        hint = _hint(engine, topic)
+        return why if hint is None or "not on the ROS graph yet" in hint else f"{why}: {hint}"
     if names[topic].publishers == 0:
         return f"topic {topic} has no publisher (waited {waited:g} s)"
     if snap is not None and snap.reason:
@@ -86,15 +124,80 @@ def _why(engine: Engine, topic: str, snap: SeriesSnapshot | None, waited: float)
     return f"no message on {topic} in {waited:g} s"
 
 
+def _hint(engine: Engine, topic: str) -> str | None:
+    """Say why `topic` has no value when nothing publishes it (None when something does)."""
+    from dbglog.viewer._suggest import unpublished_reason
+
+    topics = engine.topics()
+    if any(t.name == topic and t.publishers for t in topics):
+        return None
+    return unpublished_reason(topic, graph_names(topics))
+
+
+def _values(snap: SeriesSnapshot, new: int) -> tuple[list[object], list[float | None]]:
+    """Return the `new` newest values of `snap` (oldest first) with their source times."""
+    from dbglog.viewer._model import ValueKind
+
+    if snap.kind in (ValueKind.NUMBER, ValueKind.BOOL):
+        numbers = snap.values[-new:].tolist()
+        values: list[object] = (
+            [bool(v) for v in numbers]
+            if snap.kind == ValueKind.BOOL
+            else [int(v) for v in numbers]
+            if isinstance(snap.last, int)
+            else numbers
+        )
+        return values, list(snap.times[-new:])
+    if snap.kind == ValueKind.TEXT:
+        return list(snap.texts[-new:]), list(snap.times[-new:])
+    return [snap.last], [snap.last_time]
+
+
+def _settled(snap: SeriesSnapshot, first_at: float, last_change_at: float, now: float, since: float) -> bool:
+    """Tell whether the burst of kept history that follows a subscription has fully arrived."""
+    if now - first_at >= _SETTLE_MAX_S or now - last_change_at >= _SETTLE_QUIET_S:
+        return True
+    return snap.last_time is not None and snap.last_time >= since
+
+
+def _backlog(snap: SeriesSnapshot, since: float, history: bool) -> int:
+    """Return how many received values to print first: the newest kept one and all published `since`.
+
+    Values published before the first one arrived (source time before `since`) are the publishers'
+    kept history: only the newest of them is the current value (all of them with --history). Values
+    published afterwards are all printed. Arrays keep no times: their newest value only.
+    """
+    import numpy as np
+
+    times = snap.times
+    if history:
+        return snap.count
+    if not len(times):
+        return min(1, snap.count)
+    kept = np.flatnonzero(times < since)
+    return len(times) - int(kept[-1]) if len(kept) else len(times)
+
+
 def run(args: argparse.Namespace) -> int:
-    """Bind the target and print its new values until --count or --timeout ends it."""
+    """Bind the target and print its newest value, then the following ones, until --count or --timeout."""
     from dbglog.viewer._engine import Engine
-    from dbglog.viewer._model import Binding, Status, ValueKind
+    from dbglog.viewer._model import Binding, Status
 
     if args.count < 0 or (args.timeout is not None and args.timeout <= 0):
         print("dbglog echo: --count must be >= 0 and --timeout > 0", file=sys.stderr)
         return 2
     printed = 0
+    hinted = False
+
+    def hint_once(topic: str) -> None:
+        nonlocal hinted
+        if hinted or time.monotonic() - started < _HINT_AFTER_S:
+            return
+        hinted = True
+        reason = _hint(engine, topic)
+        if reason is not None:
+            print(f"dbglog echo: {reason} (still waiting; Ctrl-C to stop)", file=sys.stderr, flush=True)
+
     with Engine(node_name="dbglog_echo") as engine:
         started = last_value_at = time.monotonic()
         split = split_target(args.target, set())
@@ -105,43 +208,55 @@ def run(args: argparse.Namespace) -> int:
                 topic = args.target.split(".")[0]
                 print(f"dbglog echo: {_why(engine, topic, None, args.timeout)}", file=sys.stderr)
                 return 1
+            if split is None:
+                hint_once(args.target.split(".")[0])
             time.sleep(_POLL_S)
         topic, path = split
         binding = Binding(topic, path, args.regex)
         engine.bind(binding)
-        seen = 0
+        seen = 0  # the series count already printed (or skipped as older history)
+        first_at: float | None = None  # when the first sample (usually the kept history) arrived
+        since = 0.0
+        burst_count = 0
+        last_change_at = 0.0
+        caught_up = False
         last_error = ""
         while True:
+            now = time.monotonic()
             snap = engine.snapshot(binding)
             if snap.status == Status.ERROR and snap.reason != last_error:
                 last_error = snap.reason
                 print(f"dbglog echo: {topic}: {snap.reason}", file=sys.stderr, flush=True)
                 if printed == 0 and "type changed" not in snap.reason:
                     return 1
-            new = snap.count - seen
+            if not caught_up and snap.count:
+                # A latched tag sends its kept history at once: let it land, then start from its newest.
+                if first_at is None:
+                    first_at = now
+                    # The writers send what they kept on matching: values older than its first
+                    # arrival are that history, newer ones were published since (print them all).
+                    since = time.time() - _ARRIVAL_SLACK_S
+                if snap.count != burst_count:
+                    burst_count, last_change_at = snap.count, now
+                if not _settled(snap, first_at, last_change_at, now, since):
+                    time.sleep(_POLL_S)
+                    continue
+                caught_up = True
+                seen = snap.count - _backlog(snap, since, args.history)
+            new = snap.count - seen if caught_up else 0
             if new > 0:
-                if snap.kind in (ValueKind.NUMBER, ValueKind.BOOL):
-                    numbers = snap.values[-new:].tolist()
-                    values: list[object] = (
-                        [bool(v) for v in numbers]
-                        if snap.kind == ValueKind.BOOL
-                        else [int(v) for v in numbers]
-                        if isinstance(snap.last, int)
-                        else numbers
-                    )
-                    times: list[float | None] = list(snap.times[-new:])
-                elif snap.kind == ValueKind.TEXT:
-                    values, times = list(snap.texts[-new:]), list(snap.times[-new:])
-                else:
-                    values, times = [snap.last], [snap.last_time]
+                values, times = _values(snap, new)
                 for value, stamp in zip(values, times, strict=False):
                     print(format_line(value, stamp if args.stamp else None), flush=True)
                     printed += 1
                     if args.count and printed >= args.count:
                         return 0
                 seen = snap.count
-                last_value_at = time.monotonic()
-            elif args.timeout is not None and time.monotonic() - last_value_at > args.timeout:
-                print(f"dbglog echo: {_why(engine, topic, snap, args.timeout)}", file=sys.stderr)
-                return 1
+                last_value_at = now
+            else:
+                if not caught_up:
+                    hint_once(topic)
+                if args.timeout is not None and now - last_value_at > args.timeout:
+                    print(f"dbglog echo: {_why(engine, topic, snap, args.timeout)}", file=sys.stderr)
+                    return 1
             time.sleep(_POLL_S)

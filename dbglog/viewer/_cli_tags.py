@@ -3,21 +3,50 @@
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import sys
 import time
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
+    import numpy as np
+    import numpy.typing as npt
+
     from dbglog.viewer._engine import Engine
     from dbglog.viewer._model import SeriesSnapshot, TopicInfo
 
-__all__ = ["HELP", "add_arguments", "format_table", "format_value", "run"]
+__all__ = [
+    "DISCOVERY_HORIZON_S",
+    "HELP",
+    "add_arguments",
+    "format_rate",
+    "format_table",
+    "format_value",
+    "rate_from_times",
+    "run",
+]
 
 HELP = "List the live dbglog tags (tag, type, rate, last value, status); --all lists every topic."
 
 _CLEAR = "\x1b[H\x1b[2J"
+_POLL_S = 0.05
+_TAG_PREFIX = "/rosdashboard/"
+_DEFAULT_WAIT_S = 8.0
+DISCOVERY_HORIZON_S = 4.0
+"""Fast DDS answers a newcomer's announcement at once only sometimes; a participant that misses it is
+found at its next periodic announcement (every 3 s): the graph is complete only this long after start
+(measured: up to 3.4 s on a loaded 2-core machine)."""
+_QUIET_S = 0.5
+"""...and once no topic or publisher count changed for this long."""
+_VALUE_GRACE_S = 2.0
+"""A published tag gets this long to deliver its first value before the table stops waiting for it."""
+_BURST_S = 0.3
+"""Samples arriving this long after a tag's first one are live ones, not its kept history."""
+_RATE_SAMPLES = 50
+"""The rate is measured over the newest this many distinct samples."""
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -27,9 +56,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--wait",
         type=float,
-        default=2.0,
+        default=_DEFAULT_WAIT_S,
         metavar="S",
-        help="seconds to let DDS discovery and first values arrive before printing (default 2)",
+        help="at most this many seconds for DDS discovery and first values (default %(default)g); "
+        f"the table prints as soon as the graph has settled (usually after {DISCOVERY_HORIZON_S:g}-5 s) and "
+        "every tag has its first value, or says on stderr which tags it gave up on",
     )
     parser.add_argument(
         "--interval", type=float, default=1.0, metavar="S", help="refresh period with --watch (default 1 s)"
@@ -64,33 +95,181 @@ def format_table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> str:
     return "\n".join(lines)
 
 
-def _rows(engine: Engine, topics: list[TopicInfo], show_all: bool) -> list[list[str]]:
+@dataclass(slots=True)
+class _Seen:
+    """What the command watched of one listed topic."""
+
+    listed_at: float
+    first_value_at: float | None = None
+    first_count: int = 0
+    first_time: float | None = None
+    count: int = 0
+    arrived_live: bool = False
+    """A sample arrived after the kept-history burst: the publisher is alive and sending."""
+
+
+def rate_from_times(
+    times: Sequence[float] | npt.NDArray[np.float64], samples: int = _RATE_SAMPLES
+) -> float | None:
+    """Return the publishing rate from source times (newest `samples` distinct ones); None under 2."""
+    import numpy as np
+
+    t = np.unique(np.asarray(times, dtype=np.float64))
+    t = t[~np.isnan(t)][-samples:]
+    if len(t) < 2 or t[-1] <= t[0]:
+        return None
+    return float((len(t) - 1) / (t[-1] - t[0]))
+
+
+def format_rate(rate: float | None) -> str:
+    """Render a rate for a table cell (`-` when there is none)."""
+    if rate is None:
+        return "-"
+    return f"{rate:.3g} Hz" if rate < 10 else f"{rate:.1f} Hz"
+
+
+def _observe(engine: Engine, topics: list[TopicInfo], seen: dict[str, _Seen], now: float) -> None:
+    """Bind new topics and note, per topic, when values first and later arrived."""
+    from dbglog.viewer._model import Binding
+
+    for info in topics:
+        binding = Binding(info.name)
+        state = seen.get(info.name)
+        if state is None:
+            engine.bind(binding)
+            state = seen[info.name] = _Seen(now)
+        snap = engine.snapshot(binding)
+        if not snap.count or snap.count == state.count:
+            continue
+        if state.first_value_at is None:
+            state.first_value_at, state.first_count, state.first_time = now, snap.count, snap.last_time
+        elif now - state.first_value_at >= _BURST_S:
+            state.arrived_live = True
+        state.count = snap.count
+
+
+def _judge(engine: Engine, snap: SeriesSnapshot, state: _Seen, now: float) -> tuple[bool, float | None]:
+    """Return (live, rate) of a topic with values: stale topics have no rate.
+
+    The engine judges age by arrival; a latched tag's kept history arrives now however old it is, so
+    a topic that sent nothing after that burst is stale once watched for the stale time (before that,
+    the source time of its newest value decides).
+    """
+    from dbglog.viewer._model import Status, ValueKind
+
+    if snap.status == Status.STALE:
+        live = False
+    elif state.arrived_live:
+        live = True
+    elif state.first_value_at is not None and now - state.first_value_at >= engine.stale_after:
+        live = False
+    else:
+        live = snap.last_time is None or time.time() - snap.last_time <= engine.stale_after
+    if not live:
+        return False, None
+    if snap.kind in (ValueKind.NUMBER, ValueKind.BOOL, ValueKind.TEXT) and len(snap.times):
+        return True, rate_from_times(snap.times)
+    # Arrays keep no times: count the samples between the first newest time seen and the last one.
+    n = snap.count - state.first_count
+    if state.first_time is None or snap.last_time is None or n <= 0 or snap.last_time <= state.first_time:
+        return True, None
+    return True, n / (snap.last_time - state.first_time)
+
+
+def _rows(engine: Engine, topics: list[TopicInfo], seen: dict[str, _Seen], show_all: bool) -> list[list[str]]:
     from dbglog.viewer._model import Binding, Status
 
+    now = time.monotonic()
     rows = []
     for info in topics:
         name = info.tag if info.tag is not None and not show_all else info.name
         type_name = info.types[0] if info.types else "?"
-        snap: SeriesSnapshot | None = None
-        if Binding(info.name) in engine.bindings():
-            snap = engine.snapshot(Binding(info.name))
-        if snap is None or (snap.status == Status.ERROR and "several fields" in snap.reason):
-            rate, value, status = "-", "-", "-" if snap is not None else "unbound"
+        snap = engine.snapshot(Binding(info.name))
+        state = seen.get(info.name)
+        if state is None or (snap.status == Status.ERROR and "several fields" in snap.reason):
+            rate, value, status = "-", "-", "-" if state is not None else "unbound"
+        elif snap.status == Status.ERROR:
+            rate, value, status = "-", format_value(snap.last), f"error: {snap.reason}"
+        elif not snap.count:
+            rate, value, status = "-", "-", str(Status.WAITING)
         else:
-            rate = f"{snap.rate_hz:.1f} Hz" if snap.count else "-"
+            live, hz = _judge(engine, snap, state, now)
+            rate = format_rate(hz)
             value = format_value(snap.last)
-            status = str(snap.status) if snap.status != Status.ERROR else f"error: {snap.reason}"
+            status = str(Status.LIVE if live else Status.STALE)
         rows.append([name, type_name, rate, value, status])
     return rows
 
 
 def _listed(engine: Engine, show_all: bool) -> list[TopicInfo]:
-    from dbglog.viewer._model import Binding
+    return [t for t in engine.topics() if show_all or t.tag is not None]
 
-    topics = [t for t in engine.topics() if show_all or t.tag is not None]
-    for info in topics:
-        engine.bind(Binding(info.name))
+
+def _waiting_for(
+    engine: Engine, topics: list[TopicInfo], seen: dict[str, _Seen], now: float, grace: float
+) -> list[str]:
+    """Return the published topics without a first value that are still within `grace` seconds."""
+    from dbglog.viewer._model import Binding, Status
+
+    return [
+        t.name
+        for t in topics
+        if t.publishers
+        and seen[t.name].first_value_at is None
+        and now - seen[t.name].listed_at < grace
+        and engine.snapshot(Binding(t.name)).status != Status.ERROR  # e.g. several fields (--all)
+    ]
+
+
+def _settle(engine: Engine, args: argparse.Namespace, seen: dict[str, _Seen]) -> list[TopicInfo]:
+    """Wait until discovery settled and first values arrived (at most --wait s); say what it gave up on."""
+    started = time.monotonic()
+    deadline = started + args.wait
+    signature: frozenset[tuple[str, int]] | None = None
+    changed_at = started
+    early = False
+    while True:
+        now = time.monotonic()
+        topics = _listed(engine, args.all)
+        _observe(engine, topics, seen, now)
+        current = frozenset((t.name, t.publishers) for t in topics)
+        if current != signature:
+            signature, changed_at = current, now
+        if now >= deadline:
+            early = bool(topics) and now - changed_at < _QUIET_S
+            break
+        waiting = _waiting_for(engine, topics, seen, now, _VALUE_GRACE_S)
+        if topics and now - started >= DISCOVERY_HORIZON_S and now - changed_at >= _QUIET_S and not waiting:
+            break
+        time.sleep(_POLL_S)
+    waiting = _waiting_for(engine, topics, seen, now, math.inf)
+    waited = f"{now - started:.1f} s"
+    if waiting:
+        names = ", ".join(t if args.all else t.removeprefix(_TAG_PREFIX) for t in waiting[:8])
+        more = f" and {len(waiting) - 8} more" if len(waiting) > 8 else ""
+        limit = " (the --wait limit)" if now >= deadline else ""
+        print(
+            f"dbglog tags: gave up after {waited}{limit} waiting for a first value from {names}{more}: "
+            "published, but nothing arrived (a volatile publisher that has not published since?)",
+            file=sys.stderr,
+        )
+    if early:
+        print(
+            f"dbglog tags: the ROS graph was still changing when --wait ran out ({waited}); "
+            "the table may be incomplete (try a longer --wait)",
+            file=sys.stderr,
+        )
     return topics
+
+
+def _empty_message(engine: Engine, show_all: bool, waited: float) -> str:
+    from dbglog.viewer._cli_echo import graph_names
+    from dbglog.viewer._suggest import EMPTY_GRAPH_HINT
+
+    domain = os.environ.get("ROS_DOMAIN_ID", "0")
+    what = "topics" if show_all else "dbglog tags (/rosdashboard/...)"
+    text = f"no {what} on the ROS graph (ROS_DOMAIN_ID={domain}, waited {waited:g} s)"
+    return text if graph_names(engine.topics()) else f"{text}: {EMPTY_GRAPH_HINT}"
 
 
 def run(args: argparse.Namespace) -> int:
@@ -101,26 +280,25 @@ def run(args: argparse.Namespace) -> int:
         print("dbglog tags: --wait must be >= 0 and --interval > 0", file=sys.stderr)
         return 2
     header = ["topic" if args.all else "tag", "type", "rate", "last value", "status"]
+    seen: dict[str, _Seen] = {}
     with Engine(node_name="dbglog_tags") as engine:
-        deadline = time.monotonic() + args.wait
-        # Discovery first, then give the tags' latched values a moment to land.
-        while time.monotonic() < deadline:
-            topics = _listed(engine, args.all)
-            snaps = [engine.snapshot(b) for b in engine.bindings()]
-            if topics and all(s.count for s in snaps) and time.monotonic() > deadline - args.wait / 2:
-                break
-            time.sleep(0.05)
+        started = time.monotonic()
+        topics = _settle(engine, args, seen)
         while True:
-            topics = _listed(engine, args.all)
             if topics:
-                table = format_table(header, _rows(engine, topics, args.all))
+                table = format_table(header, _rows(engine, topics, seen, args.all))
             else:
-                domain = os.environ.get("ROS_DOMAIN_ID", "0")
-                what = "topics" if args.all else "dbglog tags (/rosdashboard/...)"
-                table = f"no {what} on the ROS graph (ROS_DOMAIN_ID={domain}, waited {args.wait:g} s)"
+                table = _empty_message(engine, args.all, time.monotonic() - started)
             if not args.watch:
                 print(table)
                 return 0
             prefix = _CLEAR if sys.stdout.isatty() else "\n"
             print(f"{prefix}{time.strftime('%H:%M:%S')}  {len(topics)} shown\n{table}", flush=True)
-            time.sleep(args.interval)
+            until = time.monotonic() + args.interval
+            while True:
+                now = time.monotonic()
+                topics = _listed(engine, args.all)
+                _observe(engine, topics, seen, now)
+                if now >= until:
+                    break
+                time.sleep(min(_POLL_S, until - now))
