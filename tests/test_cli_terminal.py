@@ -7,6 +7,7 @@ import sys
 import threading
 import time
 from collections.abc import Iterator
+from pathlib import Path
 
 import pytest
 from geometry_msgs.msg import Twist
@@ -162,3 +163,14 @@ def test_formatting_helpers() -> None:
     assert format_line(0.5) == "0.5"
     assert format_line(False, 12.5) == "12.500000 false"
     assert format_table(["a", "bb"], [["xyz", "1"]]).splitlines() == ["a    bb", "---  --", "xyz  1"]
+
+
+def test_docs_show_dbglog_echo_not_ros2_topic() -> None:
+    """The docs show `dbglog echo`/`dbglog tags`, never a `ros2 topic` command a PyPI install lacks."""
+    root = Path(__file__).resolve().parent.parent
+    for doc in [root / "README.md", *sorted((root / "docs").glob("*.md"))]:
+        for number, line in enumerate(doc.read_text(encoding="utf-8").splitlines(), 1):
+            where = f"{doc.name}:{number}: {line}"
+            assert not line.lstrip().startswith(("$ ros2 ", "ros2 ")), where
+            if "ros2 topic" in line:
+                assert "dbglog echo" in line or "needs a full ROS 2 install" in line, where
