@@ -556,6 +556,30 @@ def test_stale_temp_files_of_dead_savers_are_removed(tmp_path: Path) -> None:
         live.wait()
 
 
+def test_save_over_a_special_file_is_refused_without_blocking(tmp_path: Path) -> None:
+    """Saving to a FIFO (or a link to one) is refused at once: it is never opened to back it up."""
+    fifo = tmp_path / "pipe.json"
+    os.mkfifo(fifo)
+    link = tmp_path / "link.json"
+    link.symlink_to(fifo)
+    for path in (fifo, link):
+        start = time.monotonic()
+        with pytest.raises(DashboardError, match=r"cannot save: it is a FIFO \(named pipe\), not a regular"):
+            save_dashboard(_board("x"), path)
+        assert time.monotonic() - start < 5
+    assert stat.S_ISFIFO(fifo.stat().st_mode)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["link.json", "pipe.json"]
+
+
+def test_saves_from_several_threads_all_land(tmp_path: Path) -> None:
+    """Threads saving the same file in one process never trip over each other's temporary file."""
+    path = tmp_path / "d.json"
+    with ThreadPoolExecutor(4) as pool:
+        list(pool.map(lambda i: save_dashboard(_board(f"w{i}"), path), range(40)))
+    assert json.loads(path.read_text())["widgets"][0]["name"].startswith("w")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["d.json", "d.json.bak"]
+
+
 def test_killed_saves_leave_nothing_after_the_next_save(tmp_path: Path) -> None:
     """SIGKILL during saves: the file is always a whole dashboard; the next save clears every temp file."""
     path = tmp_path / "d.json"

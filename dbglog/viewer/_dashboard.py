@@ -20,7 +20,9 @@ import json
 import math
 import os
 import re
+import shutil
 import stat
+import threading
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -852,21 +854,32 @@ def save_dashboard(dashboard: Dashboard, path: str | os.PathLike[str]) -> None:
         raise DashboardError(f"{given}: cannot serialise the dashboard: {_cut(str(exc))}") from None
     target = Path(os.path.realpath(given))
     folder = target.parent
+    with _SAVE_LOCK:  # one save at a time per process: a temp file with our pid is then a stale one
+        _save_bytes(data, given, target, folder)
+
+
+_SAVE_LOCK = threading.Lock()
+
+
+def _save_bytes(data: bytes, given: Path, target: Path, folder: Path) -> None:
     tmp: Path | None = None
     try:
         _remove_stale_temps(folder, (target.name, target.name + ".bak"))
-        if target.is_dir():
-            raise IsADirectoryError(errno.EISDIR, "is a directory", str(given))
         try:
-            previous: int | None = stat.S_IMODE(os.stat(target).st_mode)
+            mode = os.stat(target).st_mode
         except FileNotFoundError:
             previous = None
+        else:
+            if stat.S_ISDIR(mode):
+                raise IsADirectoryError(errno.EISDIR, "is a directory", str(given))
+            if not stat.S_ISREG(mode):  # never open a FIFO or a device to back it up
+                kind = next((name for test, name in _FILE_KINDS if test(mode)), "not a regular file")
+                raise DashboardError(f"{given}: cannot save: it is {kind}, not a regular file")
+            previous = stat.S_IMODE(mode)
         tmp = _write_temp(folder, target.name, data, previous)
         if previous is not None:
             bak = target.with_name(target.name + ".bak")
-            with open(target, "rb") as src:
-                old = src.read()
-            bak_tmp = _write_temp(folder, bak.name, old, previous)
+            bak_tmp = _write_temp(folder, bak.name, target, previous)
             try:
                 os.replace(bak_tmp, bak)
             finally:
@@ -887,8 +900,11 @@ def _temp_path(folder: Path, name: str, pid: int) -> Path:
     return folder / f".{name}{TEMP_MARK}{pid}"
 
 
-def _write_temp(folder: Path, name: str, data: bytes, mode: int | None) -> Path:
-    """Write `data` to a new ``.NAME.dbglog-tmp-PID`` file, synced; `mode` None: the umask's default."""
+def _write_temp(folder: Path, name: str, data: bytes | Path, mode: int | None) -> Path:
+    """Write `data` (or a copy of that file) to a new ``.NAME.dbglog-tmp-PID`` file, synced.
+
+    `mode` None: the umask's default.
+    """
     tmp = _temp_path(folder, name, os.getpid())
     flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_CLOEXEC | os.O_NOFOLLOW
     try:
@@ -897,9 +913,13 @@ def _write_temp(folder: Path, name: str, data: bytes, mode: int | None) -> Path:
         os.unlink(tmp)
         fd = os.open(tmp, flags, 0o666)
     try:
-        view = memoryview(data)
-        while view:
-            view = view[os.write(fd, view) :]
+        if isinstance(data, Path):
+            with open(data, "rb") as src, open(fd, "wb", closefd=False) as dst:
+                shutil.copyfileobj(src, dst)
+        else:
+            view = memoryview(data)
+            while view:
+                view = view[os.write(fd, view) :]
         if mode is not None:
             os.fchmod(fd, mode)
         os.fsync(fd)
