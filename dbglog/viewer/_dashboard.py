@@ -398,9 +398,11 @@ def parse_dashboard(data: object, lookup: TypeLookup, *, max_widgets: int = MAX_
     if isinstance(version, bool) or not isinstance(version, int):
         raise DashboardError(f"'version' must be an integer, got {_kind(version)}")
     if version > VERSION:
-        raise DashboardError(f"version {version} is newer than this viewer understands (up to {VERSION})")
+        raise DashboardError(
+            f"version {_short(version)} is newer than this viewer understands (up to {VERSION})"
+        )
     if version < 1:
-        raise DashboardError(f"version {version} is not a valid version")
+        raise DashboardError(f"version {_short(version)} is not a valid version")
     if not isinstance(widgets, list):
         raise DashboardError(f"'widgets' must be a list, got {_kind(widgets)}")
     result = LoadResult(Dashboard())
