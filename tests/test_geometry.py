@@ -12,17 +12,21 @@ from hypothesis import strategies as st
 from dbglog.viewer._geometry import (
     Part,
     Rect,
+    canvas_extent,
     compass_label,
     format_tick,
+    free_spot,
     gauge_angle,
     hit_test,
     led_on,
     minmax_decimate,
     nice_ticks,
     normalize_heading,
+    overlaps,
     polar,
     rects_around,
     rects_outside,
+    scroll_target,
     snap,
     snap_rect,
     thermo_fill,
@@ -267,3 +271,85 @@ def test_uncovered_property(spans: list[tuple[int, int]]) -> None:
         in_gap = any(a <= x < b for a, b in gaps)
         covered = any(a <= x < b for a, b in covers)
         assert in_gap != covered
+
+
+VIEW = Rect(0, 0, 800, 600)
+
+
+def test_free_spot_keeps_a_rect_that_fits() -> None:
+    """A drop on free canvas inside the view lands exactly where asked."""
+    want = Rect(100, 100, 200, 160)
+    assert free_spot(want, [Rect(400, 100, 200, 200)], VIEW, 20) == want
+
+
+def test_free_spot_moves_off_an_overlapped_widget_to_the_nearest_grid_spot() -> None:
+    """A drop onto a widget moves to the nearest grid spot beside it, touching but not overlapping."""
+    other = Rect(100, 100, 200, 200)
+    spot = free_spot(Rect(120, 120, 200, 200), [other], VIEW, 20)
+    assert not overlaps(spot, other)
+    assert (spot.x % 20, spot.y % 20) == (0, 0)
+    assert spot == Rect(300, 120, 200, 200)  # 180 px right or down: a tie goes to the higher spot
+
+
+def test_free_spot_pulls_a_drop_back_inside_the_view() -> None:
+    """A drop near the right or bottom edge is pulled in so the whole widget is on the visible canvas."""
+    spot = free_spot(Rect(760, 560, 220, 240), [], VIEW, 20)
+    assert spot == Rect(580, 360, 220, 240)
+    scrolled = Rect(0, 400, 800, 600)  # scrolled down by 400
+    assert free_spot(Rect(20, 20, 100, 100), [], scrolled, 20) == Rect(20, 400, 100, 100)
+
+
+def test_free_spot_without_grid_keeps_exact_position_or_steps_by_10() -> None:
+    """With snapping off a free drop keeps its pixel position; a blocked one moves in 10 px steps."""
+    assert free_spot(Rect(13, 17, 50, 50), [], VIEW, 0) == Rect(13, 17, 50, 50)
+    spot = free_spot(Rect(13, 17, 50, 50), [Rect(0, 0, 100, 100)], VIEW, 0)
+    assert not overlaps(spot, Rect(0, 0, 100, 100))
+    assert spot.x % 10 == 0
+
+
+def test_free_spot_goes_below_a_full_view() -> None:
+    """When the view is full, the widget goes to the nearest free place below everything."""
+    full = [Rect(0, 0, 800, 600)]
+    spot = free_spot(Rect(100, 100, 200, 200), full, VIEW, 20)
+    assert spot == Rect(100, 600, 200, 200)
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    st.lists(
+        st.tuples(st.integers(0, 700), st.integers(0, 500), st.integers(40, 300), st.integers(40, 300)),
+        max_size=8,
+    ),
+    st.tuples(st.integers(-100, 900), st.integers(-100, 700), st.integers(40, 300), st.integers(40, 300)),
+    st.sampled_from([0, 10, 20]),
+)
+def test_free_spot_never_overlaps(
+    others: list[tuple[int, int, int, int]], want: tuple[int, int, int, int], grid: int
+) -> None:
+    """Whatever is on the canvas, the spot overlaps nothing, starts inside the view, and is on the grid."""
+    rects = [Rect(*map(float, o)) for o in others]
+    x, y, w, h = map(float, want)
+    asked = Rect(snap(x, grid), snap(y, grid), w, h)  # the viewer snaps a drop before looking for room
+    spot = free_spot(asked, rects, VIEW, grid)
+    assert not any(overlaps(spot, r) for r in rects)
+    assert spot.x >= 0
+    assert spot.y >= 0
+    assert spot.x + spot.w <= VIEW.w or spot.x == 0
+    if grid:
+        assert (spot.x % grid, spot.y % grid) == (0, 0)
+
+
+def test_canvas_extent_grows_to_hold_widgets_and_minds_scrollbars() -> None:
+    """The scrolled area is the view, or larger to hold every widget, less a scrollbar where one shows."""
+    assert canvas_extent(800, 600, [], 14) == (800, 600)
+    assert canvas_extent(800, 600, [Rect(0, 0, 100, 100)], 14) == (800, 600)
+    assert canvas_extent(800, 600, [Rect(0, 900, 100, 100)], 14) == (786, 1000)  # vertical bar only
+    assert canvas_extent(800, 600, [Rect(1000, 900, 100, 100)], 14) == (1100, 1000)
+
+
+def test_scroll_target_steps_and_clamps() -> None:
+    """A wheel notch down scrolls one step further; the offset stays within 0..maximum."""
+    assert scroll_target(0, -1, 500, 60) == 60
+    assert scroll_target(100, 2, 500, 60) == 0
+    assert scroll_target(480, -1, 500, 60) == 500
+    assert scroll_target(0, -1, 0, 60) == 0

@@ -636,9 +636,9 @@ def test_cli_unreadable_file_exits_nonzero_naming_it(tmp_path: Path) -> None:
     assert proc.returncode == 2
     assert str(bad) in proc.stderr
     assert "version 7 is newer" in proc.stderr
-    proc = _run_cli(str(tmp_path / "missing.json"))
+    proc = _run_cli(str(tmp_path / "nowhere" / "missing.json"))  # a new file needs an existing folder
     assert proc.returncode == 2
-    assert "no such file" in proc.stderr
+    assert f"folder {tmp_path / 'nowhere'} does not exist" in proc.stderr
 
 
 def test_cli_screenshot_of_legacy_dashboard(tmp_path: Path) -> None:

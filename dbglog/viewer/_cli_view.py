@@ -7,7 +7,7 @@ import sys
 import time
 from pathlib import Path
 
-__all__ = ["HELP", "add_arguments", "run", "seconds_arg", "size_arg"]
+__all__ = ["HELP", "add_arguments", "fps_arg", "run", "seconds_arg", "size_arg"]
 
 HELP = "Open the live dashboard viewer (drag widgets onto a canvas, bind them to topics, save dashboards)."
 
@@ -34,14 +34,26 @@ def seconds_arg(text: str) -> float:
     return value
 
 
+def fps_arg(text: str) -> float:
+    """Parse a frame cap in frames per second (1..240) for argparse."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number of frames per second: {text!r}") from None
+    if not 1 <= value <= 240:
+        raise argparse.ArgumentTypeError(f"fps must be within 1..240, not {text}")
+    return value
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Declare ``dbglog view``'s options."""
     parser.add_argument(
         "dashboard",
         nargs="?",
         type=Path,
-        help="dashboard JSON file (current or ROSDashboard); without one, an automatic dashboard of the "
-        "live /rosdashboard/ tags",
+        help="dashboard JSON file (current or ROSDashboard); a file that does not exist yet starts an "
+        "empty dashboard that Save writes there; without one, an automatic dashboard of the live "
+        "/rosdashboard/ tags",
     )
     parser.add_argument(
         "--template",
@@ -81,6 +93,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--size", type=size_arg, default=(1440, 900), metavar="WxH", help="window size (1440x900)"
     )
     parser.add_argument(
+        "--fps",
+        type=fps_arg,
+        default=60.0,
+        metavar="N",
+        help="frame cap (default 60); the viewer redraws only when something changed, so idle it uses "
+        "almost no CPU",
+    )
+    parser.add_argument(
         "--stale-after",
         type=seconds_arg,
         default=2.0,
@@ -101,7 +121,16 @@ def run(args: argparse.Namespace) -> int:
     if args.template and args.dashboard is None:
         print("dbglog view: error: --template needs a dashboard file to start from", file=sys.stderr)
         return 2
-    if args.dashboard is not None:
+    new_file = args.dashboard is not None and not args.template and not args.dashboard.exists()
+    if new_file:
+        folder = args.dashboard.parent
+        if not folder.is_dir():
+            print(
+                f"dbglog view: error: cannot start {args.dashboard}: folder {folder} does not exist",
+                file=sys.stderr,
+            )
+            return 2
+    elif args.dashboard is not None:
         try:
             result = load_dashboard(args.dashboard, registry.get)
         except DashboardError as exc:
@@ -120,13 +149,16 @@ def run(args: argparse.Namespace) -> int:
         print(f"dbglog view: error: {exc}", file=sys.stderr)
         return 1
     width, height = args.size
-    app = ViewerApp(engine, registry, width=width, height=height)
+    app = ViewerApp(engine, registry, width=width, height=height, fps=args.fps)
     try:
         app.start()
         from dbglog.viewer._ui._auto import AutoDashboard, all_live, write_report
 
         auto: AutoDashboard | None = None
-        if result is not None and args.template:
+        if new_file:
+            app.new_dashboard(args.dashboard)
+            app.set_status(f"new dashboard: Save (Ctrl+S) writes {args.dashboard}")
+        elif result is not None and args.template:
             app.load(result, None)
             app.set_status(f"opened {args.dashboard.name} as a new dashboard: Save asks where to keep it")
         elif result is not None:

@@ -16,17 +16,21 @@ import numpy.typing as npt
 __all__ = [
     "Part",
     "Rect",
+    "canvas_extent",
     "compass_label",
     "format_tick",
+    "free_spot",
     "gauge_angle",
     "hit_test",
     "led_on",
     "minmax_decimate",
     "nice_ticks",
     "normalize_heading",
+    "overlaps",
     "polar",
     "rects_around",
     "rects_outside",
+    "scroll_target",
     "snap",
     "snap_rect",
     "thermo_fill",
@@ -124,6 +128,64 @@ def snap_rect(rect: Rect, grid: float, *, min_w: float = 0.0, min_h: float = 0.0
     w = max(snap(rect.w, grid), grid, math.ceil(min_w / grid) * grid)
     h = max(snap(rect.h, grid), grid, math.ceil(min_h / grid) * grid)
     return Rect(max(0.0, snap(rect.x, grid)), max(0.0, snap(rect.y, grid)), w, h)
+
+
+def overlaps(a: Rect, b: Rect) -> bool:
+    """Whether two rectangles share any area (touching edges do not)."""
+    return a.x < b.x + b.w and b.x < a.x + a.w and a.y < b.y + b.h and b.y < a.y + a.h
+
+
+def free_spot(want: Rect, others: Sequence[Rect], view: Rect, grid: float) -> Rect:
+    """Return `want` moved to the nearest place where it overlaps none of `others` and lies inside `view`.
+
+    `want` itself is kept when it already fits. Otherwise the candidates are the grid points (every
+    `grid` pixels, or 10 without a grid) inside the view; when the view is full, the search goes on below
+    it, where there is always room. A rectangle wider than the view starts at its left edge.
+    """
+    step = grid if grid > 0 else 10.0
+    x0, y0 = view.x, view.y
+    max_x = max(x0, view.x + view.w - want.w)
+    max_y = max(y0, view.y + view.h - want.h)
+    if grid > 0:  # stay on the grid: the first and last grid lines that keep the rectangle in view
+        x0, y0 = math.ceil(view.x / grid) * grid, math.ceil(view.y / grid) * grid
+        max_x = max(x0, math.floor(max_x / grid) * grid)
+        max_y = max(y0, math.floor(max_y / grid) * grid)
+    inside = Rect(min(max(want.x, x0), max_x), min(max(want.y, y0), max_y), want.w, want.h)
+    if not any(overlaps(inside, o) for o in others):
+        return inside
+    bottom = max([max_y, *(o.y + o.h for o in others)])
+    xs = np.arange(x0, max_x + step / 2, step)
+    ys = np.arange(y0, math.ceil(bottom / step) * step + step / 2, step)
+    gx, gy = np.meshgrid(xs, ys)
+    free = np.ones(gx.shape, dtype=bool)
+    for o in others:
+        free &= ~((gx < o.x + o.w) & (o.x < gx + want.w) & (gy < o.y + o.h) & (o.y < gy + want.h))
+    cost = np.where(free, (gx - want.x) ** 2 + (gy - want.y) ** 2, np.inf)
+    index = np.unravel_index(int(np.argmin(cost)), cost.shape)
+    return Rect(float(gx[index]), float(gy[index]), want.w, want.h)
+
+
+def canvas_extent(
+    view_w: float, view_h: float, rects: Sequence[Rect], scrollbar: float
+) -> tuple[float, float]:
+    """Return the size of the canvas's scrolled area: the view, grown to hold every rectangle.
+
+    A scrollbar takes `scrollbar` pixels from the view on its side when the other direction overflows,
+    so the area never overflows by the scrollbar alone.
+    """
+    content_w = max((r.x + r.w for r in rects), default=0.0)
+    content_h = max((r.y + r.h for r in rects), default=0.0)
+    v_bar = content_h > view_h
+    h_bar = content_w > view_w - (scrollbar if v_bar else 0.0)
+    v_bar = content_h > view_h - (scrollbar if h_bar else 0.0)
+    w = max(content_w, view_w - (scrollbar if v_bar else 0.0))
+    h = max(content_h, view_h - (scrollbar if h_bar else 0.0))
+    return max(1.0, w), max(1.0, h)
+
+
+def scroll_target(current: float, wheel: float, maximum: float, step: float) -> float:
+    """Return the scroll offset after turning the wheel by `wheel` notches (up is positive), clamped."""
+    return float(min(max(0.0, maximum), max(0.0, current - wheel * step)))
 
 
 class Part(enum.Enum):

@@ -11,9 +11,10 @@ import ctypes
 import os
 import re
 import sys
+import threading
 import time
 import weakref
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from types import TracebackType
@@ -30,7 +31,17 @@ from dbglog.viewer._dashboard import (
     load_dashboard,
     save_dashboard,
 )
-from dbglog.viewer._geometry import Part, Rect, hit_test, rects_outside, snap_rect, uncovered
+from dbglog.viewer._geometry import (
+    Part,
+    Rect,
+    canvas_extent,
+    free_spot,
+    hit_test,
+    rects_outside,
+    scroll_target,
+    snap_rect,
+    uncovered,
+)
 from dbglog.viewer._model import Binding, DataSource
 from dbglog.viewer._ui import _theme as theme
 from dbglog.viewer._ui._dialogs import (
@@ -43,6 +54,7 @@ from dbglog.viewer._ui._dialogs import (
     topic_widget_name,
 )
 from dbglog.viewer._ui._frame import GRIP, TITLE_H, CanvasItem
+from dbglog.viewer._ui._pacing import DEFAULT_FPS, Pacer, wait_readable, x_connection_fd
 from dbglog.viewer._ui._quit import QuitDialog
 from dbglog.viewer._widgets import WidgetRegistry
 
@@ -54,6 +66,10 @@ TOOLBOX_W = 190
 SETTLE_FRAMES = 3
 """Frames rendered before a screenshot is captured, so that the last update is fully on screen."""
 STATUS_H = 34
+WHEEL_STEP = 60.0
+"""Pixels the canvas scrolls per notch of the mouse wheel."""
+CHORD_S = 0.15
+"""How long after a rendered frame saw Ctrl or Shift down a shortcut's key still counts it as held."""
 
 
 def keep_freed_memory() -> bool:
@@ -104,6 +120,7 @@ class ViewerApp:
         source: where series come from (the engine, or any `DataSource`).
         registry: the widget types (default: built-ins plus installed plugins).
         width / height: the window size in pixels.
+        fps: the frame cap of `run` (which also skips frames while nothing changes).
     """
 
     def __init__(
@@ -114,6 +131,7 @@ class ViewerApp:
         width: int = 1440,
         height: int = 900,
         title: str = "dbglog viewer",
+        fps: float = DEFAULT_FPS,
     ) -> None:
         self.source = source
         self.registry = registry if registry is not None else WidgetRegistry.discover()
@@ -133,6 +151,23 @@ class ViewerApp:
         """Called once per frame on the UI thread, after the widgets refresh (the auto-dashboard)."""
         self.last_work_s = 0.0
         """Seconds the last frame spent before `render_dearpygui_frame` (input, snapshots, widget updates)."""
+        self.pacer = Pacer(fps)
+        """When `run` renders: the frame cap, and no frames while nothing changes."""
+        self.rendered = 0
+        """Frames rendered so far (the benchmark and the CPU test read this)."""
+        self._x_fd: int | None = None
+        self._wheel_lock = threading.Lock()
+        self._wheel = 0.0
+        """Mouse wheel turns not yet applied (the wheel handler adds them, the next frame scrolls)."""
+        self._mouse_seen: tuple[float, float] = (-1.0, -1.0)
+        self._scroll_set: dict[int, tuple[int, float]] = {}
+        """Axis (0 x, 1 y) -> (frames rendered when the wheel set it, the offset set)."""
+        self._mods_seen: dict[int, float] = {}
+        """Modifier key -> when a rendered frame last saw it down (`held`)."""
+        self._view_key: tuple[object, ...] = ()
+        self._render_starts: collections.deque[float] = collections.deque(maxlen=240)
+        self._fps_text = ""
+        self._fps_at = -1.0
         self._refs: collections.Counter[Binding] = collections.Counter()
         self._drag: _Drag | None = None
         self._left_down = False
@@ -142,7 +177,7 @@ class ViewerApp:
         """Whether the context menu was open at the last poll (ImGui closes it before a click is seen)."""
         self._auto_names: weakref.WeakKeyDictionary[CanvasItem, str] = weakref.WeakKeyDictionary()
         """Widget -> the name its topic gave it (while it keeps that name, a new topic renames it)."""
-        self._grid_key: tuple[int, int, int, bool, bool, tuple[Rect, ...]] | None = None
+        self._grid_key: tuple[int, int, int, int, int, bool, bool, tuple[Rect, ...]] | None = None
         self._window_size = (0, 0)
         self._backdrop_key: tuple[float, ...] | None = None
         self._started = False
@@ -179,6 +214,7 @@ class ViewerApp:
         self._build()
         if visible:
             dpg.show_viewport()
+            self._x_fd = x_connection_fd()
         for _ in range(2):
             self.frame()
 
@@ -229,16 +265,21 @@ class ViewerApp:
             # A child window reports no position; the group that starts with the toolbox does.
             with dpg.group(horizontal=True) as self.body_group:
                 self._build_toolbox()
+                # Scrollbars appear when widgets lie beyond the view; the wheel scrolls it too, but through
+                # `_apply_wheel` (not Dear ImGui's own wheel scrolling), which leaves the wheel to plots.
                 self.canvas = dpg.add_child_window(
                     width=-1,
                     height=-STATUS_H,
                     border=False,
-                    no_scrollbar=True,
+                    horizontal_scrollbar=True,
                     no_scroll_with_mouse=True,
                     drop_callback=self.on_drop,
                     payload_type=PAYLOAD_TYPE,
                 )
-                self.grid_layer = dpg.add_drawlist(1, 1, parent=self.canvas, pos=(0, 0))
+                # In a group placed at (0, 0), so that the layout cursor it leaves behind does not make
+                # the scrolled area taller than the grid (a drawlist ignores `pos` itself).
+                self.grid_group = dpg.add_group(parent=self.canvas, pos=(0, 0))
+                self.grid_layer = dpg.add_drawlist(1, 1, parent=self.grid_group)
             with dpg.group(horizontal=True):
                 self.status_left = dpg.add_text("", color=theme.DIM)
                 self.status_msg = dpg.add_text("")
@@ -288,6 +329,7 @@ class ViewerApp:
             dpg.add_key_press_handler(dpg.mvKey_Down, callback=lambda *_: self.on_arrow_key(1))
             dpg.add_key_press_handler(dpg.mvKey_Up, callback=lambda *_: self.on_arrow_key(-1))
             dpg.add_key_press_handler(dpg.mvKey_Escape, callback=lambda *_: self.on_escape_key())
+            dpg.add_mouse_wheel_handler(callback=lambda _s, delta: self.on_wheel(delta))
         self._update_title()
 
     def _build_menus(self) -> None:
@@ -379,10 +421,52 @@ class ViewerApp:
     def frame(self) -> float:
         """Poll input, refresh changed widgets, render one frame; return the frame's duration in seconds."""
         t0 = time.perf_counter()
+        self._work()
+        self.last_work_s = time.perf_counter() - t0
+        self._render(time.monotonic())
+        elapsed = time.perf_counter() - t0
+        self.frame_times.append(elapsed)
+        return elapsed
+
+    def run(self, *, seconds: float | None = None) -> None:
+        """Render until the window closes (or for `seconds`), at most `fps` frames a second.
+
+        A frame is rendered only when something changed (new data for a widget, an edit, a dialog), while
+        the user is doing something (and for a second after), or now and then while idle; in between the
+        loop sleeps, woken early by input on the X connection.
+        """
+        deadline = None if seconds is None else time.monotonic() + seconds
+        pacer = self.pacer
+        while dpg.is_dearpygui_running():
+            now = time.monotonic()
+            if deadline is not None and now >= deadline:
+                break
+            t0 = time.perf_counter()
+            self._work()
+            if pacer.due(now):
+                self.last_work_s = time.perf_counter() - t0
+                self._render(now)
+                self.frame_times.append(time.perf_counter() - t0)
+                if self._input_seen():
+                    pacer.poke(now)
+            now = time.monotonic()
+            wait = pacer.wait(now)
+            if deadline is not None:
+                wait = min(wait, max(0.0, deadline - now))
+            if pacer.active(now) or pacer.pending:
+                if wait > 0:
+                    time.sleep(wait)
+            elif wait_readable(self._x_fd, wait):
+                pacer.poke(time.monotonic())  # input for the window: render it at once, and keep up
+
+    def _work(self) -> None:
+        """Everything of a frame but rendering: input, snapshots, widget updates, hooks, dialogs, chrome."""
         self._poll_mouse()
+        changed = self._apply_wheel()
         now = time.time()
         for item in self.items:
-            item.refresh(self.source, now)
+            if item.refresh(self.source, now):
+                changed = True
             if item.edited:  # a control changed its own saved value (a toggle switched, a slider moved)
                 item.edited = False
                 self._mark_dirty()
@@ -397,21 +481,60 @@ class ViewerApp:
                 self.set_status(f"dialog error: {exc!r}")
         self._fit_window()
         self._draw_backdrop()
-        self._draw_grid()
-        self._update_status()
-        self.last_work_s = time.perf_counter() - t0
-        dpg.render_dearpygui_frame()
-        elapsed = time.perf_counter() - t0
-        self.frame_times.append(elapsed)
-        return elapsed
+        changed = self._draw_grid() or changed
+        changed = self._update_status() or changed
+        if changed:
+            self.pacer.request()
+        key = self._view_state()
+        if key != self._view_key:  # the user's doing (or a dialog's): render at the cap for a while
+            self._view_key = key
+            self.pacer.poke(time.monotonic())
 
-    def run(self, *, seconds: float | None = None) -> None:
-        """Render until the window closes (or for `seconds`)."""
-        deadline = None if seconds is None else time.monotonic() + seconds
-        while dpg.is_dearpygui_running():
-            if deadline is not None and time.monotonic() >= deadline:
-                break
-            self.frame()
+    def _view_state(self) -> tuple[object, ...]:
+        """What, when it changes, means the user is at work: widgets, selection, dialogs, drags, the file."""
+        return (
+            len(self.items),
+            id(self.items[-1]) if self.items else 0,
+            id(self.selected),
+            id(self.dialog),
+            id(self.file_request),
+            self._drag is not None,
+            self.dirty,
+            self.path,
+            self._window_size,
+        )
+
+    def _render(self, now: float) -> None:
+        self._render_starts.append(now)
+        dpg.render_dearpygui_frame()
+        self.rendered += 1
+        self.pacer.rendered(now)
+        for key in (dpg.mvKey_ModCtrl, dpg.mvKey_ModShift):
+            if dpg.is_key_down(key):
+                self._mods_seen[key] = now
+
+    def held(self, modifier: int) -> bool:
+        """Whether a modifier key (Ctrl, Shift) is down, or was until a moment ago, for a shortcut's key.
+
+        Dear ImGui takes the events of a frame together: a quick Ctrl+S can arrive with Ctrl already
+        released in the frame that sees S, more often when frames are far apart (the loop idles).
+        """
+        return (
+            bool(dpg.is_key_down(modifier))
+            or time.monotonic() - self._mods_seen.get(modifier, -1e9) < CHORD_S
+        )
+
+    def _input_seen(self) -> bool:
+        """Whether the user moved the mouse or holds a button (checked after each rendered frame)."""
+        pos = dpg.get_mouse_pos(local=False)
+        mouse = (float(pos[0]), float(pos[1]))
+        moved = mouse != self._mouse_seen
+        self._mouse_seen = mouse
+        held = any(
+            dpg.is_mouse_button_down(b)
+            for b in (dpg.mvMouseButton_Left, dpg.mvMouseButton_Right, dpg.mvMouseButton_Middle)
+        )
+        return moved or held or self._drag is not None
 
     def screenshot(self, path: str | os.PathLike[str], *, timeout: float = 10.0) -> Path:
         """Write a PNG of the window to `path` and return it.
@@ -471,9 +594,11 @@ class ViewerApp:
         return Rect(float(x), float(y), float(w), float(h))
 
     def _over_canvas(self, pos: tuple[float, float]) -> bool:
+        # The visible part of the canvas: its origin moves up and left as it scrolls.
         ox, oy = self.canvas_origin()
+        sx, sy = dpg.get_x_scroll(self.canvas), dpg.get_y_scroll(self.canvas)
         w, h = self.canvas_size()
-        if not Rect(ox, oy, w, h).contains(*pos):
+        if not Rect(ox + sx, oy + sy, w, h).contains(*pos):
             return False
         if self.pointer_override is not None:
             return True
@@ -593,14 +718,14 @@ class ViewerApp:
 
     def on_quit_key(self) -> None:
         """Q key: with Ctrl held, as File \u203a Quit."""
-        if dpg.is_key_down(dpg.mvKey_ModCtrl):
+        if self.held(dpg.mvKey_ModCtrl):
             self.request_quit()
 
     def on_save_key(self) -> None:
         """S key: with Ctrl held, File \u203a Save (Save As without a file); with Shift too, Save As."""
-        if not dpg.is_key_down(dpg.mvKey_ModCtrl) or self.dialog is not None or self.file_request is not None:
+        if not self.held(dpg.mvKey_ModCtrl) or self.dialog is not None or self.file_request is not None:
             return
-        if dpg.is_key_down(dpg.mvKey_ModShift):
+        if self.held(dpg.mvKey_ModShift):
             self._file_dialog(save=True)
         else:
             self.save()
@@ -618,6 +743,52 @@ class ViewerApp:
             self.file_cancelled()
         elif self.dialog is not None:
             self.dialog.close()
+
+    def on_wheel(self, delta: float) -> None:
+        """Mouse wheel handler: keep the turn; the next frame scrolls the canvas with it (`_apply_wheel`)."""
+        with self._wheel_lock:
+            self._wheel += float(delta)
+
+    def _apply_wheel(self) -> bool:
+        """Scroll the canvas by the wheel turns since the last frame when the pointer is over its background.
+
+        Over a plot's body the wheel is the plot's (its zoom); in a dialog or menu it is theirs. Shift turns
+        it sideways. Returns True when the canvas scrolled.
+        """
+        with self._wheel_lock:
+            turns, self._wheel = self._wheel, 0.0
+        if not turns or self.file_request is not None or dpg.is_item_shown(self.menu):
+            return False
+        pos = self.pointer()
+        if not self._over_canvas(pos):
+            return False
+        cx, cy = self.to_canvas(pos)
+        hit = hit_test([i.rect for i in self.items], cx, cy, title_h=TITLE_H, corner=0)
+        if hit is not None and hit[1] is Part.BODY and self.items[hit[0]].config.type == "plot":
+            return False
+        axis = 0 if self.held(dpg.mvKey_ModShift) else 1
+        get, top, put = (
+            (dpg.get_x_scroll, dpg.get_x_scroll_max, dpg.set_x_scroll),
+            (dpg.get_y_scroll, dpg.get_y_scroll_max, dpg.set_y_scroll),
+        )[axis]
+        # Dear ImGui applies a scroll a frame after it is set, and reports it a frame later still: go on
+        # from the offset set last, not from the one reported, until it shows.
+        pending = self._scroll_set.get(axis)
+        now = float(get(self.canvas))
+        if pending is not None and self.rendered - pending[0] <= 2:
+            now = pending[1]
+        target = scroll_target(now, turns, top(self.canvas), WHEEL_STEP)
+        put(self.canvas, target)
+        self._scroll_set[axis] = (self.rendered, target)
+        return target != now
+
+    def view_rect(self) -> Rect:
+        """The part of the canvas in view, in canvas pixels (scrolling moves it)."""
+        w, h = self.canvas_size()
+        x, y = dpg.get_x_scroll(self.canvas), dpg.get_y_scroll(self.canvas)
+        bar_w = theme.SCROLLBAR if dpg.get_y_scroll_max(self.canvas) > 0 else 0
+        bar_h = theme.SCROLLBAR if dpg.get_x_scroll_max(self.canvas) > 0 else 0
+        return Rect(float(x), float(y), float(max(1, w - bar_w)), float(max(1, h - bar_h)))
 
     # -- drop from the toolbox ----------------------------------------------------------------------
 
@@ -643,6 +814,10 @@ class ViewerApp:
         rect = Rect(max(0.0, x - 20), max(0.0, y - TITLE_H / 2), float(w), float(h))
         if self.snap:
             rect = snap_rect(rect, self.grid_size, min_w=cls.min_size[0], min_h=cls.min_size[1] + TITLE_H)
+        # Never on top of another widget, nor off the visible canvas: the nearest free grid spot.
+        rect = free_spot(
+            rect, [i.rect for i in self.items], self.view_rect(), self.grid_size if self.snap else 0
+        )
         taken = {i.name for i in self.items}
         if name is None:
             n = 1
@@ -1016,10 +1191,10 @@ class ViewerApp:
         self.items.clear()
         self.selected = None
 
-    def new_dashboard(self) -> None:
-        """Start an empty dashboard."""
+    def new_dashboard(self, path: Path | None = None) -> None:
+        """Start an empty dashboard (that Save writes to `path`, when given)."""
         self.clear()
-        self.path = None
+        self.path = path
         self.dirty = False
         self.load_messages = []
         self._update_title()
@@ -1041,19 +1216,33 @@ class ViewerApp:
         name = self.path.name if self.path else "untitled"
         dpg.set_viewport_title(f"{self.title} \u2014 {name}{' *' if self.dirty else ''}")
 
-    def _update_status(self) -> None:
-        if len(self.frame_times) % 30:
-            return
-        recent: Sequence[float] = list(self.frame_times)[-60:]
-        fps = len(recent) / sum(recent) if recent and sum(recent) > 0 else 0.0
+    def _update_status(self) -> bool:
+        """Refresh the status bar's left part (content at once, fps twice a second); True if it changed."""
+        now = time.monotonic()
+        if now - self._fps_at >= 0.5 and self._render_starts:
+            self._fps_at = now
+            recent = sum(1 for t in self._render_starts if t > now - 1.0)
+            if now - self._render_starts[0] < 1.0:
+                self._fps_text = ""  # not measured yet
+            elif recent < 5 and not self.pacer.active(now):
+                self._fps_text = "idle"
+            else:
+                self._fps_text = f"{min(recent, 999)} fps"
         name = str(self.path) if self.path else "untitled"
-        text = (
-            f"  {name}{' (modified)' if self.dirty else ''}   \u00b7   {len(self.items)} widgets   \u00b7   "
-            f"grid {self.grid_size}px {'on' if self.snap else 'off'}   \u00b7   {min(fps, 999):.0f} fps   "
-        )
-        if text != self._status_left:
-            self._status_left = text
-            dpg.set_value(self.status_left, text)
+        count = len(self.items)
+        parts = [
+            f"{name}{' (modified)' if self.dirty else ''}",
+            f"{count} widget{'' if count == 1 else 's'}",
+            f"grid {self.grid_size}px {'on' if self.snap else 'off'}",
+        ]
+        if self._fps_text:
+            parts.append(self._fps_text)
+        text = "  " + "   \u00b7   ".join(parts) + "   "
+        if text == self._status_left:
+            return False
+        self._status_left = text
+        dpg.set_value(self.status_left, text)
+        return True
 
     def _fit_window(self) -> None:
         size = (dpg.get_viewport_client_width(), dpg.get_viewport_client_height())
@@ -1076,20 +1265,25 @@ class ViewerApp:
                 (r.x, r.y), (r.x + r.w, r.y + r.h), color=theme.BG, fill=theme.BG, parent=self.backdrop
             )
 
-    def _draw_grid(self) -> None:
-        w, h = self.canvas_size()
+    def _draw_grid(self) -> bool:
+        """Draw the grid over the whole scrolled area of the canvas; True if it was redrawn."""
+        view_w, view_h = self.canvas_size()
+        if view_w <= 0:
+            return False
         # Widgets are opaque: the grid is drawn only where none hides it (the one being dragged aside).
         moving = self._drag.item if self._drag is not None else None
         covers = tuple(i.rect for i in self.items if i is not moving)
-        key = (w, h, self.grid_size, self.snap, bool(self.items), covers)
-        if key == self._grid_key or w <= 0:
-            return
+        extent = canvas_extent(view_w, view_h, [i.rect for i in self.items], theme.SCROLLBAR)
+        w, h = int(extent[0]), int(extent[1])
+        key = (w, h, view_w, view_h, self.grid_size, self.snap, bool(self.items), covers)
+        if key == self._grid_key:
+            return False
         self._grid_key = key
         layer = self.grid_layer
         dpg.delete_item(layer, children_only=True)
         dpg.configure_item(layer, width=max(1, w), height=max(1, h))
         step = self.grid_size
-        while w / step > 160:
+        while w / step > 160 or h / step > 160:
             step *= 2
         color = theme.GRID if self.snap else (31, 34, 41, 255)
         for x in range(0, w, step):
@@ -1102,4 +1296,6 @@ class ViewerApp:
                 dpg.draw_line((a, y), (b, y), color=color, parent=layer)
         if not self.items:
             msg = "Drag a widget from the toolbox onto the canvas"
-            dpg.draw_text((w / 2 - len(msg) * 4.6, h / 2 - 10), msg, size=17, color=theme.DIM, parent=layer)
+            at = (view_w / 2 - len(msg) * 4.6, view_h / 2 - 10)
+            dpg.draw_text(at, msg, size=17, color=theme.DIM, parent=layer)
+        return True

@@ -137,9 +137,16 @@ class CanvasItem:
             )
             self.status, self.reason = Status.ERROR, reason
             self._draw_header(w)  # the pill was drawn before the status was known
-        self.grip = dpg.add_drawlist(GRIP, GRIP, parent=self.window, pos=(w - GRIP - 2, h - GRIP - 2))
+        # A drawlist ignores `pos` (Dear PyGui 2.3 lays it out after the body, at the left): a group keeps it.
+        self.grip_group = dpg.add_group(parent=self.window, pos=self._grip_pos(w, h))
+        self.grip = dpg.add_drawlist(GRIP, GRIP, parent=self.grip_group)
         for k in (4, 8, 12):
             dpg.draw_line((GRIP - 2, GRIP - 2 - k), (GRIP - 2 - k, GRIP - 2), color=DIM, parent=self.grip)
+
+    @staticmethod
+    def _grip_pos(w: int, h: int) -> tuple[int, int]:
+        """Where the resize grip sits in a frame of w x h: its bottom-right corner, inside the border."""
+        return (w - GRIP - 2, h - GRIP - 2)
 
     def _draw_header(self, w: int) -> None:
         dl = self.header
@@ -255,7 +262,7 @@ class CanvasItem:
         if rebuild:
             dpg.configure_item(self.header, width=w)
             self._draw_header(w)
-            dpg.configure_item(self.grip, pos=(w - GRIP - 2, h - GRIP - 2))
+            dpg.configure_item(self.grip_group, pos=self._grip_pos(w, h))
             if self.widget is not None and not self.failed:
                 try:
                     self.widget.resize(*self.body_size(w, h))

@@ -35,6 +35,8 @@ TEXT: Color = (222, 226, 232, 255)
 DIM: Color = (138, 146, 158, 255)
 ACCENT: Color = (86, 166, 240, 255)
 GRID: Color = (40, 44, 53, 255)
+SCROLLBAR = 14
+"""Width of a scrollbar in pixels (the canvas keeps its grid clear of them)."""
 
 _FONT_CANDIDATES = (
     "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf",
@@ -103,6 +105,7 @@ def apply_theme() -> None:
             (dpg.mvStyleVar_PopupRounding, 4),
             (dpg.mvStyleVar_GrabRounding, 4),
             (dpg.mvStyleVar_ScrollbarRounding, 4),
+            (dpg.mvStyleVar_ScrollbarSize, SCROLLBAR),
             (dpg.mvStyleVar_ChildBorderSize, 1),
         ):
             dpg.add_theme_style(var, v, category=dpg.mvThemeCat_Core)

@@ -1,0 +1,464 @@
+"""The canvas under Xvfb, driven with the real mouse (xdotool): wheel scrolling, the resize grip, drops.
+
+Each test starts the real `ViewerApp.run` loop in a process of its own. A frame hook there reports what is
+on screen (widgets and toolbox buttons in window pixels, the scroll offsets, the status bar) to a JSON
+file and answers screenshot requests; this process moves, clicks, drags and turns the wheel with xdotool
+(XTEST: the same events a real mouse makes). Nothing here calls a handler or callback directly.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+import time
+import warnings
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+import pytest
+
+from tests._ros import wait_until
+from tests._xvfb import x_display
+
+pytestmark = pytest.mark.gui
+
+ROOT = Path(__file__).resolve().parent.parent
+WAIT_S = 30.0
+"""How long the viewer may take to show what the mouse asked for (generous for a loaded CI machine)."""
+SIZE = (1000, 640)
+
+
+# -- the child: a real viewer whose frame hook reports what is on screen ---------------------------------
+
+
+def canvas_dashboard(tmp: Path) -> Path:
+    """A dial and a plot at the top, and an LED far below the view (so the canvas scrolls)."""
+    from dbglog.viewer._dashboard import Dashboard, RawWidget, WidgetConfig, save_dashboard
+    from dbglog.viewer._model import Binding
+
+    widgets = [
+        WidgetConfig("dial", "Gauge", 40, 40, 220, 240, (), {}),
+        WidgetConfig("plot", "Trend", 400, 40, 360, 240, (Binding("/t/x", "data"),), {}),
+        WidgetConfig("led", "Far", 40, 1000, 140, 180, (), {}),
+    ]
+    path = tmp / "dash.json"
+    save_dashboard(Dashboard(list[WidgetConfig | RawWidget](widgets), 20, True), path)
+    return path
+
+
+class Probe:
+    """Frame hook: writes the viewer's visible state to `state.json` whenever it changes."""
+
+    def __init__(self, app: Any, tmp: Path, first_status: str) -> None:
+        self.app, self.tmp = app, tmp
+        self.calls = 0
+        self.last = ""
+        self.first_status = first_status
+        self.selected_at: dict[str, float] = {}
+
+    def state(self) -> dict[str, Any]:
+        """What is on screen now, in window pixels."""
+        import dearpygui.dearpygui as dpg
+
+        app = self.app
+        ox, oy = app.canvas_origin()
+        sx, sy = dpg.get_x_scroll(app.canvas), dpg.get_y_scroll(app.canvas)
+        bar_w = 14 if dpg.get_y_scroll_max(app.canvas) > 0 else 0  # the scrollbars' width (theme.SCROLLBAR)
+        bar_h = 14 if dpg.get_x_scroll_max(app.canvas) > 0 else 0
+        view_w, view_h = app.canvas_size()
+        selected = app.selected.name if app.selected is not None else None
+        if selected is not None and selected not in self.selected_at:
+            self.selected_at[selected] = time.time()
+        buttons = {}
+        for name, button in app.toolbox_buttons.items():
+            (bx, by), (bw, bh) = dpg.get_item_rect_min(button), dpg.get_item_rect_size(button)
+            buttons[name] = [bx, by, bw, bh]
+        return {
+            "pid": os.getpid(),
+            "items": [
+                {
+                    "name": i.name,
+                    "type": i.config.type,
+                    "rect": [i.rect.x + ox, i.rect.y + oy, i.rect.w, i.rect.h],
+                }
+                for i in app.items
+            ],
+            "canvas": [ox + sx, oy + sy, view_w - bar_w, view_h - bar_h],
+            "scroll": [sx, sy],
+            "scroll_max": [dpg.get_x_scroll_max(app.canvas), dpg.get_y_scroll_max(app.canvas)],
+            "buttons": buttons,
+            "selected": selected,
+            "selected_at": self.selected_at,
+            "dialog": type(app.dialog).__name__ if app.dialog is not None else None,
+            "mouse": list(dpg.get_mouse_pos(local=False)),
+            "status": dpg.get_value(app.status_left),
+            "first_status": self.first_status,
+            "rendered": getattr(app, "rendered", self.calls),  # (a viewer that renders every pass has none)
+        }
+
+    def hook(self) -> None:
+        """Report; answer screenshot requests (`shot-NAME.request` files the test drops into the folder)."""
+        import dearpygui.dearpygui as dpg
+
+        self.calls += 1
+        for request in sorted(self.tmp.glob("shot-*.request")):
+            name = request.stem.removeprefix("shot-")
+            request.unlink()
+            dpg.output_frame_buffer(file=str(self.tmp / f"{name}.png"))
+            if hasattr(self.app, "pacer"):
+                self.app.pacer.request()  # the capture happens on the next rendered frame
+        state = self.state()
+        text = json.dumps(state)
+        if text != self.last or self.calls % 20 == 0:
+            self.last = text
+            state["calls"] = self.calls
+            state["time"] = time.time()
+            out = self.tmp / "state.json.tmp"
+            out.write_text(json.dumps(state, indent=1))
+            out.replace(self.tmp / "state.json")
+
+
+def run_here(scenario: str, tmp_dir: str) -> None:
+    """Child-process entry: open the scenario's dashboard and run the viewer until it closes."""
+    warnings.simplefilter("error")
+    import dearpygui.dearpygui as dpg
+
+    from dbglog.viewer._dashboard import load_dashboard
+    from dbglog.viewer._model import FieldInfo
+    from dbglog.viewer._ui import StaticSource, ViewerApp
+    from dbglog.viewer._widgets import WidgetRegistry
+
+    tmp = Path(tmp_dir)
+    registry = WidgetRegistry.builtin()
+    source = StaticSource()
+    source.add_topic("/t/x", "std_msgs/msg/Float64", [FieldInfo("data", "double", True)])
+    now = time.time()
+    for k in range(200):
+        source.push("/t/x", "data", float(np.sin(k / 10)), now - 2 + k * 0.01)
+    options: dict[str, Any] = {"fps": float(scenario.split(":")[1])} if ":" in scenario else {}
+    app = ViewerApp(source, registry, width=SIZE[0], height=SIZE[1], **options)
+    app.start()
+    try:
+        path = canvas_dashboard(tmp)
+        app.load(load_dashboard(path, registry.get), path)
+        app.frame()  # the first frame with the dashboard: what its status bar says
+        probe = Probe(app, tmp, dpg.get_value(app.status_left))
+        app.frame_hooks.append(probe.hook)
+        if scenario.startswith("live"):  # a new sample for the plot on every pass of the loop
+            app.frame_hooks.append(lambda: source.push("/t/x", "data", time.time() % 1.0))
+        app.run()
+    finally:
+        app.close()
+
+
+# -- this side: a desktop with a mouse -----------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def display() -> Iterator[str]:
+    """The X display: the caller's, or a private Xvfb started for this module."""
+    with x_display() as name:
+        yield name
+
+
+class Viewer:
+    """A child process running the real viewer, and the mouse (xdotool) on its display."""
+
+    def __init__(self, scenario: str, tmp: Path, display: str) -> None:
+        self.tmp, self.display = tmp, display
+        code = (
+            f"import sys; sys.path.insert(0, {str(ROOT)!r}); "
+            "from tests import test_ui_canvas; test_ui_canvas.run_here(sys.argv[1], sys.argv[2])"
+        )
+        self.log = (tmp / "child.log").open("w")
+        self.proc = subprocess.Popen(
+            [sys.executable, "-c", code, scenario, str(tmp)],
+            env={**os.environ, "DISPLAY": display},
+            stdout=self.log,
+            stderr=subprocess.STDOUT,
+            cwd=ROOT,
+        )
+        self.window = ""
+
+    def output(self) -> str:
+        """What the child printed."""
+        self.log.flush()
+        return (self.tmp / "child.log").read_text()
+
+    def state(self) -> dict[str, Any]:
+        """The child's last reported state (empty before the first report)."""
+        try:
+            return dict(json.loads((self.tmp / "state.json").read_text()))
+        except (OSError, ValueError):
+            return {}
+
+    def wait_for(self, what: Callable[[dict[str, Any]], Any], timeout: float = WAIT_S) -> dict[str, Any]:
+        """Wait until the reported state satisfies `what`; fail if the child dies or time runs out."""
+
+        def check() -> bool:
+            state = self.state()
+            return self.proc.poll() is not None or (bool(state) and bool(what(state)))
+
+        ok = wait_until(check, timeout=timeout)
+        state = self.state()
+        assert ok, f"timed out; state {json.dumps(state, indent=1)}\n{self.output()}"
+        assert what(state), f"child exited with {self.proc.returncode}; state {state}\n{self.output()}"
+        return state
+
+    def settle(self) -> dict[str, Any]:
+        """Wait until the viewer rendered a few more frames (so it has acted on the last input)."""
+        start = int(self.state().get("rendered", 0))
+        return self.wait_for(lambda s: int(s.get("rendered", 0)) >= start + 3)
+
+    def ready(self) -> dict[str, Any]:
+        """Wait for the window and for the viewer to have laid out the dashboard (a few frames)."""
+        state = self.wait_for(lambda s: s.get("rendered", 0) >= 3)
+        out = self.xdo("search", "--sync", "--pid", str(self.proc.pid))
+        self.window = out.split()[0]
+        return state
+
+    def shot(self, name: str) -> npt.NDArray[np.uint8]:
+        """A screenshot of the window, as an (h, w, channels) array."""
+        from tests.test_ui import read_png
+
+        path = self.tmp / f"{name}.png"
+        (self.tmp / f"shot-{name}.request").touch()
+        assert wait_until(lambda: path.exists() and path.stat().st_size > 0, timeout=WAIT_S), self.output()
+        time.sleep(0.2)  # written in one go, but give the writer a moment to close it
+        return read_png(path)
+
+    def xdo(self, *args: str) -> str:
+        """Run xdotool on the child's display and return what it printed."""
+        done = subprocess.run(
+            ["xdotool", *args],
+            env={**os.environ, "DISPLAY": self.display},
+            capture_output=True,
+            text=True,
+            timeout=WAIT_S,
+            check=True,
+        )
+        return done.stdout
+
+    def move(self, x: float, y: float) -> None:
+        """Move the mouse to window pixel (x, y) and wait until the viewer saw it there."""
+        self.xdo("mousemove", "--window", self.window, str(round(x)), str(round(y)))
+        self.wait_for(lambda s: abs(s["mouse"][0] - round(x)) <= 1 and abs(s["mouse"][1] - round(y)) <= 1)
+
+    def drag(self, start: tuple[float, float], end: tuple[float, float], steps: int = 8) -> None:
+        """Press the left button at `start`, move to `end` in steps as a hand does, and let go there."""
+        self.move(*start)
+        self.xdo("mousedown", "1")
+        self.settle()
+        for k in range(1, steps + 1):
+            f = k / steps
+            self.move(start[0] + (end[0] - start[0]) * f, start[1] + (end[1] - start[1]) * f)
+            self.settle()
+        self.xdo("mouseup", "1")
+        self.settle()
+
+    def wheel(self, notches: int) -> None:
+        """Turn the wheel `notches` down (negative: up) where the mouse is."""
+        button = "5" if notches > 0 else "4"
+        for _ in range(abs(notches)):
+            self.xdo("click", button)
+        self.settle()
+
+    def stop(self) -> None:
+        """Kill the child if it still runs."""
+        if self.proc.poll() is None:
+            self.proc.kill()
+            self.proc.wait(10)
+        self.log.close()
+
+
+@pytest.fixture
+def viewer(display: str, tmp_path: Path) -> Iterator[Callable[[str], Viewer]]:
+    """Start viewers on the display; each is killed at the end if it still runs."""
+    assert shutil.which("xdotool"), "xdotool is missing: .ci/setup.sh installs it"
+    started: list[Viewer] = []
+
+    def start(scenario: str) -> Viewer:
+        v = Viewer(scenario, tmp_path, display)
+        started.append(v)
+        return v
+
+    yield start
+    for v in started:
+        v.stop()
+
+
+def item(state: dict[str, Any], name: str) -> dict[str, Any]:
+    """The reported widget called `name`."""
+    return next(i for i in state["items"] if i["name"] == name)
+
+
+def count_near(img: npt.NDArray[np.uint8], rgb: tuple[int, ...], tol: int) -> int:
+    """Pixels within `tol` of an RGB colour."""
+    diff = np.abs(img[:, :, :3].astype(np.int64) - np.array(rgb[:3]))
+    return int(np.all(diff <= tol, axis=2).sum())
+
+
+def overlap(a: list[float], b: list[float]) -> bool:
+    """Whether two [x, y, w, h] rectangles share any area."""
+    return a[0] < b[0] + b[2] and b[0] < a[0] + a[2] and a[1] < b[1] + b[3] and b[1] < a[1] + a[3]
+
+
+# -- the tests ------------------------------------------------------------------------------------------
+
+
+def test_wheel_scrolls_canvas_background_not_over_a_plot(viewer: Callable[[str], Viewer]) -> None:
+    """The wheel over the canvas background scrolls it (down and back up); over a plot it is the plot's."""
+    v = viewer("canvas")
+    v.ready()
+    state = v.wait_for(lambda s: s["scroll_max"][1] > 300)  # the LED far below makes the canvas scroll
+    cx, cy, cw, ch = state["canvas"]
+    v.move(cx + cw - 60, cy + ch / 2)  # background, right of the plot
+    v.wheel(3)
+    state = v.wait_for(lambda s: s["scroll"][1] > 0)
+    assert state["scroll"][1] == pytest.approx(180, abs=1)
+    v.wheel(-2)
+    state = v.wait_for(lambda s: s["scroll"][1] < 180)
+    assert state["scroll"][1] == pytest.approx(60, abs=1)
+    v.wheel(-5)
+    assert v.wait_for(lambda s: s["scroll"][1] == 0)["scroll"][1] == 0, "never above the top"
+    trend = item(v.state(), "Trend")["rect"]
+    v.move(trend[0] + trend[2] / 2, trend[1] + trend[3] / 2)
+    v.wheel(3)
+    v.settle()
+    assert v.state()["scroll"][1] == 0, "the wheel over a plot does not scroll the canvas"
+
+
+def test_grid_covers_the_scrolled_area(viewer: Callable[[str], Viewer]) -> None:
+    """Scrolled to the bottom, the canvas still shows its grid where the view was not at the start."""
+    from dbglog.viewer._ui._theme import GRID
+
+    v = viewer("canvas")
+    state = v.ready()
+    cx, cy, cw, ch = state["canvas"]
+    v.move(cx + cw - 60, cy + ch / 2)
+    v.wheel(20)
+    state = v.wait_for(lambda s: s["scroll"][1] >= s["scroll_max"][1] > 300)
+    img = v.shot("scrolled")
+    x0, y0, w, h = (int(p) for p in state["canvas"])
+    far = item(state, "Far")["rect"]
+    # The band right of the LED, at the bottom of the view: canvas beyond the first screenful.
+    band = img[y0 + h - 200 : y0 + h - 10, int(far[0] + far[2]) + 20 : x0 + w - 20]
+    lines = count_near(band, GRID, 3)
+    assert lines > 0.03 * band.shape[0] * band.shape[1], f"grid pixels {lines} in a {band.shape} band"
+
+
+def test_resize_grip_is_bottom_right_and_dragging_it_resizes(viewer: Callable[[str], Viewer]) -> None:
+    """The grip's lines are in the frame's bottom-right corner (none bottom-left); dragging it resizes."""
+    from dbglog.viewer._ui._theme import DIM
+
+    v = viewer("canvas")
+    state = v.ready()
+    x, y, w, h = (int(p) for p in item(state, "Gauge")["rect"])
+    img = v.shot("grip")
+    right = img[y + h - 18 : y + h - 2, x + w - 18 : x + w - 2]
+    left = img[y + h - 18 : y + h - 2, x + 2 : x + 18]
+    assert count_near(right, DIM, 40) >= 8, "grip lines in the bottom-right corner"
+    assert count_near(left, DIM, 40) == 0, "nothing grip-like in the bottom-left corner"
+    v.drag((x + w - 6, y + h - 6), (x + w - 6 + 100, y + h - 6 + 60))
+    state = v.wait_for(lambda s: item(s, "Gauge")["rect"][2] != w)
+    nx, ny, nw, nh = item(state, "Gauge")["rect"]
+    assert (nx, ny) == (x, y), "the top-left corner stays"
+    assert (nw, nh) == (w + 100, h + 60), "snapped to the 20 px grid"
+    img = v.shot("grip-after")
+    nx, ny, nw, nh = (int(p) for p in (nx, ny, nw, nh))
+    assert count_near(img[ny + nh - 18 : ny + nh - 2, nx + nw - 18 : nx + nw - 2], DIM, 40) >= 8
+    assert count_near(img[ny + nh - 18 : ny + nh - 2, nx + 2 : nx + 18], DIM, 40) == 0
+
+
+@pytest.mark.parametrize("where", ["beside a widget", "at the corner"])
+def test_drop_lands_on_free_grid_spot_inside_the_canvas(viewer: Callable[[str], Viewer], where: str) -> None:
+    """A toolbox widget dragged next to another, or to the view's corner, lands on free canvas in view."""
+    v = viewer("canvas")
+    state = v.ready()
+    gauge = item(state, "Gauge")["rect"]
+    cx, cy, cw, ch = state["canvas"]
+    button = state["buttons"]["dial"]
+    start = (button[0] + button[2] / 2, button[1] + button[3] / 2)
+    if where == "beside a widget":  # the old rule (20 px left of the pointer, snapped) put the dial on it
+        v.drag(start, (gauge[0] + gauge[2] + 10, gauge[1] + 120), steps=12)
+    else:  # the old rule let the dial run off the bottom-right of the view
+        v.drag(start, (cx + cw - 8, cy + ch - 8), steps=12)
+    state = v.wait_for(lambda s: len(s["items"]) == 4)
+    new = state["items"][-1]["rect"]
+    for other in state["items"][:-1]:
+        assert not overlap(new, other["rect"]), f"{new} overlaps {other}"
+    assert (new[0] - cx) % 20 == 0
+    assert (new[1] - cy) % 20 == 0
+    assert cx <= new[0]
+    assert new[0] + new[2] <= cx + cw
+    assert cy <= new[1]
+    assert new[1] + new[3] <= cy + ch
+    assert state["dialog"] == "TopicDialog", "the drop opens the new widget's topic setup"
+
+
+def test_status_bar_counts_widgets_from_the_first_frame(viewer: Callable[[str], Viewer]) -> None:
+    """The first frame's status bar counts the loaded widgets and shows no fps; once measured, it does."""
+    v = viewer("canvas")
+    state = v.ready()
+    first = state["first_status"]
+    assert "3 widgets" in first
+    assert "fps" not in first, first
+    state = v.wait_for(lambda s: "fps" in s["status"] or "idle" in s["status"])
+    assert "3 widgets" in state["status"]
+
+
+def test_view_new_file_starts_empty_dashboard_that_ctrl_s_writes(display: str, tmp_path: Path) -> None:
+    """`dbglog view new.json` (no such file yet) opens an empty dashboard named new.json; Ctrl+S writes it."""
+    path = tmp_path / "new.json"
+    report = tmp_path / "report.json"
+    env = {**os.environ, "DISPLAY": display}
+
+    def xdo(*args: str) -> str:
+        return subprocess.run(
+            ["xdotool", *args], env=env, capture_output=True, text=True, timeout=WAIT_S, check=True
+        ).stdout
+
+    with (tmp_path / "view.log").open("w") as log:
+        proc = subprocess.Popen(
+            [
+                sys.executable,
+                "-m",
+                "dbglog",
+                "view",
+                str(path),
+                "--report-json",
+                str(report),
+                "--size",
+                "900x600",
+            ],
+            env=env,
+            stdout=log,
+            stderr=subprocess.STDOUT,
+            cwd=ROOT,
+        )
+        try:
+            window = xdo("search", "--sync", "--pid", str(proc.pid)).split()[0]
+            assert wait_until(lambda: "new.json" in xdo("getwindowname", window), timeout=WAIT_S)
+            assert xdo("getwindowname", window).strip().endswith("new.json"), "named, and nothing unsaved"
+            assert not path.exists(), "nothing is written before Save"
+            xdo("windowfocus", "--sync", window)
+            xdo("key", "--clearmodifiers", "ctrl+s")
+            assert wait_until(path.exists, timeout=WAIT_S), (tmp_path / "view.log").read_text()
+            saved = json.loads(path.read_text())
+            assert saved["widgets"] == []
+            xdo("key", "--clearmodifiers", "ctrl+q")  # nothing unsaved: closes at once
+            assert proc.wait(WAIT_S) == 0, (tmp_path / "view.log").read_text()
+        finally:
+            if proc.poll() is None:
+                proc.kill()
+                proc.wait(10)
+    done = json.loads(report.read_text())
+    assert done["file"] == str(path)
+    assert done["modified"] is False
+    assert done["widgets"] == []

@@ -1,0 +1,115 @@
+"""The viewer's CPU use under Xvfb: idle it stays near zero, live it keeps to its frame cap, clicks land.
+
+The figures are measured on the real processes (`/proc/<pid>/stat`, the viewer's frame counter); the
+bounds are loose for a loaded CI machine, `benchmarks/bench_ui.py` reports the real figures.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import time
+from collections.abc import Callable, Iterator
+from pathlib import Path
+
+import pytest
+
+from tests._xvfb import x_display
+from tests.test_ui_canvas import ROOT, Viewer, item, viewer
+
+__all__ = ["viewer"]  # the fixture, shared with test_ui_canvas
+
+pytestmark = pytest.mark.gui
+
+IDLE_CPU_MAX = 0.15
+"""Most of one core an idle viewer may use here (it measures about 0.03; slack for a loaded machine)."""
+
+
+@pytest.fixture(scope="module")
+def display() -> Iterator[str]:
+    """The X display: the caller's, or a private Xvfb started for this module."""
+    with x_display() as name:
+        yield name
+
+
+def cpu_seconds(pid: int) -> float:
+    """User plus system CPU time of process `pid` so far, all its threads, in seconds."""
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    utime, stime = int(fields[11]), int(fields[12])  # fields 14 and 15 of proc(5), after "pid (comm)"
+    return (utime + stime) / os.sysconf("SC_CLK_TCK")
+
+
+def test_idle_view_uses_a_few_percent_of_a_core(display: str, tmp_path: Path) -> None:
+    """`dbglog view` on an empty dashboard, left alone, uses a few percent of a core (was 0.75-1.6 cores)."""
+    from dbglog.viewer._dashboard import Dashboard, save_dashboard
+
+    path = tmp_path / "empty.json"
+    save_dashboard(Dashboard([], 20, True), path)
+    env = {**os.environ, "DISPLAY": display}
+    with (tmp_path / "view.log").open("w") as log:
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "dbglog", "view", str(path), "--size", "1440x900"],
+            env=env,
+            stdout=log,
+            stderr=subprocess.STDOUT,
+            cwd=ROOT,
+        )
+        try:
+            found = subprocess.run(
+                ["xdotool", "search", "--sync", "--pid", str(proc.pid)],
+                env=env,
+                capture_output=True,
+                timeout=60,
+                check=False,
+            )
+            assert found.returncode == 0, (tmp_path / "view.log").read_text()
+            time.sleep(2.0)  # start-up (imports, the first frames) is not idling
+            cpu0, t0 = cpu_seconds(proc.pid), time.monotonic()
+            time.sleep(4.0)
+            share = (cpu_seconds(proc.pid) - cpu0) / (time.monotonic() - t0)
+            assert proc.poll() is None, (tmp_path / "view.log").read_text()
+        finally:
+            proc.terminate()
+            proc.wait(15)
+    print(f"idle viewer: {100 * share:.1f} % of one core")
+    assert share <= IDLE_CPU_MAX, f"idle viewer used {100 * share:.0f} % of a core"
+
+
+def render_rate(v: Viewer, seconds: float) -> float:
+    """Frames the viewer rendered per second over the next `seconds`."""
+    start = v.state()
+    time.sleep(seconds)
+    end = v.wait_for(lambda s: s["time"] > start["time"] + seconds - 0.5)
+    return float(end["rendered"] - start["rendered"]) / float(end["time"] - start["time"])
+
+
+def test_live_data_redraws_at_most_at_the_frame_cap(viewer: Callable[[str], Viewer]) -> None:
+    """With new data on every pass of the loop, the viewer renders no faster than its cap (here 20 fps)."""
+    v = viewer("live:20")
+    v.ready()
+    time.sleep(1.5)  # past the start-up frames
+    rate = render_rate(v, 3.0)
+    print(f"live at a 20 fps cap: {rate:.1f} frames/s")
+    assert rate <= 20 * 1.1 + 1
+    assert rate >= 5, "new data is drawn"
+
+
+def test_idle_viewer_renders_rarely_and_answers_a_click_at_once(viewer: Callable[[str], Viewer]) -> None:
+    """Left alone the viewer renders about twice a second, yet a click selects a widget within a blink."""
+    v = viewer("canvas")
+    state = v.ready()
+    gauge = item(state, "Gauge")["rect"]
+    v.move(gauge[0] + 40, gauge[1] + 12)
+    time.sleep(1.5)  # the pointer moved: a second of full-rate frames, then idle again
+    rate = render_rate(v, 2.0)
+    print(f"idle: {rate:.1f} frames/s")
+    assert rate <= 4
+    assert v.state()["selected"] is None
+    t0 = time.time()
+    v.xdo("mousedown", "1")
+    v.xdo("mouseup", "1")
+    state = v.wait_for(lambda s: "Gauge" in s["selected_at"], timeout=10)
+    latency = state["selected_at"]["Gauge"] - t0
+    print(f"click to selection while idle: {1000 * latency:.0f} ms")
+    assert latency <= 0.5, f"the click took {latency:.2f} s to select"
