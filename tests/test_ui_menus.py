@@ -131,7 +131,7 @@ class Probe:
         request = app.file_request
         if request is not None and dpg.does_item_exist(request.item):
             state["file_dialog"] = {"save": request.save, "shown": bool(dpg.is_item_shown(request.item))}
-            save_as = request.dialog
+            save_as = getattr(request, "dialog", None)  # the viewer's own Save As (not Open's file dialog)
             if save_as is not None:
                 state["file_dialog"].update(
                     name=dpg.get_value(save_as.name_input),
@@ -434,6 +434,26 @@ def test_context_menu_change_type_by_clicking(viewer: Callable[[str], Viewer]) -
     assert state["menu"] is None
     assert state["dirty"] is True
     assert shot.stat().st_size > 0
+
+
+def test_context_menu_closes_on_escape_and_outside_click(viewer: Callable[[str], Viewer]) -> None:
+    """Escape closes the context menu; so does a click outside it, which does nothing else."""
+    v = viewer("dashboard")
+    x, y, w, h = item_named(v.state(), "Lamp")["rect"]
+    v.click(x + w / 2, y + h / 2, button=3)
+    v.wait_for(lambda s: s["menu"] is not None)
+    v.key("Escape")
+    v.wait_for(lambda s: s["menu"] is None)
+    v.click(x + w / 2, y + h / 2, button=3)
+    state = v.wait_for(lambda s: s["menu"] is not None)
+    assert state["selected"] == "Lamp"
+    v.click(x + w / 2, y + h + 200)  # empty canvas
+    state = v.wait_for(lambda s: s["menu"] is None)
+    v.frames(3)
+    state = v.state()
+    assert state["selected"] == "Lamp", "the click that closed the menu did not reach the canvas"
+    assert item_named(state, "Lamp")["type"] == "led"
+    assert state["dirty"] is False
 
 
 # -- Save As ------------------------------------------------------------------------------------------------
