@@ -112,7 +112,9 @@ def test_three_tags_at_1khz_every_sample_reaches_the_engine_in_order_with_source
 def test_dbglog_echo_prints_every_sample_in_order_with_its_stamp() -> None:
     """A ``dbglog echo`` process prints all 2000 values of a 1 kHz tag, in order, with source stamps."""
     dbglog.logint("probe/echo", -1)
-    echo = subprocess.Popen(
+    lines: list[str] = []
+    sent: list[float] = []
+    with subprocess.Popen(
         [
             sys.executable,
             "-m",
@@ -127,25 +129,26 @@ def test_dbglog_echo_prints_every_sample_in_order_with_its_stamp() -> None:
         ],
         env=_env(),
         stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
+        stderr=subprocess.DEVNULL,
         text=True,
         cwd=ROOT,
-    )
-    try:
-        batch = RUNTIME._batch_publisher
-        assert wait_until(lambda: batch.get_subscription_count() >= 1, TIMEOUT)
-        deadline = time.monotonic()
-        sent = []
-        for k in range(2000):
-            sent.append(time.time())
-            dbglog.logint("probe/echo", k)
-            deadline += 0.001
-            time.sleep(max(0.0, deadline - time.monotonic()))
-        out, err = echo.communicate(timeout=60)
-    finally:
-        echo.kill()
-    rows = [line.split() for line in out.splitlines()]
-    assert [int(v) for _, v in rows] == [-1, *range(2000)], err
+    ) as echo:
+        reader = threading.Thread(target=lambda: lines.extend(echo.stdout or []), daemon=True)
+        reader.start()
+        try:
+            assert wait_until(lambda: len(lines) >= 1, TIMEOUT), "echo printed nothing"  # the current value
+            deadline = time.monotonic()
+            for k in range(2000):
+                sent.append(time.time())
+                dbglog.logint("probe/echo", k)
+                deadline += 0.001
+                time.sleep(max(0.0, deadline - time.monotonic()))
+            echo.wait(60)
+            reader.join(10)
+        finally:
+            echo.kill()
+    rows = [line.split() for line in lines]
+    assert [int(v) for _, v in rows] == [-1, *range(2000)]
     stamps = [float(t) for t, _ in rows[1:]]
     assert all(abs(s - t) < 0.005 for s, t in zip(stamps, sent, strict=True))
     assert stamps == sorted(stamps)

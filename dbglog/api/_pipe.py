@@ -114,15 +114,12 @@ class Pipe:
         while True:
             if self._pid != os.getpid():  # pragma: no cover - a thread never survives a fork
                 return
-            if queue:
-                with self._drain_lock:
-                    try:
-                        while queue:
-                            self._flush_once(yield_gil=True)
-                    except Exception:  # noqa: S110  (reported per sample; the thread must survive)
-                        pass
+            while queue:  # one batch at a time: a drain() on another thread may take its turn
+                # Failures are reported per sample; the thread itself must survive anything.
+                with self._drain_lock, contextlib.suppress(Exception):
+                    self._flush_once(yield_gil=True)
                 idle_since = time.monotonic()
-            elif time.monotonic() - idle_since > _IDLE_AFTER:
+            if time.monotonic() - idle_since > _IDLE_AFTER:
                 self.sleeping = True
                 if not self.queue:
                     self._event.wait()

@@ -32,7 +32,7 @@ from dbglog.api._convert import (
 )
 from dbglog.api._errors import _API_DIR, DbglogError, DbglogWarning, Reporter, Stats, safe_repr
 from dbglog.api._rate import RateLimiter, check_throttle
-from dbglog.api._runtime import Runtime
+from dbglog.api._runtime import Channel, Runtime
 
 __all__ = [
     "REPORTER",
@@ -63,14 +63,18 @@ _PASS_THROUGH = (DbglogError, DbglogWarning)
 # Bound once: the hot paths below touch only these names.
 _fast_float = RUNTIME.fast_float
 _fast_int = RUNTIME.fast_int
+_fast_bool = RUNTIME.fast_bool
+_fast_str = RUNTIME.fast_str
+_INF = math.inf
 _calls = REPORTER.calls.incr
 _published = REPORTER.published.incr
 _PIPE = RUNTIME.pipe
 _queue = _PIPE.queue
 _append = _queue.append
 _now = time.time_ns
-_STATS_DRAIN_SECONDS = 10.0
-"""stats() publishes what is queued first, for at most this long (a full queue takes about a second)."""
+_STATS_DRAIN_SECONDS = 30.0
+"""stats() publishes what is queued first, for at most this long (a full queue takes a second or two,
+longer when subscribers in this very process take the GIL for every message)."""
 
 
 def _std_type(name: str) -> type:
@@ -110,6 +114,21 @@ class _Options:
             return True
         REPORTER.rate_limited.incr()
         return False
+
+
+def _rate(ch: Channel, once: object, throttle: object, skip_first: object) -> bool | None:
+    """Rate control on the hot path: pass or hold back (counted), or None when an option needs checking."""
+    if (type(once) is not bool or type(skip_first) is not bool) or (
+        throttle is not None
+        and not ((type(throttle) is float or type(throttle) is int) and 0 <= throttle < _INF)
+    ):
+        return None
+    frame = sys._getframe(2)  # the user's call into logfloat & co.
+    site = (frame.f_code.co_filename, frame.f_lineno)
+    if _LIMITER.allow(ch.tag, site, once=once, skip_first=skip_first, throttle=throttle):
+        return True
+    REPORTER.rate_limited.incr()
+    return False
 
 
 def _begin(api: str, tag: object, once: object, throttle: object, skip_first: object) -> _Options | None:
@@ -203,7 +222,7 @@ def _scalar_call(
             except ConversionError as exc:
                 REPORTER.drop(exc.reason, f"{clean}:msg_type", f"dbglog.{api}({clean!r}): {exc}")
                 return
-        _publish_scalar(api, tag, clean, value, cls, opts, fast=msg_type is None and not opts.active)
+        _publish_scalar(api, tag, clean, value, cls, opts, fast=msg_type is None)
     except _PASS_THROUGH:
         raise
     except Exception as exc:
@@ -229,15 +248,22 @@ def logfloat(
         throttle: publish at most once per this many seconds from this line.
         skip_first: drop the first call from this line.
     """
-    if type(value) is float and msg_type is None and not once and throttle is None and not skip_first:
+    if type(value) is float and msg_type is None:
         try:
             ch = _fast_float.get(tag)
             if ch is not None and len(_queue) < _PIPE.capacity:
-                _append((ch, value, _now()))
-                _calls()
-                if _PIPE.sleeping:
-                    _PIPE.wake()
-                return
+                verdict = (
+                    True
+                    if not (once or skip_first or throttle is not None)
+                    else _rate(ch, once, throttle, skip_first)
+                )
+                if verdict is not None:
+                    _calls()
+                    if verdict:
+                        _append((ch, value, _now()))
+                        if _PIPE.sleeping:
+                            _PIPE.wake()
+                    return
         except Exception:  # noqa: S110  (unhashable tag...: the general path reports)
             pass
     _scalar_call("logfloat", "float", tag, value, msg_type, once, throttle, skip_first)
@@ -262,22 +288,22 @@ def logint(
         throttle: publish at most once per this many seconds from this line.
         skip_first: drop the first call from this line.
     """
-    if (
-        type(value) is int
-        and -0x8000000000000000 <= value <= 0x7FFFFFFFFFFFFFFF
-        and msg_type is None
-        and not once
-        and throttle is None
-        and not skip_first
-    ):
+    if type(value) is int and msg_type is None and -0x8000000000000000 <= value <= 0x7FFFFFFFFFFFFFFF:
         try:
             ch = _fast_int.get(tag)
             if ch is not None and len(_queue) < _PIPE.capacity:
-                _append((ch, value, _now()))
-                _calls()
-                if _PIPE.sleeping:
-                    _PIPE.wake()
-                return
+                verdict = (
+                    True
+                    if not (once or skip_first or throttle is not None)
+                    else _rate(ch, once, throttle, skip_first)
+                )
+                if verdict is not None:
+                    _calls()
+                    if verdict:
+                        _append((ch, value, _now()))
+                        if _PIPE.sleeping:
+                            _PIPE.wake()
+                    return
         except Exception:  # noqa: S110  (unhashable tag...: the general path reports)
             pass
     _scalar_call("logint", "int", tag, value, msg_type, once, throttle, skip_first)
@@ -302,6 +328,24 @@ def logbool(
         throttle: publish at most once per this many seconds from this line.
         skip_first: drop the first call from this line.
     """
+    if type(value) is bool and msg_type is None:
+        try:
+            ch = _fast_bool.get(tag)
+            if ch is not None and len(_queue) < _PIPE.capacity:
+                verdict = (
+                    True
+                    if not (once or skip_first or throttle is not None)
+                    else _rate(ch, once, throttle, skip_first)
+                )
+                if verdict is not None:
+                    _calls()
+                    if verdict:
+                        _append((ch, value, _now()))
+                        if _PIPE.sleeping:
+                            _PIPE.wake()
+                    return
+        except Exception:  # noqa: S110  (unhashable tag...: the general path reports)
+            pass
     _scalar_call("logbool", "bool", tag, value, msg_type, once, throttle, skip_first)
 
 
@@ -324,6 +368,24 @@ def logstring(
         throttle: publish at most once per this many seconds from this line.
         skip_first: drop the first call from this line.
     """
+    if type(value) is str and msg_type is None and len(value) <= MAX_STRING_CHARS and value.isascii():
+        try:
+            ch = _fast_str.get(tag)
+            if ch is not None and len(_queue) < _PIPE.capacity and "\x00" not in value:
+                verdict = (
+                    True
+                    if not (once or skip_first or throttle is not None)
+                    else _rate(ch, once, throttle, skip_first)
+                )
+                if verdict is not None:
+                    _calls()
+                    if verdict:
+                        _append((ch, value, _now()))
+                        if _PIPE.sleeping:
+                            _PIPE.wake()
+                    return
+        except Exception:  # noqa: S110  (unhashable tag...: the general path reports)
+            pass
     _scalar_call("logstring", "str", tag, value, msg_type, once, throttle, skip_first)
 
 
@@ -507,7 +569,7 @@ def flush(timeout: float = 1.0) -> bool:
 def stats() -> Stats:
     """Return dbglog's counters: calls, published, rate-limited and dropped values per reason.
 
-    Values still queued are published first (for at most 10 s), so the counts add up.
+    Values still queued are published first (for at most 30 s), so the counts add up.
     """
     with contextlib.suppress(Exception):  # the counters are still worth returning
         RUNTIME.pipe.drain(_STATS_DRAIN_SECONDS)

@@ -131,6 +131,16 @@ class Runtime:
         """Tag as given -> its Float64 channel (the hot path queues floats for it without checks)."""
         self.fast_int: dict[object, Channel] = {}
         """Same for Int64."""
+        self.fast_bool: dict[object, Channel] = {}
+        """Same for Bool."""
+        self.fast_str: dict[object, Channel] = {}
+        """Same for String."""
+        self._fast_tables = {
+            "Float64": self.fast_float,
+            "Int64": self.fast_int,
+            "Bool": self.fast_bool,
+            "String": self.fast_str,
+        }
         self.pipe = Pipe(self)
         """The queue of scalar samples and the thread that publishes them."""
         self.batch_publish: Callable[[bytes], None] | None = None
@@ -185,8 +195,8 @@ class Runtime:
         with self._lock:
             self.aliases.clear()
             self._owners.clear()
-            self.fast_float.clear()
-            self.fast_int.clear()
+            for table in self._fast_tables.values():
+                table.clear()
         self.pipe.clear()
 
     # ----- publishers -----------------------------------------------------------------------------
@@ -230,16 +240,14 @@ class Runtime:
         return ch
 
     def remember_fast_path(self, given: str, ch: Channel) -> None:
-        """Let the hot path of logfloat/logint publish `given`'s values straight to `ch`."""
-        if ch.encode is None or ch.spec is None or self.channels.get(ch.tag) is not ch:
+        """Let the hot path of logfloat/logint/logbool/logstring queue `given`'s values for `ch`."""
+        if not ch.queued or ch.spec is None or self.channels.get(ch.tag) is not ch:
             return
+        table = self._fast_tables.get(ch.spec.name)
         with self._lock:
-            if len(self.fast_float) + len(self.fast_int) >= 4 * MAX_TAGS:
+            if table is None or sum(len(t) for t in self._fast_tables.values()) >= 4 * MAX_TAGS:
                 return
-            if ch.spec.name == "Float64":
-                self.fast_float[given] = ch
-            elif ch.spec.name == "Int64":
-                self.fast_int[given] = ch
+            table[given] = ch
 
     def enqueue(self, ch: Channel, value: object, api: str) -> None:
         """Queue a checked scalar for the publisher thread; count and warn (once) when the queue is full."""
@@ -451,8 +459,8 @@ class Runtime:
     def _drop_ros_objects(self, *, destroy: bool) -> None:
         channels = list(self.channels.values())
         self.channels.clear()
-        self.fast_float.clear()
-        self.fast_int.clear()
+        for table in self._fast_tables.values():
+            table.clear()
         for ch in channels:
             ch.alive = False
         batch, self._batch_publisher, self.batch_publish = self._batch_publisher, None, None
@@ -484,8 +492,8 @@ class Runtime:
                 _leak(obj)
         self._batch_publisher = self.batch_publish = None
         self.channels.clear()
-        self.fast_float.clear()
-        self.fast_int.clear()
+        for table in self._fast_tables.values():
+            table.clear()
         self._node = self._context = self._user_node = None
 
     def _after_fork_in_child(self) -> None:

@@ -38,6 +38,9 @@ _RECENT = 100
 topics' transient-local history of 100 would give it)."""
 _MAX_TAKE = 2000
 """Batches taken per wake-up at most (others get their turn)."""
+_GRACE_S = 0.75
+"""A std_msgs scalar topic's publisher node seen this recently may still turn out to be a batch writer
+(discovery announces a node's endpoints in any order): its per-tag subscription waits that long."""
 _SCALAR_TYPE_NAMES = frozenset(f"std_msgs/msg/{name}" for name in SCALAR_TYPES)
 
 
@@ -96,6 +99,8 @@ class BatchIngest:
         self.sub: Any = None
         self._cls: Any = None
         self._writer_nodes: frozenset[tuple[str, str]] = frozenset()
+        self._first_seen: dict[tuple[str, str], float] = {}
+        """When each scalar topic's publisher node was first seen (for the grace period)."""
         self._covered: dict[str, _Covered] = {}
         self._recent: dict[str, _Recent] = {}
         self._last_seq: dict[int, int] = {}
@@ -131,6 +136,16 @@ class BatchIngest:
             (i.node_namespace, i.node_name) in self._writer_nodes and i.topic_type in _SCALAR_TYPE_NAMES
             for i in infos
         )
+
+    def should_wait(self, infos: list[Any]) -> bool:
+        """True while a scalar topic's publisher node is too new to know whether it sends batches."""
+        now = time.monotonic()
+        for i in infos:
+            key = (i.node_namespace, i.node_name)
+            fresh = now - self._first_seen.setdefault(key, now) < _GRACE_S
+            if fresh and i.topic_type in _SCALAR_TYPE_NAMES and key not in self._writer_nodes:
+                return True
+        return False
 
     def is_covered(self, name: str) -> bool:
         """True when `name` is fed from batches now."""

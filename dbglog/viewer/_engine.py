@@ -630,6 +630,10 @@ class Engine:
             self._batches.attach(name, pub_types[0], bindings)
             return
         self._batches.detach(name)
+        if topic is None and self._batches.should_wait(infos):
+            for series in bindings.values():
+                series.set_waiting("the topic's publisher just appeared; checking whether it sends batches")
+            return
         best_effort = any(i.qos_profile.reliability == ReliabilityPolicy.BEST_EFFORT for i in infos)
         transient = all(i.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL for i in infos)
         if topic is not None and topic.msg_type in pub_types:

@@ -1,0 +1,441 @@
+"""The probe effect: what 10 dbglog calls per iteration cost a 1 kHz control loop, with a viewer attached.
+
+Run: ``.venv/bin/python benchmarks/bench_probe.py [--before /tmp/dbglog-before]`` (prints Markdown tables).
+
+Each run is a fresh publisher process: a 1 kHz loop with ~25 µs of its own work that sleeps to the next
+deadline and, per iteration, makes 10 calls (6x ``logfloat``, 2x ``logint``, ``logbool``, ``logstring``
+throttled to 10 Hz) - or the same publishes with raw rclpy, or nothing. With ``sub``, a real viewer
+engine (``dbglog.viewer._engine.Engine`` of the same source tree) runs in another process, bound to the
+10 tags, and reports how many samples reached its series, in order, and the publish -> series latency.
+Per-call times are taken around each call (``perf_counter_ns``; the "no calls" row shows that
+clock's own cost). CPU is the publisher process's, all threads (``/proc/self/stat``), minus the loop's
+own (the "no calls" run), per 10k samples/s. ``--before DIR`` adds rows for another source tree (e.g.
+``git worktree add /tmp/dbglog-before HEAD``). Medians over ``--repeats`` runs, run in alternation.
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import json
+import os
+import random
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+ROOT = Path(__file__).resolve().parent.parent
+_FLOATS = 6
+_INTS = 2
+_TAGS = [
+    *(f"probe/f{i}" for i in range(_FLOATS)),
+    *(f"probe/i{i}" for i in range(_INTS)),
+    "probe/b",
+    "probe/s",
+]
+_STRING_EVERY = 100
+"""The throttled logstring (throttle=0.1 s) publishes every 100th iteration at 1 kHz."""
+_WORK_S = 25e-6
+
+
+# --- the publisher process ------------------------------------------------------------------------
+
+
+def _cpu_s() -> float:
+    """CPU seconds of this process, all threads (utime + stime from /proc/self/stat)."""
+    fields = Path("/proc/self/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def _work() -> None:
+    end = time.perf_counter() + _WORK_S
+    while time.perf_counter() < end:
+        pass
+
+
+def _make_calls(mode: str) -> Any:
+    """Return ``step(k, clock, out)``: the iteration's 10 calls, each timed into `out`."""
+    if mode == "none":
+
+        def nothing(k: int, clock: Any, out: list[int]) -> None:
+            t = clock()
+            for _ in range(10):
+                t2 = clock()
+                out.append(t2 - t)
+                t = t2
+
+        return nothing
+    if mode == "rclpy":
+        import rclpy
+        from rclpy.context import Context
+        from rclpy.node import Node
+        from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+        from std_msgs.msg import Bool, Float64, Int64, String
+
+        ctx = Context()
+        rclpy.init(context=ctx)
+        node = Node("probe_rclpy", context=ctx, enable_rosout=False, start_parameter_services=False)
+        qos = QoSProfile(
+            history=HistoryPolicy.KEEP_LAST,
+            depth=100,
+            reliability=ReliabilityPolicy.RELIABLE,
+            durability=DurabilityPolicy.TRANSIENT_LOCAL,
+        )
+        types = [Float64] * _FLOATS + [Int64] * _INTS + [Bool, String]
+        pubs = [
+            node.create_publisher(t, "/rosdashboard/" + tag, qos) for t, tag in zip(types, _TAGS, strict=True)
+        ]
+        msgs = [t() for t in types]
+        for pub, msg, t in zip(pubs, msgs, types, strict=True):
+            msg.data = t().data
+            if t is Float64:
+                msg.data = -1.0
+            elif t is Int64:
+                msg.data = -1
+            elif t is String:
+                msg.data = "k-1"
+            pub.publish(msg)
+        fpubs = list(zip(pubs[:_FLOATS], msgs[:_FLOATS], strict=True))
+        ipubs = list(zip(pubs[_FLOATS : _FLOATS + _INTS], msgs[_FLOATS : _FLOATS + _INTS], strict=True))
+        bpub, bmsg = pubs[-2], msgs[-2]
+        spub, smsg = pubs[-1], msgs[-1]
+        _make_calls.keep = (ctx, node)  # type: ignore[attr-defined]
+
+        def raw(k: int, clock: Any, out: list[int]) -> None:
+            t = clock()
+            for pub, msg in fpubs:
+                msg.data = float(k)
+                pub.publish(msg)
+                t2 = clock()
+                out.append(t2 - t)
+                t = t2
+            for pub, msg in ipubs:
+                msg.data = k
+                pub.publish(msg)
+                t2 = clock()
+                out.append(t2 - t)
+                t = t2
+            bmsg.data = k % 2 == 0
+            bpub.publish(bmsg)
+            t2 = clock()
+            out.append(t2 - t)
+            t = t2
+            if k % _STRING_EVERY == 0:
+                smsg.data = f"k{k}"
+                spub.publish(smsg)
+            t2 = clock()
+            out.append(t2 - t)
+
+        return raw
+    import dbglog
+
+    assert dbglog.enabled == (mode == "on"), (mode, dbglog.enabled)
+    if mode == "on":
+        dbglog.init()
+    ftags, itags = _TAGS[:_FLOATS], _TAGS[_FLOATS : _FLOATS + _INTS]
+    btag, stag = _TAGS[-2], _TAGS[-1]
+    logfloat, logint, logbool, logstring = dbglog.logfloat, dbglog.logint, dbglog.logbool, dbglog.logstring
+    for tag in ftags:
+        logfloat(tag, -1.0)
+    for tag in itags:
+        logint(tag, -1)
+    logbool(btag, True)
+    logstring(stag, "k-1")
+
+    def step(k: int, clock: Any, out: list[int]) -> None:
+        t = clock()
+        value = float(k)
+        for tag in ftags:
+            logfloat(tag, value)
+            t2 = clock()
+            out.append(t2 - t)
+            t = t2
+        for tag in itags:
+            logint(tag, k)
+            t2 = clock()
+            out.append(t2 - t)
+            t = t2
+        logbool(btag, k % 2 == 0)
+        t2 = clock()
+        out.append(t2 - t)
+        t = t2
+        logstring(stag, f"k{k}", throttle=0.1)
+        t2 = clock()
+        out.append(t2 - t)
+
+    return step
+
+
+def _pct(values: list[float], q: float) -> float:
+    values = sorted(values)
+    return values[min(len(values) - 1, int(q * len(values)))] if values else float("nan")
+
+
+def publisher(mode: str, seconds: float) -> None:
+    """Set up, say ``ready``, wait for ``go``, run the loop, print the figures, wait for ``exit``."""
+    step = _make_calls(mode)
+    print("ready", flush=True)
+    sys.stdin.readline()
+    n = int(seconds * 1000)
+    calls: list[int] = []
+    starts: list[float] = []
+    clock = time.perf_counter_ns
+    for _ in range(200):  # warm-up, not measured (values -> the engine's count too)
+        step(-2, clock, [])
+    cpu0, wall0 = _cpu_s(), time.monotonic()
+    deadline = time.monotonic()
+    for k in range(n):
+        starts.append(time.monotonic())
+        _work()
+        step(k, clock, calls)
+        deadline += 0.001
+        rest = deadline - time.monotonic()
+        if rest > 0:
+            time.sleep(rest)
+    wall = time.monotonic() - wall0
+    cpu = _cpu_s() - cpu0
+    periods = [(b - a) * 1e6 for a, b in itertools.pairwise(starts)]
+    samples = n * (_FLOATS + _INTS + 1) + n // _STRING_EVERY
+    print(
+        json.dumps(
+            {
+                "call_p50_ns": _pct([float(c) for c in calls], 0.5),
+                "call_p99_ns": _pct([float(c) for c in calls], 0.99),
+                "period_p50_us": _pct(periods, 0.5),
+                "period_p99_us": _pct(periods, 0.99),
+                "cpu_s": cpu,
+                "wall_s": wall,
+                "samples": samples,
+            }
+        ),
+        flush=True,
+    )
+    sys.stdin.readline()
+    if mode == "on":
+        import dbglog
+
+        dbglog.flush(5.0)
+
+
+# --- the subscriber process (a real viewer engine) --------------------------------------------------
+
+
+def subscriber(expect: int, history: int) -> None:
+    """Bind the 10 tags in a real engine; print ``bound``, then counts/order/latency on a stdin line."""
+    from dbglog.viewer._engine import Engine
+    from dbglog.viewer._model import Binding
+
+    bindings = [Binding("/rosdashboard/" + tag) for tag in _TAGS]
+    with Engine(history=history, measure_latency=True, node_name="probe_viewer") as engine:
+        for b in bindings:
+            engine.bind(b)
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline and not all(engine.snapshot(b).count >= 1 for b in bindings):
+            time.sleep(0.02)
+        print("bound", flush=True)
+        sys.stdin.readline()
+        wanted = dict.fromkeys(bindings[:-1], expect + 201)
+        stable_since, last = time.monotonic(), -1
+        end = time.monotonic() + 30
+        while time.monotonic() < end:
+            total = sum(engine.snapshot(b).count for b in bindings)
+            if all(engine.snapshot(b).count >= n for b, n in wanted.items()):
+                break
+            if total != last:
+                stable_since, last = time.monotonic(), total
+            elif time.monotonic() - stable_since > 2.0:
+                break
+            time.sleep(0.05)
+        counts, ordered = [], True
+        for b in bindings[:-1]:
+            snap = engine.snapshot(b)
+            counts.append(snap.count)
+            vals = [v for v in snap.values.tolist() if v >= 0] if b != bindings[-2] else []
+            if vals and vals != [float(i) for i in range(len(vals))]:
+                ordered = False
+        raw = engine.latencies()
+        lat = sorted(raw[raw == raw].tolist())
+        p99 = lat[int(0.99 * (len(lat) - 1))] * 1e3 if lat else None
+        print(
+            json.dumps(
+                {
+                    "min_count": min(counts),
+                    "counts": counts,
+                    "ordered": ordered,
+                    "latency_p99_ms": p99,
+                    "expected": expect + 201,
+                    "engine_cpu_s": engine.stats().thread_cpu_s,
+                }
+            ),
+            flush=True,
+        )
+
+
+# --- the orchestrator -----------------------------------------------------------------------------
+
+
+def _env(tree: Path, mode: str, domain: int) -> dict[str, str]:
+    env = {k: v for k, v in os.environ.items() if k not in ("DBGLOG", "DBGLOG_STRICT")}
+    env.update(
+        PYTHONPATH=str(tree),
+        ROS_DOMAIN_ID=str(domain),
+        ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
+        DBGLOG="off" if mode == "off" else "on",
+    )
+    return env
+
+
+def _spawn(args: list[str], env: dict[str, str]) -> subprocess.Popen[str]:
+    return subprocess.Popen(
+        [sys.executable, str(Path(__file__).resolve()), *args],
+        env=env,
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        text=True,
+        cwd="/",
+    )
+
+
+def _readline(proc: subprocess.Popen[str], timeout: float) -> str:
+    import select
+
+    assert proc.stdout is not None
+    ready, _, _ = select.select([proc.stdout], [], [], timeout)
+    if not ready:
+        raise TimeoutError(f"no answer from {proc.args!r} in {timeout} s")
+    return proc.stdout.readline().strip()
+
+
+def _send(proc: subprocess.Popen[str], line: str) -> None:
+    assert proc.stdin is not None
+    proc.stdin.write(line + "\n")
+    proc.stdin.flush()
+
+
+def run_once(tree: Path, mode: str, sub: bool, seconds: float) -> dict[str, Any]:
+    """One publisher run (and a viewer engine process when `sub`); return its figures."""
+    domain = random.randint(101, 200)
+    pub = _spawn(["--role", "publisher", "--mode", mode, "--seconds", str(seconds)], _env(tree, mode, domain))
+    engine = None
+    try:
+        assert _readline(pub, 60) == "ready"
+        if sub:
+            n = int(seconds * 1000)
+            args = ["--role", "subscriber", "--expect", str(n), "--history", str(n + 1000)]
+            engine = _spawn(args, _env(tree, "on", domain))
+            assert _readline(engine, 90) == "bound"
+            time.sleep(0.5)
+        _send(pub, "go")
+        result: dict[str, Any] = json.loads(_readline(pub, seconds + 60))
+        if engine is not None:
+            _send(engine, "report")
+            result.update(json.loads(_readline(engine, 60)))
+        _send(pub, "exit")
+        pub.wait(30)
+        return result
+    finally:
+        for proc in (pub, engine):
+            if proc is not None and proc.poll() is None:
+                proc.kill()
+
+
+def main() -> None:
+    """Run every configuration in alternation and print the tables."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--role", choices=["main", "publisher", "subscriber"], default="main")
+    parser.add_argument("--mode", choices=["none", "rclpy", "off", "on"], default="on")
+    parser.add_argument("--seconds", type=float, default=10.0)
+    parser.add_argument("--expect", type=int, default=0)
+    parser.add_argument("--history", type=int, default=20_000)
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--before", type=Path, default=None, help="another source tree to compare")
+    parser.add_argument("--only", default="", help="comma-separated config names to run")
+    args = parser.parse_args()
+    if args.role == "publisher":
+        publisher(args.mode, args.seconds)
+        return
+    if args.role == "subscriber":
+        subscriber(args.expect, args.history)
+        return
+    configs: list[tuple[str, Path, str]] = [
+        ("no calls", ROOT, "none"),
+        ("raw rclpy publish", ROOT, "rclpy"),
+        ("dbglog off", ROOT, "off"),
+        ("dbglog on (after)", ROOT, "on"),
+    ]
+    if args.before is not None:
+        configs.append(("dbglog on (before)", args.before, "on"))
+    if args.only:
+        keep = set(args.only.split(","))
+        configs = [c for c in configs if c[2] in keep or c[0] in keep]
+    results: dict[tuple[str, bool], list[dict[str, Any]]] = {}
+    for rep in range(args.repeats):
+        for sub in (False, True):
+            for name, tree, mode in configs:
+                res = run_once(tree, mode, sub, args.seconds)
+                results.setdefault((name, sub), []).append(res)
+                print(f"# repeat {rep} {name} sub={sub}: {json.dumps(res)}", file=sys.stderr, flush=True)
+    _print(configs, results)
+
+
+def _med(runs: list[dict[str, Any]], key: str) -> float:
+    values = [r[key] for r in runs if r.get(key) is not None]
+    return statistics.median(values) if values else float("nan")
+
+
+Results = dict[tuple[str, bool], list[dict[str, Any]]]
+
+
+def _print(configs: list[tuple[str, Path, str]], results: Results) -> None:
+    sys.path.insert(0, str(ROOT))
+    from benchmarks._common import print_table
+
+    base_cpu = {sub: _med(results.get(("no calls", sub), []), "cpu_s") for sub in (False, True)}
+    rows = []
+    for sub in (False, True):
+        for name, _, _ in configs:
+            runs = results.get((name, sub), [])
+            if not runs:
+                continue
+            wall = _med(runs, "wall_s")
+            rate = _med(runs, "samples") / wall / 10_000
+            extra = (_med(runs, "cpu_s") - base_cpu[sub]) / wall / rate * 1e3 if name != "no calls" else 0.0
+            rng = [r["call_p99_ns"] / 1e3 for r in runs]
+            delivered = ""
+            if sub and name != "no calls":
+                delivered = f"{_med(runs, 'min_count'):.0f} / {runs[0].get('expected', 0)}"
+                if not all(r.get("ordered", True) for r in runs):
+                    delivered += " (out of order!)"
+            rows.append(
+                [
+                    name,
+                    "1 viewer" if sub else "none",
+                    f"{_med(runs, 'call_p50_ns') / 1e3:.2f}",
+                    f"{_med(runs, 'call_p99_ns') / 1e3:.2f} ({min(rng):.1f}-{max(rng):.1f})",
+                    f"{_med(runs, 'period_p99_us'):.0f}",
+                    delivered,
+                    f"{_med(runs, 'latency_p99_ms'):.1f}" if sub and name != "no calls" else "",
+                    f"{extra:.0f}" if name != "no calls" else "",
+                ]
+            )
+    print_table(
+        f"1 kHz loop, 10 calls/iteration, {len(next(iter(results.values())))} repeats (medians)",
+        [
+            "Calls",
+            "Subscriber",
+            "per call p50 µs",
+            "per call p99 µs (range)",
+            "loop period p99 µs",
+            "min samples/tag in viewer",
+            "latency p99 ms",
+            "CPU ms/s per 10k samples/s",
+        ],
+        rows,
+    )
+
+
+if __name__ == "__main__":
+    main()
