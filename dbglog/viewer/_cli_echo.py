@@ -51,8 +51,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--history",
         action="store_true",
-        help="start with every value the publishers kept (a tag keeps its last 100), oldest first, "
-        "instead of only the newest; --count counts them too",
+        help="start with every value the publishers kept for late subscribers (a dbglog tag keeps at "
+        "least its last 100), oldest first, instead of only the newest; --count counts them too",
     )
     parser.add_argument(
         "--timeout",
