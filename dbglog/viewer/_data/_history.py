@@ -1,0 +1,723 @@
+"""The viewer's time-indexed history: every topic's past, in columnar chunks, within one budget.
+
+Numeric topics keep (source time, value) columns; any other topic keeps its serialized CDR payloads, so a
+binding made later can re-extract its field, regex and transforms from the past. One writer thread
+appends; any thread queries without a lock (docs/history.md).
+"""
+
+from __future__ import annotations
+
+import bisect
+import itertools
+import threading
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Literal, TypeAlias
+
+import numpy as np
+import numpy.typing as npt
+
+__all__ = [
+    "DEFAULT_MAX_BYTES",
+    "DEFAULT_MAX_SECONDS",
+    "History",
+    "HistoryStats",
+    "Sample",
+]
+
+DEFAULT_MAX_SECONDS = 1800.0
+"""Keep 30 minutes by default."""
+DEFAULT_MAX_BYTES = 512 * 1024 * 1024
+"""And at most 512 MiB."""
+DEFAULT_CHUNK_SAMPLES = 65536
+DEFAULT_CHUNK_BYTES = 4 * 1024 * 1024
+_FIRST_CAPACITY = 256
+"""A new topic's first chunk; it doubles up to the chunk size, so a 1 Hz tag costs kilobytes."""
+_CHUNK_OVERHEAD = 400
+"""Bytes counted per chunk for its Python objects (array headers, the chunk, its view)."""
+_PAYLOAD_OVERHEAD = 41
+"""Bytes counted per payload held as a Python `bytes` in an open chunk (object header + list slot)."""
+
+Kind: TypeAlias = Literal["numbers", "payloads"]
+Value: TypeAlias = float | int | bool | bytes
+_F64 = npt.NDArray[np.float64]
+_Arr = npt.NDArray[np.generic]
+
+
+@dataclass(frozen=True, slots=True)
+class Sample:
+    """One held sample: its index since the topic's first sample, source time and value."""
+
+    index: int
+    """Position counted from the first sample the topic ever had (evicted ones included)."""
+    time: float
+    """Source time, seconds since the epoch."""
+    value: Value
+    """The number (int/bool kept exact) or, for a payload topic, the CDR bytes."""
+
+
+@dataclass(frozen=True, slots=True)
+class HistoryStats:
+    """What the history holds, for the status bar."""
+
+    topics: int
+    samples: int
+    bytes_used: int
+    oldest: float | None
+    newest: float | None
+    evicted: int
+    """Samples dropped by the budget so far (duration and memory)."""
+    late_dropped: int
+    """Samples that arrived already older than the duration budget, never stored."""
+
+
+class _Chunk:
+    """An immutable view of one chunk: times ``[start:n]`` sorted, and their values or payloads.
+
+    The arrays may be longer than ``n`` (an open chunk); the writer only ever writes past every ``n``
+    it has published, so a reader holding this view never sees a half-written sample.
+    """
+
+    __slots__ = ("blob", "data", "n", "offsets", "start", "times")
+
+    def __init__(
+        self,
+        times: _F64,
+        data: _Arr | list[bytes] | None,
+        start: int,
+        n: int,
+        blob: bytes = b"",
+        offsets: npt.NDArray[np.int64] | None = None,
+    ) -> None:
+        self.times = times
+        self.data = data
+        """Values array (numbers), a list of payloads (open payload chunk) or None (closed: blob)."""
+        self.start = start
+        self.n = n
+        self.blob = blob
+        self.offsets = offsets
+
+    @property
+    def size(self) -> int:
+        return self.n - self.start
+
+    @property
+    def first(self) -> float:
+        return float(self.times[self.start])
+
+    @property
+    def last(self) -> float:
+        return float(self.times[self.n - 1])
+
+    def value(self, i: int) -> Value:
+        """Return the value at absolute position `i` of this chunk."""
+        if self.offsets is not None:
+            return self.blob[int(self.offsets[i]) : int(self.offsets[i + 1])]
+        if isinstance(self.data, list):
+            return self.data[i]
+        if self.data is None:
+            raise IndexError(i)
+        v: Value = self.data[i].item()
+        return v
+
+    def payloads(self, i: int, j: int) -> list[bytes]:
+        """Return the payloads at absolute positions ``[i:j]``."""
+        if self.offsets is not None:
+            offs = self.offsets[i : j + 1].tolist()
+            blob = self.blob
+            return [blob[a:b] for a, b in itertools.pairwise(offs)]
+        return self.data[i:j] if isinstance(self.data, list) else []
+
+    def nbytes(self) -> int:
+        """Memory held by this closed chunk (allocated capacity, not just the live samples)."""
+        total = self.times.nbytes + _CHUNK_OVERHEAD
+        if self.offsets is not None:
+            total += len(self.blob) + self.offsets.nbytes
+        elif isinstance(self.data, np.ndarray):
+            total += self.data.nbytes
+        return total
+
+
+class _View:
+    """One topic's published state: chunks in time order (disjoint), their first times, counts."""
+
+    __slots__ = ("before", "chunks", "count", "firsts")
+
+    def __init__(self, chunks: tuple[_Chunk, ...], firsts: list[float], before: list[int]) -> None:
+        self.chunks = chunks
+        self.firsts = firsts
+        self.before = before
+        """``before[i]``: the index of chunk i's first sample (``before[-1]``: one past the newest)."""
+        self.count = before[-1] - before[0]
+
+
+_EMPTY_VIEW = _View((), [], [0])
+
+
+class _Track:
+    """One topic's writer-side state (only touched under the history's lock)."""
+
+    __slots__ = (
+        "closed",
+        "closed_bytes",
+        "closed_cache",
+        "dropped",
+        "dtype",
+        "kind",
+        "msg_type",
+        "nbytes",
+        "open",
+        "open_bytes",
+        "view",
+    )
+
+    def __init__(self, kind: Kind, dtype: np.dtype[np.generic] | None, msg_type: str) -> None:
+        self.kind: Kind = kind
+        self.dtype = dtype
+        self.msg_type = msg_type
+        self.closed: list[_Chunk] = []
+        self.closed_bytes = 0
+        self.closed_cache: tuple[tuple[_Chunk, ...], list[float], list[int]] | None = None
+        """The closed chunks' part of the view, rebuilt only when they change."""
+        self.open: _Chunk | None = None
+        self.open_bytes = 0
+        """Payload bytes in the open chunk's list."""
+        self.dropped = 0
+        self.nbytes = 0
+        self.view = _EMPTY_VIEW
+
+    def closed_changed(self) -> None:
+        self.closed_cache = None
+        self.closed_bytes = sum(c.nbytes() for c in self.closed)
+
+    def publish(self) -> None:
+        if self.closed_cache is None:
+            firsts = [c.first for c in self.closed]
+            before = [self.dropped]
+            for c in self.closed:
+                before.append(before[-1] + c.size)
+            self.closed_cache = (tuple(self.closed), firsts, before)
+        chunks, firsts, before = self.closed_cache
+        o = self.open
+        if o is not None and o.size:
+            self.view = _View(
+                (*chunks, _Chunk(o.times, o.data, o.start, o.n)),
+                [*firsts, o.first],
+                [*before, before[-1] + o.size],
+            )
+        else:
+            self.view = _View(chunks, firsts, before)
+
+    def newest(self) -> float | None:
+        if self.open is not None and self.open.size:
+            return self.open.last
+        return self.closed[-1].last if self.closed else None
+
+    def oldest_chunk(self) -> _Chunk | None:
+        if self.closed:
+            return self.closed[0]
+        return self.open if self.open is not None and self.open.size else None
+
+    def recount(self) -> int:
+        """Recompute this track's bytes (closed chunks' sum is kept up to date); return the change."""
+        total = self.closed_bytes
+        o = self.open
+        if o is not None:
+            total += o.times.nbytes + _CHUNK_OVERHEAD
+            if isinstance(o.data, list):
+                total += self.open_bytes + _PAYLOAD_OVERHEAD * len(o.data)
+            elif o.data is not None:
+                total += o.data.nbytes
+        delta = total - self.nbytes
+        self.nbytes = total
+        return delta
+
+
+def _check_time(t: float) -> None:
+    if t != t:  # NaN: every comparison would be False and the answer meaningless
+        raise ValueError("history: a query time is NaN")
+
+
+def _value_dtype(values: _Arr, topic: str) -> np.dtype[np.generic]:
+    kind = values.dtype.kind
+    if kind == "f":
+        return np.dtype(np.float64)
+    if kind == "i":
+        return np.dtype(np.int64)
+    if kind == "u":
+        return np.dtype(np.uint64)
+    if kind == "b":
+        return np.dtype(np.bool_)
+    raise ValueError(f"history of {topic!r}: values must be numbers or bools, not {values.dtype}")
+
+
+class History:
+    """Every topic's recent past, time-indexed, within a duration and a memory budget.
+
+    Args:
+        max_seconds: keep samples whose source time is within this many seconds of the newest.
+        max_bytes: memory cap over all topics; the oldest chunks go first.
+        chunk_samples: samples per full chunk (the unit of eviction).
+        chunk_bytes: payload bytes that close a payload chunk early.
+        clock: wall clock (epoch seconds) that bounds "the newest" for the duration budget, so one
+            publisher with a clock in the future cannot evict everyone's past; None trusts the data
+            (replay of a recording).
+
+    Example:
+        >>> h = History(clock=None)
+        >>> h.append_numbers("/a", np.array([1.0, 2.0]), np.array([10.0, 20.0]))
+        >>> h.at("/a", 1.5)
+        Sample(index=0, time=1.0, value=10.0)
+    """
+
+    def __init__(
+        self,
+        *,
+        max_seconds: float = DEFAULT_MAX_SECONDS,
+        max_bytes: int = DEFAULT_MAX_BYTES,
+        chunk_samples: int = DEFAULT_CHUNK_SAMPLES,
+        chunk_bytes: int = DEFAULT_CHUNK_BYTES,
+        clock: Callable[[], float] | None = time.time,
+    ) -> None:
+        if not max_seconds > 0:
+            raise ValueError(f"history max_seconds must be > 0, not {max_seconds}")
+        if max_bytes < 1:
+            raise ValueError(f"history max_bytes must be >= 1, not {max_bytes}")
+        if chunk_samples < 2:
+            raise ValueError(f"history chunk_samples must be >= 2, not {chunk_samples}")
+        if chunk_bytes < 1:
+            raise ValueError(f"history chunk_bytes must be >= 1, not {chunk_bytes}")
+        self.max_seconds = float(max_seconds)
+        self.max_bytes = int(max_bytes)
+        self._chunk = int(chunk_samples)
+        self._chunk_bytes = int(chunk_bytes)
+        self._clock = clock
+        self._lock = threading.Lock()
+        self._tracks: dict[str, _Track] = {}
+        self._bytes = 0
+        self._newest = -np.inf
+        self._horizon = -np.inf
+        self._evicted = 0
+        self._late = 0
+        self._trim_step = min(1.0, self.max_seconds / 100)
+
+    # --- writer side (one thread: the engine's ROS thread) ----------------------------------------
+
+    def append_numbers(self, topic: str, times: npt.ArrayLike, values: npt.ArrayLike) -> None:
+        """Append a batch of numeric samples (arrival order; times need not be sorted).
+
+        Args:
+            topic: the topic name.
+            times: source times, epoch seconds.
+            values: numbers or bools; ints are kept as int64/uint64, exact beyond 2**53.
+        """
+        t = np.asarray(times, dtype=np.float64).ravel()
+        v = np.asarray(values).ravel()
+        if len(t) != len(v):
+            raise ValueError(f"history of {topic!r}: {len(t)} times but {len(v)} values")
+        if not len(t):
+            return
+        dtype = _value_dtype(v, topic)
+        with self._lock:
+            track = self._track(topic, "numbers", dtype, "")
+            if track.dtype != dtype:
+                raise ValueError(
+                    f"history of {topic!r} holds {track.dtype} values, not {dtype}: drop() it when its "
+                    "type changes"
+                )
+            self._append(track, t, v.astype(dtype, copy=False))
+
+    def append_payloads(
+        self, topic: str, times: npt.ArrayLike, payloads: Sequence[bytes], *, msg_type: str = ""
+    ) -> None:
+        """Append a batch of serialized (CDR) messages with their source times, in arrival order.
+
+        Args:
+            topic: the topic name.
+            times: source times, epoch seconds.
+            payloads: one `bytes` per message, as `take_message(cls, raw=True)` returns it.
+            msg_type: the ROS type, e.g. ``std_msgs/msg/String``, kept for whoever reads them back.
+        """
+        t = np.asarray(times, dtype=np.float64).ravel()
+        if len(t) != len(payloads):
+            raise ValueError(f"history of {topic!r}: {len(t)} times but {len(payloads)} payloads")
+        if not len(t):
+            return
+        items = [p if type(p) is bytes else bytes(p) for p in payloads]
+        with self._lock:
+            track = self._track(topic, "payloads", None, msg_type)
+            if msg_type:
+                track.msg_type = msg_type
+            self._append(track, t, items)
+
+    def drop(self, topic: str) -> None:
+        """Forget a topic's history (e.g. when its type changes)."""
+        with self._lock:
+            track = self._tracks.pop(topic, None)
+            if track is not None:
+                self._bytes -= track.nbytes
+
+    def clear(self) -> None:
+        """Forget everything."""
+        with self._lock:
+            self._tracks.clear()
+            self._bytes = 0
+            self._newest = self._horizon = -np.inf
+
+    def _track(self, topic: str, kind: Kind, dtype: np.dtype[np.generic] | None, msg_type: str) -> _Track:
+        track = self._tracks.get(topic)
+        if track is None:
+            track = self._tracks[topic] = _Track(kind, dtype, msg_type)
+        elif track.kind != kind:
+            raise ValueError(f"history of {topic!r} holds {track.kind}, not {kind}: drop() it first")
+        return track
+
+    def _append(self, track: _Track, t: _F64, data: _Arr | list[bytes]) -> None:
+        if not np.isfinite(t).all():
+            raise ValueError(f"history: source times must be finite, got {t[~np.isfinite(t)][0]}")
+        if len(t) > 1 and np.any(t[1:] < t[:-1]):  # an unsorted batch: sort it, ties keep arrival order
+            order = np.argsort(t, kind="stable")
+            t = t[order]
+            data = [data[i] for i in order] if isinstance(data, list) else data[order]
+        if t[0] < self._horizon:  # already older than the budget: never stored
+            keep = int(np.searchsorted(t, self._horizon, side="left"))
+            self._late += keep
+            if keep == len(t):
+                return
+            t, data = t[keep:], data[keep:]
+        newest = track.newest()
+        if newest is None or t[0] >= newest:
+            self._extend(track, t, data)
+        else:
+            self._merge(track, t, data)
+        track.publish()
+        self._bytes += track.recount()
+        self._newest = max(self._newest, float(t[-1]))
+        self._enforce()
+
+    def _new_open(self, track: _Track, need: int) -> _Chunk:
+        cap = min(self._chunk, max(_FIRST_CAPACITY, need))
+        times = np.empty(cap, dtype=np.float64)
+        data: _Arr | list[bytes] = [] if track.kind == "payloads" else np.empty(cap, dtype=track.dtype)
+        track.open_bytes = 0
+        return _Chunk(times, data, 0, 0)
+
+    def _close_open(self, track: _Track) -> None:
+        o = track.open
+        if o is not None and o.size:
+            if isinstance(o.data, list):
+                lens = np.fromiter((len(p) for p in o.data[o.start : o.n]), dtype=np.int64, count=o.size)
+                offsets = np.zeros(o.size + 1, dtype=np.int64)
+                np.cumsum(lens, out=offsets[1:])
+                closed = _Chunk(
+                    o.times[o.start : o.n].copy(), None, 0, o.size, b"".join(o.data[o.start : o.n]), offsets
+                )
+            elif o.n < len(o.times) and o.data is not None:  # closed early: shrink to the live samples
+                closed = _Chunk(o.times[o.start : o.n].copy(), o.data[o.start : o.n].copy(), 0, o.size)
+            else:
+                closed = o
+            track.closed.append(closed)
+            track.closed_bytes += closed.nbytes()
+            track.closed_cache = None
+        track.open = None
+
+    def _extend(self, track: _Track, t: _F64, data: _Arr | list[bytes]) -> None:
+        """Append samples no older than the track's newest: in place past every published ``n``."""
+        done = 0
+        total = len(t)
+        while done < total:
+            o = track.open
+            if o is None:
+                o = track.open = self._new_open(track, total - done)
+            cap = len(o.times)
+            if o.n == cap or (track.kind == "payloads" and track.open_bytes >= self._chunk_bytes):
+                if cap < self._chunk and track.open_bytes < self._chunk_bytes:  # grow (copy, never in place)
+                    live = o.size
+                    new_cap = min(self._chunk, max(2 * cap, live + total - done))
+                    times = np.empty(new_cap, dtype=np.float64)
+                    times[:live] = o.times[o.start : o.n]
+                    if isinstance(o.data, list):
+                        new_data: _Arr | list[bytes] = o.data[o.start : o.n]
+                        track.open_bytes = sum(len(p) for p in new_data)
+                    else:
+                        new_data = np.empty(new_cap, dtype=track.dtype)
+                        if o.data is not None:
+                            new_data[:live] = o.data[o.start : o.n]
+                    o = track.open = _Chunk(times, new_data, 0, live)
+                else:
+                    full = o.n == cap
+                    self._close_open(track)
+                    o = track.open = self._new_open(track, self._chunk if full else total - done)
+                    continue
+            k = min(len(o.times) - o.n, total - done)
+            if isinstance(o.data, list):
+                limit = self._chunk_bytes - track.open_bytes
+                part = data[done : done + k]
+                size = 0
+                for j, p in enumerate(part):
+                    size += len(p)
+                    if size >= limit:
+                        k = j + 1
+                        break
+                o.data.extend(part[:k])
+                track.open_bytes += sum(len(p) for p in part[:k])
+            elif o.data is not None:
+                o.data[o.n : o.n + k] = data[done : done + k]
+            o.times[o.n : o.n + k] = t[done : done + k]
+            o.n += k
+            done += k
+
+    def _merge(self, track: _Track, t: _F64, data: _Arr | list[bytes]) -> None:
+        """Merge samples older than the track's newest: rebuild the chunks they overlap (copies)."""
+        chunks = list(track.closed)
+        if track.open is not None and track.open.size:
+            chunks.append(track.open)
+        lasts = [c.last for c in chunks]
+        i = bisect.bisect_right(lasts, float(t[0]))  # chunks ending at or before t[0] stay as they are
+        affected = chunks[i:]
+        times = np.concatenate([c.times[c.start : c.n] for c in affected] + [t])
+        order = np.argsort(times, kind="stable")  # ties: what was held first stays first
+        times = times[order]
+        merged: _Arr | list[bytes]
+        if isinstance(data, list):
+            items: list[bytes] = []
+            for c in affected:
+                items.extend(c.payloads(c.start, c.n))
+            items.extend(data)
+            merged = [items[j] for j in order]
+        else:
+            parts = [c.data[c.start : c.n] for c in affected if isinstance(c.data, np.ndarray)]
+            merged = np.concatenate([*parts, data])[order]
+        if i < len(track.closed):
+            track.closed = chunks[:i]
+            track.closed_changed()
+        track.open = None
+        self._extend(track, times, merged)
+
+    def _enforce(self) -> None:
+        """Apply the budget: trim by duration (at most every 1 s of data), then evict by memory."""
+        newest = self._newest
+        if self._clock is not None:
+            newest = min(newest, self._clock() + 1.0)
+        horizon = newest - self.max_seconds
+        if horizon >= self._horizon + self._trim_step:
+            self._horizon = horizon
+            for track in self._tracks.values():
+                if self._trim(track, horizon):
+                    track.publish()
+                    self._bytes += track.recount()
+        while self._bytes > self.max_bytes:
+            victim: _Track | None = None
+            oldest = np.inf
+            for track in self._tracks.values():
+                c = track.oldest_chunk()
+                if c is not None and c.last < oldest:
+                    victim, oldest = track, c.last
+            if victim is None:
+                break
+            self._drop_oldest(victim)
+            victim.publish()
+            self._bytes += victim.recount()
+
+    def _trim(self, track: _Track, horizon: float) -> bool:
+        changed = False
+        while track.closed and track.closed[0].last < horizon:
+            gone = track.closed.pop(0)
+            track.closed_bytes -= gone.nbytes()
+            track.dropped += gone.size
+            self._evicted += gone.size
+            changed = True
+        chunk = track.closed[0] if track.closed else track.open
+        if chunk is not None and chunk.size and chunk.first < horizon:
+            cut = int(np.searchsorted(chunk.times[chunk.start : chunk.n], horizon, side="left"))
+            new = _Chunk(chunk.times, chunk.data, chunk.start + cut, chunk.n, chunk.blob, chunk.offsets)
+            if track.closed:
+                track.closed[0] = new
+            else:
+                track.open = new
+            track.dropped += cut
+            self._evicted += cut
+            changed = True
+        if changed:
+            track.closed_cache = None
+        return changed
+
+    def _drop_oldest(self, track: _Track) -> None:
+        if track.closed:
+            gone = track.closed.pop(0)
+            track.closed_bytes -= gone.nbytes()
+        elif track.open is not None:
+            gone, track.open = track.open, None
+        else:
+            return
+        track.closed_cache = None
+        track.dropped += gone.size
+        self._evicted += gone.size
+
+    # --- reader side (any thread, no lock: views are immutable) -----------------------------------
+
+    def _view(self, topic: str) -> _View:
+        track = self._tracks.get(topic)
+        return _EMPTY_VIEW if track is None else track.view
+
+    def topics(self) -> list[str]:
+        """Return the topics with a history, sorted."""
+        return sorted(self._tracks)
+
+    def kind(self, topic: str) -> Kind | None:
+        """Return ``"numbers"`` or ``"payloads"`` (None for a topic without history)."""
+        track = self._tracks.get(topic)
+        return None if track is None else track.kind
+
+    def msg_type(self, topic: str) -> str:
+        """Return the ROS type given with the topic's payloads (``""`` if none)."""
+        track = self._tracks.get(topic)
+        return "" if track is None else track.msg_type
+
+    def count(self, topic: str) -> int:
+        """Return how many samples of `topic` are held."""
+        return self._view(topic).count
+
+    def span(self, topic: str | None = None) -> tuple[float, float] | None:
+        """Return (oldest, newest) source time held, for one topic or all; None when empty."""
+        views = [self._view(topic)] if topic is not None else [t.view for t in list(self._tracks.values())]
+        firsts = [v.chunks[0].first for v in views if v.chunks]
+        lasts = [v.chunks[-1].last for v in views if v.chunks]
+        return (min(firsts), max(lasts)) if firsts else None
+
+    def bytes_used(self) -> int:
+        """Return the memory the history holds, all chunks' allocations counted."""
+        return self._bytes
+
+    def stats(self) -> HistoryStats:
+        """Return counts, bytes and span in one consistent read."""
+        with self._lock:
+            span = self.span()
+            return HistoryStats(
+                topics=len(self._tracks),
+                samples=sum(t.view.count for t in self._tracks.values()),
+                bytes_used=self._bytes,
+                oldest=None if span is None else span[0],
+                newest=None if span is None else span[1],
+                evicted=self._evicted,
+                late_dropped=self._late,
+            )
+
+    def at(self, topic: str, t: float) -> Sample | None:
+        """Return the state at time `t`: the last sample with time <= t (None before the first)."""
+        _check_time(t)
+        v = self._view(topic)
+        i = bisect.bisect_right(v.firsts, t) - 1
+        if i < 0:
+            return None
+        c = v.chunks[i]
+        j = c.start + int(np.searchsorted(c.times[c.start : c.n], t, side="right")) - 1
+        return Sample(v.before[i] + j - c.start, float(c.times[j]), c.value(j))
+
+    def prev_time(self, topic: str, t: float) -> float | None:
+        """Return the time of the newest sample strictly before `t` (for stepping back)."""
+        _check_time(t)
+        v = self._view(topic)
+        i = bisect.bisect_left(v.firsts, t) - 1
+        if i < 0:
+            return None
+        c = v.chunks[i]
+        j = c.start + int(np.searchsorted(c.times[c.start : c.n], t, side="left")) - 1
+        return float(c.times[j])
+
+    def next_time(self, topic: str, t: float) -> float | None:
+        """Return the time of the oldest sample strictly after `t` (for stepping forward)."""
+        _check_time(t)
+        v = self._view(topic)
+        k = bisect.bisect_right(v.firsts, t)
+        if k > 0:
+            c = v.chunks[k - 1]
+            j = c.start + int(np.searchsorted(c.times[c.start : c.n], t, side="right"))
+            if j < c.n:
+                return float(c.times[j])
+        return v.firsts[k] if k < len(v.firsts) else None
+
+    def _slices(self, v: _View, t0: float, t1: float) -> list[tuple[_Chunk, int, int]]:
+        _check_time(t0)
+        _check_time(t1)
+        out: list[tuple[_Chunk, int, int]] = []
+        if t1 < t0:
+            return out
+        i0 = max(bisect.bisect_left(v.firsts, t0) - 1, 0)
+        i1 = bisect.bisect_right(v.firsts, t1)
+        for c in v.chunks[i0:i1]:
+            ts = c.times[c.start : c.n]
+            a = c.start + int(np.searchsorted(ts, t0, side="left"))
+            b = c.start + int(np.searchsorted(ts, t1, side="right"))
+            if b > a:
+                out.append((c, a, b))
+        return out
+
+    def range(self, topic: str, t0: float, t1: float) -> tuple[_F64, _Arr]:
+        """Return copies of the times and values with ``t0 <= time <= t1`` of a numeric topic.
+
+        Values keep their dtype (float64, int64, uint64 or bool).
+        """
+        track = self._tracks.get(topic)
+        if track is not None and track.kind != "numbers":
+            raise ValueError(f"history of {topic!r} holds payloads: use payloads()")
+        parts = self._slices(self._view(topic), t0, t1)
+        if not parts:
+            dtype = np.float64 if track is None or track.dtype is None else track.dtype
+            return np.empty(0), np.empty(0, dtype=dtype)
+        times = np.concatenate([c.times[a:b] for c, a, b in parts])
+        values = np.concatenate([c.data[a:b] for c, a, b in parts if isinstance(c.data, np.ndarray)])
+        return times, values
+
+    def payloads(self, topic: str, t0: float, t1: float) -> tuple[_F64, list[bytes]]:
+        """Return the times and CDR payloads with ``t0 <= time <= t1`` of a payload topic."""
+        track = self._tracks.get(topic)
+        if track is not None and track.kind != "payloads":
+            raise ValueError(f"history of {topic!r} holds numbers: use range()")
+        parts = self._slices(self._view(topic), t0, t1)
+        if not parts:
+            return np.empty(0), []
+        items: list[bytes] = []
+        for c, a, b in parts:
+            items.extend(c.payloads(a, b))
+        return np.concatenate([c.times[a:b] for c, a, b in parts]), items
+
+    def decimate(self, topic: str, t0: float, t1: float, pixels: int) -> tuple[_F64, _F64]:
+        """Return a min/max envelope of a numeric topic over ``[t0, t1]`` for a plot `pixels` wide.
+
+        At most ``2 * pixels`` points: each pixel column that holds samples gives its minimum and its
+        maximum (NaN only if all its samples are NaN), both at the time of its first sample, so the line
+        drawn through them covers every sample's value. With few samples they are returned as they are.
+        The samples just outside the range are included so the line reaches the plot's edges.
+        """
+        if pixels < 1:
+            raise ValueError(f"decimate needs at least 1 pixel, not {pixels}")
+        if not t0 <= t1:
+            raise ValueError(f"decimate needs t0 <= t1, not {t0} > {t1}")
+        times, values = self.range(topic, t0, t1)
+        vals = values.astype(np.float64, copy=False)
+        if len(times) > 2 * pixels:
+            edges = np.linspace(t0, t1, pixels + 1)[:-1]
+            idx = np.searchsorted(times, edges, side="left")
+            bounds = np.append(idx, len(times))
+            starts = idx[bounds[1:] > bounds[:-1]]
+            with np.errstate(invalid="ignore"):
+                lo = np.fmin.reduceat(vals, starts)
+                hi = np.fmax.reduceat(vals, starts)
+            times = np.repeat(times[starts], 2)
+            vals = np.empty(2 * len(starts))
+            vals[0::2] = lo
+            vals[1::2] = hi
+        before = self.at(topic, float(np.nextafter(t0, -np.inf)))
+        after_t = self.next_time(topic, t1)
+        after = self.at(topic, after_t) if after_t is not None else None
+        if before is None and after is None:
+            return times, vals
+        edge_t = [s.time for s in (before, after) if s is not None]
+        edge_v = [float(s.value) for s in (before, after) if s is not None and not isinstance(s.value, bytes)]
+        head = 1 if before is not None else 0
+        return (
+            np.concatenate([edge_t[:head], times, edge_t[head:]]),
+            np.concatenate([edge_v[:head], vals, edge_v[head:]]),
+        )
