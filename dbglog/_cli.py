@@ -29,6 +29,7 @@ _COMMANDS: dict[str, str] = {
     "view": "dbglog.viewer._cli_view",
     "tags": "dbglog.viewer._cli_tags",
     "echo": "dbglog.viewer._cli_echo",
+    "record": "dbglog.record._cli",
     "demo": "dbglog._demo._cli",
 }
 

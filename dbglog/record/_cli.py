@@ -1,0 +1,151 @@
+"""``dbglog record``: record tags and topics into an MCAP file (ROS 2 profile), or a RAM window on demand."""
+
+from __future__ import annotations
+
+import argparse
+import os
+import signal
+import sys
+import time
+from types import FrameType
+
+__all__ = ["HELP", "add_arguments", "run"]
+
+HELP = "Record dbglog tags and ROS topics into an MCAP file (ROS 2 profile) until Ctrl-C or SIGTERM."
+
+_EPILOG = """\
+TARGET is a dbglog tag (proximity -> /rosdashboard/proximity and its sub-tags) or a topic (/odom).
+Without TARGET: every dbglog tag (also those appearing later), the hidden /_dbglog/samples batch topic
+(every sample with its source time) and /rosout. A live summary is printed on stderr every second.
+
+Snapshot mode (--snapshot SECONDS) keeps the last SECONDS in RAM and writes nothing until it receives
+SIGUSR1 (kill -USR1 <pid>): each signal writes the window to a new file named after -o with the time
+added (run-20260101-120000.mcap). Ctrl-C or SIGTERM ends it without writing.
+"""
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Declare the ``record`` options."""
+    parser.formatter_class = argparse.RawDescriptionHelpFormatter
+    parser.epilog = _EPILOG
+    parser.add_argument("targets", nargs="*", metavar="TARGET", help="tags or /topics to record")
+    parser.add_argument("-o", "--output", required=True, metavar="FILE", help="the .mcap file to write")
+    parser.add_argument("--all", action="store_true", help="record every topic on the graph")
+    parser.add_argument("--force", action="store_true", help="overwrite FILE if it exists")
+    parser.add_argument(
+        "--snapshot",
+        type=float,
+        metavar="SECONDS",
+        help="keep the last SECONDS in RAM; write them to a new timestamped file on SIGUSR1",
+    )
+    parser.add_argument(
+        "--duration", type=float, metavar="S", help="stop by itself after S seconds (default: never)"
+    )
+
+
+def _human(n: float) -> str:
+    for unit in ("B", "kB", "MB", "GB"):
+        if abs(n) < 1000 or unit == "GB":
+            return f"{n:.0f} {unit}" if unit == "B" else f"{n:.1f} {unit}"
+        n /= 1000
+    return f"{n:.1f} GB"  # pragma: no cover
+
+
+def _snapshot_path(base: str, taken: set[str]) -> str:
+    stem, ext = os.path.splitext(base)
+    stamp = time.strftime("%Y%m%d-%H%M%S")
+    path = f"{stem}-{stamp}{ext or '.mcap'}"
+    k = 1
+    while path in taken or os.path.exists(path):
+        k += 1
+        path = f"{stem}-{stamp}-{k}{ext or '.mcap'}"
+    taken.add(path)
+    return path
+
+
+def run(args: argparse.Namespace) -> int:
+    """Record until Ctrl-C/SIGTERM (or --duration); finalise the file; return the exit code."""
+    from dbglog.record._recorder import Recorder, parse_targets
+    from dbglog.record._writer import McapWriter, RecordingError
+
+    def say(message: str) -> None:
+        print(f"dbglog record: {message}", file=sys.stderr, flush=True)
+
+    try:
+        targets = parse_targets(args.targets, everything=args.all)
+    except ValueError as exc:
+        say(str(exc))
+        return 2
+    if args.snapshot is not None and not args.snapshot > 0:
+        say(f"--snapshot must be a positive number of seconds, not {args.snapshot}")
+        return 2
+    writer = None
+    if args.snapshot is None:
+        try:
+            writer = McapWriter(args.output, force=args.force)
+        except RecordingError as exc:
+            say(str(exc))
+            return 1
+    recorder = Recorder(targets, writer, window_s=args.snapshot)
+    recorder.warn = say
+    requests: list[int] = []
+
+    def on_stop(signum: int, _frame: FrameType | None) -> None:
+        recorder.stop()
+
+    def on_usr1(signum: int, _frame: FrameType | None) -> None:
+        requests.append(signum)
+
+    signal.signal(signal.SIGINT, on_stop)
+    signal.signal(signal.SIGTERM, on_stop)
+    if args.snapshot is not None:
+        signal.signal(signal.SIGUSR1, on_usr1)
+    tty = sys.stderr.isatty()
+    started = time.monotonic()
+    last = [started, 0]
+    written: set[str] = set()
+
+    def tick() -> None:
+        now = time.monotonic()
+        stats = recorder.stats
+        rate = (stats.messages - last[1]) / max(1e-6, now - last[0])
+        last[0], last[1] = now, stats.messages
+        if writer is not None:
+            size = writer.size
+            line = (
+                f"{args.output}: {stats.messages:,} messages, {stats.topics} topics, "
+                f"{_human(size)}, {rate:,.0f} msg/s"
+            )
+        else:
+            line = f"RAM window {args.snapshot:g} s: {len(recorder.ring):,} messages, {rate:,.0f} msg/s"
+        print(
+            ("\r" if tty else "") + f"dbglog record: {line}",
+            end="" if tty else "\n",
+            file=sys.stderr,
+            flush=True,
+        )
+        while requests:
+            requests.pop()
+            path = _snapshot_path(args.output, written)
+            try:
+                n = recorder.snapshot(McapWriter(path))
+            except RecordingError as exc:
+                say(str(exc))
+                continue
+            say(f"snapshot of the last {args.snapshot:g} s: {n:,} messages written to {path}")
+        if args.duration is not None and now - started >= args.duration:
+            recorder.stop()
+
+    try:
+        recorder.run(on_tick=tick)
+    finally:
+        if tty:
+            print(file=sys.stderr)
+        if writer is not None:
+            writer.close()
+    if writer is not None:
+        say(
+            f"wrote {writer.messages:,} messages on {recorder.stats.topics} topics to {args.output} "
+            f"({_human(writer.size)})"
+        )
+    return 0

@@ -1,0 +1,512 @@
+"""Load an MCAP recording into per-topic arrays: source times, CDR payloads and, for scalars, values.
+
+Indexed files are read through their summary (the ``mcap`` library's `SeekingReader`): every chunk is
+decompressed once and its message indexes give each channel's record offsets, so times, payloads and
+scalar values (``std_msgs`` Float64, Int32, Bool, ...) are gathered with numpy, never one Python
+object per message. A file without a usable summary (killed recording, truncated copy, corrupt
+bytes) is scanned from the start instead, keeping every record that is whole; what was wrong is
+said in `Recording.problems`, naming the file. The file is opened read-only (memory-mapped).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import mmap
+import os
+import struct
+import zlib
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from dbglog.record._writer import MAGIC, RecordingError
+
+__all__ = ["SCALAR_DTYPES", "Recording", "TopicData", "read_recording"]
+
+SCALAR_DTYPES: dict[str, str] = {
+    "std_msgs/msg/Float64": "<f8",
+    "std_msgs/msg/Float32": "<f4",
+    "std_msgs/msg/Int8": "i1",
+    "std_msgs/msg/Int16": "<i2",
+    "std_msgs/msg/Int32": "<i4",
+    "std_msgs/msg/Int64": "<i8",
+    "std_msgs/msg/UInt8": "u1",
+    "std_msgs/msg/UInt16": "<u2",
+    "std_msgs/msg/UInt32": "<u4",
+    "std_msgs/msg/UInt64": "<u8",
+    "std_msgs/msg/Bool": "u1",
+    "std_msgs/msg/Byte": "u1",
+    "std_msgs/msg/Char": "u1",
+}
+"""Single-value std_msgs types whose value sits right after the 4-byte CDR header."""
+
+_SUPPORTED_ENCODINGS = {"cdr"}
+_U64 = struct.Struct("<Q")
+_REC = struct.Struct("<BQ")
+
+
+@dataclass
+class TopicData:
+    """One topic's messages, oldest first."""
+
+    topic: str
+    msg_type: str
+    times_ns: npt.NDArray[np.int64]
+    """Source time of each message (the MCAP publish time; the log time where that is 0)."""
+    values: npt.NDArray[np.float64] | None = None
+    """For single-value std_msgs types: the values (bools 0/1)."""
+    definition: str = ""
+    """The ``ros2msg`` schema text stored in the file."""
+    _data: npt.NDArray[np.uint8] = field(default_factory=lambda: np.empty(0, np.uint8), repr=False)
+    _offsets: npt.NDArray[np.int64] = field(default_factory=lambda: np.zeros(1, np.int64), repr=False)
+
+    def __len__(self) -> int:
+        return len(self.times_ns)
+
+    def payload(self, i: int) -> bytes:
+        """The CDR bytes of message `i` (as a raw subscription takes them)."""
+        return self._data[self._offsets[i] : self._offsets[i + 1]].tobytes()
+
+    def payloads(self) -> Iterator[bytes]:
+        """Every message's CDR bytes, oldest first."""
+        data = self._data
+        bounds = self._offsets.tolist()
+        for i in range(len(bounds) - 1):
+            yield data[bounds[i] : bounds[i + 1]].tobytes()
+
+
+@dataclass
+class Recording:
+    """What a file holds: readable topics, unreadable ones (with why) and the problems met."""
+
+    path: str
+    topics: dict[str, TopicData]
+    unreadable: dict[str, str]
+    """Topic -> why its messages cannot be read (unknown encoding, no definition ...)."""
+    problems: list[str]
+    """What is wrong with the file, each naming it (empty for a whole, indexed file)."""
+    indexed: bool
+    """True when the summary and indexes were used; False after a linear scan."""
+    profile: str = ""
+
+
+@dataclass
+class _Chan:
+    topic: str
+    schema_id: int
+    encoding: str
+
+
+@dataclass
+class _Acc:
+    """Per channel: the pieces gathered chunk by chunk."""
+
+    log: list[npt.NDArray[np.int64]] = field(default_factory=list)
+    pub: list[npt.NDArray[np.int64]] = field(default_factory=list)
+    data: list[npt.NDArray[np.uint8]] = field(default_factory=list)
+    lengths: list[npt.NDArray[np.int64]] = field(default_factory=list)
+
+
+class _Loader:
+    def __init__(self, path: str, buf: mmap.mmap | bytes) -> None:
+        self.path = path
+        self.buf = buf
+        self.size = len(buf)
+        self.schemas: dict[int, tuple[str, str, str]] = {}
+        self.channels: dict[int, _Chan] = {}
+        self.acc: dict[int, _Acc] = {}
+        self.problems: list[str] = []
+        self.profile = ""
+
+    # ----- records ---------------------------------------------------------------------------------
+
+    def _string(self, buf: Any, pos: int) -> tuple[str, int]:
+        (n,) = struct.unpack_from("<I", buf, pos)
+        return bytes(buf[pos + 4 : pos + 4 + n]).decode(errors="replace"), pos + 4 + n
+
+    def schema(self, body: Any) -> None:
+        (sid,) = struct.unpack_from("<H", body, 0)
+        name, pos = self._string(body, 2)
+        encoding, pos = self._string(body, pos)
+        (n,) = struct.unpack_from("<I", body, pos)
+        self.schemas[sid] = (name, encoding, bytes(body[pos + 4 : pos + 4 + n]).decode(errors="replace"))
+
+    def channel(self, body: Any) -> None:
+        cid, sid = struct.unpack_from("<HH", body, 0)
+        topic, pos = self._string(body, 4)
+        encoding, pos = self._string(body, pos)
+        self.channels[cid] = _Chan(topic, sid, encoding)
+
+    def header(self, body: Any) -> None:
+        self.profile, _ = self._string(body, 0)
+
+    # ----- chunks ----------------------------------------------------------------------------------
+
+    def chunk(self, body: Any, where: int, index: dict[int, npt.NDArray[np.int64]] | None) -> None:
+        """Decode one chunk record's body; `index`: channel -> record offsets, else walk the records."""
+        _start_t, _end_t, usize, crc = struct.unpack_from("<QQQI", body, 0)
+        compression, pos = self._string(body, 28)
+        (clen,) = struct.unpack_from("<Q", body, pos)
+        data = body[pos + 8 : pos + 8 + clen]
+        if len(data) != clen:
+            self.problems.append(f"{self.path}: the chunk at byte {where} is cut short")
+            return
+        try:
+            if compression == "zstd":
+                import zstandard
+
+                raw = zstandard.ZstdDecompressor().decompress(bytes(data), max_output_size=usize)
+            elif compression == "lz4":
+                import lz4.frame  # type: ignore[import-untyped]
+
+                raw = lz4.frame.decompress(bytes(data))
+            elif compression == "":
+                raw = bytes(data)
+            else:
+                self.problems.append(
+                    f"{self.path}: the chunk at byte {where} uses unknown compression {compression!r}"
+                )
+                return
+        except Exception as exc:
+            self.problems.append(f"{self.path}: the chunk at byte {where} is corrupt ({exc}); skipped")
+            return
+        if len(raw) != usize or (crc and zlib.crc32(raw) != crc):
+            self.problems.append(f"{self.path}: the chunk at byte {where} is corrupt (bad checksum); skipped")
+            return
+        u = np.frombuffer(raw, dtype=np.uint8)
+        if index is None:
+            index = self._walk(raw, where)
+        for cid, offsets in index.items():
+            if len(offsets) == 0:
+                continue
+            if cid not in self.channels or int(offsets.max()) + 31 > len(raw):
+                continue
+            self._gather(u, cid, offsets)
+
+    def _walk(self, raw: bytes, where: int) -> dict[int, npt.NDArray[np.int64]]:
+        """Find each message record's offset in an uncompressed chunk, by channel."""
+        found: dict[int, list[int]] = {}
+        pos, end = 0, len(raw)
+        unpack = _REC.unpack_from
+        while pos + 9 <= end:
+            op, length = unpack(raw, pos)
+            if pos + 9 + length > end:
+                self.problems.append(f"{self.path}: a record in the chunk at byte {where} is cut short")
+                break
+            if op == 0x05 and length >= 22:
+                (cid,) = struct.unpack_from("<H", raw, pos + 9)
+                found.setdefault(cid, []).append(pos)
+            elif op == 0x03:
+                self.schema(memoryview(raw)[pos + 9 : pos + 9 + length])
+            elif op == 0x04:
+                self.channel(memoryview(raw)[pos + 9 : pos + 9 + length])
+            pos += 9 + length
+        return {cid: np.asarray(v, dtype=np.int64) for cid, v in found.items()}
+
+    def _gather(self, u: npt.NDArray[np.uint8], cid: int, offsets: npt.NDArray[np.int64]) -> None:
+        acc = self.acc.setdefault(cid, _Acc())
+        eight = np.arange(8)
+        lengths = u[offsets[:, None] + 1 + eight].copy().view("<u8").ravel().astype(np.int64) - 22
+        log = u[offsets[:, None] + 15 + eight].copy().view("<i8").ravel()
+        pub = u[offsets[:, None] + 23 + eight].copy().view("<i8").ravel()
+        starts = offsets + 31
+        if lengths.min() < 0 or int((starts + lengths).max()) > len(u):
+            self.problems.append(f"{self.path}: a message record of {self.channels[cid].topic} is malformed")
+            keep = (lengths >= 0) & (starts + lengths <= len(u))
+            starts, lengths, log, pub = starts[keep], lengths[keep], log[keep], pub[keep]
+        if len(lengths) == 0:
+            return
+        size = int(lengths[0])
+        if np.all(lengths == size):
+            block = u[starts[:, None] + np.arange(size)].ravel()
+        else:
+            total = int(lengths.sum())
+            ends = np.cumsum(lengths)
+            idx = np.arange(total) - np.repeat(ends - lengths - starts, lengths)
+            block = u[idx]
+        acc.log.append(log)
+        acc.pub.append(pub)
+        acc.data.append(block)
+        acc.lengths.append(lengths)
+
+    # ----- whole file --------------------------------------------------------------------------------
+
+    def indexed(self) -> bool:
+        """Read through the summary; False when the file has none usable (then scan)."""
+        from mcap.exceptions import McapError
+        from mcap.reader import SeekingReader
+
+        class _View:
+            """A read-only file object over the mapping for mcap's reader."""
+
+            def __init__(self, buf: Any) -> None:
+                self.buf, self.pos = buf, 0
+
+            def read(self, n: int = -1) -> bytes:
+                end = len(self.buf) if n < 0 else min(len(self.buf), self.pos + n)
+                out = bytes(self.buf[self.pos : end])
+                self.pos = end
+                return out
+
+            def seek(self, pos: int, whence: int = 0) -> int:
+                base = {0: 0, 1: self.pos, 2: len(self.buf)}[whence]
+                self.pos = max(0, base + pos)
+                return self.pos
+
+            def tell(self) -> int:
+                return self.pos
+
+            def seekable(self) -> bool:
+                return True
+
+        try:
+            reader = SeekingReader(_View(self.buf), validate_crcs=False)  # type: ignore[arg-type]
+            summary = reader.get_summary()
+            header = reader.get_header()
+        except (McapError, struct.error, ValueError, EOFError, IndexError) as exc:
+            self.problems.append(
+                f"{self.path}: no readable summary or index ({_why(exc)}): the recording was not "
+                "finished (killed, or still being written) or the file is truncated; read by scanning it"
+            )
+            return False
+        if summary is None:
+            self.problems.append(
+                f"{self.path}: the file has no summary (the recording was not finished, or the writer "
+                "wrote none); read by scanning it"
+            )
+            return False
+        if not summary.chunk_indexes and summary.statistics and summary.statistics.message_count:
+            return False  # unchunked messages: only a scan finds them (not an error)
+        self.profile = header.profile
+        for sid, s in summary.schemas.items():
+            self.schemas[sid] = (s.name, s.encoding, s.data.decode(errors="replace"))
+        for cid, c in summary.channels.items():
+            self.channels[cid] = _Chan(c.topic, c.schema_id, c.message_encoding)
+        for ci in sorted(summary.chunk_indexes, key=lambda c: c.chunk_start_offset):
+            where = ci.chunk_start_offset
+            end = where + ci.chunk_length
+            if end > self.size:
+                self.problems.append(f"{self.path}: the chunk at byte {where} lies past the end of the file")
+                continue
+            op, length = _REC.unpack_from(self.buf, where)
+            if op != 0x06 or where + 9 + length > self.size:
+                self.problems.append(f"{self.path}: the index points at byte {where}, which is not a chunk")
+                continue
+            index: dict[int, npt.NDArray[np.int64]] | None = {}
+            for cid, at in ci.message_index_offsets.items():
+                got = self._message_index(at)
+                if got is None or index is None:
+                    index = None
+                    continue
+                index[cid] = got
+            if not ci.message_index_offsets:
+                index = None
+            self.chunk(memoryview(self.buf)[where + 9 : where + 9 + length], where, index)
+        return True
+
+    def _message_index(self, at: int) -> npt.NDArray[np.int64] | None:
+        if at + 15 > self.size:
+            return None
+        op, _length, _cid, nbytes = struct.unpack_from("<BQHI", self.buf, at)
+        if op != 0x07 or at + 15 + nbytes > self.size or nbytes % 16:
+            return None
+        pairs = np.frombuffer(self.buf, dtype="<u8", count=nbytes // 8, offset=at + 15)
+        return pairs[1::2].astype(np.int64)
+
+    def scan(self) -> None:
+        """Read every whole record from the start; stop at the first one cut short or malformed."""
+        buf, size, pos = self.buf, self.size, len(MAGIC)
+        unpack = _REC.unpack_from
+        loose: dict[int, list[tuple[int, int, bytes]]] = {}
+        while pos < size:
+            if pos + 9 > size:
+                self.problems.append(f"{self.path}: truncated at byte {size} (a record header is cut short)")
+                break
+            op, length = unpack(buf, pos)
+            if op == 0 or length > size:
+                self.problems.append(
+                    f"{self.path}: corrupt at byte {pos} (not an MCAP record); stopped there"
+                )
+                break
+            if pos + 9 + length > size:
+                self.problems.append(
+                    f"{self.path}: truncated at byte {size} (the record at byte {pos} needs "
+                    f"{9 + length} bytes); kept everything before it"
+                )
+                break
+            body = memoryview(buf)[pos + 9 : pos + 9 + length]
+            try:
+                if op == 0x01:
+                    self.header(body)
+                elif op == 0x03:
+                    self.schema(body)
+                elif op == 0x04:
+                    self.channel(body)
+                elif op == 0x06:
+                    self.chunk(body, pos, None)
+                elif op == 0x05:
+                    cid, _seq, log, pub = struct.unpack_from("<HIQQ", body, 0)
+                    loose.setdefault(cid, []).append((log, pub, bytes(body[22:])))
+                elif op in (0x0F, 0x02):  # data end, footer
+                    break
+            except (struct.error, UnicodeDecodeError) as exc:
+                self.problems.append(f"{self.path}: corrupt record at byte {pos} ({exc}); stopped there")
+                break
+            pos += 9 + length
+        for cid, items in loose.items():
+            acc = self.acc.setdefault(cid, _Acc())
+            acc.log.append(np.array([i[0] for i in items], dtype=np.int64))
+            acc.pub.append(np.array([i[1] for i in items], dtype=np.int64))
+            acc.data.append(np.frombuffer(b"".join(i[2] for i in items), dtype=np.uint8))
+            acc.lengths.append(np.array([len(i[2]) for i in items], dtype=np.int64))
+
+    def result(self, indexed: bool, keep_payloads: bool) -> Recording:
+        topics: dict[str, TopicData] = {}
+        unreadable: dict[str, str] = {}
+        for cid, chan in sorted(self.channels.items()):
+            name, encoding, text = self.schemas.get(chan.schema_id, ("", "", ""))
+            acc = self.acc.get(cid, _Acc())
+            count = sum(len(x) for x in acc.log)
+            if chan.encoding not in _SUPPORTED_ENCODINGS:
+                unreadable[chan.topic] = f"message encoding {chan.encoding!r} is not CDR ({count} messages)"
+                continue
+            if not name:
+                unreadable[chan.topic] = f"its schema (id {chan.schema_id}) is missing ({count} messages)"
+                continue
+            if chan.topic in topics:  # a second channel of the same topic: merge
+                unreadable.setdefault(chan.topic, "")
+            log = np.concatenate(acc.log) if acc.log else np.empty(0, np.int64)
+            pub = np.concatenate(acc.pub) if acc.pub else np.empty(0, np.int64)
+            lengths = np.concatenate(acc.lengths) if acc.lengths else np.empty(0, np.int64)
+            data = np.concatenate(acc.data) if acc.data else np.empty(0, np.uint8)
+            times = np.where(pub > 0, pub, log)
+            offsets = np.zeros(len(lengths) + 1, dtype=np.int64)
+            np.cumsum(lengths, out=offsets[1:])
+            if len(log) > 1 and np.any(np.diff(log) < 0):
+                order = np.argsort(log, kind="stable")
+                times = times[order]
+                starts = offsets[:-1][order]
+                lengths = lengths[order]
+                ends = np.cumsum(lengths)
+                data = data[np.arange(int(lengths.sum())) - np.repeat(ends - lengths - starts, lengths)]
+                offsets = np.zeros(len(lengths) + 1, dtype=np.int64)
+                np.cumsum(lengths, out=offsets[1:])
+            values = _scalars(name, data, offsets, lengths)
+            if values is not None and not keep_payloads:
+                data, offsets = np.empty(0, np.uint8), np.zeros(1, np.int64)
+            topics[chan.topic] = TopicData(chan.topic, name, times, values, text, data, offsets)
+            if encoding not in ("ros2msg", "ros2idl", ""):
+                unreadable[chan.topic] = f"schema encoding {encoding!r} is not a ROS 2 one"
+                del topics[chan.topic]
+            elif values is None and not _type_known(name, text):
+                unreadable[chan.topic] = (
+                    f"type {name} has no definition in the file and is not installed here ({count} messages)"
+                )
+                del topics[chan.topic]
+        for topic in [t for t, why in unreadable.items() if not why]:
+            del unreadable[topic]
+        return Recording(self.path, topics, unreadable, self.problems, indexed, self.profile)
+
+
+def _type_known(name: str, text: str) -> bool:
+    if text.strip():
+        return True
+    from dbglog.record._msgdef import message_definition
+
+    return message_definition(name) is not None
+
+
+def _why(exc: BaseException) -> str:
+    text = str(exc) or type(exc).__name__
+    return text if len(text) < 120 else text[:117] + "..."
+
+
+def _scalars(
+    name: str, data: npt.NDArray[np.uint8], offsets: npt.NDArray[np.int64], lengths: npt.NDArray[np.int64]
+) -> npt.NDArray[np.float64] | None:
+    """Read single-value std_msgs payloads as float64 (both CDR byte orders), vectorised."""
+    dtype = SCALAR_DTYPES.get(name)
+    if dtype is None:
+        return None
+    dt = np.dtype(dtype)
+    n = len(lengths)
+    if n == 0:
+        return np.empty(0, np.float64)
+    starts = offsets[:-1]
+    if int(lengths.min()) < 4 + dt.itemsize:
+        return None
+    cols = u8 = data[starts[:, None] + 4 + np.arange(dt.itemsize)]
+    little = data[starts + 1] == 1
+    if not np.all(little):
+        u8 = cols.copy()
+        u8[~little] = u8[~little, ::-1]
+    values = np.ascontiguousarray(u8).view(dt).ravel().astype(np.float64)
+    if name.endswith("/Bool"):
+        values = (values != 0).astype(np.float64)
+    return values
+
+
+def read_recording(path: str | os.PathLike[str], *, keep_payloads: bool = True) -> Recording:
+    """Load every topic of the MCAP file at `path` (read-only; never modifies it).
+
+    Args:
+        path: an ``.mcap`` file, or a rosbag2 directory holding one (with its ``metadata.yaml``).
+        keep_payloads: keep the CDR bytes of single-value topics too (their `values` are always read).
+
+    Raises:
+        RecordingError: the file cannot be opened or is not MCAP at all (the message names it).
+    """
+    path = os.fspath(path)
+    if os.path.isdir(path):
+        files = sorted(f for f in os.listdir(path) if f.endswith(".mcap"))
+        if not files:
+            raise RecordingError(f"{path}: a directory without an .mcap file (is it a rosbag2 bag?)")
+        if len(files) > 1:
+            parts = [read_recording(os.path.join(path, f), keep_payloads=keep_payloads) for f in files]
+            return _merge(path, parts)
+        path = os.path.join(path, files[0])
+    try:
+        with open(path, "rb") as f:
+            size = os.fstat(f.fileno()).st_size
+            if size == 0:
+                raise RecordingError(f"{path}: the file is empty")
+            buf: mmap.mmap | bytes = mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ)
+    except FileNotFoundError:
+        raise RecordingError(f"{path}: no such file") from None
+    except IsADirectoryError:
+        raise RecordingError(f"{path}: is a directory") from None
+    except OSError as exc:
+        raise RecordingError(f"{path}: cannot open it ({exc.strerror or exc})") from None
+    if bytes(buf[: len(MAGIC)]) != MAGIC:
+        raise RecordingError(f"{path}: not an MCAP file (it does not start with the MCAP magic bytes)")
+    loader = _Loader(path, buf)
+    done = loader.indexed()
+    if not done:
+        loader.schemas.clear()
+        loader.channels.clear()
+        loader.acc.clear()
+        loader.scan()
+    recording = loader.result(done, keep_payloads)
+    del loader
+    if isinstance(buf, mmap.mmap):
+        with contextlib.suppress(BufferError):  # a view still alive: the mapping goes with it
+            buf.close()
+    return recording
+
+
+def _merge(path: str, parts: list[Recording]) -> Recording:
+    topics: dict[str, TopicData] = {}
+    for part in parts:
+        for name, t in part.topics.items():
+            topics.setdefault(name, t)
+    return Recording(
+        path,
+        topics,
+        {k: v for p in parts for k, v in p.unreadable.items()},
+        [m for p in parts for m in p.problems],
+        all(p.indexed for p in parts),
+        parts[0].profile,
+    )

@@ -1,0 +1,298 @@
+"""The recorder: its own ROS context and node, raw (CDR) subscriptions that follow the graph, one take loop.
+
+Every message is taken as serialized bytes with its source timestamp (no Python deserialization)
+and written straight into the MCAP writer, or into a rolling RAM window in snapshot mode. Topics are
+matched against the targets at every graph poll, so tags that appear later are recorded from their
+first message; QoS follows the publishers (transient-local when they all offer it, so the values kept
+by nodes already running are recorded too).
+"""
+
+from __future__ import annotations
+
+import time
+from collections import deque
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+from dbglog._ros._batch import BATCH_DEPTH, BATCH_TOPIC
+from dbglog.record._writer import McapWriter
+
+__all__ = ["Recorder", "Targets", "parse_targets"]
+
+TAG_PREFIX = "/rosdashboard/"
+ROSOUT = "/rosout"
+_DEPTH = 1000
+"""KEEP_LAST depth of each subscription: a second of backlog at 1 kHz."""
+_TAKE_MAX = 4096
+_GRAPH_PERIOD = 0.25
+_WAIT_S = 0.05
+"""Longest wait on the wait set: signals (Ctrl-C, SIGTERM, SIGUSR1) are handled at least this often."""
+
+
+@dataclass(frozen=True)
+class Targets:
+    """Which topics to record."""
+
+    everything: bool = False
+    all_tags: bool = True
+    topics: frozenset[str] = frozenset()
+    prefixes: tuple[str, ...] = ()
+    """Tag topics: the tag itself and its sub-tags (``motor`` -> ``motor/rpm``)."""
+
+    def wants(self, topic: str) -> bool:
+        """True when `topic` is to be recorded."""
+        if self.everything or topic in self.topics:
+            return True
+        if topic == BATCH_TOPIC:
+            return self.all_tags or bool(self.prefixes)
+        if self.all_tags and topic.startswith(TAG_PREFIX):
+            return True
+        return any(topic == p or topic.startswith(p + "/") for p in self.prefixes)
+
+
+def parse_targets(targets: Sequence[str], *, everything: bool) -> Targets:
+    """Read ``proximity`` as a tag, ``/odom`` as a topic; none: every tag plus /rosout.
+
+    Raises:
+        ValueError: a target is empty or malformed (the message names it).
+    """
+    if everything:
+        return Targets(everything=True, all_tags=True)
+    if not targets:
+        return Targets(all_tags=True, topics=frozenset({ROSOUT}))
+    topics: set[str] = set()
+    prefixes: list[str] = []
+    for target in targets:
+        name = target.strip().rstrip("/")
+        if not name or " " in name or "." in name:
+            raise ValueError(f"{target!r} is not a tag or a topic (a topic starts with /, a tag is a name)")
+        if name.startswith("/"):
+            topics.add(name)
+        else:
+            prefixes.append(TAG_PREFIX + name)
+    return Targets(all_tags=False, topics=frozenset(topics), prefixes=tuple(prefixes))
+
+
+@dataclass
+class _Sub:
+    topic: str
+    msg_type: str
+    cls: Any
+    sub: Any
+    channel: int
+    reliable: bool
+    transient: bool
+    count: int = 0
+
+
+@dataclass
+class Stats:
+    """What the recorder has done so far."""
+
+    messages: int = 0
+    topics: int = 0
+    bytes_on_disk: int = 0
+    skipped: dict[str, str] = field(default_factory=dict)
+    """Topic -> why it is not recorded (type not installed, publishers disagree)."""
+
+
+class Recorder:
+    """Record the wanted topics into an MCAP writer (or a RAM window) until `stop` is called.
+
+    `run` blocks in the calling thread; `on_tick` is called about once a second (for the live
+    summary and the snapshot trigger).
+    """
+
+    def __init__(
+        self,
+        targets: Targets,
+        writer: McapWriter | None,
+        *,
+        window_s: float | None = None,
+        flush_period: float = 0.5,
+        node_name: str | None = None,
+    ) -> None:
+        import os
+
+        self.targets = targets
+        self.writer = writer
+        self.window_ns = int(window_s * 1e9) if window_s else 0
+        self.ring: deque[tuple[str, str, int, int, bytes]] = deque()
+        """Snapshot mode: (topic, type, log time, source time, CDR), oldest first."""
+        self.flush_period = flush_period
+        self.node_name = node_name or f"dbglog_record_{os.getpid()}"
+        self.stats = Stats()
+        self._subs: dict[str, _Sub] = {}
+        self._running = True
+        self.warn: Callable[[str], None] = lambda _m: None
+
+    def stop(self) -> None:
+        """Ask `run` to return (safe from a signal handler)."""
+        self._running = False
+
+    def run(self, on_tick: Callable[[], None] | None = None) -> None:
+        """Subscribe, take and write until `stop`; the writer is flushed, not closed."""
+        import rclpy
+        from rclpy.context import Context
+        from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
+        from rclpy.node import Node
+        from rclpy.signals import SignalHandlerOptions
+
+        context = Context()
+        rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
+        node = Node(self.node_name, context=context, start_parameter_services=False, enable_rosout=False)
+        try:
+            next_graph = next_flush = next_tick = 0.0
+            wait_set: Any = None
+            wait_subs: list[_Sub] = []
+            while self._running:
+                now = time.monotonic()
+                if now >= next_graph:
+                    self._refresh(node)
+                    next_graph = now + _GRAPH_PERIOD
+                subs = list(self._subs.values())
+                if wait_set is None or subs != wait_subs:
+                    wait_subs = subs
+                    wait_set = _rclpy.WaitSet(max(1, len(subs)), 0, 0, 0, 0, 0, context.handle)
+                wait_set.clear_entities()
+                for s in wait_subs:
+                    wait_set.add_subscription(s.sub.handle)
+                if wait_subs:
+                    wait_set.wait(int(_WAIT_S * 1e9))
+                    ready = set(wait_set.get_ready_entities("subscription"))
+                    for s in wait_subs:
+                        if s.sub.handle.pointer in ready:
+                            self._take(s)
+                else:
+                    time.sleep(_WAIT_S)
+                now = time.monotonic()
+                if self.writer is not None and now >= next_flush:
+                    self.writer.flush(sync=True)
+                    next_flush = now + self.flush_period
+                if now >= next_tick:
+                    self._trim()
+                    if on_tick is not None:
+                        on_tick()
+                    next_tick = now + 1.0
+            # Drain what already arrived before returning.
+            for s in list(self._subs.values()):
+                self._take(s)
+        finally:
+            if self.writer is not None:
+                self.writer.flush(sync=True)
+            for s in self._subs.values():
+                node.destroy_subscription(s.sub)
+            node.destroy_node()
+            rclpy.shutdown(context=context)
+
+    # ----- graph ------------------------------------------------------------------------------------
+
+    def _refresh(self, node: Any) -> None:
+        from rclpy.qos import DurabilityPolicy, ReliabilityPolicy
+
+        for name, _types in node.get_topic_names_and_types():
+            if not self.targets.wants(name):
+                continue
+            infos = node.get_publishers_info_by_topic(name)
+            if not infos:
+                continue
+            pub_types = sorted({i.topic_type for i in infos})
+            if len(pub_types) > 1:
+                self._skip(name, f"publishers disagree on its type ({', '.join(pub_types)})")
+                continue
+            best_effort = any(i.qos_profile.reliability == ReliabilityPolicy.BEST_EFFORT for i in infos)
+            transient = all(i.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL for i in infos)
+            old = self._subs.get(name)
+            downgrade = old is not None and (
+                (old.reliable and best_effort) or (old.transient and not transient)
+            )
+            if old is not None and old.msg_type == pub_types[0] and not downgrade:
+                continue
+            self._subscribe(node, name, pub_types[0], not best_effort, transient, old)
+
+    def _skip(self, name: str, why: str) -> None:
+        if self.stats.skipped.get(name) != why:
+            self.stats.skipped[name] = why
+            self.warn(f"not recording {name}: {why}")
+
+    def _subscribe(
+        self, node: Any, name: str, msg_type: str, reliable: bool, transient: bool, old: _Sub | None
+    ) -> None:
+        import importlib
+
+        from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+        pkg, _, short = msg_type.partition("/msg/")
+        try:
+            cls = getattr(importlib.import_module(f"{pkg}.msg"), short)
+        except (ImportError, AttributeError, ValueError):
+            self._skip(name, f"its type {msg_type} is not installed on this machine")
+            return
+        if old is not None:
+            node.destroy_subscription(old.sub)
+        qos = QoSProfile(
+            history=HistoryPolicy.KEEP_LAST,
+            depth=max(_DEPTH, BATCH_DEPTH) if name == BATCH_TOPIC else _DEPTH,
+            reliability=ReliabilityPolicy.RELIABLE if reliable else ReliabilityPolicy.BEST_EFFORT,
+            durability=DurabilityPolicy.TRANSIENT_LOCAL if transient else DurabilityPolicy.VOLATILE,
+        )
+        sub = node.create_subscription(cls, name, lambda _m: None, qos, raw=True)
+        channel = 0
+        if self.writer is not None:
+            channel = self.writer.add_channel(name, msg_type, metadata={"offered_qos_profiles": ""})
+        self._subs[name] = _Sub(name, msg_type, cls, sub, channel, reliable, transient)
+        self.stats.skipped.pop(name, None)
+        self.stats.topics = len(self._subs)
+
+    # ----- data -------------------------------------------------------------------------------------
+
+    def _take(self, s: _Sub) -> None:
+        take = s.sub.handle.take_message
+        cls = s.cls
+        clock = time.time_ns
+        writer = self.writer
+        n = 0
+        if writer is not None:
+            write = writer.write
+            channel = s.channel
+            for _ in range(_TAKE_MAX):
+                got = take(cls, True)
+                if got is None:
+                    break
+                write(channel, clock(), got[0], got[1]["source_timestamp"])
+                n += 1
+        else:
+            append = self.ring.append
+            topic, msg_type = s.topic, s.msg_type
+            for _ in range(_TAKE_MAX):
+                got = take(cls, True)
+                if got is None:
+                    break
+                append((topic, msg_type, clock(), got[1]["source_timestamp"], got[0]))
+                n += 1
+        s.count += n
+        self.stats.messages += n
+
+    def _trim(self) -> None:
+        """Snapshot mode: drop what is older than the window."""
+        if not self.window_ns:
+            return
+        oldest = time.time_ns() - self.window_ns
+        ring = self.ring
+        while ring and ring[0][2] < oldest:
+            ring.popleft()
+
+    def snapshot(self, writer: McapWriter) -> int:
+        """Write the RAM window into `writer` (then closed); return how many messages it held."""
+        self._trim()
+        items = list(self.ring)
+        channels: dict[tuple[str, str], int] = {}
+        for topic, msg_type, log_time, source, data in items:
+            key = (topic, msg_type)
+            channel = channels.get(key)
+            if channel is None:
+                channel = channels[key] = writer.add_channel(topic, msg_type)
+            writer.write(channel, log_time, data, source)
+        writer.close()
+        return len(items)
