@@ -32,8 +32,11 @@ _IDLE_AFTER = 0.2
 """Seconds without samples after which the thread blocks until the next sample wakes it."""
 _MAX_BATCH = 4096
 """Samples per batch message at most (a longer backlog goes out as several batches)."""
-_YIELD_NS = 50_000
-"""Let a waiting thread (the user's loop) have the GIL at least this often while publishing."""
+_YIELD_NS = 30_000
+"""Publish for at most this long (ns) while holding the GIL, then sleep `_YIELD_S`: a user's loop that
+wakes up meanwhile waits for the GIL for at most this long. (``sleep(0)`` is not enough: the GIL has
+no fairness, this thread would take it straight back before a woken thread is scheduled.)"""
+_YIELD_S = 1e-5
 
 Item = tuple["Channel", object, int]
 
@@ -51,7 +54,8 @@ class Pipe:
         self.seq = 0
         self.batches = 0
         self._event = threading.Event()
-        self._drain_lock = threading.Lock()
+        self.lock = threading.RLock()
+        """Held while publishing: whoever destroys publishers takes it first (then the runtime's lock)."""
         self._thread: threading.Thread | None = None
         self._pid = os.getpid()
 
@@ -80,7 +84,7 @@ class Pipe:
     def drain(self, timeout: float) -> bool:
         """Publish everything queued now, on this thread; False when `timeout` ran out first."""
         deadline = time.monotonic() + timeout
-        if not self._drain_lock.acquire(timeout=max(0.0, timeout)):
+        if not self.lock.acquire(timeout=max(0.0, timeout)):
             return False
         try:
             todo = len(self.queue)
@@ -90,7 +94,7 @@ class Pipe:
                 todo -= self._flush_once(yield_gil=False)
             return True
         finally:
-            self._drain_lock.release()
+            self.lock.release()
 
     def clear(self) -> None:
         """Forget queued samples (after a fork, or a reset)."""
@@ -100,7 +104,7 @@ class Pipe:
         """The parent's thread does not exist here: start afresh (a new thread on first use)."""
         self.queue.clear()  # the same deque: the hot path holds it
         self._event = threading.Event()
-        self._drain_lock = threading.Lock()
+        self.lock = threading.RLock()
         self._thread = None
         self.sleeping = True
         self._pid = os.getpid()
@@ -116,7 +120,7 @@ class Pipe:
                 return
             while queue:  # one batch at a time: a drain() on another thread may take its turn
                 # Failures are reported per sample; the thread itself must survive anything.
-                with self._drain_lock, contextlib.suppress(Exception):
+                with self.lock, contextlib.suppress(Exception):
                     self._flush_once(yield_gil=True)
                 idle_since = time.monotonic()
             if time.monotonic() - idle_since > _IDLE_AFTER:
@@ -145,6 +149,8 @@ class Pipe:
                 runtime.reporter.count("shut_down")
             return len(items)
         self._publish_batch(items)
+        if yield_gil:
+            time.sleep(_YIELD_S)
         send = runtime.send_queued
         published = runtime.reporter.published.incr
         clock = time.perf_counter_ns
@@ -153,7 +159,7 @@ class Pipe:
             encode = ch.encode
             if encode is not None and ch.alive:
                 try:
-                    ch.publish(encode(value))
+                    ch.publish_raw(encode(value))
                 except Exception:  # the general path retries, recovers and reports
                     if send(ch, value):
                         published()
@@ -162,7 +168,7 @@ class Pipe:
             elif send(ch, value):
                 published()
             if yield_gil and clock() - last > _YIELD_NS:
-                time.sleep(0)
+                time.sleep(_YIELD_S)
                 last = clock()
         return len(items)
 

@@ -1,0 +1,87 @@
+"""The hot path of a known tag (queue append only) behaves exactly like the checked path it skips."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+import pytest
+from std_msgs.msg import Bool, Float64, Int64, String
+
+import dbglog
+from dbglog import DbglogWarning
+from dbglog.api._public import RUNTIME
+from dbglog.api._qos import tag_qos
+from tests._ros import RosPeer, wait_until
+
+LATCHED = tag_qos()
+
+
+@pytest.fixture(scope="module")
+def peer() -> Iterator[RosPeer]:
+    """One independent ROS 2 participant for the module."""
+    with RosPeer("fastpath_peer") as p:
+        yield p
+
+
+def _five_rate_limited_rounds() -> None:
+    for i in range(5):
+        dbglog.logbool("fp/once", i % 2 == 0, once=True)
+        dbglog.logstring("fp/skip", f"s{i}", skip_first=True)
+        dbglog.logfloat("fp/thr", float(i), throttle=3600.0)
+        dbglog.logint("fp/int_thr", i, throttle=3600)
+
+
+def test_rate_options_on_the_hot_path_act_per_tag_and_call_site(peer: RosPeer) -> None:
+    """once / skip_first / throttle on known tags: same values and counts as the checked path."""
+    once = peer.subscribe("/rosdashboard/fp/once", Bool, LATCHED)
+    skip = peer.subscribe("/rosdashboard/fp/skip", String, LATCHED)
+    thr = peer.subscribe("/rosdashboard/fp/thr", Float64, LATCHED)
+    ithr = peer.subscribe("/rosdashboard/fp/int_thr", Int64, LATCHED)
+    _five_rate_limited_rounds()
+    assert "fp/once" in RUNTIME.fast_bool  # later calls took the hot path
+    assert "fp/skip" in RUNTIME.fast_str
+    assert once.wait_for(1)
+    assert skip.wait_for(4)
+    assert thr.wait_for(1)
+    assert ithr.wait_for(1)
+    assert once.values() == [True]
+    assert skip.values() == ["s1", "s2", "s3", "s4"]
+    assert thr.values() == [0.0]
+    assert ithr.values() == [0]
+    s = dbglog.stats()
+    assert (s.calls, s.published, s.rate_limited, s.dropped) == (20, 7, 13, 0)
+
+
+def test_a_bad_option_on_a_known_tag_is_still_reported() -> None:
+    """A negative or non-numeric throttle on a known tag is dropped as bad_option with a warning."""
+    dbglog.logfloat("fp/bad", 1.0)
+    with pytest.warns(DbglogWarning, match="throttle"):
+        dbglog.logfloat("fp/bad", 2.0, throttle=-1.0)
+    with pytest.warns(DbglogWarning, match="throttle"):
+        dbglog.logstring("fp/bad_s", "x", throttle="often")  # type: ignore[arg-type]
+    assert dbglog.stats().dropped_by_reason == {"bad_option": 2}
+
+
+def test_strings_that_need_checking_on_a_known_tag_take_the_checked_path(peer: RosPeer) -> None:
+    """NUL is replaced (one warning), non-ASCII published as is, a lone surrogate dropped."""
+    got = peer.subscribe("/rosdashboard/fp/text", String, LATCHED)
+    dbglog.logstring("fp/text", "a")
+    with pytest.warns(DbglogWarning, match="NUL"):
+        dbglog.logstring("fp/text", "b\x00c")
+    dbglog.logstring("fp/text", "été")
+    with pytest.warns(DbglogWarning, match="UTF-8"):
+        dbglog.logstring("fp/text", "\ud800")
+    assert got.wait_for(3)
+    assert got.values() == ["a", "b\ufffdc", "été"]
+    assert dbglog.stats().dropped_by_reason == {"bad_value": 1}
+
+
+def test_an_int_beyond_int64_on_a_known_tag_is_dropped_out_of_range() -> None:
+    """The hot path never queues an int outside Int64: the checked path drops it (out_of_range)."""
+    dbglog.logint("fp/big", 1)
+    dbglog.logint("fp/big", 2)
+    with pytest.warns(DbglogWarning, match="Int64 range"):
+        dbglog.logint("fp/big", 2**63)
+    s = dbglog.stats()
+    assert (s.published, s.dropped_by_reason) == (2, {"out_of_range": 1})
+    assert wait_until(lambda: dbglog.flush(5.0))
