@@ -39,8 +39,10 @@ topics' transient-local history of 100 would give it)."""
 _MAX_TAKE = 2000
 """Batches taken per wake-up at most (others get their turn)."""
 _GRACE_S = 0.75
-"""A std_msgs scalar topic's publisher node seen this recently may still turn out to be a batch writer
-(discovery announces a node's endpoints in any order): its per-tag subscription waits that long."""
+"""dbglog's own node (``dbglog_<pid>``) seen this recently publishing a scalar topic may not show its
+batch publisher yet (discovery announces a node's endpoints in any order): the per-tag subscription
+waits that long, or the switch to batches later would lose the samples in between."""
+_SDK_NODE_PREFIX = "dbglog_"
 _SCALAR_TYPE_NAMES = frozenset(f"std_msgs/msg/{name}" for name in SCALAR_TYPES)
 
 
@@ -138,9 +140,11 @@ class BatchIngest:
         )
 
     def should_wait(self, infos: list[Any]) -> bool:
-        """True while a scalar topic's publisher node is too new to know whether it sends batches."""
+        """True while a scalar topic's dbglog node is too new to know whether it sends batches."""
         now = time.monotonic()
         for i in infos:
+            if not i.node_name.startswith(_SDK_NODE_PREFIX):
+                continue
             key = (i.node_namespace, i.node_name)
             fresh = now - self._first_seen.setdefault(key, now) < _GRACE_S
             if fresh and i.topic_type in _SCALAR_TYPE_NAMES and key not in self._writer_nodes:
