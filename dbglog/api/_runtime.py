@@ -10,7 +10,9 @@ from __future__ import annotations
 import atexit
 import contextlib
 import ctypes
+import functools
 import os
+import struct
 import sys
 import threading
 import time
@@ -20,6 +22,7 @@ from typing import Any, Literal
 
 from dbglog._ros._batch import BATCH_TOPIC, SCALAR_TYPES, type_code
 from dbglog.api._convert import (
+    CDR_HEADER,
     ScalarSpec,
     encode_scalar,
     scalar_spec,
@@ -79,7 +82,7 @@ class Channel:
         """False once the publisher was destroyed (samples still queued for it go to its successor)."""
         self.encode: Callable[[object], bytes] | None = None
         if spec is not None and raw:
-            self.encode = lambda value, s=spec: encode_scalar(s, value)
+            self.encode = cdr_encoder(spec)
         self.queued = (
             spec is not None and spec.name in SCALAR_TYPES and msg_class.__module__.startswith("std_msgs.")
         )
@@ -97,6 +100,11 @@ class Channel:
             self.publish(self.msg_class(data=value))
 
 
+def cdr_encoder(spec: ScalarSpec) -> Callable[[object], bytes]:
+    """Return value -> CDR bytes of `spec` as one C call (`encode_scalar`'s bytes, header included)."""
+    return functools.partial(struct.Struct("<4s" + spec.fmt[1:]).pack, CDR_HEADER)
+
+
 def _cdr_round_trips(msg_class: type, spec: ScalarSpec) -> bool:
     """True when our CDR bytes for `spec` decode to the same values through the middleware's serializer."""
     from rclpy.serialization import deserialize_message
@@ -108,7 +116,9 @@ def _cdr_round_trips(msg_class: type, spec: ScalarSpec) -> bool:
     }
     try:
         return all(
-            deserialize_message(encode_scalar(spec, v), msg_class).data == v for v in samples[spec.kind]
+            deserialize_message(cdr_encoder(spec)(v), msg_class).data == v
+            and cdr_encoder(spec)(v) == encode_scalar(spec, v)
+            for v in samples[spec.kind]
         )
     except Exception:
         return False
