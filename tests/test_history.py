@@ -253,15 +253,21 @@ def test_late_payloads_are_merged_in_time_order() -> None:
     assert texts[-2:] == ["live 9", "old 5"]
 
 
-def test_decimate_keeps_each_pixels_min_and_max() -> None:
-    """The envelope of each pixel column equals a brute-force min/max; few samples pass unchanged."""
+def _decimated_history(samples: int) -> tuple[History, np.ndarray[Any, Any], np.ndarray[Any, Any]]:
     rng = np.random.default_rng(7)
     h = History(clock=None, chunk_samples=1000)
-    t = np.sort(rng.uniform(0, 100, 20_000))
+    t = np.sort(rng.uniform(0, 100, samples))
     v = rng.normal(size=t.size)
-    v[5000:5100] = np.nan
-    h.append_numbers(T, t, v)
-    pixels = 50
+    v[samples // 4 : samples // 4 + 100] = np.nan
+    for part in np.array_split(np.arange(samples), 37):  # closed chunks and an open one
+        h.append_numbers(T, t[part], v[part])
+    return h, t, v
+
+
+def test_decimate_keeps_each_pixels_min_and_max() -> None:
+    """Below the block threshold the envelope of each pixel column equals a brute-force min/max."""
+    h, t, v = _decimated_history(4000)
+    pixels = 50  # 3200 samples in range: < 50 px x 4 blocks x 32, so raw samples are binned
     dt, dv = h.decimate(T, 10.0, 90.0, pixels)
     assert len(dt) <= 2 * pixels + 2
     edges = np.linspace(10.0, 90.0, pixels + 1)
@@ -277,6 +283,29 @@ def test_decimate_keeps_each_pixels_min_and_max() -> None:
     few_t, _ = h.decimate(T, 10.0, 10.05, 1000)
     raw_t, _ = h.range(T, 10.0, 10.05)
     assert few_t[1:-1].tolist() == raw_t.tolist()
+
+
+def test_decimate_from_block_summaries_is_off_by_at_most_one_block() -> None:
+    """Over many samples per pixel the envelope is exact overall and each column is within one block."""
+    h, t, v = _decimated_history(200_000)
+    pixels = 40  # 160,000 samples in range: 4,000 per column, block summaries answer
+    dt, dv = h.decimate(T, 10.0, 90.0, pixels)
+    inner_t, inner_v = dt[1:-1], dv[1:-1]
+    assert len(inner_t) == 2 * pixels
+    inside = (t >= 10.0) & (t <= 90.0)
+    assert np.nanmin(inner_v) == np.nanmin(v[inside])
+    assert np.nanmax(inner_v) == np.nanmax(v[inside])
+    edges = np.searchsorted(t, np.linspace(10.0, 90.0, pixels + 1))
+    edges[-1] = np.searchsorted(t, 90.0, side="right")
+    block = 32
+    for b in range(pixels):
+        got_lo, got_hi = inner_v[2 * b], inner_v[2 * b + 1]
+        a, e = edges[b], edges[b + 1]
+        wide = v[max(a - block, edges[0]) : min(e + block, edges[-1])]
+        narrow = v[a + block : e - block]
+        assert np.nanmin(wide) <= got_lo <= np.nanmin(narrow)
+        assert np.nanmax(narrow) <= got_hi <= np.nanmax(wide)
+        assert t[a] <= inner_t[2 * b] <= t[min(a + block, e - 1)]
 
 
 def test_a_writer_and_readers_never_see_an_inconsistent_history() -> None:

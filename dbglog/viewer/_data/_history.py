@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import bisect
 import itertools
+import math
 import threading
 import time
 from collections.abc import Callable, Sequence
@@ -36,6 +37,12 @@ _FIRST_CAPACITY = 256
 """A new topic's first chunk; it doubles up to the chunk size, so a 1 Hz tag costs kilobytes."""
 _CHUNK_OVERHEAD = 400
 """Bytes counted per chunk for its Python objects (array headers, the chunk, its view)."""
+_SMALL = 16
+"""Batches up to this size are checked in plain Python (cheaper than numpy calls)."""
+_BLOCK = 32
+"""Closed numeric chunks keep the min and max of every block of this many samples (for plots)."""
+_BLOCKS_PER_PIXEL = 4
+"""Decimate from block summaries when a pixel column spans at least this many blocks."""
 _PAYLOAD_OVERHEAD = 41
 """Bytes counted per payload held as a Python `bytes` in an open chunk (object header + list slot)."""
 
@@ -79,7 +86,7 @@ class _Chunk:
     it has published, so a reader holding this view never sees a half-written sample.
     """
 
-    __slots__ = ("blob", "data", "n", "offsets", "start", "times")
+    __slots__ = ("blob", "data", "hi", "lo", "n", "offsets", "start", "times")
 
     def __init__(
         self,
@@ -97,6 +104,18 @@ class _Chunk:
         self.n = n
         self.blob = blob
         self.offsets = offsets
+        self.lo: _F64 | None = None
+        """Closed numeric chunks: min of each block of `_BLOCK` samples from index 0 (NaN-ignoring)."""
+        self.hi: _F64 | None = None
+
+    def summarize(self) -> None:
+        """Compute the block minima and maxima of a closed numeric chunk."""
+        if isinstance(self.data, np.ndarray) and self.n:
+            vals = self.data[: self.n].astype(np.float64, copy=False)
+            starts = np.arange(0, self.n, _BLOCK)
+            with np.errstate(invalid="ignore"):
+                self.lo = np.fmin.reduceat(vals, starts)
+                self.hi = np.fmax.reduceat(vals, starts)
 
     @property
     def size(self) -> int:
@@ -136,6 +155,8 @@ class _Chunk:
             total += len(self.blob) + self.offsets.nbytes
         elif isinstance(self.data, np.ndarray):
             total += self.data.nbytes
+        if self.lo is not None and self.hi is not None:
+            total += self.lo.nbytes + self.hi.nbytes
         return total
 
 
@@ -167,6 +188,7 @@ class _Track:
         "kind",
         "msg_type",
         "nbytes",
+        "newest",
         "open",
         "open_bytes",
         "view",
@@ -185,6 +207,8 @@ class _Track:
         """Payload bytes in the open chunk's list."""
         self.dropped = 0
         self.nbytes = 0
+        self.newest = -math.inf
+        """The newest source time ever stored: a batch from here on is appended in place."""
         self.view = _EMPTY_VIEW
 
     def closed_changed(self) -> None:
@@ -209,11 +233,6 @@ class _Track:
         else:
             self.view = _View(chunks, firsts, before)
 
-    def newest(self) -> float | None:
-        if self.open is not None and self.open.size:
-            return self.open.last
-        return self.closed[-1].last if self.closed else None
-
     def oldest_chunk(self) -> _Chunk | None:
         if self.closed:
             return self.closed[0]
@@ -232,6 +251,46 @@ class _Track:
         delta = total - self.nbytes
         self.nbytes = total
         return delta
+
+
+def _envelope(pieces: Sequence[tuple[_F64, _F64, _F64]], edges: _F64) -> tuple[_F64, _F64]:
+    """Bin (time, min, max) pieces into columns starting at `edges`: each column's min and max.
+
+    Works on each piece's own arrays (views: no large temporary copies) and merges the columns that
+    straddle two pieces.
+    """
+    bins_l: list[npt.NDArray[np.intp]] = []
+    t_l: list[_F64] = []
+    lo_l: list[_F64] = []
+    hi_l: list[_F64] = []
+    for times, lo, hi in pieces:
+        if not len(times):
+            continue
+        b0 = max(int(np.searchsorted(edges, times[0], side="right")) - 1, 0)
+        b1 = int(np.searchsorted(edges, times[-1], side="right"))
+        idx = np.searchsorted(times, edges[b0:b1], side="left")
+        idx[0] = 0
+        bounds = np.append(idx, len(times))
+        nonempty = np.flatnonzero(bounds[1:] > bounds[:-1])
+        starts = idx[nonempty]
+        bins_l.append(nonempty + b0)
+        t_l.append(times[starts])
+        with np.errstate(invalid="ignore"):
+            lo_l.append(np.fmin.reduceat(lo, starts))
+            hi_l.append(np.fmax.reduceat(hi, starts))
+    if not bins_l:
+        return np.empty(0), np.empty(0)
+    bins, first_t = np.concatenate(bins_l), np.concatenate(t_l)
+    lows, highs = np.concatenate(lo_l), np.concatenate(hi_l)
+    if len(bins) > 1 and not (bins[1:] > bins[:-1]).all():  # a column split across pieces
+        u = np.flatnonzero(np.r_[True, bins[1:] != bins[:-1]])
+        first_t = first_t[u]
+        with np.errstate(invalid="ignore"):
+            lows, highs = np.fmin.reduceat(lows, u), np.fmax.reduceat(highs, u)
+    vals = np.empty(2 * len(lows))
+    vals[0::2] = lows
+    vals[1::2] = highs
+    return np.repeat(first_t, 2), vals
 
 
 def _check_time(t: float) -> None:
@@ -374,26 +433,40 @@ class History:
         return track
 
     def _append(self, track: _Track, t: _F64, data: _Arr | list[bytes]) -> None:
-        if not np.isfinite(t).all():
-            raise ValueError(f"history: source times must be finite, got {t[~np.isfinite(t)][0]}")
-        if len(t) > 1 and np.any(t[1:] < t[:-1]):  # an unsorted batch: sort it, ties keep arrival order
+        n = len(t)
+        if n <= _SMALL:  # the engine's usual batch: plain Python is cheaper than numpy calls here
+            tl = t.tolist()
+            if not all(map(math.isfinite, tl)):
+                raise ValueError(f"history: source times must be finite, got {tl}")
+            ordered = all(a <= b for a, b in itertools.pairwise(tl))
+            first, last = tl[0], tl[-1]
+        else:
+            if not np.isfinite(t).all():
+                raise ValueError(f"history: source times must be finite, got {t[~np.isfinite(t)][0]}")
+            ordered = not (t[1:] < t[:-1]).any()
+            first, last = float(t[0]), float(t[-1])
+        if not ordered:  # an unsorted batch: sort it, ties keep arrival order
             order = np.argsort(t, kind="stable")
             t = t[order]
             data = [data[i] for i in order] if isinstance(data, list) else data[order]
-        if t[0] < self._horizon:  # already older than the budget: never stored
+            first, last = float(t[0]), float(t[-1])
+        if first < self._horizon:  # already older than the budget: never stored
             keep = int(np.searchsorted(t, self._horizon, side="left"))
             self._late += keep
-            if keep == len(t):
+            if keep == n:
                 return
             t, data = t[keep:], data[keep:]
-        newest = track.newest()
-        if newest is None or t[0] >= newest:
+            first = float(t[0])
+        if first >= track.newest:
             self._extend(track, t, data)
         else:
             self._merge(track, t, data)
+        if last > track.newest:
+            track.newest = last
         track.publish()
         self._bytes += track.recount()
-        self._newest = max(self._newest, float(t[-1]))
+        if last > self._newest:
+            self._newest = last
         self._enforce()
 
     def _new_open(self, track: _Track, need: int) -> _Chunk:
@@ -417,6 +490,7 @@ class History:
                 closed = _Chunk(o.times[o.start : o.n].copy(), o.data[o.start : o.n].copy(), 0, o.size)
             else:
                 closed = o
+            closed.summarize()
             track.closed.append(closed)
             track.closed_bytes += closed.nbytes()
             track.closed_cache = None
@@ -532,6 +606,7 @@ class History:
         if chunk is not None and chunk.size and chunk.first < horizon:
             cut = int(np.searchsorted(chunk.times[chunk.start : chunk.n], horizon, side="left"))
             new = _Chunk(chunk.times, chunk.data, chunk.start + cut, chunk.n, chunk.blob, chunk.offsets)
+            new.lo, new.hi = chunk.lo, chunk.hi
             if track.closed:
                 track.closed[0] = new
             else:
@@ -686,29 +761,44 @@ class History:
     def decimate(self, topic: str, t0: float, t1: float, pixels: int) -> tuple[_F64, _F64]:
         """Return a min/max envelope of a numeric topic over ``[t0, t1]`` for a plot `pixels` wide.
 
-        At most ``2 * pixels`` points: each pixel column that holds samples gives its minimum and its
-        maximum (NaN only if all its samples are NaN), both at the time of its first sample, so the line
-        drawn through them covers every sample's value. With few samples they are returned as they are.
-        The samples just outside the range are included so the line reaches the plot's edges.
+        At most ``2 * pixels + 2`` points: each pixel column that holds samples gives its minimum and
+        its maximum (NaN only if all its samples are NaN), both at the time of its first sample, so the
+        line drawn through them covers every sample's value; with few samples they come back as they are.
+        The samples just outside the range are added so the line reaches the plot's edges. When a column
+        spans many samples (``_BLOCKS_PER_PIXEL`` blocks of ``_BLOCK`` or more) closed chunks answer with
+        their precomputed block minima/maxima: a block is drawn in the column of its first sample, so a
+        value may land up to one block (< 1/4 pixel) from its exact column, never lost.
         """
         if pixels < 1:
             raise ValueError(f"decimate needs at least 1 pixel, not {pixels}")
         if not t0 <= t1:
             raise ValueError(f"decimate needs t0 <= t1, not {t0} > {t1}")
-        times, values = self.range(topic, t0, t1)
-        vals = values.astype(np.float64, copy=False)
-        if len(times) > 2 * pixels:
-            edges = np.linspace(t0, t1, pixels + 1)[:-1]
-            idx = np.searchsorted(times, edges, side="left")
-            bounds = np.append(idx, len(times))
-            starts = idx[bounds[1:] > bounds[:-1]]
-            with np.errstate(invalid="ignore"):
-                lo = np.fmin.reduceat(vals, starts)
-                hi = np.fmax.reduceat(vals, starts)
-            times = np.repeat(times[starts], 2)
-            vals = np.empty(2 * len(starts))
-            vals[0::2] = lo
-            vals[1::2] = hi
+        track = self._tracks.get(topic)
+        if track is not None and track.kind != "numbers":
+            raise ValueError(f"history of {topic!r} holds payloads: only numbers can be plotted")
+        v = self._view(topic)
+        parts = self._slices(v, t0, t1)
+        blocks = sum(b - a for _, a, b in parts) >= pixels * _BLOCK * _BLOCKS_PER_PIXEL
+        pieces: list[tuple[_F64, _F64, _F64]] = []  # (times, minima, maxima) views, in time order
+        for c, a, b in parts:
+            if not isinstance(c.data, np.ndarray):
+                continue
+            if blocks and c.lo is not None and c.hi is not None and b - a >= 2 * _BLOCK:
+                fa, fb = -(-a // _BLOCK), b // _BLOCK  # whole blocks [fa, fb); raw samples either side
+                lo_i, hi_i = fa * _BLOCK, fb * _BLOCK
+                head = c.data[a:lo_i].astype(np.float64, copy=False)
+                tail = c.data[hi_i:b].astype(np.float64, copy=False)
+                pieces.append((c.times[a:lo_i], head, head))
+                pieces.append((c.times[lo_i:hi_i:_BLOCK], c.lo[fa:fb], c.hi[fa:fb]))
+                pieces.append((c.times[hi_i:b], tail, tail))
+            else:
+                raw = c.data[a:b].astype(np.float64, copy=False)
+                pieces.append((c.times[a:b], raw, raw))
+        if not blocks and sum(len(p[0]) for p in pieces) <= 2 * pixels:
+            times = np.concatenate([p[0] for p in pieces]) if pieces else np.empty(0)
+            vals = np.concatenate([p[1] for p in pieces]) if pieces else np.empty(0)
+        else:
+            times, vals = _envelope(pieces, np.linspace(t0, t1, pixels + 1)[:-1])
         before = self.at(topic, float(np.nextafter(t0, -np.inf)))
         after_t = self.next_time(topic, t1)
         after = self.at(topic, after_t) if after_t is not None else None
@@ -716,8 +806,8 @@ class History:
             return times, vals
         edge_t = [s.time for s in (before, after) if s is not None]
         edge_v = [float(s.value) for s in (before, after) if s is not None and not isinstance(s.value, bytes)]
-        head = 1 if before is not None else 0
+        head_n = 1 if before is not None else 0
         return (
-            np.concatenate([edge_t[:head], times, edge_t[head:]]),
-            np.concatenate([edge_v[:head], vals, edge_v[head:]]),
+            np.concatenate([edge_t[:head_n], times, edge_t[head_n:]]),
+            np.concatenate([edge_v[:head_n], vals, edge_v[head_n:]]),
         )
