@@ -1,0 +1,609 @@
+"""Numbers in log lines and RE2 patterns proposed from a clicked number ("plot this number").
+
+Ground floor: imports only the standard library, ``re2`` and ``numpy``. Nothing from a line is ever
+evaluated; every pattern is RE2 (linear time).
+"""
+
+from __future__ import annotations
+
+import bisect
+import fnmatch
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Final, Literal
+
+import numpy as np
+import re2
+
+__all__ = [
+    "ANY_NUMBER_PATTERN",
+    "MAX_LINE",
+    "MAX_PROGRAM_SIZE",
+    "NUMBER_PATTERN",
+    "NumberSpan",
+    "Proposal",
+    "ProposalError",
+    "find_numbers",
+    "match_lines",
+    "parse_console_line",
+    "preview",
+    "propose",
+    "suggest_tag",
+    "to_bridge_yaml",
+]
+
+MAX_LINE: Final = 4096
+"""Bytes of UTF-8 a matcher reads of a line (the bridge cuts lines there): numbers beyond are not offered.
+
+Same value as ``dbglog.regex_bridge._regex.MAX_LINE`` (the bridge should import it from here)."""
+
+MAX_PROGRAM_SIZE: Final = 1500
+"""Largest RE2 program the bridge accepts (``dbglog.regex_bridge._regex.MAX_PROGRAM_SIZE``)."""
+
+NUMBER_PATTERN: Final = r"[-+]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][-+]?[0-9]+)?"
+"""RE2 for one finite number in a notation the bridge's float parser accepts: optional sign, ASCII
+digits, an optional decimal point and exponent (``-12.5``, ``+.5``, ``3.``, ``1e-3``, ``6.02E+23``).
+No hex, no ``_`` separators, no decimal comma (the bridge refuses those). The bridge's rules should use
+this pattern (and `ANY_NUMBER_PATTERN`) for their number grammar."""
+
+_SPECIALS: Final = "infinity|Infinity|INFINITY|inf|Inf|INF|nan|NaN|NAN"
+ANY_NUMBER_PATTERN: Final = rf"[-+]?(?:(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][-+]?[0-9]+)?|{_SPECIALS})"
+"""`NUMBER_PATTERN` or a not-a-number / infinity as C, C++, Python and JavaScript print them
+(``nan``, ``-nan``, ``NaN``, ``inf``, ``-Infinity``, ...): what a proposal captures."""
+
+_PROPOSAL_BUDGET: Final = 900
+"""Estimated RE2 program size of a proposal: context around the number is added while it fits."""
+_NUMBER_COST: Final = 45
+_SPACE_COST: Final = 8
+_SPACES: Final = frozenset(" \t\r\n\f")
+"""Whitespace that RE2's ``\\s`` matches: runs of it are generalised to ``\\s+``."""
+_ASCII_PUNCT: Final = frozenset("!\"#$%&'()*+,-./:;<=>?@[\\]^_`{|}~")
+_SIGN_BREAKERS: Final = frozenset(b")]+-")
+"""A sign right after one of these is an operator or a dash, not the number's (as after a letter or digit)."""
+_SIGN_BYTES: Final = frozenset(b"+-")
+
+_OPTIONS = re2.Options()
+_OPTIONS.log_errors = False
+_OPTIONS.max_mem = 8 << 20
+
+# Each search finds the next number that starts a word: at the start of the line or after a character
+# that is not a letter, digit, ``_`` or ``.`` (so digits inside ``turtle1`` or ``a.5`` never start one),
+# with what is glued after it (a unit, or the rest of ``1_000``, ``0x1F``, ``1.2.3``, ``info``) so that
+# a rejected token is skipped whole. RE2 skips identifiers itself: one call per number.
+_SCANNER = re2.compile(
+    rb"(?:\A|[^\pL\pN_.])"
+    rb"(?:(?P<num>[-+]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][-+]?[0-9]+)?)"
+    rb"|(?P<special>[-+]?(?:" + _SPECIALS.encode() + rb")))"
+    rb"(?P<tail>[\pL\pN_.]*)",
+    options=_OPTIONS,
+)
+_G_NUM, _G_SPECIAL, _G_TAIL = 1, 2, 3
+_UNANCHORED = re2._Anchor.UNANCHORED
+_ANCHOR_START = re2._Anchor.ANCHOR_START
+
+
+class ProposalError(ValueError):
+    """No pattern could be proposed (no such number, or the line repeats itself around it); says why."""
+
+
+@dataclass(frozen=True, slots=True)
+class NumberSpan:
+    """One number found in a line: where it is (character offsets), its text, value and glued unit."""
+
+    start: int
+    end: int
+    text: str
+    value: float
+    kind: Literal["int", "float"]
+    """``int`` when written as an integer (sign and digits only), else ``float``."""
+    unit: str
+    """Letters glued right after the number (``m`` in ``0.42m``, ``ms`` in ``12ms``), or ``""``."""
+
+
+@dataclass(frozen=True, slots=True)
+class Proposal:
+    """An RE2 pattern for "that kind of line", capturing the chosen number in group 1."""
+
+    pattern: str
+    """The full pattern (with ``^``/``$`` when the whole line is covered), as a rule's ``pattern``."""
+    body: str
+    """`pattern` without its anchors."""
+    anchored_start: bool
+    anchored_end: bool
+    number: NumberSpan
+    """The chosen number in `line`."""
+    index: int
+    """0-based position of the number among ``find_numbers(line)``."""
+    line: str
+    node: str | None
+    """Logger name the pattern is meant for (a rule's ``node`` filter), or None for any node."""
+    compiled: re2._Regexp = field(repr=False, compare=False)
+
+    def extract(self, line: str) -> float | None:
+        """Return the value this proposal takes from `line` (the first match), or None."""
+        m = self.compiled.search(_visible(line)[0])
+        return None if m is None else float(m.group(1))
+
+
+def _visible(line: str) -> tuple[str, bool]:
+    """Return what a matcher reads of `line` (its first `MAX_LINE` UTF-8 bytes) and whether it was cut."""
+    if len(line) * 4 <= MAX_LINE:
+        return line, False
+    data = line.encode("utf-8", "surrogatepass")
+    if len(data) <= MAX_LINE:
+        return line, False
+    return data[:MAX_LINE].decode("utf-8", "ignore"), True
+
+
+def find_numbers(line: str) -> list[NumberSpan]:
+    """Return every number in the first `MAX_LINE` bytes of `line`, in order.
+
+    A number is what the bridge can parse (see `NUMBER_PATTERN`), standing alone: digits inside an
+    identifier (``turtle1``, ``x2``), hex/binary/octal literals (``0x1F``), ``_``-separated digits
+    (``1_000``) and dotted versions or addresses (``1.2.3``, ``10.0.0.1``) are not numbers. Letters
+    glued after a number are its unit (``0.42m``, ``12ms``, ``87%`` keeps ``%`` as text). A sign belongs
+    to the number unless it follows a letter, digit, ``)``, ``]``, ``.``, ``_`` or another sign
+    (``3-5`` is 3 and 5; ``x=-5`` is -5). A decimal comma separates two numbers (``1,5`` is 1 and 5).
+
+    Args:
+        line: the log line (its message text).
+    """
+    visible, cut = _visible(line)
+    data = visible.encode("utf-8", "surrogatepass")
+    ascii_only = len(data) == len(visible)
+    match = _SCANNER._regexp.Match
+    end = len(data)
+    pos = 0
+    found: list[NumberSpan] = []
+    last_byte = last_char = 0
+    while pos < end:
+        spans = match(_UNANCHORED, data, pos, end)
+        stop = spans[0][1]
+        if stop < 0:
+            break
+        pos = stop
+        tail_start, tail_end = spans[_G_TAIL]
+        num_start, num_end = spans[_G_NUM]
+        if num_start < 0:
+            num_start, num_end = spans[_G_SPECIAL]
+            if tail_end > tail_start and data[tail_start] != 0x2E:  # "info", "nan5", but "inf." is fine
+                continue
+        elif tail_end > tail_start and not _accept_tail(data, num_start, num_end, tail_start, tail_end):
+            continue
+        if data[num_end - 1] == 0x2E:  # "took 5." ends a sentence: the dot is text
+            num_end -= 1
+        if data[num_start] in _SIGN_BYTES and num_start > 0 and data[num_start - 1] in _SIGN_BREAKERS:
+            num_start += 1  # "(x)-5", "+-5": an operator or a dash, not the number's sign
+        if cut and num_end >= end:
+            continue  # the cut may have split it
+        text = data[num_start:num_end].decode("ascii")
+        if ascii_only:
+            c_start, c_end = num_start, num_end
+        else:
+            last_char += len(data[last_byte:num_start].decode("utf-8", "surrogatepass"))
+            last_byte = num_start
+            c_start, c_end = last_char, last_char + (num_end - num_start)
+        kind: Literal["int", "float"] = "int" if text.lstrip("+-").isdigit() else "float"
+        found.append(NumberSpan(c_start, c_end, text, float(text), kind, _unit(data, num_end, tail_end)))
+    return found
+
+
+def _accept_tail(data: bytes, num_start: int, num_end: int, t0: int, t1: int) -> bool:
+    """Tell whether a number followed by glued text ``data[t0:t1]`` (letters, digits, ``_``, ``.``)
+    stands alone: ``12ms`` does; ``1_000``, ``0x1F``, ``1.2.3``, ``10.0.0.1`` do not."""
+    first = data[t0]
+    if first == 0x5F:  # _
+        return False
+    if first == 0x2E:  # .
+        return not (t1 > t0 + 1 and 0x30 <= data[t0 + 1] <= 0x39)
+    if data[num_start:num_end].lstrip(b"+-") == b"0" and first in b"xXbBoO" and t1 > t0 + 1:
+        return chr(data[t0 + 1]) not in "0123456789abcdefABCDEF"
+    if first >= 0x80:
+        return not data[t0:t1].decode("utf-8", "replace")[:1].isdigit()
+    return True
+
+
+def _unit(data: bytes, num_end: int, tail_end: int) -> str:
+    """The letters glued after a number (``ms`` of ``12ms``), or ``%`` right after it, or ``""``."""
+    if data[num_end : num_end + 1] == b"%":
+        return "%"
+    glued = data[num_end:tail_end].decode("utf-8", "replace") if tail_end > num_end else ""
+    n = 0
+    while n < len(glued) and glued[n].isalpha():
+        n += 1
+    return glued[:n]
+
+
+def _escape(text: str) -> str:
+    """Escape `text` as RE2 literal text; non-printable characters become ``\\x{...}`` (YAML-safe)."""
+    out: list[str] = []
+    for ch in text:
+        if ch.isascii():
+            if ch.isalnum():
+                out.append(ch)
+            elif ch in _ASCII_PUNCT or ch == " ":
+                out.append("\\" + ch)
+            else:
+                out.append(f"\\x{{{ord(ch):x}}}")
+        elif ch.isprintable():
+            out.append(ch)
+        else:
+            out.append(f"\\x{{{ord(ch):x}}}")
+    return "".join(out)
+
+
+def _text_pieces(text: str, spaces: bool) -> list[tuple[str, int]]:
+    """Split literal text into pieces (word, whitespace run, single character) with their RE2 cost."""
+    pieces: list[tuple[str, int]] = []
+    i, n = 0, len(text)
+    while i < n:
+        ch = text[i]
+        j = i + 1
+        if ch in _SPACES:
+            while j < n and text[j] in _SPACES:
+                j += 1
+            if spaces:
+                pieces.append((r"\s+", _SPACE_COST))
+                i = j
+                continue
+        elif ch.isalnum() or ch == "_":
+            while j < n and (text[j].isalnum() or text[j] == "_"):
+                j += 1
+        chunk = text[i:j]
+        pieces.append((_escape(chunk), len(chunk.encode("utf-8", "surrogatepass")) + 1))
+        i = j
+    return pieces
+
+
+def propose(line: str, index: int, *, node: str | None = None, generalise_spaces: bool = True) -> Proposal:
+    """Propose an RE2 pattern for lines like `line`, capturing its `index`-th number (0-based).
+
+    The line's text is escaped literally, the chosen number becomes ``(ANY_NUMBER_PATTERN)``, every other
+    number ``NUMBER_PATTERN`` (or ``ANY_NUMBER_PATTERN`` when it is a nan or an infinity), and (by
+    default) every whitespace run ``\\s+``. The pattern is anchored
+    ``^…$`` when it covers the whole line; on a long line it covers as much context around the number
+    as keeps its RE2 program well under `MAX_PROGRAM_SIZE`. The proposal is checked: it matches `line`
+    and captures exactly the chosen number, or `ProposalError` is raised.
+
+    Args:
+        line: the log line's message text.
+        index: which number, 0-based, among ``find_numbers(line)``.
+        node: the logger that wrote the line; becomes the proposal's node filter.
+        generalise_spaces: write whitespace runs as ``\\s+`` (True) or literally.
+
+    Raises:
+        ProposalError: `index` is out of range, or no pattern captures that number unambiguously.
+
+    Example:
+        ``propose("battery=87% 12.1V", 0).pattern`` is ``^battery\\=(N)\\%\\s+NV$`` where ``N`` stands
+        for `NUMBER_PATTERN`.
+    """
+    numbers = find_numbers(line)
+    if not numbers:
+        raise ProposalError(f"no number in the line {_short(line)!r}")
+    if not 0 <= index < len(numbers):
+        raise ProposalError(
+            f"number {index + 1} does not exist: the line has {len(numbers)} number(s) "
+            f"({', '.join(n.text for n in numbers[:10])}{', …' if len(numbers) > 10 else ''})"
+        )
+    visible, cut = _visible(line)
+    target = numbers[index]
+    failure = ""
+    for keep_numbers in (False, True):
+        budget = _PROPOSAL_BUDGET
+        while budget >= 100:
+            body, at_start, at_end = _build(
+                visible, numbers, index, budget, keep_numbers=keep_numbers, spaces=generalise_spaces
+            )
+            at_end = at_end and not cut
+            pattern = ("^" if at_start else "") + body + ("$" if at_end else "")
+            try:
+                compiled = re2.compile(pattern, options=_OPTIONS)
+            except re2.error as exc:  # pragma: no cover - every piece is escaped or a fixed pattern
+                raise ProposalError(f"internal error: proposed pattern does not compile: {exc}") from None
+            if compiled._regexp.ProgramSize() > MAX_PROGRAM_SIZE:
+                budget = budget * 2 // 3
+                continue
+            m = compiled.search(visible)
+            if m is not None and m.span(1) == (target.start, target.end):
+                return Proposal(pattern, body, at_start, at_end, target, index, line, node, compiled)
+            failure = "the text around it repeats earlier in the line"
+            break
+    raise ProposalError(f"cannot propose a pattern for number {index + 1} ({target.text}): {failure}")
+
+
+def _build(
+    visible: str,
+    numbers: list[NumberSpan],
+    index: int,
+    budget: int,
+    *,
+    keep_numbers: bool,
+    spaces: bool,
+) -> tuple[str, bool, bool]:
+    """Return the body of a pattern around ``numbers[index]`` within `budget`, and whether it reaches
+    the start and the end of `visible`."""
+    target = numbers[index]
+    lo = max(0, target.start - budget)
+    hi = min(len(visible), target.end + budget)
+    left: list[tuple[str, int]] = []  # pieces before the number, in text order
+    right: list[tuple[str, int]] = []
+    cursor = lo
+    for n in numbers:
+        if n.end <= lo or n.start >= hi or n is target:
+            if n is target:
+                left.extend(_text_pieces(visible[cursor : n.start], spaces))
+                cursor = n.end
+            continue
+        if n.start < lo:
+            continue
+        dest = left if n.start < target.start else right
+        dest.extend(_text_pieces(visible[cursor : n.start], spaces))
+        if keep_numbers:
+            dest.append((_escape(n.text), len(n.text) + 1))
+        elif math.isfinite(n.value):
+            dest.append((NUMBER_PATTERN, _NUMBER_COST))
+        else:
+            dest.append((f"(?:{ANY_NUMBER_PATTERN})", _NUMBER_COST * 2))
+        cursor = n.end
+    right.extend(_text_pieces(visible[cursor:hi], spaces))
+    total = _NUMBER_COST * 2
+    i, j = len(left), 0  # left[i:] and right[:j] are taken
+    grew = True
+    while grew:
+        grew = False
+        if i > 0 and total + left[i - 1][1] <= budget:
+            i -= 1
+            total += left[i][1]
+            grew = True
+        if j < len(right) and total + right[j][1] <= budget:
+            total += right[j][1]
+            j += 1
+            grew = True
+    body = "".join(p for p, _ in left[i:]) + f"({ANY_NUMBER_PATTERN})" + "".join(p for p, _ in right[:j])
+    return body, i == 0 and lo == 0, j == len(right) and hi == len(visible)
+
+
+def _short(text: str, limit: int = 80) -> str:
+    return text if len(text) <= limit else f"{text[:limit]}… ({len(text)} chars)"
+
+
+# --- preview over stored lines ----------------------------------------------------------------------
+
+
+def _ungrouped(body: str) -> str:
+    """`body` with the capture group made non-capturing (the only ``(`` not followed by ``?``)."""
+    marker = f"({ANY_NUMBER_PATTERN})"
+    return body.replace(marker, f"(?:{ANY_NUMBER_PATTERN})", 1)
+
+
+_CHAIN: Final = 4
+"""Lines captured per RE2 call in a preview: RE2's one-pass engine handles up to 4 groups per call."""
+
+
+@dataclass(frozen=True, slots=True)
+class _PreviewRegexes:
+    runs: re2._Regexp
+    """Runs of consecutive matching lines in the joined text (no capture: RE2's DFA only)."""
+    capture: re2._Regexp
+    """Up to `_CHAIN` consecutive lines from a separator, capturing each line's number."""
+
+
+def _preview_regexes(proposal: Proposal) -> _PreviewRegexes:
+    lead = r"\x00" if proposal.anchored_start else r"\x00[^\x00\x01]*?"
+    trail = r"\x01" if proposal.anchored_end else r"[^\x00\x01]*\x01"
+    options = re2.Options()
+    options.log_errors = False
+    options.max_mem = 32 << 20
+    runs = re2.compile(f"(?:{lead}{_ungrouped(proposal.body)}{trail})+", options=options)
+    one = lead + proposal.body + trail
+    chain = one
+    for _ in range(_CHAIN - 1):
+        chain = f"{one}(?:{chain})?"
+    return _PreviewRegexes(runs, re2.compile(chain, options=options))
+
+
+def match_lines(
+    proposal: Proposal, lines: Sequence[str], *, nodes: Sequence[str] | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """Return the indices of the `lines` the proposal matches and the value it takes from each.
+
+    Each line is read as a matcher reads it (its first `MAX_LINE` bytes). With `nodes` (the logger of
+    each line) and a proposal with a node, only that node's lines count (exact name or fnmatch glob).
+
+    Args:
+        proposal: from `propose`.
+        lines: the stored lines' message texts.
+        nodes: the logger name of each line, or None to ignore the proposal's node.
+
+    Returns:
+        ``(rows, values)``: int64 indices into `lines`, ascending, and float64 values.
+    """
+    rows_in: np.ndarray | None = None
+    selected: Sequence[str] = lines
+    if nodes is not None and proposal.node is not None:
+        if len(nodes) != len(lines):
+            raise ValueError(f"nodes has {len(nodes)} entries for {len(lines)} lines")
+        want = proposal.node
+        if any(c in want for c in "*?["):
+            keep = [i for i, n in enumerate(nodes) if fnmatch.fnmatchcase(n, want)]
+        else:
+            keep = [i for i, n in enumerate(nodes) if n == want]
+        rows_in = np.asarray(keep, dtype=np.int64)
+        selected = [lines[i] for i in keep]
+    rows, values = _match_selected(proposal, selected)
+    if rows_in is not None:
+        rows = rows_in[rows]
+    return rows, values
+
+
+def preview(
+    proposal: Proposal, lines: Sequence[str], *, nodes: Sequence[str] | None = None
+) -> tuple[int, np.ndarray]:
+    """Return how many of `lines` the proposal matches and the values it takes from them, in order.
+
+    Args:
+        proposal: from `propose`.
+        lines: the stored lines' message texts.
+        nodes: the logger of each line (the proposal's node filter applies), or None.
+    """
+    rows, values = match_lines(proposal, lines, nodes=nodes)
+    return len(rows), values
+
+
+def _cut_all(lines: Sequence[str]) -> list[str] | Sequence[str]:
+    """`lines`, each cut to what a matcher reads (only long lines are touched)."""
+    if max(map(len, lines)) * 4 <= MAX_LINE:
+        return lines
+    return [_visible(s)[0] for s in lines]
+
+
+def _match_selected(proposal: Proposal, lines: Sequence[str]) -> tuple[np.ndarray, np.ndarray]:
+    empty = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.float64))
+    if not lines:
+        return empty
+    lines = _cut_all(lines)
+    if "\x00" in proposal.line or "\x01" in proposal.line:
+        return _match_slow(proposal, lines)
+    joined = "\x00" + "\x01\x00".join(lines) + "\x01"
+    data = joined.encode("utf-8", "surrogatepass")
+    marks = np.frombuffer(data, dtype=np.uint8)
+    starts = np.flatnonzero(marks == 0)
+    if len(starts) != len(lines) or np.count_nonzero(marks == 1) != len(lines):
+        return _match_slow(proposal, lines)  # a line holds a separator byte itself
+    regexes = _preview_regexes(proposal)
+    find_run = regexes.runs._regexp.Match
+    capture = regexes.capture._regexp.Match
+    line_starts = starts.tolist()
+    end = len(data)
+    pos = 0
+    rows: list[int] = []
+    texts: list[bytes] = []
+    while pos < end:
+        run_start, run_end = find_run(_UNANCHORED, data, pos, end)[0]
+        if run_start < 0:
+            break
+        first = bisect.bisect_left(line_starts, run_start)  # every line of the run matches
+        last = bisect.bisect_left(line_starts, run_end, first)
+        rows.extend(range(first, last))
+        line_starts.append(end)
+        for row in range(first, last, _CHAIN):
+            stop = line_starts[min(row + _CHAIN, last)]
+            spans = capture(_ANCHOR_START, data, line_starts[row], stop)
+            texts.extend([data[s:e] for s, e in spans[1 : 1 + min(_CHAIN, last - row)]])
+        line_starts.pop()
+        pos = run_end
+    if not rows:
+        return empty
+    values = np.fromiter(map(float, texts), dtype=np.float64, count=len(texts))
+    return np.asarray(rows, dtype=np.int64), values
+
+
+def _match_slow(proposal: Proposal, lines: Sequence[str]) -> tuple[np.ndarray, np.ndarray]:
+    """Line by line (for lines that contain the separator bytes ``\\x00``/``\\x01``)."""
+    rows: list[int] = []
+    values: list[float] = []
+    search = proposal.compiled.search
+    for i, line in enumerate(lines):
+        m = search(line)
+        if m is not None:
+            rows.append(i)
+            values.append(float(m.group(1)))
+    return np.asarray(rows, dtype=np.int64), np.asarray(values, dtype=np.float64)
+
+
+# --- rules and helpers --------------------------------------------------------------------------------
+
+_LEVEL_NAMES: Final = ("debug", "info", "warn", "error", "fatal")
+
+
+def _tag_problem(tag: str) -> str | None:
+    """Why `tag` is not a valid dbglog tag (same rules as ``dbglog.api._tags.tag_problem``), or None."""
+    if not tag:
+        return "it is empty"
+    for ch in tag:
+        if not (ch.isascii() and (ch.isalnum() or ch in "_/")):
+            return f"character {ch!r} is not allowed (only A-Z a-z 0-9 _ /)"
+    if tag.startswith("/") or tag.endswith("/") or "//" in tag:
+        return "it must not start or end with '/' or contain '//'"
+    for part in tag.split("/"):
+        if part[:1].isdigit():
+            return f"its part {part!r} starts with a digit"
+    return None
+
+
+def _yaml_quoted(text: str) -> str:
+    """`text` as a YAML single-quoted scalar (every character of a proposal is printable)."""
+    return "'" + text.replace("'", "''") + "'"
+
+
+def to_bridge_yaml(proposal: Proposal, tag: str, *, level: str | None = None) -> str:
+    """Return a rules file (YAML) with one ``dbglog bridge`` rule for `proposal`, publishing `tag`.
+
+    Args:
+        proposal: from `propose`; its node becomes the rule's ``node``.
+        tag: where the values go (``/rosdashboard/<tag>``).
+        level: an optional minimum level (debug, info, warn, error, fatal).
+
+    Raises:
+        ValueError: `tag` is not a valid tag or `level` not a level name.
+    """
+    why = _tag_problem(tag)
+    if why is not None:
+        raise ValueError(f"invalid tag {tag!r}: {why}")
+    lines = ["rules:", f"  - tag: {tag}"]
+    if proposal.node is not None:
+        lines.append(f"    node: {_yaml_quoted(proposal.node)}")
+    if level is not None:
+        if level.lower() not in _LEVEL_NAMES:
+            raise ValueError(f"unknown level {level!r} (one of: {', '.join(_LEVEL_NAMES)})")
+        lines.append(f"    level: {level.lower()}")
+    lines.append(f"    pattern: {_yaml_quoted(proposal.pattern)}")
+    return "\n".join(lines) + "\n"
+
+
+def suggest_tag(proposal: Proposal) -> str:
+    """Return a tag named after the word just before the number (``battery=87%`` → ``battery``).
+
+    Falls back to the unit (``12ms`` → ``ms``) and then to ``value``; always a valid tag.
+    """
+    before = proposal.line[: proposal.number.start]
+    word: list[str] = []
+    for ch in reversed(before):
+        if ch.isascii() and (ch.isalnum() or ch == "_"):
+            word.append(ch)
+        elif word:
+            break
+    name = "".join(reversed(word)).lower().lstrip("0123456789_")
+    unit = "".join(c for c in proposal.number.unit if c.isascii() and (c.isalnum() or c == "_")).lower()
+    for candidate in (name, unit.lstrip("0123456789_")):
+        if candidate:
+            return candidate[:60]
+    return "value"
+
+
+_CONSOLE_LEVELS: Final = {
+    "DEBUG": "debug",
+    "INFO": "info",
+    "WARN": "warn",
+    "ERROR": "error",
+    "FATAL": "fatal",
+}
+
+
+def parse_console_line(text: str) -> tuple[str, str, str] | None:
+    """Split a line as rcl prints it, ``[INFO] [1732200000.123] [node]: message``, into
+    ``(level, node, message)``; None when `text` is not in that form."""
+    if not text.startswith("["):
+        return None
+    level, sep, rest = text[1:].partition("] [")
+    if not sep or level not in _CONSOLE_LEVELS:
+        return None
+    stamp, sep, rest = rest.partition("] [")
+    if not sep or not stamp.replace(".", "", 1).isdigit():
+        return None
+    node, sep, message = rest.partition("]: ")
+    if not sep or not node:
+        return None
+    return _CONSOLE_LEVELS[level], node, message
