@@ -57,7 +57,7 @@ _TEXT = st.text(
     max_size=12,
 )
 _BEFORE = st.sampled_from([" ", "=", ": ", "(", "[", ", ", "\t", " |", "{"])
-_AFTER = st.sampled_from(["", " ", ",", ")", "]", ";", "%", " |", "}"])
+_AFTER = st.sampled_from([" ", ",", ")", "]", ";", "%", " |", "}"])
 _UNIT = st.sampled_from(["", "", "m", "ms", "V", "deg", "Hz", "µs"])
 
 
