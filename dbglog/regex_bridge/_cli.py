@@ -1,4 +1,5 @@
-"""``dbglog bridge RULES.yaml``: run the regex bridge node; ``--check`` only validates the rules file."""
+"""``dbglog bridge RULES.yaml``: run the regex bridge node; ``--check`` only validates the rules file;
+``dbglog bridge suggest LINE`` prints a rule for a number of a log line."""
 
 from __future__ import annotations
 
@@ -19,7 +20,19 @@ HELP = "Publish numbers found in existing log lines as typed /rosdashboard topic
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Declare the bridge's options."""
-    parser.add_argument("rules", metavar="RULES.yaml", help="the rules file (YAML, see docs/bridge.md)")
+    parser.add_argument(
+        "rules",
+        metavar="RULES.yaml",
+        help="the rules file (YAML, see docs/bridge.md); or the word 'suggest' followed by a log line, "
+        "to print a rule for one of its numbers (dbglog bridge suggest 'battery=87%%')",
+    )
+    parser.add_argument(
+        "line",
+        nargs="?",
+        metavar="LINE",
+        help="with 'suggest': the log line (its message, or a whole line as ROS prints it: "
+        "'[INFO] [1732200000.1] [node]: message', whose node then becomes the rule's node)",
+    )
     parser.add_argument(
         "--check",
         action="store_true",
@@ -46,6 +59,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="keep nothing between runs: a bridge restarted within 10 s publishes /rosout's recent "
         "history again",
     )
+    suggest = parser.add_argument_group("suggest options")
+    suggest.add_argument(
+        "--number",
+        type=int,
+        metavar="K",
+        help="which number of the line the rule captures, counting from 1 (default: 1; the numbers "
+        "found are listed at the top of the output)",
+    )
+    suggest.add_argument("--tag", help="the rule's tag (default: the word before the number)")
+    suggest.add_argument(
+        "--node", help="the rule's node filter (default: the node of a ROS-formatted line, else none)"
+    )
+    suggest.add_argument("--level", help="the rule's minimum level: debug, info, warn, error or fatal")
 
 
 def default_state_dir() -> Path:
@@ -56,7 +82,21 @@ def default_state_dir() -> Path:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Validate the rules; unless ``--check``, run the bridge until SIGINT or SIGTERM (exit 0)."""
+    """Validate the rules; unless ``--check``, run the bridge until SIGINT or SIGTERM (exit 0).
+
+    ``suggest LINE`` prints a rule for one number of LINE instead.
+    """
+    if args.rules == "suggest":
+        return suggest(args)
+    extra = [f"--{name}" for name in ("number", "tag", "node", "level") if getattr(args, name) is not None]
+    if args.line is not None or extra:
+        given = f"argument {args.line!r}" if args.line is not None else ", ".join(extra)
+        print(
+            f"dbglog bridge: unexpected {given}: only 'dbglog bridge suggest LINE' takes a line and "
+            "--number/--tag/--node/--level (a rules file named 'suggest' is ./suggest)",
+            file=sys.stderr,
+        )
+        return 2
     try:
         rules = load_rules(args.rules)
     except RulesError as exc:
@@ -101,3 +141,56 @@ def run(args: argparse.Namespace) -> int:
         for signum, handler in previous.items():
             signal.signal(signum, handler)
     return 0
+
+
+def suggest(args: argparse.Namespace) -> int:
+    """Print, as a rules file, the rule proposed for the K-th number of a line (exit 2 if there is none)."""
+    from dbglog._regex._propose import (
+        ProposalError,
+        find_numbers,
+        parse_console_line,
+        propose,
+        suggest_tag,
+        to_bridge_yaml,
+    )
+
+    if args.line is None:
+        print(
+            "dbglog bridge suggest: give the log line, e.g. dbglog bridge suggest 'battery=87%'",
+            file=sys.stderr,
+        )
+        return 2
+    if args.number is not None and args.number < 1:
+        print(f"dbglog bridge suggest: --number counts from 1, not {args.number}", file=sys.stderr)
+        return 2
+    line: str = args.line
+    node: str | None = args.node
+    notes: list[str] = []
+    console = parse_console_line(line)
+    if console is not None:
+        level, logger, line = console
+        node = node if node is not None else logger
+        notes.append(f"# read as a ROS console line: level {level}, node {logger}; matching its message")
+    numbers = find_numbers(line)
+    if not numbers:
+        print(f"dbglog bridge suggest: no number in the line {_shown(line)!r}", file=sys.stderr)
+        return 2
+    k = args.number or 1
+    try:
+        proposal = propose(line, k - 1, node=node or None)
+        text = to_bridge_yaml(proposal, args.tag or suggest_tag(proposal), level=args.level)
+    except (ProposalError, ValueError) as exc:
+        print(f"dbglog bridge suggest: {exc}", file=sys.stderr)
+        return 2
+    listed = "  ".join(f"{i}) {n.text}{n.unit}" for i, n in enumerate(numbers[:20], start=1))
+    more = f"  … ({len(numbers)} numbers)" if len(numbers) > 20 else ""
+    notes.append(f"# numbers in the line: {listed}{more}")
+    hint = "" if args.number is not None or len(numbers) == 1 else "; --number K for another"
+    notes.append(f"# this rule captures number {k} ({proposal.number.text}){hint}")
+    print("\n".join(notes))
+    print(text, end="")
+    return 0
+
+
+def _shown(text: str, limit: int = 80) -> str:
+    return text if len(text) <= limit else f"{text[:limit]}… ({len(text)} chars)"
