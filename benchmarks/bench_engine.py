@@ -109,8 +109,8 @@ def _receiver(args: argparse.Namespace) -> None:
 
     threading.Thread(target=watch_stdin, daemon=True).start()
     if args.role == "engine":
-        from dbglog.viewer._engine import Engine
-        from dbglog.viewer._model import Binding
+        from dbglog.viewer._data._engine import Engine
+        from dbglog.viewer._data._model import Binding
 
         kwargs = {"queue_budget": args.queue_budget} if args.queue_budget else {}
         engine = Engine(measure_latency=bool(args.latency), history=args.history, **kwargs)

@@ -20,9 +20,9 @@ import numpy as np
 import numpy.typing as npt
 
 from benchmarks._common import local_ros_env, median_ns_per_call, print_table
-from dbglog.viewer import _expr
-from dbglog.viewer._expr import Formula, parse_formula
-from dbglog.viewer._transforms import TransformChain
+from dbglog.viewer._values import _expr
+from dbglog.viewer._values._expr import Formula, parse_formula
+from dbglog.viewer._values._transforms import TransformChain
 
 F64 = npt.NDArray[np.float64]
 

@@ -5,7 +5,7 @@ Run: ``.venv/bin/python benchmarks/bench_probe.py [--before /tmp/dbglog-before]`
 Each run is a fresh publisher process: a 1 kHz loop with ~25 µs of its own work that sleeps to the next
 deadline and, per iteration, makes 10 calls (6x ``logfloat``, 2x ``logint``, ``logbool``, ``logstring``
 throttled to 10 Hz) - or the same publishes with raw rclpy, or nothing. With ``sub``, a real viewer
-engine (``dbglog.viewer._engine.Engine`` of the same source tree) runs in another process, bound to the
+engine (``dbglog.viewer._data._engine.Engine`` of the same source tree) runs in another process, bound to the
 10 tags, and reports how many samples reached its series, in order, and the publish -> series latency.
 Per-call times are taken around each call (``perf_counter_ns``; the "no calls" row shows that
 clock's own cost). CPU is the publisher process's, all threads (``/proc/self/stat``), minus the loop's
@@ -225,8 +225,8 @@ def publisher(mode: str, seconds: float) -> None:
 
 def subscriber(expect: int, history: int) -> None:
     """Bind the 10 tags in a real engine; print ``bound``, then counts/order/latency on a stdin line."""
-    from dbglog.viewer._engine import Engine
-    from dbglog.viewer._model import Binding
+    from dbglog.viewer._data._engine import Engine
+    from dbglog.viewer._data._model import Binding
 
     bindings = [Binding("/rosdashboard/" + tag) for tag in _TAGS]
     with Engine(history=history, measure_latency=True, node_name="probe_viewer") as engine:

@@ -137,16 +137,16 @@ def _ui(args: argparse.Namespace) -> None:
     """Build the dashboard, render for the warm-up plus the measured time, print frame times as JSON."""
     import dearpygui.dearpygui as dpg
 
-    from dbglog.viewer._geometry import Rect
-    from dbglog.viewer._model import Binding
-    from dbglog.viewer._model import DataSource as _DataSource
+    from dbglog.viewer._data._model import Binding
+    from dbglog.viewer._data._model import DataSource as _DataSource
     from dbglog.viewer._ui import StaticSource, ViewerApp
     from dbglog.viewer._widgets import WidgetRegistry
+    from dbglog.viewer._widgets._geometry import Rect
 
     engine: Any = None
     source: _DataSource
     if args.source == "engine":
-        from dbglog.viewer._engine import Engine
+        from dbglog.viewer._data._engine import Engine
 
         engine = Engine(stale_after=2.0)
         engine.start()

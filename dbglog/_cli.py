@@ -27,8 +27,8 @@ class _Command(Protocol):
 _COMMANDS: dict[str, str] = {
     "bridge": "dbglog.regex_bridge._cli",
     "view": "dbglog.viewer._cli_view",
-    "tags": "dbglog.viewer._cli_tags",
-    "echo": "dbglog.viewer._cli_echo",
+    "tags": "dbglog.viewer._cli._cli_tags",
+    "echo": "dbglog.viewer._cli._cli_echo",
     "record": "dbglog.record._cli",
     "demo": "dbglog._demo._cli",
 }

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from dbglog.viewer._dashboard import WidgetConfig, parse_dashboard
+from dbglog.viewer._document._dashboard import WidgetConfig, parse_dashboard
 from dbglog.viewer._widgets import WidgetRegistry
 from tests.test_demo import display as display  # the shared fixture: a display for the viewer
 from tests.test_ui import read_png
@@ -91,10 +91,10 @@ def run_here(tmp: str) -> None:
     """Child-process body (one Dear PyGui context each): auto-add around a user's move, then swap kinds."""
     warnings.simplefilter("error")
     warnings.filterwarnings("ignore", "module 'sre_", DeprecationWarning)
-    from dbglog.viewer._geometry import Rect
-    from dbglog.viewer._model import Binding
+    from dbglog.viewer._data._model import Binding
     from dbglog.viewer._ui import StaticSource, ViewerApp
     from dbglog.viewer._ui._auto import AutoDashboard
+    from dbglog.viewer._widgets._geometry import Rect
 
     source = StaticSource()
     app = ViewerApp(source, WidgetRegistry.builtin(), width=1200, height=800)

@@ -7,8 +7,8 @@ import itertools
 from hypothesis import given
 from hypothesis import strategies as st
 
-from dbglog.viewer._autodash import AutoLayout, retype, suggest
-from dbglog.viewer._model import Binding, FieldInfo, TopicInfo
+from dbglog.viewer._data._model import Binding, FieldInfo, TopicInfo
+from dbglog.viewer._document._autodash import AutoLayout, retype, suggest
 
 
 def _tag(name: str, msg_type: str) -> TopicInfo:
@@ -116,7 +116,7 @@ def test_layout_groups_rows_and_never_overlaps() -> None:
 )
 def test_layout_property_no_overlap_within_columns(items: list[tuple[str, str]], columns: int) -> None:
     """Whatever arrives in whatever order, widgets stay inside the columns and never overlap."""
-    from dbglog.viewer._autodash import Suggestion
+    from dbglog.viewer._document._autodash import Suggestion
 
     layout = AutoLayout(columns=columns)
     placed = []
@@ -155,7 +155,7 @@ def test_fit_columns_fills_the_width() -> None:
 
 def test_retype_keeps_name_place_bindings_and_shared_properties() -> None:
     """A swapped kind keeps name, place, bindings (as many as fit) and valid shared properties."""
-    from dbglog.viewer._dashboard import WidgetConfig
+    from dbglog.viewer._document._dashboard import WidgetConfig
     from dbglog.viewer._widgets._gauges import DialWidget, ThermoWidget
 
     binds = (Binding("/rosdashboard/a"), Binding("/rosdashboard/b"))

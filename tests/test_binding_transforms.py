@@ -18,9 +18,9 @@ import pytest
 from geometry_msgs.msg import Twist
 from std_msgs.msg import Bool, Float64, String
 
-from dbglog.viewer._dashboard import WidgetConfig, load_dashboard, parse_dashboard
-from dbglog.viewer._engine import Engine
-from dbglog.viewer._model import Binding, Status, ValueKind, binding_transforms, canonical_transforms
+from dbglog.viewer._data._engine import Engine
+from dbglog.viewer._data._model import Binding, Status, ValueKind, binding_transforms, canonical_transforms
+from dbglog.viewer._document._dashboard import WidgetConfig, load_dashboard, parse_dashboard
 from dbglog.viewer._widgets import WidgetRegistry
 from tests._ros import RosPeer, wait_until
 

@@ -19,7 +19,7 @@ import pytest
 from geometry_msgs.msg import Twist
 from std_msgs.msg import Bool, Float64
 
-from dbglog.viewer._interfaces import (
+from dbglog.viewer._data._interfaces import (
     InterfaceError,
     fill_message,
     form_fields,
@@ -27,8 +27,8 @@ from dbglog.viewer._interfaces import (
     message_type,
     normalize_type,
 )
-from dbglog.viewer._model import Status
-from dbglog.viewer._publish import PublishRequest, PublishService
+from dbglog.viewer._data._model import Status
+from dbglog.viewer._publishing._publish import PublishRequest, PublishService
 from dbglog.viewer._widgets._controls import parse_message, slider_value
 from tests._ros import RosPeer, wait_until
 
@@ -202,7 +202,7 @@ def _viewer(engine: Any) -> Any:
 
 
 def _control(app: Any, type_name: str, topic: str, fld: str = "", **props: Any) -> Any:
-    from dbglog.viewer._model import Binding
+    from dbglog.viewer._data._model import Binding
 
     item = app.add_widget(type_name, 20 + 30 * len(app.items), 20 + 40 * len(app.items))
     assert item is not None, type_name
@@ -217,7 +217,7 @@ def scenario_toggle_and_text(tmp: Path) -> None:
     import dearpygui.dearpygui as dpg
     from std_msgs.msg import String
 
-    from dbglog.viewer._engine import Engine
+    from dbglog.viewer._data._engine import Engine
 
     with RosPeer("controls_ui_peer") as peer, Engine() as engine:
         flags = peer.subscribe("/ctl_ui/autopilot", Bool)
@@ -264,7 +264,7 @@ def scenario_sliders_teleop(tmp: Path) -> None:
     """Two sliders on one Twist topic (linear.x, angular.z) publish what they show, composed, rate limited."""
     import dearpygui.dearpygui as dpg
 
-    from dbglog.viewer._engine import Engine
+    from dbglog.viewer._data._engine import Engine
 
     with RosPeer("controls_slider_peer") as peer, Engine() as engine:
         cmds = peer.subscribe("/ctl_ui/cmd_vel", Twist)
@@ -320,7 +320,7 @@ def scenario_button_and_publish(tmp: Path) -> None:
     import dearpygui.dearpygui as dpg
     from geometry_msgs.msg import Vector3
 
-    from dbglog.viewer._engine import Engine
+    from dbglog.viewer._data._engine import Engine
 
     with RosPeer("controls_button_peer") as peer, Engine() as engine:
         cmds = peer.subscribe("/ctl_ui/button_cmd", Twist)
@@ -368,7 +368,7 @@ def scenario_button_and_publish(tmp: Path) -> None:
 
 def scenario_type_clash(tmp: Path) -> None:
     """A control on a topic of another type shows a red error pill naming both types; nothing is sent."""
-    from dbglog.viewer._engine import Engine
+    from dbglog.viewer._data._engine import Engine
 
     with RosPeer("controls_clashui_peer") as peer, Engine() as engine:
         flags = peer.subscribe("/ctl_ui/clash_flag", Bool)
@@ -401,9 +401,9 @@ def scenario_steer_the_demo_robot(tmp: Path) -> None:
     import threading
 
     from dbglog._demo import _robot
-    from dbglog.viewer._dashboard import load_dashboard
-    from dbglog.viewer._engine import Engine
-    from dbglog.viewer._model import Binding
+    from dbglog.viewer._data._engine import Engine
+    from dbglog.viewer._data._model import Binding
+    from dbglog.viewer._document._dashboard import load_dashboard
 
     stop = threading.Event()
     robot = threading.Thread(target=_robot.run, args=(None, stop), daemon=True)

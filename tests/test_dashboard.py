@@ -12,7 +12,8 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from dbglog.viewer._dashboard import (
+from dbglog.viewer._data._model import Binding
+from dbglog.viewer._document._dashboard import (
     FORMAT,
     VERSION,
     Dashboard,
@@ -24,7 +25,6 @@ from dbglog.viewer._dashboard import (
     parse_dashboard,
     save_dashboard,
 )
-from dbglog.viewer._model import Binding
 from dbglog.viewer._widgets import WidgetRegistry
 from dbglog.viewer.widget_api import PropKind
 

@@ -24,7 +24,8 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from dbglog.viewer._dashboard import (
+from dbglog.viewer._data._model import Binding
+from dbglog.viewer._document._dashboard import (
     FORMAT,
     MAX_DEPTH,
     MAX_FILE_BYTES,
@@ -42,7 +43,6 @@ from dbglog.viewer._dashboard import (
     save_dashboard,
     text_problem,
 )
-from dbglog.viewer._model import Binding
 from dbglog.viewer._widgets import WidgetRegistry
 from tests._xvfb import x_display
 
@@ -474,7 +474,7 @@ nested = st.recursive(
 @settings(max_examples=200, deadline=None)
 def test_depth_cut_matches_a_reference(value: object, keep: int) -> None:
     """The vectorised depth cut treats brackets, quotes and backslashes inside strings as text."""
-    from dbglog.viewer._dashboard import _clip_depth
+    from dbglog.viewer._document._dashboard import _clip_depth
 
     raw = json.dumps(value, ensure_ascii=False).encode("utf-8")
     clipped = _clip_depth(raw, keep)
@@ -525,7 +525,7 @@ def test_save_keeps_the_mode_and_new_files_follow_the_umask(tmp_path: Path) -> N
     assert stat.S_IMODE(path.stat().st_mode) == 0o664
     assert stat.S_IMODE((tmp_path / "d.json.bak").stat().st_mode) == 0o664
     code = (
-        "import os, sys; from dbglog.viewer._dashboard import Dashboard, save_dashboard; "
+        "import os, sys; from dbglog.viewer._document._dashboard import Dashboard, save_dashboard; "
         "os.umask(int(sys.argv[2], 8)); save_dashboard(Dashboard(), sys.argv[1])"
     )
     for umask, mode in (("022", 0o644), ("027", 0o640), ("002", 0o664)):
@@ -585,7 +585,7 @@ def test_killed_saves_leave_nothing_after_the_next_save(tmp_path: Path) -> None:
     path = tmp_path / "d.json"
     save_dashboard(_board("start"), path)
     code = (
-        "import sys; from dbglog.viewer._dashboard import Dashboard, WidgetConfig, save_dashboard\n"
+        "import sys; from dbglog.viewer._document._dashboard import Dashboard, WidgetConfig, save_dashboard\n"
         "ws = [WidgetConfig('dial', 'w%d' % i + 'x' * 4000, 0, 0, 200, 200) for i in range(1500)]\n"
         "while True: save_dashboard(Dashboard(ws), sys.argv[1])\n"
     )

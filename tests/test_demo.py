@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 
 from dbglog._demo._cli import dashboard_path, rules_path
-from dbglog.viewer._dashboard import load_dashboard
+from dbglog.viewer._document._dashboard import load_dashboard
 from dbglog.viewer._widgets import WidgetRegistry
 from tests._ros import wait_until
 from tests._xvfb import x_display

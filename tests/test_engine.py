@@ -19,8 +19,8 @@ from sensor_msgs.msg import LaserScan
 from std_msgs.msg import Bool, Float64, Float64MultiArray, Int32, MultiArrayDimension, String
 
 from dbglog.api._qos import tag_qos
-from dbglog.viewer._engine import Engine, queue_depth_for
-from dbglog.viewer._model import Binding, SeriesSnapshot, Status, ValueKind
+from dbglog.viewer._data._engine import Engine, queue_depth_for
+from dbglog.viewer._data._model import Binding, SeriesSnapshot, Status, ValueKind
 from tests._ros import RosPeer, wait_until
 
 _ids = itertools.count()

@@ -17,8 +17,8 @@ from collections.abc import Iterator
 import pytest
 from std_msgs.msg import Float64
 
-from dbglog.viewer._engine import Engine
-from dbglog.viewer._model import Binding, SeriesSnapshot, Status, canonical_transforms
+from dbglog.viewer._data._engine import Engine
+from dbglog.viewer._data._model import Binding, SeriesSnapshot, Status, canonical_transforms
 from tests._ros import RosPeer, wait_until
 
 _ids = itertools.count()

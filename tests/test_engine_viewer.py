@@ -23,7 +23,7 @@ from typing import Any
 import pytest
 from std_msgs.msg import Float64, String
 
-from dbglog.viewer._suggest import EMPTY_GRAPH_HINT
+from dbglog.viewer._data._suggest import EMPTY_GRAPH_HINT
 from tests._ros import RosPeer
 
 pytestmark = pytest.mark.gui

@@ -17,8 +17,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from dbglog.viewer import _expr
-from dbglog.viewer._expr import (
+from dbglog.viewer._values import _expr
+from dbglog.viewer._values._expr import (
     MAX_DEPTH,
     MAX_EXPONENT,
     MAX_INDEX,
@@ -28,7 +28,7 @@ from dbglog.viewer._expr import (
     FormulaError,
     parse_formula,
 )
-from dbglog.viewer._transforms import TransformError, transforms_from_json
+from dbglog.viewer._values._transforms import TransformError, transforms_from_json
 
 CORPUS_PATH = Path(__file__).parent / "data" / "escape_corpus.json"
 PACKAGE = Path(_expr.__file__).parent

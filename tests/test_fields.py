@@ -13,8 +13,8 @@ from rclpy.serialization import serialize_message
 from sensor_msgs.msg import Imu, LaserScan
 from std_msgs.msg import Bool, Byte, Float32, Float64, Float64MultiArray, Int8, Int64, String, UInt16
 
-from dbglog.viewer._cdr import decode_fixed
-from dbglog.viewer._fields import (
+from dbglog.viewer._data._cdr import decode_fixed
+from dbglog.viewer._data._fields import (
     FieldPathError,
     fixed_size,
     list_fields,
@@ -22,7 +22,7 @@ from dbglog.viewer._fields import (
     parse_path,
     resolve,
 )
-from dbglog.viewer._model import ValueKind
+from dbglog.viewer._data._model import ValueKind
 
 finite = st.floats(allow_nan=False, allow_infinity=False, width=64)
 

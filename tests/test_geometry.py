@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from dbglog.viewer._geometry import (
+from dbglog.viewer._widgets._geometry import (
     Part,
     Rect,
     canvas_extent,

@@ -45,8 +45,8 @@ while True:
 
 LAPTOP = """
 import json, sys, time
-from dbglog.viewer._engine import Engine
-from dbglog.viewer._model import Binding
+from dbglog.viewer._data._engine import Engine
+from dbglog.viewer._data._model import Binding
 binding = Binding(sys.argv[1])
 with Engine(stale_after=1.0) as engine:
     engine.bind(binding)

@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from dbglog.viewer._model import Binding, FieldInfo, SeriesSnapshot, Status, ValueKind
+from dbglog.viewer._data._model import Binding, FieldInfo, SeriesSnapshot, Status, ValueKind
 from dbglog.viewer._ui import StaticSource
 from dbglog.viewer._widgets import BUILTIN_WIDGETS, WidgetRegistry
 from dbglog.viewer._widgets._registry import declaration_problem
@@ -302,9 +302,9 @@ def scenario_plugin_in_toolbox_drop_bind_and_draw(app: Any, source: ScanSource, 
 
 def scenario_plugin_properties_save_reopen_resize(app: Any, source: ScanSource, tmp: Path) -> None:
     """The generated properties dialog validates and applies; save, reopen and resize keep it working."""
-    from dbglog.viewer._dashboard import WidgetConfig
-    from dbglog.viewer._geometry import Rect
+    from dbglog.viewer._document._dashboard import WidgetConfig
     from dbglog.viewer._ui._dialogs import PropertiesDialog
+    from dbglog.viewer._widgets._geometry import Rect
 
     item = app.add_widget("laserscan", 20, 20)
     app.apply_bindings(item, (Binding("/scan", "ranges[]"),))
@@ -372,8 +372,8 @@ def scenario_raising_plugins_disabled_others_keep_running(app: Any, source: Scan
     """Plugins raising in create, update or resize are disabled with the reason; the rest keep updating."""
     import dearpygui.dearpygui as dpg
 
-    from dbglog.viewer._geometry import Rect
     from dbglog.viewer._ui._theme import STATUS_COLORS
+    from dbglog.viewer._widgets._geometry import Rect
 
     dial = app.add_widget("dial", 0, 0)
     scan = app.add_widget("laserscan", 260, 0)
@@ -424,7 +424,7 @@ def scenario_missing_plugin_placeholder_saved_back_unchanged(app: Any, source: S
     """Without the plugin, its entry is a placeholder naming what is missing and is saved back as it was."""
     import dearpygui.dearpygui as dpg
 
-    from dbglog.viewer._dashboard import RawWidget
+    from dbglog.viewer._document._dashboard import RawWidget
 
     assert "laserscan" not in app.toolbox_buttons
     entry = {

@@ -25,8 +25,8 @@ from dbglog import DbglogWarning
 from dbglog._ros._batch import BATCH_TOPIC
 from dbglog.api._public import RUNTIME
 from dbglog.api._qos import tag_qos
-from dbglog.viewer._engine import Engine
-from dbglog.viewer._model import Binding, SeriesSnapshot
+from dbglog.viewer._data._engine import Engine
+from dbglog.viewer._data._model import Binding, SeriesSnapshot
 from tests._ros import RosPeer, wait_until
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -7,8 +7,8 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from dbglog.viewer._model import Binding, Status, ValueKind
-from dbglog.viewer._series import Series
+from dbglog.viewer._data._model import Binding, Status, ValueKind
+from dbglog.viewer._data._series import Series
 
 B = Binding("/t")
 

@@ -1,11 +1,11 @@
-"""Close matches and hints for topics nobody publishes (dbglog/viewer/_suggest.py)."""
+"""Close matches and hints for topics nobody publishes (dbglog/viewer/_data/_suggest.py)."""
 
 from __future__ import annotations
 
 from hypothesis import given
 from hypothesis import strategies as st
 
-from dbglog.viewer._suggest import EMPTY_GRAPH_HINT, close_matches, sub_topics, unpublished_reason
+from dbglog.viewer._data._suggest import EMPTY_GRAPH_HINT, close_matches, sub_topics, unpublished_reason
 
 GRAPH = [
     "/rosdashboard/proximity",

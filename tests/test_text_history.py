@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from dbglog.viewer._model import Binding, SeriesSnapshot, Status, ValueKind
+from dbglog.viewer._data._model import Binding, SeriesSnapshot, Status, ValueKind
 from dbglog.viewer._widgets._text import history_lines
 
 

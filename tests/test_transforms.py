@@ -12,7 +12,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from dbglog.viewer._transforms import (
+from dbglog.viewer._values._transforms import (
     MAX_TRANSFORMS,
     MAX_WINDOW,
     Abs,

@@ -23,9 +23,8 @@ import numpy as np
 import numpy.typing as npt
 import pytest
 
-from dbglog.viewer._dashboard import WidgetConfig, load_dashboard
-from dbglog.viewer._geometry import Rect
-from dbglog.viewer._model import Binding, FieldInfo, SeriesSnapshot, Status
+from dbglog.viewer._data._model import Binding, FieldInfo, SeriesSnapshot, Status
+from dbglog.viewer._document._dashboard import WidgetConfig, load_dashboard
 from dbglog.viewer._ui import StaticSource, ViewerApp
 from dbglog.viewer._ui._dialogs import (
     MessageDialog,
@@ -37,6 +36,7 @@ from dbglog.viewer._ui._dialogs import (
 from dbglog.viewer._ui._frame import TITLE_H, CanvasItem
 from dbglog.viewer._ui._theme import STATUS_COLORS
 from dbglog.viewer._widgets import WidgetRegistry
+from dbglog.viewer._widgets._geometry import Rect
 from dbglog.viewer._widgets._plot import PlotWidget
 from dbglog.viewer.widget_api import Widget
 

@@ -39,8 +39,8 @@ SIZE = (1000, 640)
 
 def canvas_dashboard(tmp: Path) -> Path:
     """A dial and a plot at the top, and an LED far below the view (so the canvas scrolls)."""
-    from dbglog.viewer._dashboard import Dashboard, RawWidget, WidgetConfig, save_dashboard
-    from dbglog.viewer._model import Binding
+    from dbglog.viewer._data._model import Binding
+    from dbglog.viewer._document._dashboard import Dashboard, RawWidget, WidgetConfig, save_dashboard
 
     widgets = [
         WidgetConfig("dial", "Gauge", 40, 40, 220, 240, (), {}),
@@ -129,8 +129,8 @@ def run_here(scenario: str, tmp_dir: str) -> None:
     warnings.simplefilter("error")
     import dearpygui.dearpygui as dpg
 
-    from dbglog.viewer._dashboard import load_dashboard
-    from dbglog.viewer._model import FieldInfo
+    from dbglog.viewer._data._model import FieldInfo
+    from dbglog.viewer._document._dashboard import load_dashboard
     from dbglog.viewer._ui import StaticSource, ViewerApp
     from dbglog.viewer._widgets import WidgetRegistry
 

@@ -42,7 +42,7 @@ def cpu_seconds(pid: int) -> float:
 
 def test_idle_view_uses_a_few_percent_of_a_core(display: str, tmp_path: Path) -> None:
     """`dbglog view` on an empty dashboard, left alone, uses a few percent of a core (was 0.75-1.6 cores)."""
-    from dbglog.viewer._dashboard import Dashboard, save_dashboard
+    from dbglog.viewer._document._dashboard import Dashboard, save_dashboard
 
     path = tmp_path / "empty.json"
     save_dashboard(Dashboard([], 20, True), path)

@@ -13,7 +13,7 @@ from typing import Any
 
 import pytest
 
-from dbglog.viewer._model import Binding
+from dbglog.viewer._data._model import Binding
 from dbglog.viewer._ui._dialogs import dashboard_file_name, topic_widget_name
 from tests._xvfb import x_display
 from tests.test_ui_menus import Viewer, center, item_named, start_viewers

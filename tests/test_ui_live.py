@@ -20,8 +20,8 @@ def run_here(tmp: str) -> None:
     import dearpygui.dearpygui as dpg
     from std_msgs.msg import Float64
 
-    from dbglog.viewer._engine import Engine
-    from dbglog.viewer._model import Binding, Status
+    from dbglog.viewer._data._engine import Engine
+    from dbglog.viewer._data._model import Binding, Status
     from dbglog.viewer._ui import ViewerApp
     from dbglog.viewer._ui._dialogs import TopicDialog
     from dbglog.viewer._widgets import WidgetRegistry

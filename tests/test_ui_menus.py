@@ -201,8 +201,8 @@ def _all_children(parent: int | str) -> list[int | str]:
 
 def start_dashboard(tmp: Path) -> Path:
     """The dashboard the tests open: a dial on the speed topic and an LED without one."""
-    from dbglog.viewer._dashboard import Dashboard, RawWidget, WidgetConfig, save_dashboard
-    from dbglog.viewer._model import Binding
+    from dbglog.viewer._data._model import Binding
+    from dbglog.viewer._document._dashboard import Dashboard, RawWidget, WidgetConfig, save_dashboard
 
     widgets = [
         WidgetConfig("dial", "Speed", 40, 40, 240, 260, (Binding("/rosdashboard/speed", "data"),), {}),
@@ -217,7 +217,7 @@ def start_dashboard(tmp: Path) -> Path:
 def run_here(scenario: str, tmp_dir: str) -> None:
     """Child-process entry: open the start dashboard (or none) and run the viewer until it closes."""
     warnings.simplefilter("error")
-    from dbglog.viewer._dashboard import load_dashboard
+    from dbglog.viewer._document._dashboard import load_dashboard
     from dbglog.viewer._ui import ViewerApp
     from dbglog.viewer._widgets import WidgetRegistry
     from tests.test_ui import make_source

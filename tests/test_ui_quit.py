@@ -213,7 +213,7 @@ PLANS: dict[str, list[str]] = {
 
 def start_dashboard(tmp: Path) -> Path:
     """Write the dashboard the scenarios open: a toggle and a slider without topics, and a dial."""
-    from dbglog.viewer._dashboard import Dashboard, RawWidget, WidgetConfig, save_dashboard
+    from dbglog.viewer._document._dashboard import Dashboard, RawWidget, WidgetConfig, save_dashboard
 
     widgets = [
         WidgetConfig("toggle", "Lamp", 20, 20, 200, 98, (), {"state": False}),
@@ -343,7 +343,7 @@ def run_here(scenario: str, tmp_dir: str) -> None:
     warnings.simplefilter("error")
     import dearpygui.dearpygui as dpg
 
-    from dbglog.viewer._dashboard import WidgetConfig, load_dashboard
+    from dbglog.viewer._document._dashboard import WidgetConfig, load_dashboard
     from dbglog.viewer._ui import StaticSource, ViewerApp
     from dbglog.viewer._widgets import WidgetRegistry
 

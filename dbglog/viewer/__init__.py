@@ -6,8 +6,16 @@ Widget authors use ``dbglog.viewer.widget_api``.
 
 from __future__ import annotations
 
-from dbglog.viewer._engine import Engine
-from dbglog.viewer._model import Binding, DataSource, FieldInfo, SeriesSnapshot, Status, TopicInfo, ValueKind
+from dbglog.viewer._data._engine import Engine
+from dbglog.viewer._data._model import (
+    Binding,
+    DataSource,
+    FieldInfo,
+    SeriesSnapshot,
+    Status,
+    TopicInfo,
+    ValueKind,
+)
 
 __all__ = [
     "Binding",

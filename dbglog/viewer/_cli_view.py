@@ -111,7 +111,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Open the viewer; return the exit code."""
-    from dbglog.viewer._dashboard import DashboardError, LoadResult, load_dashboard
+    from dbglog.viewer._document._dashboard import DashboardError, LoadResult, load_dashboard
     from dbglog.viewer._widgets import WidgetRegistry
 
     registry = WidgetRegistry.discover()
@@ -139,7 +139,7 @@ def run(args: argparse.Namespace) -> int:
         for message in result.messages:
             print(f"dbglog view: {args.dashboard}: {message}", file=sys.stderr)
 
-    from dbglog.viewer._engine import Engine
+    from dbglog.viewer._data._engine import Engine
     from dbglog.viewer._ui import ViewerApp
 
     engine = Engine(stale_after=max(0.1, args.stale_after))

@@ -43,8 +43,8 @@ from typing import ClassVar
 
 import numpy as np
 
-from dbglog.viewer._model import Binding, SeriesSnapshot, Status, ValueKind
-from dbglog.viewer._publish import PublishRequest, PublishService, PublishState
+from dbglog.viewer._data._model import Binding, SeriesSnapshot, Status, ValueKind
+from dbglog.viewer._publishing._publish import PublishRequest, PublishService, PublishState
 
 __all__ = [
     "Binding",
@@ -292,7 +292,7 @@ class Widget(abc.ABC):
                                                          value=True, value_kind="bool"), send=True)
             state = self.publisher().state(self)   # PublishState(status, reason, ...)
         """
-        from dbglog.viewer._publish import shared_service
+        from dbglog.viewer._publishing._publish import shared_service
 
         return shared_service()
 

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
+from dbglog.viewer._data._static_source import StaticSource
 from dbglog.viewer._ui._app import PAYLOAD_TYPE, ViewerApp
-from dbglog.viewer._ui._static_source import StaticSource
 
 __all__ = ["PAYLOAD_TYPE", "StaticSource", "ViewerApp"]

@@ -22,7 +22,8 @@ from typing import Any, Self
 
 import dearpygui.dearpygui as dpg
 
-from dbglog.viewer._dashboard import (
+from dbglog.viewer._data._model import Binding, DataSource
+from dbglog.viewer._document._dashboard import (
     Dashboard,
     DashboardError,
     LoadResult,
@@ -31,18 +32,6 @@ from dbglog.viewer._dashboard import (
     load_dashboard,
     save_dashboard,
 )
-from dbglog.viewer._geometry import (
-    Part,
-    Rect,
-    canvas_extent,
-    free_spot,
-    hit_test,
-    rects_outside,
-    scroll_target,
-    snap_rect,
-    uncovered,
-)
-from dbglog.viewer._model import Binding, DataSource
 from dbglog.viewer._ui import _theme as theme
 from dbglog.viewer._ui._dialogs import (
     Dialog,
@@ -57,6 +46,17 @@ from dbglog.viewer._ui._frame import GRIP, TITLE_H, CanvasItem
 from dbglog.viewer._ui._pacing import DEFAULT_FPS, Pacer, wait_readable, x_connection_fd
 from dbglog.viewer._ui._quit import QuitDialog
 from dbglog.viewer._widgets import WidgetRegistry
+from dbglog.viewer._widgets._geometry import (
+    Part,
+    Rect,
+    canvas_extent,
+    free_spot,
+    hit_test,
+    rects_outside,
+    scroll_target,
+    snap_rect,
+    uncovered,
+)
 
 __all__ = ["PAYLOAD_TYPE", "ViewerApp", "keep_freed_memory"]
 
@@ -874,7 +874,7 @@ class ViewerApp:
 
     def change_type(self, item: CanvasItem, type_name: str) -> CanvasItem | None:
         """Swap `item` for a widget of another kind with the same name, place and bindings."""
-        from dbglog.viewer._autodash import retype
+        from dbglog.viewer._document._autodash import retype
 
         cls = self.registry.get(type_name)
         if cls is None or not isinstance(item.config, WidgetConfig) or item not in self.items:

@@ -1,8 +1,8 @@
 """The auto-dashboard inside the viewer: polls the graph about once a second and adds suggested widgets.
 
 Runs on the UI thread as a frame hook of `ViewerApp`; the choices and the layout are the pure logic of
-`dbglog.viewer._autodash`. It only ever adds widgets: what is on the canvas (and where the user moved
-it) is never moved; new widgets go to free cells.
+`dbglog.viewer._document._autodash`. It only ever adds widgets: what is on the canvas (and where the
+user moved it) is never moved; new widgets go to free cells.
 """
 
 from __future__ import annotations
@@ -16,10 +16,10 @@ from typing import Any
 
 import dearpygui.dearpygui as dpg
 
-from dbglog.viewer._autodash import AutoLayout, is_array_type, suggest
-from dbglog.viewer._geometry import Rect
-from dbglog.viewer._model import Binding, Status, TopicInfo
+from dbglog.viewer._data._model import Binding, Status, TopicInfo
+from dbglog.viewer._document._autodash import AutoLayout, is_array_type, suggest
 from dbglog.viewer._ui._app import ViewerApp
+from dbglog.viewer._widgets._geometry import Rect
 
 __all__ = ["AutoDashboard", "all_live", "widget_report", "write_report"]
 

@@ -9,9 +9,7 @@ from pathlib import Path
 import dearpygui.dearpygui as dpg
 
 from dbglog.regex_bridge._regex import RegexError, compile_regex
-from dbglog.viewer._dashboard import WidgetConfig, check_stale_after
-from dbglog.viewer._expr import FormulaError, parse_formula
-from dbglog.viewer._model import (
+from dbglog.viewer._data._model import (
     TAG_PREFIX,
     Binding,
     DataSource,
@@ -21,9 +19,11 @@ from dbglog.viewer._model import (
     binding_transforms,
     canonical_transforms,
 )
-from dbglog.viewer._transforms import TransformError, transforms_from_json
+from dbglog.viewer._document._dashboard import WidgetConfig, check_stale_after
 from dbglog.viewer._ui._frame import CanvasItem
 from dbglog.viewer._ui._theme import DIM, STATUS_COLORS
+from dbglog.viewer._values._expr import FormulaError, parse_formula
+from dbglog.viewer._values._transforms import TransformError, transforms_from_json
 from dbglog.viewer.widget_api import PropertyError, PropKind, PropValue, format_color, parse_color
 
 __all__ = [

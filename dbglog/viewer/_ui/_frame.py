@@ -8,11 +8,11 @@ from dataclasses import replace
 
 import dearpygui.dearpygui as dpg
 
-from dbglog.viewer._dashboard import RawWidget, WidgetConfig
-from dbglog.viewer._geometry import Rect
-from dbglog.viewer._model import Binding, DataSource, SeriesSnapshot, Status
+from dbglog.viewer._data._model import Binding, DataSource, SeriesSnapshot, Status
+from dbglog.viewer._document._dashboard import RawWidget, WidgetConfig
 from dbglog.viewer._ui._theme import DIM, HEADER, STATUS_COLORS, TEXT
 from dbglog.viewer._widgets._common import text_size
+from dbglog.viewer._widgets._geometry import Rect
 from dbglog.viewer.widget_api import PropValue, Widget, shown_as
 
 __all__ = ["TITLE_H", "CanvasItem", "combined_status"]

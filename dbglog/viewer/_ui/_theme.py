@@ -6,7 +6,7 @@ from pathlib import Path
 
 import dearpygui.dearpygui as dpg
 
-from dbglog.viewer._model import Status
+from dbglog.viewer._data._model import Status
 from dbglog.viewer.widget_api import Color
 
 __all__ = [

@@ -16,8 +16,14 @@ from typing import Any, ClassVar
 
 import dearpygui.dearpygui as dpg
 
-from dbglog.viewer._interfaces import InterfaceError, fill_message, form_fields, installed_types, message_type
-from dbglog.viewer._publish import DEFAULT_RATE_LIMIT_HZ, PublishRequest, Value
+from dbglog.viewer._data._interfaces import (
+    InterfaceError,
+    fill_message,
+    form_fields,
+    installed_types,
+    message_type,
+)
+from dbglog.viewer._publishing._publish import DEFAULT_RATE_LIMIT_HZ, PublishRequest, Value
 from dbglog.viewer._widgets._common import DIM
 from dbglog.viewer.widget_api import Property, PropKind, SeriesSnapshot, Status, ValueKind, Widget
 

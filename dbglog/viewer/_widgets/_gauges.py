@@ -7,16 +7,7 @@ from collections.abc import Sequence
 
 import dearpygui.dearpygui as dpg
 
-from dbglog.viewer._geometry import (
-    compass_label,
-    format_tick,
-    gauge_angle,
-    nice_ticks,
-    normalize_heading,
-    polar,
-    thermo_fill,
-)
-from dbglog.viewer._model import SeriesSnapshot, ValueKind
+from dbglog.viewer._data._model import SeriesSnapshot, ValueKind
 from dbglog.viewer._widgets._common import (
     DIM,
     FACE,
@@ -31,6 +22,15 @@ from dbglog.viewer._widgets._common import (
     format_value,
     latest_number,
     text_size,
+)
+from dbglog.viewer._widgets._geometry import (
+    compass_label,
+    format_tick,
+    gauge_angle,
+    nice_ticks,
+    normalize_heading,
+    polar,
+    thermo_fill,
 )
 from dbglog.viewer.widget_api import Property, PropKind, Widget
 

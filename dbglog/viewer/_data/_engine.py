@@ -26,9 +26,9 @@ import numpy.typing as npt
 
 from dbglog._ros._batch import BATCH_TOPIC
 from dbglog.regex_bridge._regex import CompiledRegex, RegexError, compile_regex, parse_number
-from dbglog.viewer._batchsub import BatchIngest, BatchStats
-from dbglog.viewer._cdr import decode_fixed
-from dbglog.viewer._fields import (
+from dbglog.viewer._data._batchsub import BatchIngest, BatchStats
+from dbglog.viewer._data._cdr import decode_fixed
+from dbglog.viewer._data._fields import (
     FieldPathError,
     Resolved,
     fixed_size,
@@ -37,10 +37,10 @@ from dbglog.viewer._fields import (
     parse_path,
     resolve,
 )
-from dbglog.viewer._model import Binding, FieldInfo, SeriesSnapshot, Status, TopicInfo, ValueKind
-from dbglog.viewer._series import Series
-from dbglog.viewer._suggest import close_matches, sub_topics, unpublished_reason
-from dbglog.viewer._transforms import TransformChain
+from dbglog.viewer._data._model import Binding, FieldInfo, SeriesSnapshot, Status, TopicInfo, ValueKind
+from dbglog.viewer._data._series import Series
+from dbglog.viewer._data._suggest import close_matches, sub_topics, unpublished_reason
+from dbglog.viewer._values._transforms import TransformChain
 
 __all__ = ["Engine", "EngineStats", "queue_depth_for"]
 

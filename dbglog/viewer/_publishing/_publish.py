@@ -19,14 +19,14 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from typing import Any, Final
 
-from dbglog.viewer._interfaces import (
+from dbglog.viewer._data._interfaces import (
     InterfaceError,
     fill_message,
     form_fields,
     message_type,
     normalize_type,
 )
-from dbglog.viewer._model import Status
+from dbglog.viewer._data._model import Status
 
 __all__ = [
     "DEFAULT_RATE_LIMIT_HZ",

@@ -11,8 +11,8 @@ import re
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field, replace
 
-from dbglog.viewer._dashboard import WidgetConfig
-from dbglog.viewer._model import Binding, FieldInfo, TopicInfo
+from dbglog.viewer._data._model import Binding, FieldInfo, TopicInfo
+from dbglog.viewer._document._dashboard import WidgetConfig
 from dbglog.viewer.widget_api import PropertyError, PropValue, Widget
 
 __all__ = ["AutoLayout", "Suggestion", "is_array_type", "retype", "suggest"]

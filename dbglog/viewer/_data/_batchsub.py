@@ -26,8 +26,8 @@ from dbglog._ros._batch import (
     TagSamples,
     decode_batch,
 )
-from dbglog.viewer._model import Binding, ValueKind
-from dbglog.viewer._series import Series
+from dbglog.viewer._data._model import Binding, ValueKind
+from dbglog.viewer._data._series import Series
 
 __all__ = ["BatchIngest", "BatchStats"]
 

@@ -23,7 +23,7 @@ from typing import ClassVar, Final
 import numpy as np
 import numpy.typing as npt
 
-from dbglog.viewer._expr import VALUE_NAME, Formula, FormulaError, parse_formula
+from dbglog.viewer._values._expr import VALUE_NAME, Formula, FormulaError, parse_formula
 
 __all__ = [
     "MAX_TRANSFORMS",

@@ -15,8 +15,8 @@ if TYPE_CHECKING:
     import numpy as np
     import numpy.typing as npt
 
-    from dbglog.viewer._engine import Engine
-    from dbglog.viewer._model import SeriesSnapshot, TopicInfo
+    from dbglog.viewer._data._engine import Engine
+    from dbglog.viewer._data._model import SeriesSnapshot, TopicInfo
 
 __all__ = [
     "DISCOVERY_HORIZON_S",
@@ -130,7 +130,7 @@ def format_rate(rate: float | None) -> str:
 
 def _observe(engine: Engine, topics: list[TopicInfo], seen: dict[str, _Seen], now: float) -> None:
     """Bind new topics and note, per topic, when values first and later arrived."""
-    from dbglog.viewer._model import Binding
+    from dbglog.viewer._data._model import Binding
 
     for info in topics:
         binding = Binding(info.name)
@@ -155,7 +155,7 @@ def _judge(engine: Engine, snap: SeriesSnapshot, state: _Seen, now: float) -> tu
     a topic that sent nothing after that burst is stale once watched for the stale time (before that,
     the source time of its newest value decides).
     """
-    from dbglog.viewer._model import Status, ValueKind
+    from dbglog.viewer._data._model import Status, ValueKind
 
     if snap.status == Status.STALE:
         live = False
@@ -177,7 +177,7 @@ def _judge(engine: Engine, snap: SeriesSnapshot, state: _Seen, now: float) -> tu
 
 
 def _rows(engine: Engine, topics: list[TopicInfo], seen: dict[str, _Seen], show_all: bool) -> list[list[str]]:
-    from dbglog.viewer._model import Binding, Status
+    from dbglog.viewer._data._model import Binding, Status
 
     now = time.monotonic()
     rows = []
@@ -209,7 +209,7 @@ def _waiting_for(
     engine: Engine, topics: list[TopicInfo], seen: dict[str, _Seen], now: float, grace: float
 ) -> list[str]:
     """Return the published topics without a first value that are still within `grace` seconds."""
-    from dbglog.viewer._model import Binding, Status
+    from dbglog.viewer._data._model import Binding, Status
 
     return [
         t.name
@@ -263,8 +263,8 @@ def _settle(engine: Engine, args: argparse.Namespace, seen: dict[str, _Seen]) ->
 
 
 def _empty_message(engine: Engine, show_all: bool, waited: float) -> str:
-    from dbglog.viewer._cli_echo import graph_names
-    from dbglog.viewer._suggest import EMPTY_GRAPH_HINT
+    from dbglog.viewer._cli._cli_echo import graph_names
+    from dbglog.viewer._data._suggest import EMPTY_GRAPH_HINT
 
     domain = os.environ.get("ROS_DOMAIN_ID", "0")
     what = "topics" if show_all else "dbglog tags (/rosdashboard/...)"
@@ -274,7 +274,7 @@ def _empty_message(engine: Engine, show_all: bool, waited: float) -> str:
 
 def run(args: argparse.Namespace) -> int:
     """Print the table once (or keep refreshing it with --watch)."""
-    from dbglog.viewer._engine import Engine
+    from dbglog.viewer._data._engine import Engine
 
     if args.wait < 0 or args.interval <= 0:
         print("dbglog tags: --wait must be >= 0 and --interval > 0", file=sys.stderr)

@@ -12,7 +12,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from dbglog.viewer._model import Binding, FieldInfo, SeriesSnapshot, Status, TopicInfo, ValueKind
+from dbglog.viewer._data._model import Binding, FieldInfo, SeriesSnapshot, Status, TopicInfo, ValueKind
 
 __all__ = ["StaticSource"]
 

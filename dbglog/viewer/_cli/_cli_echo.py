@@ -8,11 +8,11 @@ import sys
 import time
 from typing import TYPE_CHECKING
 
-from dbglog.viewer._cli_tags import DISCOVERY_HORIZON_S
+from dbglog.viewer._cli._cli_tags import DISCOVERY_HORIZON_S
 
 if TYPE_CHECKING:
-    from dbglog.viewer._engine import Engine
-    from dbglog.viewer._model import SeriesSnapshot, TopicInfo
+    from dbglog.viewer._data._engine import Engine
+    from dbglog.viewer._data._model import SeriesSnapshot, TopicInfo
 
 __all__ = ["HELP", "add_arguments", "format_line", "graph_names", "run", "split_target"]
 
@@ -126,7 +126,7 @@ def _why(engine: Engine, topic: str, snap: SeriesSnapshot | None, waited: float)
 
 def _hint(engine: Engine, topic: str) -> str | None:
     """Say why `topic` has no value when nothing publishes it (None when something does)."""
-    from dbglog.viewer._suggest import unpublished_reason
+    from dbglog.viewer._data._suggest import unpublished_reason
 
     topics = engine.topics()
     if any(t.name == topic and t.publishers for t in topics):
@@ -136,7 +136,7 @@ def _hint(engine: Engine, topic: str) -> str | None:
 
 def _values(snap: SeriesSnapshot, new: int) -> tuple[list[object], list[float | None]]:
     """Return the `new` newest values of `snap` (oldest first) with their source times."""
-    from dbglog.viewer._model import ValueKind
+    from dbglog.viewer._data._model import ValueKind
 
     if snap.kind in (ValueKind.NUMBER, ValueKind.BOOL):
         numbers = snap.values[-new:].tolist()
@@ -180,8 +180,8 @@ def _backlog(snap: SeriesSnapshot, since: float, history: bool) -> int:
 
 def run(args: argparse.Namespace) -> int:
     """Bind the target and print its newest value, then the following ones, until --count or --timeout."""
-    from dbglog.viewer._engine import Engine
-    from dbglog.viewer._model import Binding, Status
+    from dbglog.viewer._data._engine import Engine
+    from dbglog.viewer._data._model import Binding, Status
 
     if args.count < 0 or (args.timeout is not None and args.timeout <= 0):
         print("dbglog echo: --count must be >= 0 and --timeout > 0", file=sys.stderr)

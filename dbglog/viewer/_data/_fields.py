@@ -18,7 +18,7 @@ from typing import Any
 
 from rosidl_parser import definition as rd
 
-from dbglog.viewer._model import FieldInfo, ValueKind
+from dbglog.viewer._data._model import FieldInfo, ValueKind
 
 __all__ = [
     "FieldPathError",

@@ -14,8 +14,8 @@ from collections.abc import Sequence
 import numpy as np
 import numpy.typing as npt
 
-from dbglog.viewer._fields import Scalar
-from dbglog.viewer._model import Binding, SeriesSnapshot, Status, ValueKind, judge_age
+from dbglog.viewer._data._fields import Scalar
+from dbglog.viewer._data._model import Binding, SeriesSnapshot, Status, ValueKind, judge_age
 
 __all__ = ["RATE_WINDOW_S", "Series"]
 

@@ -1,0 +1,1 @@
+"""The dashboard document: the file format, validation, loading, saving, automatic layouts."""

@@ -1,0 +1,1 @@
+"""Values and transforms: the formula language and the transform chain, pure maths."""
