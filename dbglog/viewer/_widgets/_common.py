@@ -8,9 +8,8 @@ from collections.abc import Sequence
 import dearpygui.dearpygui as dpg
 import numpy as np
 
-from dbglog.viewer._data._model import SeriesSnapshot
 from dbglog.viewer._widgets._geometry import format_tick, nice_ticks, polar
-from dbglog.viewer.widget_api import Color
+from dbglog.viewer.widget_api import Color, SeriesSnapshot
 
 TEXT: Color = (222, 226, 232, 255)
 DIM: Color = (138, 146, 158, 255)

@@ -7,7 +7,6 @@ from collections.abc import Sequence
 
 import dearpygui.dearpygui as dpg
 
-from dbglog.viewer._data._model import SeriesSnapshot, ValueKind
 from dbglog.viewer._widgets._common import (
     DIM,
     FACE,
@@ -32,7 +31,7 @@ from dbglog.viewer._widgets._geometry import (
     polar,
     thermo_fill,
 )
-from dbglog.viewer.widget_api import Property, PropKind, Widget
+from dbglog.viewer.widget_api import Property, PropKind, SeriesSnapshot, ValueKind, Widget
 
 __all__ = ["CompassWidget", "DialWidget", "KnobWidget", "ThermoWidget"]
 

@@ -7,10 +7,9 @@ from collections.abc import Sequence
 import dearpygui.dearpygui as dpg
 import numpy as np
 
-from dbglog.viewer._data._model import Binding, SeriesSnapshot, ValueKind
 from dbglog.viewer._widgets._common import SERIES_COLORS
 from dbglog.viewer._widgets._geometry import minmax_decimate, window_slice
-from dbglog.viewer.widget_api import Property, PropKind, Widget
+from dbglog.viewer.widget_api import Binding, Property, PropKind, SeriesSnapshot, ValueKind, Widget
 
 __all__ = ["PLOT_MARGIN", "PlotWidget", "series_label"]
 

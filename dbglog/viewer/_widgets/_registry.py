@@ -13,8 +13,7 @@ import inspect
 import re
 from collections.abc import Iterator
 
-from dbglog.viewer._data._model import ValueKind
-from dbglog.viewer.widget_api import Property, PropertyError, PropKind, Widget
+from dbglog.viewer.widget_api import Property, PropertyError, PropKind, ValueKind, Widget
 
 __all__ = ["BUILTIN_WIDGETS", "ENTRY_POINT_GROUP", "MAX_BINDINGS", "WidgetRegistry", "declaration_problem"]
 

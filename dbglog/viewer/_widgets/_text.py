@@ -8,10 +8,9 @@ from collections.abc import Sequence
 import dearpygui.dearpygui as dpg
 import numpy as np
 
-from dbglog.viewer._data._model import SeriesSnapshot, ValueKind
 from dbglog.viewer._widgets._common import DIM, TEXT, draw_centered_text, draw_disc, set_disc_color, text_size
 from dbglog.viewer._widgets._geometry import led_on
-from dbglog.viewer.widget_api import Property, PropKind, Widget
+from dbglog.viewer.widget_api import Property, PropKind, SeriesSnapshot, ValueKind, Widget
 
 __all__ = ["LedWidget", "StringWidget", "history_lines"]
 
