@@ -17,6 +17,7 @@ from dbglog._regex._propose import (
     ProposalError,
     _match_slow,
     find_numbers,
+    match_joined,
     match_lines,
     parse_console_line,
     preview,
@@ -265,6 +266,23 @@ def test_preview_counts_and_values_in_order() -> None:
     count, values = preview(proposal, lines)
     assert count == 2
     assert values.tolist() == [50.0, 49.0]
+
+
+def test_match_joined_reads_a_columnar_buffer_like_the_list() -> None:
+    """A store keeping lines as one separator-framed buffer gets the same rows and values as a list."""
+    lines = ["speed 2 m/s", "other", "speed -1e1 m/s", "speed 3 m/s", "speed x m/s"]
+    proposal = propose("speed 1.5 m/s", 0)
+    store = bytearray()
+    starts: list[int] = []
+    for line in lines:
+        starts.append(len(store))
+        store += b"\x00" + line.encode() + b"\x01"
+    rows, values = match_joined(proposal, store, starts)
+    assert rows.tolist() == [0, 2, 3]
+    assert values.tolist() == [2.0, -10.0, 3.0]
+    list_rows, list_values = match_lines(proposal, lines)
+    assert rows.tolist() == list_rows.tolist()
+    assert values.tolist() == list_values.tolist()
 
 
 def test_preview_filters_by_the_proposals_node() -> None:

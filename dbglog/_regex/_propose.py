@@ -6,7 +6,6 @@ evaluated; every pattern is RE2 (linear time).
 
 from __future__ import annotations
 
-import bisect
 import fnmatch
 import math
 from collections.abc import Sequence
@@ -25,6 +24,7 @@ __all__ = [
     "Proposal",
     "ProposalError",
     "find_numbers",
+    "match_joined",
     "match_lines",
     "parse_console_line",
     "preview",
@@ -80,7 +80,6 @@ _SCANNER = re2.compile(
 )
 _G_NUM, _G_SPECIAL, _G_TAIL = 1, 2, 3
 _UNANCHORED = re2._Anchor.UNANCHORED
-_ANCHOR_START = re2._Anchor.ANCHOR_START
 
 
 class ProposalError(ValueError):
@@ -378,30 +377,14 @@ def _ungrouped(body: str) -> str:
     return body.replace(marker, f"(?:{ANY_NUMBER_PATTERN})", 1)
 
 
-_CHAIN: Final = 4
-"""Lines captured per RE2 call in a preview: RE2's one-pass engine handles up to 4 groups per call."""
-
-
-@dataclass(frozen=True, slots=True)
-class _PreviewRegexes:
-    runs: re2._Regexp
-    """Runs of consecutive matching lines in the joined text (no capture: RE2's DFA only)."""
-    capture: re2._Regexp
-    """Up to `_CHAIN` consecutive lines from a separator, capturing each line's number."""
-
-
-def _preview_regexes(proposal: Proposal) -> _PreviewRegexes:
+def _preview_regex(proposal: Proposal) -> re2._Regexp:
+    """One stored line, from its ``\\x00`` to its ``\\x01``, capturing the number."""
     lead = r"\x00" if proposal.anchored_start else r"\x00[^\x00\x01]*?"
     trail = r"\x01" if proposal.anchored_end else r"[^\x00\x01]*\x01"
     options = re2.Options()
     options.log_errors = False
     options.max_mem = 32 << 20
-    runs = re2.compile(f"(?:{lead}{_ungrouped(proposal.body)}{trail})+", options=options)
-    one = lead + proposal.body + trail
-    chain = one
-    for _ in range(_CHAIN - 1):
-        chain = f"{one}(?:{chain})?"
-    return _PreviewRegexes(runs, re2.compile(chain, options=options))
+    return re2.compile(lead + proposal.body + trail, options=options)
 
 
 def match_lines(
@@ -460,44 +443,56 @@ def _cut_all(lines: Sequence[str]) -> list[str] | Sequence[str]:
 
 
 def _match_selected(proposal: Proposal, lines: Sequence[str]) -> tuple[np.ndarray, np.ndarray]:
-    empty = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.float64))
     if not lines:
-        return empty
+        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.float64)
     lines = _cut_all(lines)
     if "\x00" in proposal.line or "\x01" in proposal.line:
         return _match_slow(proposal, lines)
-    joined = "\x00" + "\x01\x00".join(lines) + "\x01"
-    data = joined.encode("utf-8", "surrogatepass")
+    data = ("\x00" + "\x01\x00".join(lines) + "\x01").encode("utf-8", "surrogatepass")
     marks = np.frombuffer(data, dtype=np.uint8)
     starts = np.flatnonzero(marks == 0)
     if len(starts) != len(lines) or np.count_nonzero(marks == 1) != len(lines):
         return _match_slow(proposal, lines)  # a line holds a separator byte itself
-    regexes = _preview_regexes(proposal)
-    find_run = regexes.runs._regexp.Match
-    capture = regexes.capture._regexp.Match
-    line_starts = starts.tolist()
+    return match_joined(proposal, data, starts)
+
+
+def match_joined(
+    proposal: Proposal, data: bytes | bytearray | memoryview, starts: Sequence[int] | np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Like `match_lines`, over lines already stored as one buffer (what a columnar log store keeps).
+
+    Args:
+        proposal: from `propose`.
+        data: every line's UTF-8 text (cut to `MAX_LINE` bytes, without ``\\x00``/``\\x01``), each as
+            ``b"\\x00" + text + b"\\x01"``, one after the other.
+        starts: the offset of each line's ``\\x00`` in `data`, ascending.
+
+    Returns:
+        ``(rows, values)``: indices into `starts` of the matching lines, and the value of each.
+    """
+    empty = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.float64))
+    if "\x00" in proposal.line or "\x01" in proposal.line:
+        return empty  # its pattern would need the separators themselves: no stored line can match it
+    # One RE2 call per matching line: RE2's DFA skips the other lines without returning to Python
+    # (about 1 µs of binding overhead per call is the floor; see benchmarks/bench_logs.py).
+    match = _preview_regex(proposal)._regexp.Match
     end = len(data)
     pos = 0
-    rows: list[int] = []
+    found: list[int] = []
     texts: list[bytes] = []
     while pos < end:
-        run_start, run_end = find_run(_UNANCHORED, data, pos, end)[0]
-        if run_start < 0:
+        spans = match(_UNANCHORED, data, pos, end)
+        start, pos = spans[0]
+        if start < 0:
             break
-        first = bisect.bisect_left(line_starts, run_start)  # every line of the run matches
-        last = bisect.bisect_left(line_starts, run_end, first)
-        rows.extend(range(first, last))
-        line_starts.append(end)
-        for row in range(first, last, _CHAIN):
-            stop = line_starts[min(row + _CHAIN, last)]
-            spans = capture(_ANCHOR_START, data, line_starts[row], stop)
-            texts.extend([data[s:e] for s, e in spans[1 : 1 + min(_CHAIN, last - row)]])
-        line_starts.pop()
-        pos = run_end
-    if not rows:
+        s, e = spans[1]
+        found.append(start)
+        texts.append(bytes(data[s:e]))
+    if not found:
         return empty
+    rows = np.searchsorted(np.asarray(starts, dtype=np.int64), np.asarray(found, dtype=np.int64))
     values = np.fromiter(map(float, texts), dtype=np.float64, count=len(texts))
-    return np.asarray(rows, dtype=np.int64), values
+    return rows.astype(np.int64), values
 
 
 def _match_slow(proposal: Proposal, lines: Sequence[str]) -> tuple[np.ndarray, np.ndarray]:
