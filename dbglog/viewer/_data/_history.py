@@ -31,6 +31,10 @@ DEFAULT_MAX_SECONDS = 1800.0
 """Keep 30 minutes by default."""
 DEFAULT_MAX_BYTES = 512 * 1024 * 1024
 """And at most 512 MiB."""
+DEFAULT_REORDER_WINDOW = 0.25
+"""Samples up to 0.25 s late (two publishers, a DDS reorder) are sorted in at no extra cost."""
+_PENDING_MAX = 1024
+"""The reorder window holds at most this many samples (a 10 kHz topic does not copy 2500 per append)."""
 DEFAULT_CHUNK_SAMPLES = 65536
 DEFAULT_CHUNK_BYTES = 4 * 1024 * 1024
 _FIRST_CAPACITY = 256
@@ -191,6 +195,9 @@ class _Track:
         "newest",
         "open",
         "open_bytes",
+        "pending",
+        "pending_bytes",
+        "reorders",
         "view",
     )
 
@@ -208,7 +215,13 @@ class _Track:
         self.dropped = 0
         self.nbytes = 0
         self.newest = -math.inf
-        """The newest source time ever stored: a batch from here on is appended in place."""
+        """The newest source time ever written to the chunks: a batch from here on is appended in place."""
+        self.pending: _Chunk | None = None
+        """The reorder window: the newest samples, sorted, in small arrays replaced (never written) on
+        each append; they move to the chunks once older than the window."""
+        self.pending_bytes = 0
+        self.reorders = False
+        """Set once a late sample is seen: from then on the topic keeps a reorder window."""
         self.view = _EMPTY_VIEW
 
     def closed_changed(self) -> None:
@@ -225,13 +238,15 @@ class _Track:
         chunks, firsts, before = self.closed_cache
         o = self.open
         if o is not None and o.size:
-            self.view = _View(
-                (*chunks, _Chunk(o.times, o.data, o.start, o.n)),
-                [*firsts, o.first],
-                [*before, before[-1] + o.size],
-            )
-        else:
-            self.view = _View(chunks, firsts, before)
+            chunks = (*chunks, _Chunk(o.times, o.data, o.start, o.n))
+            firsts = [*firsts, o.first]
+            before = [*before, before[-1] + o.size]
+        p = self.pending
+        if p is not None:
+            chunks = (*chunks, p)
+            firsts = [*firsts, p.first]
+            before = [*before, before[-1] + p.size]
+        self.view = _View(chunks, firsts, before)
 
     def oldest_chunk(self) -> _Chunk | None:
         if self.closed:
@@ -240,7 +255,7 @@ class _Track:
 
     def recount(self) -> int:
         """Recompute this track's bytes (closed chunks' sum is kept up to date); return the change."""
-        total = self.closed_bytes
+        total = self.closed_bytes + self.pending_bytes
         o = self.open
         if o is not None:
             total += o.times.nbytes + _CHUNK_OVERHEAD
@@ -319,6 +334,9 @@ class History:
         max_bytes: memory cap over all topics; the oldest chunks go first.
         chunk_samples: samples per full chunk (the unit of eviction).
         chunk_bytes: payload bytes that close a payload chunk early.
+        reorder_window: once a topic has had a late sample, its newest samples within this many
+            seconds are kept apart, so a later sample up to this much late is sorted in cheaply; an
+            older one rewrites the chunks it overlaps.
         clock: wall clock (epoch seconds) that bounds "the newest" for the duration budget, so one
             publisher with a clock in the future cannot evict everyone's past; None trusts the data
             (replay of a recording).
@@ -337,6 +355,7 @@ class History:
         max_bytes: int = DEFAULT_MAX_BYTES,
         chunk_samples: int = DEFAULT_CHUNK_SAMPLES,
         chunk_bytes: int = DEFAULT_CHUNK_BYTES,
+        reorder_window: float = DEFAULT_REORDER_WINDOW,
         clock: Callable[[], float] | None = time.time,
     ) -> None:
         if not max_seconds > 0:
@@ -347,6 +366,9 @@ class History:
             raise ValueError(f"history chunk_samples must be >= 2, not {chunk_samples}")
         if chunk_bytes < 1:
             raise ValueError(f"history chunk_bytes must be >= 1, not {chunk_bytes}")
+        if not reorder_window >= 0:
+            raise ValueError(f"history reorder_window must be >= 0, not {reorder_window}")
+        self._window = float(reorder_window)
         self.max_seconds = float(max_seconds)
         self.max_bytes = int(max_bytes)
         self._chunk = int(chunk_samples)
@@ -457,20 +479,61 @@ class History:
                 return
             t, data = t[keep:], data[keep:]
             first = float(t[0])
-        if first >= track.newest:
-            self._extend(track, t, data)
-        else:
+        if first < track.newest:  # older than what the chunks hold: rewrite what it overlaps (rare)
+            self._flush(track)
             self._merge(track, t, data)
-        if last > track.newest:
-            track.newest = last
+        elif track.reorders:
+            self._reorder(track, t, data)
+        else:
+            self._extend(track, t, data)
         track.publish()
         self._bytes += track.recount()
         if last > self._newest:
             self._newest = last
         self._enforce()
 
+    def _reorder(self, track: _Track, t: _F64, data: _Arr | list[bytes]) -> None:
+        """Sort a batch into the reorder window; move what is older than the window to the chunks."""
+        p = track.pending
+        if p is not None:
+            t = np.concatenate([p.times, t])
+            if isinstance(data, list):
+                data = (p.data if isinstance(p.data, list) else []) + data
+            elif isinstance(p.data, np.ndarray):
+                data = np.concatenate([p.data, data])
+            if t[p.n - 1] > t[p.n]:
+                order = np.argsort(t, kind="stable")  # ties: the held sample stays first
+                t = t[order]
+                data = [data[i] for i in order] if isinstance(data, list) else data[order]
+        self._hold(track, t, data)
+
+    def _hold(self, track: _Track, t: _F64, data: _Arr | list[bytes]) -> None:
+        """Keep the sorted samples within the reorder window of the newest apart; extend the rest."""
+        n = len(t)
+        k = max(int(np.searchsorted(t, t[-1] - self._window, side="right")), n - _PENDING_MAX)
+        if k > 0:
+            self._extend(track, t[:k], data[:k])
+        if k < n:
+            rest_t, rest = t[k:], data[k:]
+            track.pending = _Chunk(rest_t, rest, 0, n - k)
+            if isinstance(rest, list):
+                track.pending_bytes = (
+                    rest_t.nbytes + sum(len(x) for x in rest) + _PAYLOAD_OVERHEAD * len(rest)
+                )
+            else:
+                track.pending_bytes = rest_t.nbytes + rest.nbytes
+        else:
+            track.pending, track.pending_bytes = None, 0
+
+    def _flush(self, track: _Track) -> None:
+        """Move the whole reorder window to the chunks."""
+        p = track.pending
+        if p is not None and p.data is not None:
+            track.pending, track.pending_bytes = None, 0
+            self._extend(track, p.times, p.data)
+
     def _new_open(self, track: _Track, need: int) -> _Chunk:
-        cap = min(self._chunk, max(_FIRST_CAPACITY, need))
+        cap = min(self._chunk, max(_FIRST_CAPACITY, 1 << (need - 1).bit_length()))
         times = np.empty(cap, dtype=np.float64)
         data: _Arr | list[bytes] = [] if track.kind == "payloads" else np.empty(cap, dtype=track.dtype)
         track.open_bytes = 0
@@ -500,6 +563,8 @@ class History:
         """Append samples no older than the track's newest: in place past every published ``n``."""
         done = 0
         total = len(t)
+        if total:
+            track.newest = max(track.newest, float(t[-1]))
         while done < total:
             o = track.open
             if o is None:
@@ -543,31 +608,47 @@ class History:
             done += k
 
     def _merge(self, track: _Track, t: _F64, data: _Arr | list[bytes]) -> None:
-        """Merge samples older than the track's newest: rebuild the chunks they overlap (copies)."""
+        """Merge samples older than the track's newest: rebuild the chunks they overlap (copies).
+
+        Only the part newer than ``t[0]`` is sorted; the first affected chunk's older head is copied as is.
+        """
         chunks = list(track.closed)
         if track.open is not None and track.open.size:
             chunks.append(track.open)
         lasts = [c.last for c in chunks]
         i = bisect.bisect_right(lasts, float(t[0]))  # chunks ending at or before t[0] stay as they are
         affected = chunks[i:]
-        times = np.concatenate([c.times[c.start : c.n] for c in affected] + [t])
-        order = np.argsort(times, kind="stable")  # ties: what was held first stays first
-        times = times[order]
+        p = 0
+        if affected:
+            c0 = affected[0]
+            p = c0.start + int(np.searchsorted(c0.times[c0.start : c0.n], t[0], side="right"))
+        spans = [(c, p if k == 0 else c.start) for k, c in enumerate(affected)]
+        tail = np.concatenate([c.times[a : c.n] for c, a in spans] + [t])
+        order = np.argsort(tail, kind="stable")  # ties: what was held first stays first
+        head_t = [affected[0].times[affected[0].start : p]] if affected else []
+        times = np.concatenate([*head_t, tail[order]])
         merged: _Arr | list[bytes]
         if isinstance(data, list):
             items: list[bytes] = []
-            for c in affected:
-                items.extend(c.payloads(c.start, c.n))
+            for c, a in spans:
+                items.extend(c.payloads(a, c.n))
             items.extend(data)
-            merged = [items[j] for j in order]
+            head = affected[0].payloads(affected[0].start, p) if affected else []
+            merged = head + [items[j] for j in order]
         else:
-            parts = [c.data[c.start : c.n] for c in affected if isinstance(c.data, np.ndarray)]
-            merged = np.concatenate([*parts, data])[order]
+            parts = [c.data[a : c.n] for c, a in spans if isinstance(c.data, np.ndarray)]
+            heads = [c.data[c.start : p] for c in affected[:1] if isinstance(c.data, np.ndarray)]
+            merged = np.concatenate([*heads, np.concatenate([*parts, data])[order]])
         if i < len(track.closed):
             track.closed = chunks[:i]
             track.closed_changed()
         track.open = None
-        self._extend(track, times, merged)
+        track.newest = chunks[i - 1].last if i > 0 else -math.inf
+        if self._window > 0:
+            track.reorders = True
+            self._hold(track, times, merged)  # the newest part becomes the reorder window
+        else:
+            self._extend(track, times, merged)
 
     def _enforce(self) -> None:
         """Apply the budget: trim by duration (at most every 1 s of data), then evict by memory."""
