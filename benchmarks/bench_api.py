@@ -99,8 +99,8 @@ def measure_enabled(calls: int, repeats: int, with_subscriber: bool) -> Timing:
     from std_msgs.msg import Float64
 
     import dbglog
+    from dbglog._ros._qos import tag_qos
     from dbglog.api._public import RUNTIME
-    from dbglog.api._qos import tag_qos
 
     assert dbglog.enabled, "run without DBGLOG=off"
     ctx = Context()

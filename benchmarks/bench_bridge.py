@@ -264,8 +264,8 @@ def bench_floor(quick: bool) -> None:
     """What the google-re2 binding itself costs per line: the floor under the engine, and rejected designs."""
     from re2 import _re2
 
+    from dbglog._regex._compile import re2_options
     from dbglog.regex_bridge import parse_rules
-    from dbglog.regex_bridge._regex import re2_options
 
     count, rounds = (2048, 5) if quick else (5120, 9)
     data = [line.encode() for line in sample_lines(count, 0.1, 50)]

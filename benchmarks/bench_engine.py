@@ -46,7 +46,7 @@ def _publisher(args: argparse.Namespace) -> None:
     rclpy.init(context=context)
     node = Node("bench_publisher", context=context)
     if args.pub_qos == "tag":
-        from dbglog.api._qos import tag_qos
+        from dbglog._ros._qos import tag_qos
 
         qos = tag_qos()  # what dbglog.logfloat's publishers use: reliable, transient-local, depth 100
     else:

@@ -29,8 +29,8 @@ from std_msgs.msg import (
 
 import dbglog
 from dbglog import DbglogWarning
+from dbglog._ros._qos import tag_qos
 from dbglog.api._public import RUNTIME
-from dbglog.api._qos import tag_qos
 from tests._ros import RELIABLE_VOLATILE, Collector, RosPeer, wait_until
 
 LATCHED = tag_qos()

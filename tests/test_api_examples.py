@@ -13,7 +13,7 @@ import pytest
 from std_msgs.msg import Float64, Int64
 
 import dbglog
-from dbglog.api._qos import tag_qos
+from dbglog._ros._qos import tag_qos
 from tests._ros import RosPeer
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -11,7 +11,7 @@ from std_msgs.msg import Int64, Int64MultiArray, String
 
 import dbglog
 from dbglog import DbglogWarning
-from dbglog.api._qos import tag_qos
+from dbglog._ros._qos import tag_qos
 from tests._ros import RosPeer
 
 LATCHED = tag_qos()

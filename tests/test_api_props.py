@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 
 import dbglog
 from dbglog import DbglogWarning
-from dbglog.api._tags import tag_problem
+from dbglog._ros._tags import tag_problem
 
 
 class _BadFloat:

@@ -159,7 +159,7 @@ def test_clean_exit_with_live_publishers() -> None:
 _FORK_PROBE = """
     import json, os, sys, time, warnings
     import dbglog
-    from dbglog.api._qos import tag_qos
+    from dbglog._ros._qos import tag_qos
     from std_msgs.msg import Float64
     from tests._ros import RosPeer
 
@@ -311,7 +311,7 @@ def test_deprecation_warnings_as_errors_do_not_stop_dbglogs_node() -> None:
     """Under python -W error::DeprecationWarning values still reach a real subscriber, none dropped."""
     from std_msgs.msg import Float64, String
 
-    from dbglog.api._qos import tag_qos
+    from dbglog._ros._qos import tag_qos
     from tests._ros import RosPeer
 
     env = {k: v for k, v in os.environ.items() if k not in ("DBGLOG", "DBGLOG_STRICT")}

@@ -108,7 +108,7 @@ def _hz(cell: str) -> float:
 
 def _until_published(*tags: str, timeout: float = 30.0) -> None:
     """Wait until a plain ROS subscriber has a value from each tag (the publishers are up and discovered)."""
-    from dbglog.api._qos import tag_qos
+    from dbglog._ros._qos import tag_qos
 
     with RosPeer("cli_live_probe") as peer:
         collectors = [peer.subscribe(f"/rosdashboard/{tag}", Float64, tag_qos()) for tag in tags]

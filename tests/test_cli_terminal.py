@@ -13,7 +13,7 @@ import pytest
 from geometry_msgs.msg import Twist
 from std_msgs.msg import Bool, Float64, String
 
-from dbglog.api._qos import tag_qos
+from dbglog._ros._qos import tag_qos
 from dbglog.viewer._cli._cli_echo import format_line, split_target
 from dbglog.viewer._cli._cli_tags import format_table, format_value
 from tests._ros import RosPeer

@@ -18,7 +18,7 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import LaserScan
 from std_msgs.msg import Bool, Float64, Float64MultiArray, Int32, MultiArrayDimension, String
 
-from dbglog.api._qos import tag_qos
+from dbglog._ros._qos import tag_qos
 from dbglog.viewer._data._engine import Engine, queue_depth_for
 from dbglog.viewer._data._model import Binding, SeriesSnapshot, Status, ValueKind
 from tests._ros import RosPeer, wait_until

@@ -31,3 +31,27 @@ def test_cli_help_lists_every_command() -> None:
     )
     for command in ("bridge", "tags", "echo", "view", "demo"):
         assert command in out.stdout
+
+
+def test_widget_api_loads_no_bridge_matcher() -> None:
+    """Importing widget_api loads neither the bridge's RE2-Set matcher nor its YAML rules loader."""
+    code = (
+        "import sys, dbglog.viewer.widget_api\n"
+        "import dbglog.regex_bridge\n"
+        "bridge = ('dbglog.regex_bridge._engine', 'dbglog.regex_bridge._rules', 'yaml')\n"
+        "print(','.join(sorted(m for m in bridge if m in sys.modules)))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60, check=True)
+    assert out.stdout.strip() == ""
+
+
+def test_regex_bridge_exports_load_on_use() -> None:
+    """Every name dbglog.regex_bridge exports resolves on first use; an unknown name is an AttributeError."""
+    code = (
+        "import dbglog.regex_bridge as rb\n"
+        "assert all(getattr(rb, n) is not None for n in rb.__all__)\n"
+        "assert rb.Matcher.__module__ == 'dbglog.regex_bridge._engine'\n"
+        "try:\n    rb.nope\nexcept AttributeError as e:\n    print(e)\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60, check=True)
+    assert "has no attribute 'nope'" in out.stdout

@@ -23,8 +23,8 @@ from std_msgs.msg import Float64
 import dbglog
 from dbglog import DbglogWarning
 from dbglog._ros._batch import BATCH_TOPIC
+from dbglog._ros._qos import tag_qos
 from dbglog.api._public import RUNTIME
-from dbglog.api._qos import tag_qos
 from dbglog.viewer._data._engine import Engine
 from dbglog.viewer._data._model import Binding, SeriesSnapshot
 from tests._ros import RosPeer, wait_until

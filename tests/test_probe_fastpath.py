@@ -9,8 +9,8 @@ from std_msgs.msg import Bool, Float64, Int64, String
 
 import dbglog
 from dbglog import DbglogWarning
+from dbglog._ros._qos import tag_qos
 from dbglog.api._public import RUNTIME
-from dbglog.api._qos import tag_qos
 from tests._ros import RosPeer, wait_until
 
 LATCHED = tag_qos()

@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from dbglog.regex_bridge._regex import (
+from dbglog._regex._compile import (
     MAX_LINE,
     MAX_PROGRAM_SIZE,
     RegexError,

@@ -6,7 +6,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from dbglog.api._tags import MAX_TOPIC_LENGTH, TagError, sanitize_tag, tag_problem, topic_for_tag
+from dbglog._ros._tags import MAX_TOPIC_LENGTH, TagError, sanitize_tag, tag_problem, topic_for_tag
 
 VALID = ["x", "proximity", "arm/joint_1", "a/b/c", "_1", "A_b9", "x" * (MAX_TOPIC_LENGTH - 14)]
 INVALID = {

@@ -21,6 +21,8 @@ from collections.abc import Callable
 from typing import Any, Literal
 
 from dbglog._ros._batch import BATCH_TOPIC, SCALAR_TYPES, type_code
+from dbglog._ros._qos import batch_qos, tag_qos
+from dbglog._ros._tags import TAG_PREFIX, sanitize_tag, tag_problem, topic_for_tag
 from dbglog.api._convert import (
     CDR_HEADER,
     ScalarSpec,
@@ -30,8 +32,6 @@ from dbglog.api._convert import (
 )
 from dbglog.api._errors import Reporter, safe_repr
 from dbglog.api._pipe import Pipe, slot_packer
-from dbglog.api._qos import batch_qos, tag_qos
-from dbglog.api._tags import TAG_PREFIX, sanitize_tag, tag_problem, topic_for_tag
 
 __all__ = ["MAX_TAGS", "Channel", "Runtime"]
 

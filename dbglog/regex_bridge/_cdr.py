@@ -10,7 +10,7 @@ from __future__ import annotations
 import struct
 from typing import Final
 
-from dbglog.regex_bridge._regex import NumberKind
+from dbglog._regex._compile import NumberKind
 
 __all__ = ["encode_value", "read_log", "read_string"]
 

@@ -26,7 +26,7 @@ from typing import Any, Final, NamedTuple
 
 from re2 import _re2
 
-from dbglog.regex_bridge._regex import BYTES_PARSERS, MAX_LINE, NumberKind, re2_options
+from dbglog._regex._compile import BYTES_PARSERS, MAX_LINE, NumberKind, re2_options
 from dbglog.regex_bridge._rules import ROSOUT, Output, Rule, RuleSet
 
 __all__ = ["Matcher", "MatcherStats", "Unparseable", "Value"]

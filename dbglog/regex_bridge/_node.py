@@ -32,11 +32,11 @@ from rclpy.context import Context
 from rclpy.guard_condition import GuardCondition
 from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.qos import QoSProfile
 from rclpy.serialization import deserialize_message
 from std_msgs.msg import Bool, Float64, Int64, String
 
-from dbglog.api._qos import tag_qos
+from dbglog._ros._qos import log_qos, tag_qos
 from dbglog.regex_bridge._cdr import encode_value, read_log, read_string
 from dbglog.regex_bridge._engine import Matcher
 from dbglog.regex_bridge._rules import ROSOUT, RuleSet
@@ -84,12 +84,7 @@ def source_qos(depth: int = DEFAULT_DEPTH, *, durable: bool = True) -> QoSProfil
             before this subscription was discovered still arrive); volatile for String topics, whose
             publishers are usually volatile (a transient-local reader would not match them).
     """
-    return QoSProfile(
-        history=HistoryPolicy.KEEP_LAST,
-        depth=depth,
-        reliability=ReliabilityPolicy.RELIABLE,
-        durability=DurabilityPolicy.TRANSIENT_LOCAL if durable else DurabilityPolicy.VOLATILE,
-    )
+    return log_qos(depth, durable=durable)
 
 
 class _Published:

@@ -14,8 +14,8 @@ from typing import Any, Final, get_args
 
 import yaml
 
-from dbglog.api._tags import tag_problem, topic_for_tag
-from dbglog.regex_bridge._regex import SHOWN_CHARS, NumberKind, RegexError, compile_regex
+from dbglog._regex._compile import SHOWN_CHARS, NumberKind, RegexError, compile_regex
+from dbglog._ros._tags import tag_problem, topic_for_tag
 
 __all__ = [
     "LEVELS",

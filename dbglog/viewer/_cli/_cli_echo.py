@@ -8,6 +8,7 @@ import sys
 import time
 from typing import TYPE_CHECKING
 
+from dbglog._ros._tags import TAG_PREFIX
 from dbglog.viewer._cli._cli_tags import DISCOVERY_HORIZON_S
 
 if TYPE_CHECKING:
@@ -19,7 +20,6 @@ __all__ = ["HELP", "add_arguments", "format_line", "graph_names", "run", "split_
 HELP = "Print the values of a dbglog tag or of a topic field, one per line."
 
 _POLL_S = 0.02
-_TAG_PREFIX = "/rosdashboard/"
 _HINT_AFTER_S = DISCOVERY_HORIZON_S + 0.5
 """Without a value this long, say once on stderr why (nothing publishes it, close matches): not before
 discovery can have found every publisher, or the note would blame a topic that is merely not seen yet."""
@@ -76,7 +76,7 @@ def split_target(target: str, graph_topics: set[str]) -> tuple[str, str] | None:
     target = target.strip()
     if not target.startswith("/"):
         tag, _, path = target.partition(".")
-        return _TAG_PREFIX + tag, path
+        return TAG_PREFIX + tag, path
     topic, dot, path = target.partition(".")
     if dot or topic in graph_topics:
         return topic, path

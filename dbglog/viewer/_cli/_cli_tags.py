@@ -11,6 +11,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
+from dbglog._ros._tags import TAG_PREFIX
+
 if TYPE_CHECKING:
     import numpy as np
     import numpy.typing as npt
@@ -33,7 +35,6 @@ HELP = "List the live dbglog tags (tag, type, rate, last value, status); --all l
 
 _CLEAR = "\x1b[H\x1b[2J"
 _POLL_S = 0.05
-_TAG_PREFIX = "/rosdashboard/"
 _DEFAULT_WAIT_S = 8.0
 DISCOVERY_HORIZON_S = 4.0
 """Fast DDS answers a newcomer's announcement at once only sometimes; a participant that misses it is
@@ -245,7 +246,7 @@ def _settle(engine: Engine, args: argparse.Namespace, seen: dict[str, _Seen]) ->
     waiting = _waiting_for(engine, topics, seen, now, math.inf)
     waited = f"{now - started:.1f} s"
     if waiting:
-        names = ", ".join(t if args.all else t.removeprefix(_TAG_PREFIX) for t in waiting[:8])
+        names = ", ".join(t if args.all else t.removeprefix(TAG_PREFIX) for t in waiting[:8])
         more = f" and {len(waiting) - 8} more" if len(waiting) > 8 else ""
         limit = " (the --wait limit)" if now >= deadline else ""
         print(

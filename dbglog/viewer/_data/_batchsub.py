@@ -18,7 +18,6 @@ from typing import Any
 import numpy as np
 
 from dbglog._ros._batch import (
-    BATCH_DEPTH,
     BATCH_TOPIC,
     BATCH_TYPE,
     SCALAR_TYPES,
@@ -26,13 +25,14 @@ from dbglog._ros._batch import (
     TagSamples,
     decode_batch,
 )
+from dbglog._ros._qos import batch_qos
+from dbglog._ros._tags import topic_for_tag
 from dbglog.viewer._data._model import Binding, ValueKind
 from dbglog.viewer._data._series import Series
 
 __all__ = ["BatchIngest", "BatchStats"]
 
 _log = logging.getLogger("dbglog.viewer.engine")
-_TAG_PREFIX = "/rosdashboard/"
 _RECENT = 100
 """Samples kept per tag that nothing binds yet: what a binding made later starts with (as the per-tag
 topics' transient-local history of 100 would give it)."""
@@ -121,16 +121,8 @@ class BatchIngest:
             (i.node_namespace, i.node_name) for i in infos if i.topic_type == BATCH_TYPE
         )
         if self._writer_nodes and self.sub is None:
-            from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
-
             self._cls = self._message_class(BATCH_TYPE)
-            qos = QoSProfile(
-                history=HistoryPolicy.KEEP_LAST,
-                depth=BATCH_DEPTH,
-                reliability=ReliabilityPolicy.RELIABLE,
-                durability=DurabilityPolicy.TRANSIENT_LOCAL,
-            )
-            self.sub = node.create_subscription(self._cls, BATCH_TOPIC, _noop, qos, raw=True)
+            self.sub = node.create_subscription(self._cls, BATCH_TOPIC, _noop, batch_qos(), raw=True)
 
     def covers(self, infos: list[Any]) -> bool:
         """True when every publisher of a topic is a batch writer's node publishing a std_msgs scalar."""
@@ -243,7 +235,7 @@ class BatchIngest:
                 self._ingest(samples)
 
     def _ingest(self, samples: TagSamples) -> None:
-        name = _TAG_PREFIX + samples.tag
+        name = topic_for_tag(samples.tag)
         times = samples.times_ns.astype(np.float64) * 1e-9
         chunk = (times, samples.values)
         recent = self._recent.get(name)

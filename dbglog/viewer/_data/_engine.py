@@ -24,8 +24,9 @@ from typing import Any, Self
 import numpy as np
 import numpy.typing as npt
 
+from dbglog._regex._compile import CompiledRegex, RegexError, compile_regex, parse_number
 from dbglog._ros._batch import BATCH_TOPIC
-from dbglog.regex_bridge._regex import CompiledRegex, RegexError, compile_regex, parse_number
+from dbglog._ros._qos import LOG_DEPTH, subscription_qos
 from dbglog.viewer._data._batchsub import BatchIngest, BatchStats
 from dbglog.viewer._data._cdr import decode_fixed
 from dbglog.viewer._data._fields import (
@@ -61,9 +62,6 @@ _EVERY_NODE_TOPICS = frozenset({"/parameter_events"})
 """Topics every rclpy node publishes, the engine's own included: they don't make the graph non-empty."""
 LOG_TYPE = "rcl_interfaces/msg/Log"
 """The type of ``/rosout`` and other log topics."""
-LOG_DEPTH = 1000
-"""Queue depth of a log topic's subscription: the history rcl's rosout publishers keep (reliable,
-transient-local, depth 1000, 10 s lifespan), all of which a viewer started late is re-sent."""
 
 
 def queue_depth_for(n_topics: int, message_size: int | None, *, max_depth: int, budget: int) -> int:
@@ -671,8 +669,6 @@ class Engine:
         transient: bool,
         old: _TopicSub | None,
     ) -> None:
-        from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
-
         type_changed = old is not None and old.msg_type != msg_type
         if old is not None:
             node.destroy_subscription(old.sub)
@@ -691,12 +687,7 @@ class Engine:
         )
         if msg_type == LOG_TYPE:
             depth = max(depth, LOG_DEPTH)  # room for every line a late-joining reader is re-sent
-        qos = QoSProfile(
-            history=HistoryPolicy.KEEP_LAST,
-            depth=depth,
-            reliability=ReliabilityPolicy.RELIABLE if reliable else ReliabilityPolicy.BEST_EFFORT,
-            durability=DurabilityPolicy.TRANSIENT_LOCAL if transient else DurabilityPolicy.VOLATILE,
-        )
+        qos = subscription_qos(depth, reliable=reliable, transient=transient)
         sub = node.create_subscription(cls, name, _noop, qos, raw=True)
         topic = _TopicSub(name, msg_type, cls, sub, reliable, transient)
         if old is not None:

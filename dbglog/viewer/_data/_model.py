@@ -6,13 +6,14 @@ No ROS and no Dear PyGui here: the engine produces these, the UI and the termina
 from __future__ import annotations
 
 import enum
-import json
-from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Protocol
 
 import numpy as np
 import numpy.typing as npt
+
+from dbglog._ros._tags import tag_of
+from dbglog.viewer._values._transforms import Transform
 
 __all__ = [
     "Binding",
@@ -22,12 +23,8 @@ __all__ = [
     "Status",
     "TopicInfo",
     "ValueKind",
-    "binding_transforms",
-    "canonical_transforms",
     "judge_age",
 ]
-
-TAG_PREFIX = "/rosdashboard/"
 
 
 class Status(enum.StrEnum):
@@ -59,26 +56,9 @@ class Binding:
     topic: str
     field: str = ""
     regex: str = ""
-    transform: str = ""
-    """The binding's transforms as canonical JSON (`canonical_transforms`), ``""`` for none.
-
-    Kept as text so a binding stays hashable; the engine applies them at ingest (docs/transforms.md).
-    """
-
-
-def canonical_transforms(items: Sequence[Mapping[str, object]] | None) -> str:
-    """Return the canonical JSON text of a transform list for `Binding.transform` (``""`` when empty)."""
-    if not items:
-        return ""
-    return json.dumps([dict(i) for i in items], sort_keys=True, separators=(",", ":"), allow_nan=False)
-
-
-def binding_transforms(binding: Binding) -> list[dict[str, object]]:
-    """Return the transform list of `binding` (the inverse of `canonical_transforms`)."""
-    if not binding.transform:
-        return []
-    items = json.loads(binding.transform)
-    return items if isinstance(items, list) else []
+    transforms: tuple[Transform, ...] = ()
+    """The binding's transforms, in order (frozen values, so a binding stays hashable); applied by the engine
+    at ingest (docs/transforms.md). A rejected list from a file is one `Invalid`, shown as the error."""
 
 
 def judge_age(age_s: float, stale_after: float) -> tuple[Status, str]:
@@ -134,9 +114,7 @@ class TopicInfo:
     @property
     def tag(self) -> str | None:
         """The dbglog tag if this is a ``/rosdashboard/`` topic, else None."""
-        if self.name.startswith(TAG_PREFIX):
-            return self.name[len(TAG_PREFIX) :]
-        return None
+        return tag_of(self.name)
 
 
 @dataclass(frozen=True, slots=True)

@@ -100,7 +100,7 @@ class StaticSource:
             return SeriesSnapshot(binding, Status.WAITING, reason=f"{binding.topic} is not published")
         snap = replace(snap, binding=binding)
         if binding.regex and isinstance(snap.last, str):
-            from dbglog.regex_bridge._regex import RegexError, compile_regex
+            from dbglog._regex._compile import RegexError, compile_regex
 
             try:
                 found = compile_regex(binding.regex).extract(snap.last)

@@ -30,7 +30,7 @@ from typing import Any
 
 import numpy as np
 
-from dbglog.regex_bridge._regex import RegexError, compile_regex, parse_number
+from dbglog._regex._compile import RegexError, compile_regex, parse_number
 from dbglog.viewer._data._model import Binding, binding_transforms, canonical_transforms
 from dbglog.viewer._values._transforms import TransformChain, TransformError
 from dbglog.viewer.widget_api import PropertyError, PropValue, Widget

@@ -8,9 +8,9 @@ from pathlib import Path
 
 import dearpygui.dearpygui as dpg
 
-from dbglog.regex_bridge._regex import RegexError, compile_regex
+from dbglog._regex._compile import RegexError, compile_regex
+from dbglog._ros._tags import TAG_PREFIX
 from dbglog.viewer._data._model import (
-    TAG_PREFIX,
     Binding,
     DataSource,
     FieldInfo,

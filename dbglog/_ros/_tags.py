@@ -1,13 +1,22 @@
 """Tags and their topics: ``/rosdashboard/<tag>``, validated against the ROS 2 topic-name rules.
 
-Pure functions (no rclpy): an invalid tag maps deterministically to a valid one.
+The one definition of the tag prefix and tag rules (SDK, bridge, viewer, CLI). Pure functions (no
+rclpy): an invalid tag maps deterministically to a valid one.
 """
 
 from __future__ import annotations
 
 import re
 
-__all__ = ["MAX_TOPIC_LENGTH", "TAG_PREFIX", "TagError", "sanitize_tag", "tag_problem", "topic_for_tag"]
+__all__ = [
+    "MAX_TOPIC_LENGTH",
+    "TAG_PREFIX",
+    "TagError",
+    "sanitize_tag",
+    "tag_of",
+    "tag_problem",
+    "topic_for_tag",
+]
 
 TAG_PREFIX = "/rosdashboard/"
 MAX_TOPIC_LENGTH = 247
@@ -67,3 +76,8 @@ def sanitize_tag(tag: str) -> str:
 def topic_for_tag(tag: str) -> str:
     """Return the full topic for an already valid tag."""
     return TAG_PREFIX + tag
+
+
+def tag_of(topic: str) -> str | None:
+    """Return the dbglog tag of `topic` (``/rosdashboard/a/b`` -> ``a/b``), or None for any other topic."""
+    return topic[len(TAG_PREFIX) :] if topic.startswith(TAG_PREFIX) else None
