@@ -408,3 +408,15 @@ def test_two_publishers_with_skewed_clocks_stay_sorted_and_visible_at_once() -> 
     assert values.tolist() == times.tolist()
     chunks = h._view(T).chunks  # a white-box look: no pile of tiny chunks from the reordering
     assert len(chunks) <= 3000 // 256 + 3
+
+
+def test_a_quiet_topic_with_a_reorder_window_is_still_evicted_by_duration() -> None:
+    """The last samples of a topic that had late data and then went quiet leave with the rest."""
+    h = History(clock=None, max_seconds=10.0)
+    h.append_numbers("/quiet", [1.0, 2.0], [1.0, 2.0])
+    h.append_numbers("/quiet", [1.9], [1.9])  # late: the topic now keeps a reorder window
+    h.append_numbers("/quiet", [2.1], [2.1])
+    for second in range(3, 40):
+        h.append_numbers("/busy", [float(second)], [1.0])
+    assert h.count("/quiet") == 0
+    assert h.stats().evicted == 4 + 37 - h.count("/busy")

@@ -677,6 +677,9 @@ class History:
 
     def _trim(self, track: _Track, horizon: float) -> bool:
         changed = False
+        if track.pending is not None and track.pending.first < horizon:  # a topic that went quiet
+            self._flush(track)
+            changed = True
         while track.closed and track.closed[0].last < horizon:
             gone = track.closed.pop(0)
             track.closed_bytes -= gone.nbytes()
