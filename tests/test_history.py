@@ -420,3 +420,18 @@ def test_a_quiet_topic_with_a_reorder_window_is_still_evicted_by_duration() -> N
         h.append_numbers("/busy", [float(second)], [1.0])
     assert h.count("/quiet") == 0
     assert h.stats().evicted == 4 + 37 - h.count("/busy")
+
+
+def test_the_callers_arrays_can_be_reused_after_append() -> None:
+    """A writer that refills its batch buffers in place does not change what the history holds."""
+    h = History(clock=None)
+    h.append_numbers(T, [5.0], [5.0])
+    h.append_numbers(T, [4.0], [4.0])  # late: the reorder window is in use from here on
+    t = np.array([6.0, 6.1])
+    v = np.array([60.0, 61.0])
+    h.append_numbers(T, t, v)
+    t[:] = [100.0, 101.0]
+    v[:] = [-1.0, -1.0]
+    times, values = h.range(T, 0, 1000)
+    assert times.tolist() == [4.0, 5.0, 6.0, 6.1]
+    assert values.tolist() == [4.0, 5.0, 60.0, 61.0]

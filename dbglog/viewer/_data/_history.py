@@ -514,7 +514,8 @@ class History:
         if k > 0:
             self._extend(track, t[:k], data[:k])
         if k < n:
-            rest_t, rest = t[k:], data[k:]
+            rest_t = t[k:].copy()  # never a view of the caller's arrays
+            rest = data[k:] if isinstance(data, list) else data[k:].copy()
             track.pending = _Chunk(rest_t, rest, 0, n - k)
             if isinstance(rest, list):
                 track.pending_bytes = (
