@@ -5,7 +5,7 @@ Run: ``.venv/bin/python benchmarks/bench_probe.py [--before /tmp/dbglog-before]`
 Each run is a fresh publisher process: a 1 kHz loop with ~25 µs of its own work that sleeps to the next
 deadline and, per iteration, makes 10 calls (6x ``logfloat``, 2x ``logint``, ``logbool``, ``logstring``
 throttled to 10 Hz) - or the same publishes with raw rclpy, or nothing. With ``sub``, a real viewer
-engine (``dbglog.viewer._data._engine.Engine`` of the same source tree) runs in another process, bound to the
+engine (``Engine`` of the same source tree) runs in another process, bound to the
 10 tags, and reports how many samples reached its series, in order, and the publish -> series latency.
 Per-call times are taken around each call (``perf_counter_ns``; the "no calls" row shows that
 clock's own cost). CPU is the publisher process's, all threads (``/proc/self/stat``), minus the loop's
@@ -225,11 +225,18 @@ def publisher(mode: str, seconds: float) -> None:
 
 def subscriber(expect: int, history: int) -> None:
     """Bind the 10 tags in a real engine; print ``bound``, then counts/order/latency on a stdin line."""
-    from dbglog.viewer._data._engine import Engine
-    from dbglog.viewer._data._model import Binding
+    import importlib
 
-    bindings = [Binding("/rosdashboard/" + tag) for tag in _TAGS]
-    with Engine(history=history, measure_latency=True, node_name="probe_viewer") as engine:
+    try:
+        data = "dbglog.viewer._data."
+        importlib.import_module(data + "_engine")
+    except ImportError:  # a source tree from before the viewer's packages (``--before``)
+        data = "dbglog.viewer."
+    engine_cls: Any = importlib.import_module(data + "_engine").Engine
+    binding_cls: Any = importlib.import_module(data + "_model").Binding
+
+    bindings = [binding_cls("/rosdashboard/" + tag) for tag in _TAGS]
+    with engine_cls(history=history, measure_latency=True, node_name="probe_viewer") as engine:
         for b in bindings:
             engine.bind(b)
         deadline = time.monotonic() + 60
@@ -315,11 +322,45 @@ def _send(proc: subprocess.Popen[str], line: str) -> None:
     proc.stdin.flush()
 
 
-def run_once(tree: Path, mode: str, sub: bool, seconds: float) -> dict[str, Any]:
+def _start_echo(tree: Path, domain: int) -> tuple[subprocess.Popen[str], list[str]]:
+    """Start ``dbglog echo probe/f0`` of `tree`; return it once it printed its first (current) value."""
+    import threading
+
+    echo = subprocess.Popen(
+        [sys.executable, "-m", "dbglog", "echo", _TAGS[0]],
+        env=_env(tree, "on", domain),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.DEVNULL,
+        text=True,
+        cwd="/",
+    )
+    lines: list[str] = []
+    threading.Thread(target=lambda: lines.extend(echo.stdout or []), daemon=True).start()
+    deadline = time.monotonic() + 60
+    while not lines and time.monotonic() < deadline:
+        time.sleep(0.05)
+    return echo, lines
+
+
+def _echo_result(echo: subprocess.Popen[str], lines: list[str], n: int) -> dict[str, Any]:
+    """Stop echo once it stopped printing; count the loop's values it printed, and check their order."""
+    last, since = -1, time.monotonic()
+    while time.monotonic() - since < 2.0:
+        if len(lines) != last:
+            last, since = len(lines), time.monotonic()
+        time.sleep(0.1)
+    echo.terminate()
+    echo.wait(10)
+    values = [float(v) for v in lines if v.strip() and float(v) >= 0]
+    return {"echo_count": len(values), "echo_ordered": values == [float(k) for k in range(len(values))]}
+
+
+def run_once(tree: Path, mode: str, sub: bool, seconds: float, echo: bool = False) -> dict[str, Any]:
     """One publisher run (and a viewer engine process when `sub`); return its figures."""
     domain = random.randint(101, 200)
     pub = _spawn(["--role", "publisher", "--mode", mode, "--seconds", str(seconds)], _env(tree, mode, domain))
     engine = None
+    echo_proc: tuple[subprocess.Popen[str], list[str]] | None = None
     try:
         assert _readline(pub, 60) == "ready"
         if sub:
@@ -327,17 +368,21 @@ def run_once(tree: Path, mode: str, sub: bool, seconds: float) -> dict[str, Any]
             args = ["--role", "subscriber", "--expect", str(n), "--history", str(n + 1000)]
             engine = _spawn(args, _env(tree, "on", domain))
             assert _readline(engine, 90) == "bound"
+            if echo:
+                echo_proc = _start_echo(tree, domain)
             time.sleep(0.5)
         _send(pub, "go")
         result: dict[str, Any] = json.loads(_readline(pub, seconds + 60))
         if engine is not None:
             _send(engine, "report")
             result.update(json.loads(_readline(engine, 60)))
+        if echo_proc is not None:
+            result.update(_echo_result(*echo_proc, int(seconds * 1000)))
         _send(pub, "exit")
         pub.wait(30)
         return result
     finally:
-        for proc in (pub, engine):
+        for proc in (pub, engine, echo_proc[0] if echo_proc else None):
             if proc is not None and proc.poll() is None:
                 proc.kill()
 
@@ -353,6 +398,9 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--before", type=Path, default=None, help="another source tree to compare")
     parser.add_argument("--only", default="", help="comma-separated config names to run")
+    parser.add_argument(
+        "--echo", action="store_true", help="also run `dbglog echo` on one tag (with a viewer)"
+    )
     args = parser.parse_args()
     if args.role == "publisher":
         publisher(args.mode, args.seconds)
@@ -375,7 +423,7 @@ def main() -> None:
     for rep in range(args.repeats):
         for sub in (False, True):
             for name, tree, mode in configs:
-                res = run_once(tree, mode, sub, args.seconds)
+                res = run_once(tree, mode, sub, args.seconds, echo=args.echo and sub and mode != "none")
                 results.setdefault((name, sub), []).append(res)
                 print(f"# repeat {rep} {name} sub={sub}: {json.dumps(res)}", file=sys.stderr, flush=True)
     _print(configs, results)
@@ -409,6 +457,10 @@ def _print(configs: list[tuple[str, Path, str]], results: Results) -> None:
                 delivered = f"{_med(runs, 'min_count'):.0f} / {runs[0].get('expected', 0)}"
                 if not all(r.get("ordered", True) for r in runs):
                     delivered += " (out of order!)"
+                if "echo_count" in runs[0]:
+                    delivered += f"; echo {_med(runs, 'echo_count'):.0f} / {int(runs[0]['expected']) - 201}"
+                    if not all(r.get("echo_ordered", True) for r in runs):
+                        delivered += " (out of order!)"
             rows.append(
                 [
                     name,

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import time
 from collections.abc import Iterator
 
 import pytest
@@ -85,3 +86,33 @@ def test_an_int_beyond_int64_on_a_known_tag_is_dropped_out_of_range() -> None:
     s = dbglog.stats()
     assert (s.published, s.dropped_by_reason) == (2, {"out_of_range": 1})
     assert wait_until(lambda: dbglog.flush(5.0))
+
+
+def test_an_unwatched_tag_keeps_only_the_newest_per_flush_and_a_watcher_gets_every_sample(
+    peer: RosPeer,
+) -> None:
+    """Nobody on a tag's topic (after its first seconds): its newest value per flush goes there, all
+    values go in the batch; once a subscriber is matched, every sample goes on the topic again."""
+    dbglog.logfloat("fp/unwatched", -1.0)
+    ch = RUNTIME.channels["fp/unwatched"]
+    ch.created -= 60.0  # an old tag: past the first seconds in which every sample is sent anyway
+    ch.checked -= 60.0
+    _burst("fp/unwatched", 1000)
+    assert dbglog.stats().published == 1001  # handed to the middleware, in the batch
+    got = peer.subscribe("/rosdashboard/fp/unwatched", Float64, LATCHED)
+    assert wait_until(lambda: ch.publisher.get_subscription_count() >= 1)
+    assert got.wait_for(1)
+    history = got.values()
+    assert history[-1] == 999.0
+    assert len(history) < 1001  # only the newest of each flush was kept on the topic
+    assert wait_until(lambda: ch.listened(time.monotonic()))
+    for k in range(300):  # 1 kHz: within the topic's keep-last 100 for a live reader
+        dbglog.logfloat("fp/unwatched", float(k))
+        time.sleep(0.001)
+    assert got.wait_for(len(history) + 300)
+    assert got.values()[len(history) :] == [float(k) for k in range(300)]
+
+
+def _burst(tag: str, n: int) -> None:
+    for k in range(n):
+        dbglog.logfloat(tag, float(k))

@@ -148,14 +148,20 @@ class Pipe:
             for _ in items:
                 runtime.reporter.count("shut_down")
             return len(items)
-        self._publish_batch(items)
+        batched = self._publish_batch(items)
         if yield_gil:
             time.sleep(_YIELD_S)
         send = runtime.send_queued
         published = runtime.reporter.published.incr
         clock = time.perf_counter_ns
         last = clock()
+        now = time.monotonic()
+        newest: dict[Channel, object] = {}
         for ch, value, _ in items:
+            if batched and ch.alive and not ch.listened(now):
+                newest[ch] = value  # in the batch; nobody reads the tag's topic: only its newest goes there
+                published()
+                continue
             encode = ch.encode
             if encode is not None and ch.alive:
                 try:
@@ -170,13 +176,19 @@ class Pipe:
             if yield_gil and clock() - last > _YIELD_NS:
                 time.sleep(_YIELD_S)
                 last = clock()
+        for ch, value in newest.items():
+            with contextlib.suppress(Exception):  # counted with the batch, which carried it
+                if ch.encode is not None:
+                    ch.publish_raw(ch.encode(value))
+                else:
+                    ch.send(value, message=False)
         return len(items)
 
-    def _publish_batch(self, items: list[Item]) -> None:
-        """Publish `items` as one batch message (best effort: the per-tag copies carry on)."""
+    def _publish_batch(self, items: list[Item]) -> bool:
+        """Publish `items` as one batch message; False when it could not be sent."""
         publish = self.runtime.batch_publish
         if publish is None:
-            return
+            return False
         table: dict[Channel, int] = {}
         tags: list[tuple[int, bytes]] = []
         index = array("H")
@@ -201,6 +213,7 @@ class Pipe:
         try:
             publish(message)
             self.batches += 1
+            return True
         except Exception as exc:
             with contextlib.suppress(Exception):  # strict mode raises here: not the user's thread
                 self.runtime.reporter.warn(
@@ -210,6 +223,7 @@ class Pipe:
                     f"({type(exc).__name__}: {exc}); the viewer misses them, ROS tools still get them",
                     exc,
                 )
+            return False
 
 
 _pack_q = struct.Struct("<q").pack

@@ -10,9 +10,7 @@ from __future__ import annotations
 import atexit
 import contextlib
 import ctypes
-import functools
 import os
-import struct
 import sys
 import threading
 import time
@@ -21,10 +19,10 @@ from collections.abc import Callable
 from typing import Any, Literal
 
 from dbglog._ros._batch import BATCH_TOPIC, SCALAR_TYPES, type_code
+from dbglog._ros._cdr import scalar_encoder
 from dbglog._ros._qos import batch_qos, tag_qos
 from dbglog._ros._tags import TAG_PREFIX, sanitize_tag, tag_problem, topic_for_tag
 from dbglog.api._convert import (
-    CDR_HEADER,
     ScalarSpec,
     encode_scalar,
     scalar_spec,
@@ -46,6 +44,11 @@ _FORKED_MESSAGE = (
     "survive a fork; dbglog drops values in the child (start workers with multiprocessing's "
     "'spawn' or 'forkserver' method to log from them)"
 )
+_LISTEN_CHECK_S = 0.1
+"""How often a tag's subscriber count is looked up (a C call)."""
+_NEW_TAG_S = 5.0
+"""A tag sends every sample on its topic for this long after its publisher is created, so a subscriber
+that is still being matched (discovery takes a moment) misses nothing."""
 State = Literal["idle", "ready", "no_ros", "forked", "closed"]
 
 
@@ -54,8 +57,11 @@ class Channel:
 
     __slots__ = (
         "alive",
+        "checked",
         "code",
+        "created",
         "encode",
+        "listening",
         "msg_class",
         "publish",
         "publish_raw",
@@ -80,6 +86,9 @@ class Channel:
         self.spec = spec
         self.alive = True
         """False once the publisher was destroyed (samples still queued for it go to its successor)."""
+        self.created = self.checked = time.monotonic()
+        self.listening = True
+        """Someone subscribes to the tag's topic (looked up every `_LISTEN_CHECK_S`)."""
         self.encode: Callable[[object], bytes] | None = None
         if spec is not None and raw:
             self.encode = cdr_encoder(spec)
@@ -89,6 +98,18 @@ class Channel:
         """Scalar std_msgs values go through the queue and the batch; other messages are sent at once."""
         self.code = type_code(spec.name) if self.queued and spec is not None else 0
         self.slot = slot_packer(spec.name) if self.queued and spec is not None else None
+
+    def listened(self, now: float) -> bool:
+        """True when the tag's topic has a subscriber (or the tag is new): then it gets every sample."""
+        if now - self.checked > _LISTEN_CHECK_S:
+            self.checked = now
+            try:
+                self.listening = (
+                    now - self.created < _NEW_TAG_S or self.publisher.get_subscription_count() > 0
+                )
+            except Exception:
+                self.listening = True
+        return self.listening
 
     def send(self, value: object, *, message: bool) -> None:
         """Publish a message, or a checked scalar value (as CDR bytes when verified)."""
@@ -102,7 +123,7 @@ class Channel:
 
 def cdr_encoder(spec: ScalarSpec) -> Callable[[object], bytes]:
     """Return value -> CDR bytes of `spec` as one C call (`encode_scalar`'s bytes, header included)."""
-    return functools.partial(struct.Struct("<4s" + spec.fmt[1:]).pack, CDR_HEADER)
+    return scalar_encoder(spec.fmt)
 
 
 def _cdr_round_trips(msg_class: type, spec: ScalarSpec) -> bool:
