@@ -16,8 +16,8 @@ from rcl_interfaces.msg import Log
 from rclpy.serialization import serialize_message
 from std_msgs.msg import Bool, Float64, Int64, String
 
+from dbglog._ros._cdr import read_log, read_string
 from dbglog.regex_bridge import MAX_LINE, Matcher, Value, load_rules, parse_rules
-from dbglog.regex_bridge._cdr import encode_value, read_log, read_string
 
 GOLDEN = Path(__file__).resolve().parent / "golden" / "bridge"
 DEMO_RULES = Path(__file__).resolve().parent.parent / "examples" / "rules" / "demo_rules.yaml"
@@ -158,6 +158,8 @@ def test_cdr_reader_matches_rclpy_serialization() -> None:
 def test_value_encoding_matches_rclpy_serialization() -> None:
     """Pre-serialized outputs deserialize to the same values rclpy would publish."""
     from rclpy.serialization import deserialize_message
+
+    from dbglog.regex_bridge._node import encode_value
 
     for kind, msg_type, value in [
         ("float", Float64, 0.53),

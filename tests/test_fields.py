@@ -13,7 +13,7 @@ from rclpy.serialization import serialize_message
 from sensor_msgs.msg import Imu, LaserScan
 from std_msgs.msg import Bool, Byte, Float32, Float64, Float64MultiArray, Int8, Int64, String, UInt16
 
-from dbglog.viewer._data._cdr import decode_fixed
+from dbglog._ros._cdr import decode_fixed
 from dbglog.viewer._data._fields import (
     FieldPathError,
     fixed_size,

@@ -24,6 +24,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
+from dbglog._ros._cdr import CDR_HEADER
+
 if TYPE_CHECKING:
     import numpy as np
     import numpy.typing as npt
@@ -68,7 +70,6 @@ _VERSION = 1
 _HEADER = struct.Struct("<4sBBHIQQI")
 _TAG = struct.Struct("<BH")
 _CDR_PREFIX = struct.Struct("<4sIII")
-_CDR_HEADER = b"\x00\x01\x00\x00"
 _CDR_PREFIX_SIZE = _CDR_PREFIX.size
 _VALUE_DTYPES = {
     "Float64": "<f8",
@@ -131,7 +132,7 @@ def encode_batch(
         parts.append(array("I", [len(s) for s in strings]).tobytes())
         parts.extend(strings)
     payload = b"".join(parts)
-    return _CDR_PREFIX.pack(_CDR_HEADER, 0, 0, len(payload)) + payload
+    return _CDR_PREFIX.pack(CDR_HEADER, 0, 0, len(payload)) + payload
 
 
 @dataclass(frozen=True, slots=True)

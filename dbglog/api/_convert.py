@@ -9,12 +9,13 @@ import array
 import importlib
 import math
 import operator
-import struct
 from collections.abc import Callable, Mapping
 from copy import deepcopy
 from dataclasses import dataclass
 from typing import Any, Literal
 
+from dbglog._ros._cdr import CDR_HEADER, SCALAR_FORMATS
+from dbglog._ros._cdr import encode_scalar as _encode_cdr
 from dbglog.api._errors import safe_repr
 
 __all__ = [
@@ -30,9 +31,6 @@ __all__ = [
     "scrub_nul",
     "type_name",
 ]
-
-CDR_HEADER = b"\x00\x01\x00\x00"
-"""Encapsulation header of little-endian plain CDR, as every ROS 2 DDS middleware writes it."""
 
 MAX_STRING_CHARS = 65536
 """Longer strings are cut to this many characters (one warning), so a history of them stays small."""
@@ -66,24 +64,23 @@ class ScalarSpec:
     high: int = 0
 
 
-def _int_spec(name: str, code: str, bits: int, signed: bool) -> ScalarSpec:
-    pad = "x" * ((4 - bits // 8 % 4) % 4)
+def _int_spec(name: str, bits: int, signed: bool) -> ScalarSpec:
     low, high = (-(2 ** (bits - 1)), 2 ** (bits - 1) - 1) if signed else (0, 2**bits - 1)
-    return ScalarSpec(name, "int", "<" + code + pad, low, high)
+    return ScalarSpec(name, "int", SCALAR_FORMATS[name], low, high)
 
 
 _SCALARS: dict[str, ScalarSpec] = {
-    "Float64": ScalarSpec("Float64", "float", "<d"),
-    "Float32": ScalarSpec("Float32", "float", "<f"),
-    "Int8": _int_spec("Int8", "b", 8, True),
-    "Int16": _int_spec("Int16", "h", 16, True),
-    "Int32": _int_spec("Int32", "i", 32, True),
-    "Int64": _int_spec("Int64", "q", 64, True),
-    "UInt8": _int_spec("UInt8", "B", 8, False),
-    "UInt16": _int_spec("UInt16", "H", 16, False),
-    "UInt32": _int_spec("UInt32", "I", 32, False),
-    "UInt64": _int_spec("UInt64", "Q", 64, False),
-    "Bool": ScalarSpec("Bool", "bool", "<?xxx"),
+    "Float64": ScalarSpec("Float64", "float", SCALAR_FORMATS["Float64"]),
+    "Float32": ScalarSpec("Float32", "float", SCALAR_FORMATS["Float32"]),
+    "Int8": _int_spec("Int8", 8, True),
+    "Int16": _int_spec("Int16", 16, True),
+    "Int32": _int_spec("Int32", 32, True),
+    "Int64": _int_spec("Int64", 64, True),
+    "UInt8": _int_spec("UInt8", 8, False),
+    "UInt16": _int_spec("UInt16", 16, False),
+    "UInt32": _int_spec("UInt32", 32, False),
+    "UInt64": _int_spec("UInt64", 64, False),
+    "Bool": ScalarSpec("Bool", "bool", SCALAR_FORMATS["Bool"]),
     "String": ScalarSpec("String", "str", ""),
 }
 
@@ -180,7 +177,7 @@ def check_bool(value: object) -> bool:
 
 def encode_scalar(spec: ScalarSpec, value: object) -> bytes:
     """Return the CDR bytes of a checked scalar value."""
-    return CDR_HEADER + struct.pack(spec.fmt, value)
+    return _encode_cdr(spec.fmt, value)
 
 
 def make_checker(spec: ScalarSpec) -> Callable[[object], object]:

@@ -36,12 +36,21 @@ from rclpy.qos import QoSProfile
 from rclpy.serialization import deserialize_message
 from std_msgs.msg import Bool, Float64, Int64, String
 
+from dbglog._regex._compile import NumberKind
+from dbglog._ros._cdr import SCALAR_FORMATS, read_log, read_string, scalar_encoder
 from dbglog._ros._qos import log_qos, tag_qos
-from dbglog.regex_bridge._cdr import encode_value, read_log, read_string
 from dbglog.regex_bridge._engine import Matcher
 from dbglog.regex_bridge._rules import ROSOUT, RuleSet
 
-__all__ = ["DEDUP_WINDOW", "DEFAULT_DEPTH", "DEFAULT_NODE_NAME", "Bridge", "BridgeStats", "source_qos"]
+__all__ = [
+    "DEDUP_WINDOW",
+    "DEFAULT_DEPTH",
+    "DEFAULT_NODE_NAME",
+    "Bridge",
+    "BridgeStats",
+    "encode_value",
+    "source_qos",
+]
 
 DEFAULT_NODE_NAME: Final = "dbglog_bridge"
 DEFAULT_DEPTH: Final = 10_000
@@ -50,6 +59,7 @@ _BURST: Final = 256
 """Messages taken from one subscription before looking at the others."""
 _WAIT_NS: Final = 200_000_000
 _MSG_TYPES: Final = {"float": Float64, "int": Int64, "bool": Bool}
+_ENCODERS: Final = {kind: scalar_encoder(SCALAR_FORMATS[cls.__name__]) for kind, cls in _MSG_TYPES.items()}
 _MAX_NAMES: Final = 1024
 DEDUP_WINDOW: Final = 12.0
 """Seconds (at least, at most twice that) a published line is remembered: ``/rosout`` publishers keep a
@@ -85,6 +95,11 @@ def source_qos(depth: int = DEFAULT_DEPTH, *, durable: bool = True) -> QoSProfil
             publishers are usually volatile (a transient-local reader would not match them).
     """
     return log_qos(depth, durable=durable)
+
+
+def encode_value(kind: NumberKind, value: float | int | bool) -> bytes:
+    """Serialize `value` as a little-endian CDR std_msgs Float64, Int64 or Bool."""
+    return _ENCODERS[kind](value)
 
 
 class _Published:

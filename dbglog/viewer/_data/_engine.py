@@ -26,9 +26,9 @@ import numpy.typing as npt
 
 from dbglog._regex._compile import CompiledRegex, RegexError, compile_regex, parse_number
 from dbglog._ros._batch import BATCH_TOPIC
+from dbglog._ros._cdr import decode_fixed
 from dbglog._ros._qos import LOG_DEPTH, subscription_qos
 from dbglog.viewer._data._batchsub import BatchIngest, BatchStats
-from dbglog.viewer._data._cdr import decode_fixed
 from dbglog.viewer._data._fields import (
     FieldPathError,
     Resolved,
