@@ -29,6 +29,7 @@ _COMMANDS: dict[str, str] = {
     "view": "dbglog.viewer._cli_view",
     "tags": "dbglog.viewer._cli._cli_tags",
     "echo": "dbglog.viewer._cli._cli_echo",
+    "logs": "dbglog.viewer._cli_logs",
     "record": "dbglog.record._cli",
     "demo": "dbglog._demo._cli",
 }
