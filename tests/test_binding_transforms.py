@@ -10,6 +10,7 @@ import os
 import subprocess
 import sys
 from collections.abc import Iterator
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -19,8 +20,23 @@ from geometry_msgs.msg import Twist
 from std_msgs.msg import Bool, Float64, String
 
 from dbglog.viewer._data._engine import Engine
-from dbglog.viewer._data._model import Binding, Status, ValueKind, binding_transforms, canonical_transforms
-from dbglog.viewer._document._dashboard import WidgetConfig, load_dashboard, parse_dashboard
+from dbglog.viewer._data._model import Binding, Status, ValueKind
+from dbglog.viewer._document._dashboard import WidgetConfig, dumps, load_dashboard, parse_dashboard
+from dbglog.viewer._values._transforms import (
+    Abs,
+    Clamp,
+    DegToRad,
+    Derivative,
+    FormulaTransform,
+    Invalid,
+    MovingAverage,
+    RadToDeg,
+    Scale,
+    TransformError,
+    Unwrap,
+    transforms_from_json,
+    transforms_or_invalid,
+)
 from dbglog.viewer._widgets import WidgetRegistry
 from tests._ros import RosPeer, wait_until
 
@@ -41,7 +57,7 @@ def _corpus_texts(sentinel: Path) -> list[tuple[str, str]]:
 
 
 def _bind(topic: str, fld: str, transforms: list[dict[str, Any]], regex: str = "") -> Binding:
-    return Binding(topic, fld, regex, canonical_transforms(transforms))
+    return Binding(topic, fld, regex, transforms_or_invalid(transforms))
 
 
 @pytest.fixture(scope="module")
@@ -190,7 +206,10 @@ def test_engine_rejects_bad_transforms_without_evaluating(
     """Transforms given to the engine directly (not via a file) are checked too; corpus entries never run."""
     _, engine = ros
     sentinel = tmp_path / "sentinel"
-    bad = [Binding("/xf/value", "", "", "[{"), Binding("/xf/value", "", "", '[{"kind": "nope"}]')]
+    bad = [
+        _bind("/xf/value", "", [{"kind": "nope"}]),
+        Binding("/xf/value", transforms=transforms_or_invalid("[{")),
+    ]
     bad += [
         _bind("/xf/value", "", [{"kind": "formula", "expr": text}]) for text, _ in _corpus_texts(sentinel)
     ]
@@ -233,9 +252,69 @@ def test_dashboard_round_trip_keeps_transforms() -> None:
     again = parse_dashboard(json.loads(json.dumps(first.dashboard.to_dict())), registry.get)
     assert again.dashboard.widgets[0] == config
     binding, empty = config.bindings  # type: ignore[union-attr]
-    assert binding_transforms(binding) == [{"kind": "rad2deg"}, {"kind": "clamp", "max": 5.0}]
-    assert empty.transform == ""
-    assert hash(binding) == hash(Binding("/a", "", "", binding.transform))
+    assert binding.transforms == (RadToDeg(), Clamp(high=5.0))
+    assert empty.transforms == ()
+    assert hash(binding) == hash(Binding("/a", "", "", (RadToDeg(), Clamp(high=5.0))))
+
+
+SAVED = Path(__file__).parent / "data" / "transforms_saved.json"
+"""Saved by the viewer when bindings still held their transforms as JSON text (before they were values)."""
+
+
+def test_transforms_are_values_and_files_stay_byte_identical() -> None:
+    """Bindings hold typed transform values (a rejected list is one `Invalid`, kept as written with its
+    reason); the file written before transforms were values loads and saves back byte for byte."""
+    registry = WidgetRegistry.builtin()
+    text = SAVED.read_text(encoding="utf-8")
+    result = parse_dashboard(json.loads(text), registry.get)
+    assert dumps(result.dashboard) == text
+    every, empty, dunder, not_a_list = result.dashboard.widgets[0].bindings  # type: ignore[union-attr]
+    assert every.transforms == (
+        Scale(2.0, -1.5),
+        DegToRad(),
+        RadToDeg(),
+        Abs(),
+        Clamp(-5.0, 5.0),
+        Clamp(high=1e300),
+        Derivative(),
+        MovingAverage(7),
+        Unwrap(360.0),
+        FormulaTransform("x * 57.2958 + linear.y"),
+    )
+    assert len({every, replace(every, transforms=tuple(every.transforms))}) == 1, "hashable values"
+    assert empty.transforms == ()
+    (rejected,) = dunder.transforms
+    assert isinstance(rejected, Invalid)
+    assert rejected.reason.startswith("transforms[0] (formula): 'expr'")
+    assert json.loads(rejected.written)[0] == {"kind": "formula", "expr": "__import__('os')"}
+    (shape,) = not_a_list.transforms
+    assert isinstance(shape, Invalid)
+    assert shape.reason == "transforms must be a list of objects, got dict"
+    assert [m.split(": ", 1)[0] for m in result.messages] == ["widget #1 'Every kind'"] * 2
+
+
+def test_transform_loaders_type_every_parameter() -> None:
+    """Each kind's loader checks its parameters' types and names the bad one (no value reaches a class
+    untyped); the constructors check the same ranges when called directly."""
+    cases = [
+        ({"kind": "scale", "scale": "2"}, "'scale' must be a number"),
+        ({"kind": "clamp", "min": True}, "'min' must be a number"),
+        ({"kind": "moving_average", "window": 2.5}, "'window' must be an integer"),
+        ({"kind": "moving_average"}, "needs 'window'"),
+        ({"kind": "unwrap", "period": None}, "'period' must be a number"),
+        ({"kind": "formula", "expr": 3}, "'expr' must be a string"),
+        ({"kind": "formula"}, "needs 'expr'"),
+    ]
+    for item, reason in cases:
+        with pytest.raises(TransformError, match=reason):
+            transforms_from_json([item])
+        (kept,) = transforms_or_invalid([item])
+        assert isinstance(kept, Invalid)
+        assert reason in kept.reason
+    with pytest.raises(TransformError, match="between 1 and"):
+        MovingAverage(0)
+    with pytest.raises(TransformError, match="is above 'max'"):
+        Clamp(2.0, 1.0)
 
 
 def _corpus_dashboard(path: Path, sentinel: Path) -> list[str]:
@@ -293,13 +372,15 @@ def test_escape_corpus_dashboard_through_the_loader_and_the_viewer(tmp_path: Pat
     by_name = {w.name: w for w in result.dashboard.widgets}
     for i, name in enumerate(names):
         (kept,) = by_name[name].bindings  # type: ignore[union-attr]
-        assert json.loads(kept.transform)[0]["kind"] == "formula", name
+        (rejected,) = kept.transforms
+        assert isinstance(rejected, Invalid), name
+        assert json.loads(rejected.written)[0]["kind"] == "formula", name
         assert any(
             m.startswith(f"widget #{i + 1} {name!r}: bindings[0]: transforms[0] (formula)")
             for m in result.messages
         ), name
     assert len([m for m in result.messages if m.endswith(REJECTED)]) == len(names)
-    assert by_name["Good"].bindings[0].transform  # type: ignore[union-attr]
+    assert by_name["Good"].bindings[0].transforms  # type: ignore[union-attr]
     report = tmp_path / "report.json"
     env = dict(os.environ)
     proc = subprocess.run(
@@ -354,7 +435,7 @@ def test_shipped_dashboards_show_the_azimuth_in_degrees_and_the_demo_has_teleop(
         assert compass.properties["units"] == "degrees"  # type: ignore[union-attr]
         (binding,) = compass.bindings  # type: ignore[union-attr]
         assert binding.topic == "/rosdashboard/sound/azimuth"
-        assert binding_transforms(binding) == [{"kind": "rad2deg"}]
+        assert binding.transforms == (RadToDeg(),)
     demo = load_dashboard(root / "dbglog" / "_demo" / "demo_dashboard.json", registry.get).dashboard
     teleop = {
         (w.type, w.bindings[0].topic, w.bindings[0].field)

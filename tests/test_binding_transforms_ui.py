@@ -25,9 +25,10 @@ def run_here(tmp: str) -> None:
     from std_msgs.msg import Float64
 
     from dbglog.viewer._data._engine import Engine
-    from dbglog.viewer._data._model import Binding, Status, binding_transforms
+    from dbglog.viewer._data._model import Binding, Status
     from dbglog.viewer._ui import ViewerApp
     from dbglog.viewer._ui._dialogs import TopicDialog
+    from dbglog.viewer._values._transforms import RadToDeg
     from dbglog.viewer._widgets import WidgetRegistry
     from tests._ros import RosPeer
 
@@ -64,7 +65,7 @@ def run_here(tmp: str) -> None:
             assert dialog.apply()
             (binding,) = item.bindings
             assert binding.topic == topic
-            assert binding_transforms(binding) == [{"kind": "rad2deg"}]
+            assert binding.transforms == (RadToDeg(),)
             assert peer.wait_for_subscribers(pub, 1, 20)
 
             msg = Float64()

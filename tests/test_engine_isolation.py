@@ -18,7 +18,8 @@ import pytest
 from std_msgs.msg import Float64
 
 from dbglog.viewer._data._engine import Engine
-from dbglog.viewer._data._model import Binding, SeriesSnapshot, Status, canonical_transforms
+from dbglog.viewer._data._model import Binding, SeriesSnapshot, Status
+from dbglog.viewer._values._transforms import FormulaTransform
 from tests._ros import RosPeer, wait_until
 
 _ids = itertools.count()
@@ -80,11 +81,9 @@ def test_a_bad_field_or_formula_is_that_bindings_error_alone(
     traceback; the good bindings on the same topic stay live."""
     topic = _topic("poison")
     good = Binding(topic)
-    doubles = canonical_transforms([{"kind": "formula", "expr": "x * 2"}])
-    also_good = Binding(topic, "data", transform=doubles)
+    also_good = Binding(topic, "data", transforms=(FormulaTransform("x * 2"),))
     bad_field = Binding(topic, "data.x")
-    reads_real = canonical_transforms([{"kind": "formula", "expr": "x + data.real"}])
-    bad_formula = Binding(topic, transform=reads_real)
+    bad_formula = Binding(topic, transforms=(FormulaTransform("x + data.real"),))
     caplog.set_level(logging.DEBUG, logger="dbglog.viewer.engine")
     pump = _Pump(peer, topic)
     try:
@@ -116,7 +115,7 @@ def test_an_extraction_that_raises_marks_only_its_own_binding(peer: RosPeer) -> 
     topic = _topic("raises")
     good = Binding(topic)
     # A valid formula that reads a field of the message: the slow (typed-message) path feeds both.
-    reader = Binding(topic, transform=canonical_transforms([{"kind": "formula", "expr": "x + data"}]))
+    reader = Binding(topic, transforms=(FormulaTransform("x + data"),))
     pump = _Pump(peer, topic)
     try:
         with Engine(graph_period=0.1) as engine:

@@ -10,7 +10,6 @@ copies (``snapshot``); nothing here imports Dear PyGui.
 
 from __future__ import annotations
 
-import json
 import logging
 import math
 import threading
@@ -41,7 +40,7 @@ from dbglog.viewer._data._fields import (
 from dbglog.viewer._data._model import Binding, FieldInfo, SeriesSnapshot, Status, TopicInfo, ValueKind
 from dbglog.viewer._data._series import Series
 from dbglog.viewer._data._suggest import close_matches, sub_topics, unpublished_reason
-from dbglog.viewer._values._transforms import TransformChain
+from dbglog.viewer._values._transforms import TransformChain, TransformError
 
 __all__ = ["Engine", "EngineStats", "queue_depth_for"]
 
@@ -277,10 +276,10 @@ class Engine:
             problem = self._check(binding)
             self._regexes[binding] = None
             self._chains[binding] = None
-            if not isinstance(problem, str) and binding.transform:
-                try:
-                    self._chains[binding] = TransformChain.from_json(json.loads(binding.transform))
-                except (ValueError, RecursionError) as exc:  # TransformError and bad JSON are ValueErrors
+            if not isinstance(problem, str) and binding.transforms:
+                try:  # the binding's own values: a rejected list (`Invalid`) refuses with its reason
+                    self._chains[binding] = TransformChain(binding.transforms)
+                except TransformError as exc:
                     problem = f"bad transforms: {exc}"
             if isinstance(problem, str):
                 self._static_errors[binding] = problem

@@ -31,8 +31,8 @@ from typing import Any
 import numpy as np
 
 from dbglog._regex._compile import RegexError, compile_regex, parse_number
-from dbglog.viewer._data._model import Binding, binding_transforms, canonical_transforms
-from dbglog.viewer._values._transforms import TransformChain, TransformError
+from dbglog.viewer._data._model import Binding
+from dbglog.viewer._values._transforms import Invalid, transforms_or_invalid, written_transforms
 from dbglog.viewer.widget_api import PropertyError, PropValue, Widget
 
 __all__ = [
@@ -130,12 +130,9 @@ class WidgetConfig:
 
 def _binding_dict(b: Binding) -> dict[str, Any]:
     out: dict[str, Any] = {"topic": b.topic, "field": b.field, "regex": b.regex}
-    if b.transform:
-        # Rejected transforms are kept as the user wrote them (any JSON), valid ones canonically.
-        try:
-            out["transforms"] = json.loads(b.transform)
-        except ValueError:
-            out["transforms"] = binding_transforms(b)
+    if b.transforms:
+        # Rejected transforms are kept as the user wrote them (any JSON), valid ones with sorted keys.
+        out["transforms"] = written_transforms(b.transforms)
     return out
 
 
@@ -682,13 +679,12 @@ def _with_transforms(binding: Binding, raw: object, at: str, msgs: list[str]) ->
         inner = problem.replace("field '[0]", "field 'transforms", 1)
         msgs.append(f"{at}: {inner}; binding dropped (it cannot be shown or saved)")
         return None
-    try:
-        chain = TransformChain.from_json(raw, where=at)
-    except (TransformError, OverflowError) as exc:
-        msgs.append(f"{_cut(str(exc))}; kept as written, the widget shows this error until it is fixed")
-        text = json.dumps(raw, ensure_ascii=False, separators=(",", ":"), allow_nan=False)
-        return replace(binding, transform=text)
-    return replace(binding, transform=canonical_transforms(chain.to_json()))
+    transforms = transforms_or_invalid(raw)
+    rejected = next((t for t in transforms if isinstance(t, Invalid)), None)
+    if rejected is not None:
+        problem = _cut(f"{at}: {rejected.reason}")
+        msgs.append(f"{problem}; kept as written, the widget shows this error until it is fixed")
+    return replace(binding, transforms=transforms)
 
 
 def _binding(topic: object, fld: object, regex: object, at: str, msgs: list[str]) -> Binding | None:

@@ -16,14 +16,18 @@ from dbglog.viewer._data._model import (
     FieldInfo,
     Status,
     ValueKind,
-    binding_transforms,
-    canonical_transforms,
 )
 from dbglog.viewer._document._dashboard import WidgetConfig, check_stale_after
 from dbglog.viewer._ui._frame import CanvasItem
 from dbglog.viewer._ui._theme import DIM, STATUS_COLORS
 from dbglog.viewer._values._expr import FormulaError, parse_formula
-from dbglog.viewer._values._transforms import TransformError, transforms_from_json
+from dbglog.viewer._values._transforms import (
+    Invalid,
+    TransformError,
+    transforms_from_json,
+    transforms_or_invalid,
+    written_transforms,
+)
 from dbglog.viewer.widget_api import PropertyError, PropKind, PropValue, format_color, parse_color
 
 __all__ = [
@@ -574,8 +578,8 @@ class TopicDialog(Dialog):
         topic = str(dpg.get_value(self.topic_input)).strip()
         field = self._selected_field()
         regex = str(dpg.get_value(self.regex_input))
-        transform = self.bindings[self.index].transform
-        self.bindings[self.index] = Binding(topic, field, regex, transform)
+        transforms = self.bindings[self.index].transforms
+        self.bindings[self.index] = Binding(topic, field, regex, transforms)
         if self.max_bindings > 1:
             labels = self._series_labels()
             dpg.configure_item(self.series_combo, items=labels)
@@ -742,8 +746,9 @@ class TopicDialog(Dialog):
         return ok, text
 
     def transforms(self) -> list[dict[str, object]]:
-        """Return the transforms of the series being edited."""
-        return binding_transforms(self.bindings[self.index])
+        """Return the transforms of the series being edited, in their file form."""
+        written = written_transforms(self.bindings[self.index].transforms)
+        return written if isinstance(written, list) else []
 
     def add_transform(self) -> bool:
         """Add the transform set up in the Add row to the series being edited; False (and why) if invalid."""
@@ -777,15 +782,15 @@ class TopicDialog(Dialog):
 
     def _set_transforms(self, items: list[dict[str, object]]) -> None:
         b = self.bindings[self.index]
-        self.bindings[self.index] = Binding(b.topic, b.field, b.regex, canonical_transforms(items))
+        self.bindings[self.index] = Binding(b.topic, b.field, b.regex, transforms_or_invalid(items))
         self._show_transforms()
 
     def _show_transforms(self) -> None:
         dpg.delete_item(self.xf_list, children_only=True)
-        try:
-            shown = transforms_from_json(self.transforms())
-        except TransformError as exc:
-            dpg.add_text(f"invalid: {exc}", parent=self.xf_list, color=ERROR_COLOR, wrap=590)
+        shown = self.bindings[self.index].transforms
+        rejected = next((t for t in shown if isinstance(t, Invalid)), None)
+        if rejected is not None:
+            dpg.add_text(rejected.describe(), parent=self.xf_list, color=ERROR_COLOR, wrap=590)
             return
         if not shown:
             dpg.add_text("none: the value is shown as it arrives", parent=self.xf_list, color=DIM)
@@ -843,7 +848,7 @@ class TopicDialog(Dialog):
                     dpg.configure_item(self.preview, color=ERROR_COLOR)
                     return False
         bindings = tuple(
-            Binding(b.topic if b.topic.startswith("/") else "/" + b.topic, b.field, b.regex, b.transform)
+            Binding(b.topic if b.topic.startswith("/") else "/" + b.topic, b.field, b.regex, b.transforms)
             for b in bindings
         )
         self._on_apply(self.item, bindings)

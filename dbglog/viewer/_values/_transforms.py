@@ -3,7 +3,9 @@
 A transform is a frozen dataclass holding its settings; a `TransformChain` applies several in order and
 keeps the per-stream state of the stateful ones (derivative, moving average, angle unwrap). The chain has an
 incremental `TransformChain.apply` for live samples and a vectorised `TransformChain.apply_array` for
-history; both advance the same state and agree.
+history; both advance the same state and agree. Transforms are values: a `Binding` holds a tuple of them, and
+only the dashboard file turns them into JSON (`transforms_from_json`, `written_transforms`). A list a file
+gave that is rejected stays one `Invalid` value, kept as written with the reason.
 
 Example:
     >>> chain = TransformChain.from_json([{"kind": "rad2deg"}, {"kind": "clamp", "min": -90, "max": 90}])
@@ -14,6 +16,7 @@ Example:
 from __future__ import annotations
 
 import abc
+import json
 import math
 from collections import deque
 from collections.abc import Callable, Iterable, Mapping, Sequence
@@ -33,6 +36,7 @@ __all__ = [
     "DegToRad",
     "Derivative",
     "FormulaTransform",
+    "Invalid",
     "MovingAverage",
     "RadToDeg",
     "Scale",
@@ -41,7 +45,9 @@ __all__ = [
     "TransformError",
     "Unwrap",
     "transforms_from_json",
+    "transforms_or_invalid",
     "transforms_to_json",
+    "written_transforms",
 ]
 
 MAX_TRANSFORMS: Final = 16
@@ -219,15 +225,21 @@ class _UnwrapStage(_Stage):
 
 
 class _FormulaStage(_Stage):
-    """A formula of ``x`` (the value so far) and of other fields of the same message."""
+    """A formula of ``x`` (the value so far) and of other fields of the same message.
+
+    The formula is compiled once (`parse_formula`, cached by text); its compiled tree carries two entry
+    points on purpose: `step` uses the float one (~1 us a sample, and a failure names its cause and column,
+    which the engine shows as the widget's error), `run` the numpy one (a whole batch at once). A single
+    numpy evaluator would cost tens of microseconds per live sample and lose the precise reason.
+    """
 
     def __init__(self, formula: Formula) -> None:
         self._formula = formula
 
     def step(self, t: float, v: float, env: Mapping[str, float] | None) -> float:
-        values: dict[str, object] = dict(env) if env and self._formula.fields else {}
+        values: dict[str, float] = dict(env) if env and self._formula.fields else {}
         values[VALUE_NAME] = v
-        result = self._formula.evaluate_result(values)  # type: ignore[arg-type]
+        result = self._formula.evaluate_result(values)
         self.error = result.error
         return result.value
 
@@ -509,31 +521,97 @@ class FormulaTransform:
         return _FormulaStage(self.formula)
 
 
-Transform = Scale | DegToRad | RadToDeg | Abs | Clamp | Derivative | MovingAverage | Unwrap | FormulaTransform
-"""Any one transform."""
+@dataclass(frozen=True, slots=True)
+class Invalid:
+    """A transform list that was rejected, kept as written: the binding shows `reason` as its error.
+
+    A dashboard file may hold a list the viewer refuses (an unknown kind, a formula it rejects); the
+    binding keeps it as this one value so the widget says why and saving writes the list back unchanged.
+    """
+
+    kind: ClassVar[str] = "invalid"
+    keys: ClassVar[tuple[str, ...]] = ()
+
+    written: str
+    """The list as written, compact JSON text (any JSON value: it was rejected)."""
+    reason: str
+    """Why it was rejected (the `TransformError` message)."""
+
+    def to_json(self) -> _Json:
+        """Return a placeholder object (the file form is `written`; see `written_transforms`)."""
+        return {"kind": self.kind, "written": self.written, "reason": self.reason}
+
+    def describe(self) -> str:
+        """Return a short label for the UI."""
+        return f"invalid: {self.reason}"
+
+    def stage(self) -> _Stage:
+        """Refuse to run: the reason is the binding's error."""
+        raise TransformError(self.reason)
+
+
+Transform = (
+    Scale
+    | DegToRad
+    | RadToDeg
+    | Abs
+    | Clamp
+    | Derivative
+    | MovingAverage
+    | Unwrap
+    | FormulaTransform
+    | Invalid
+)
+"""Any one transform (`Invalid` stands for a rejected list and never runs)."""
+
+_Loader = Callable[[Mapping[str, object]], Transform]
+
+
+def _integer(name: str, value: object) -> int:
+    if isinstance(value, bool) or not isinstance(value, int):
+        raise TransformError(f"'{name}' must be an integer, got {value!r}")
+    return value
+
+
+def _optional(name: str, value: object) -> float | None:
+    return None if value is None else _number(name, value)
+
+
+def _required(params: Mapping[str, object], key: str, what: str) -> object:
+    if key not in params:
+        raise TransformError(f"needs '{key}' ({what})")
+    return params[key]
+
+
+def _text(name: str, value: object) -> str:
+    if not isinstance(value, str):
+        raise TransformError(f"'{name}' must be a string, got {value!r}")
+    return value
+
+
+_LOADERS: Final[Mapping[str, _Loader]] = {
+    Scale.kind: lambda p: Scale(
+        _number("scale", p.get("scale", 1.0)), _number("offset", p.get("offset", 0.0))
+    ),
+    DegToRad.kind: lambda p: DegToRad(),
+    RadToDeg.kind: lambda p: RadToDeg(),
+    Abs.kind: lambda p: Abs(),
+    Clamp.kind: lambda p: Clamp(_optional("min", p.get("min")), _optional("max", p.get("max"))),
+    Derivative.kind: lambda p: Derivative(),
+    MovingAverage.kind: lambda p: MovingAverage(
+        _integer("window", _required(p, "window", "number of samples"))
+    ),
+    Unwrap.kind: lambda p: Unwrap(_number("period", p.get("period", math.tau))),
+    FormulaTransform.kind: lambda p: FormulaTransform(
+        _text("expr", _required(p, "expr", "the formula text"))
+    ),
+}
+"""Each kind's loader from its file object (parameters checked and typed here, ranges by the class)."""
 
 _KINDS: Final[Mapping[str, type[Transform]]] = {
     cls.kind: cls
     for cls in (Scale, DegToRad, RadToDeg, Abs, Clamp, Derivative, MovingAverage, Unwrap, FormulaTransform)
 }
-
-
-def _build(cls: type[Transform], params: Mapping[str, object]) -> Transform:
-    if cls is Scale:
-        return Scale(scale=params.get("scale", 1.0), offset=params.get("offset", 0.0))  # type: ignore[arg-type]
-    if cls is Clamp:
-        return Clamp(low=params.get("min"), high=params.get("max"))  # type: ignore[arg-type]
-    if cls is MovingAverage:
-        if "window" not in params:
-            raise TransformError("needs 'window' (number of samples)")
-        return MovingAverage(window=params["window"])  # type: ignore[arg-type]
-    if cls is Unwrap:
-        return Unwrap(period=params.get("period", math.tau))  # type: ignore[arg-type]
-    if cls is FormulaTransform:
-        if "expr" not in params:
-            raise TransformError("needs 'expr' (the formula text)")
-        return FormulaTransform(expr=params["expr"])  # type: ignore[arg-type]
-    return cls()  # type: ignore[call-arg]
 
 
 def _prefix(where: str, text: str) -> str:
@@ -578,7 +656,7 @@ def transforms_from_json(data: object, *, where: str = "") -> tuple[Transform, .
                 raise TransformError(_prefix(where, f"{label}: unknown key {key!r} (allowed: {allowed})"))
         params = {k: v for k, v in item.items() if k != "kind"}
         try:
-            out.append(_build(cls, params))
+            out.append(_LOADERS[kind](params))
         except TransformError as exc:
             raise TransformError(_prefix(where, f"{label}: {exc}")) from None
     return tuple(out)
@@ -587,6 +665,33 @@ def transforms_from_json(data: object, *, where: str = "") -> tuple[Transform, .
 def transforms_to_json(transforms: Iterable[Transform]) -> list[_Json]:
     """Return the dashboard-file form of `transforms` (what `transforms_from_json` reads)."""
     return [t.to_json() for t in transforms]
+
+
+def transforms_or_invalid(data: object) -> tuple[Transform, ...]:
+    """Load transforms as `transforms_from_json` does; a rejected list becomes one `Invalid`, kept as written.
+
+    Args:
+        data: the file's ``transforms`` value (any JSON value).
+
+    Raises:
+        ValueError: `data` cannot be written back as JSON (e.g. NaN); the caller drops it.
+    """
+    try:
+        return transforms_from_json(data)
+    except (TransformError, OverflowError) as exc:
+        written = json.dumps(data, ensure_ascii=False, separators=(",", ":"), allow_nan=False)
+        return (Invalid(written, str(exc)),)
+
+
+def written_transforms(transforms: Iterable[Transform]) -> object:
+    """Return the file form of transforms: objects with sorted keys, or a rejected list as written."""
+    out: list[_Json] = []
+    for t in transforms:
+        if isinstance(t, Invalid):
+            written: object = json.loads(t.written)
+            return written
+        out.append(dict(sorted(t.to_json().items())))
+    return out
 
 
 # ---------------------------------------------------------------------------------------------------------
@@ -602,6 +707,8 @@ class TransformChain:
     def __init__(self, transforms: Iterable[Transform] = ()) -> None:
         self._transforms = tuple(transforms)
         for t in self._transforms:
+            if isinstance(t, Invalid):
+                raise TransformError(t.reason)
             if not isinstance(t, tuple(_KINDS.values())):
                 raise TransformError(f"not a transform: {t!r}")
         if len(self._transforms) > MAX_TRANSFORMS:
