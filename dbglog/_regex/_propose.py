@@ -1,7 +1,7 @@
 """Numbers in log lines and RE2 patterns proposed from a clicked number ("plot this number").
 
-Ground floor: imports only the standard library, ``re2`` and ``numpy``. Nothing from a line is ever
-evaluated; every pattern is RE2 (linear time).
+Ground floor: imports only the standard library, ``re2``, ``numpy`` and the ground floor itself.
+Nothing from a line is ever evaluated; every pattern is RE2 (linear time).
 """
 
 from __future__ import annotations
@@ -14,6 +14,9 @@ from typing import Final, Literal
 
 import numpy as np
 import re2
+
+from dbglog._regex._compile import MAX_LINE, MAX_PROGRAM_SIZE, re2_options
+from dbglog._ros._tags import tag_problem
 
 __all__ = [
     "ANY_NUMBER_PATTERN",
@@ -32,14 +35,6 @@ __all__ = [
     "suggest_tag",
     "to_bridge_yaml",
 ]
-
-MAX_LINE: Final = 4096
-"""Bytes of UTF-8 a matcher reads of a line (the bridge cuts lines there): numbers beyond are not offered.
-
-Same value as ``dbglog.regex_bridge._regex.MAX_LINE`` (the bridge should import it from here)."""
-
-MAX_PROGRAM_SIZE: Final = 1500
-"""Largest RE2 program the bridge accepts (``dbglog.regex_bridge._regex.MAX_PROGRAM_SIZE``)."""
 
 NUMBER_PATTERN: Final = r"[-+]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][-+]?[0-9]+)?"
 """RE2 for one finite number in a notation the bridge's float parser accepts: optional sign, ASCII
@@ -63,9 +58,7 @@ _SIGN_BREAKERS: Final = frozenset(b")]+-")
 """A sign right after one of these is an operator or a dash, not the number's (as after a letter or digit)."""
 _SIGN_BYTES: Final = frozenset(b"+-")
 
-_OPTIONS = re2.Options()
-_OPTIONS.log_errors = False
-_OPTIONS.max_mem = 8 << 20
+_OPTIONS = re2_options()
 
 # Each search finds the next number that starts a word: at the start of the line or after a character
 # that is not a letter, digit, ``_`` or ``.`` (so digits inside ``turtle1`` or ``a.5`` never start one),
@@ -381,10 +374,7 @@ def _preview_regex(proposal: Proposal) -> re2._Regexp:
     """One stored line, from its ``\\x00`` to its ``\\x01``, capturing the number."""
     lead = r"\x00" if proposal.anchored_start else r"\x00[^\x00\x01]*?"
     trail = r"\x01" if proposal.anchored_end else r"[^\x00\x01]*\x01"
-    options = re2.Options()
-    options.log_errors = False
-    options.max_mem = 32 << 20
-    return re2.compile(lead + proposal.body + trail, options=options)
+    return re2.compile(lead + proposal.body + trail, options=re2_options(32 << 20))
 
 
 def match_lines(
@@ -513,21 +503,6 @@ def _match_slow(proposal: Proposal, lines: Sequence[str]) -> tuple[np.ndarray, n
 _LEVEL_NAMES: Final = ("debug", "info", "warn", "error", "fatal")
 
 
-def _tag_problem(tag: str) -> str | None:
-    """Why `tag` is not a valid dbglog tag (same rules as ``dbglog.api._tags.tag_problem``), or None."""
-    if not tag:
-        return "it is empty"
-    for ch in tag:
-        if not (ch.isascii() and (ch.isalnum() or ch in "_/")):
-            return f"character {ch!r} is not allowed (only A-Z a-z 0-9 _ /)"
-    if tag.startswith("/") or tag.endswith("/") or "//" in tag:
-        return "it must not start or end with '/' or contain '//'"
-    for part in tag.split("/"):
-        if part[:1].isdigit():
-            return f"its part {part!r} starts with a digit"
-    return None
-
-
 def _yaml_quoted(text: str) -> str:
     """`text` as a YAML single-quoted scalar (every character of a proposal is printable)."""
     return "'" + text.replace("'", "''") + "'"
@@ -544,7 +519,7 @@ def to_bridge_yaml(proposal: Proposal, tag: str, *, level: str | None = None) ->
     Raises:
         ValueError: `tag` is not a valid tag or `level` not a level name.
     """
-    why = _tag_problem(tag)
+    why = tag_problem(tag)
     if why is not None:
         raise ValueError(f"invalid tag {tag!r}: {why}")
     lines = ["rules:", f"  - tag: {tag}"]
