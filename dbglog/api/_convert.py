@@ -16,6 +16,7 @@ from typing import Any, Literal
 
 from dbglog._ros._cdr import CDR_HEADER, SCALAR_FORMATS
 from dbglog._ros._cdr import encode_scalar as _encode_cdr
+from dbglog._ros._types import TypeGateError, is_message_class, message_class, type_name
 from dbglog.api._errors import safe_repr
 
 __all__ = [
@@ -87,12 +88,6 @@ _SCALARS: dict[str, ScalarSpec] = {
 KIND_DEFAULT: dict[ScalarKind, str] = {"float": "Float64", "int": "Int64", "bool": "Bool", "str": "String"}
 
 
-def type_name(cls: type) -> str:
-    """Return ``pkg/msg/Type`` for a generated ROS message class."""
-    package = cls.__module__.split(".")[0]
-    return f"{package}/msg/{cls.__name__}"
-
-
 def is_message(obj: object) -> bool:
     """True when `obj` is an instance of a generated ROS 2 message class."""
     cls = type(obj)
@@ -106,7 +101,7 @@ def resolve_type(spec: object) -> type:
         ConversionError: not a message class, or the name does not resolve to one.
     """
     if isinstance(spec, type):
-        if hasattr(spec, "get_fields_and_field_types") and hasattr(spec, "__slots__"):
+        if is_message_class(spec):
             return spec
         raise ConversionError("bad_type", f"{spec.__qualname__} is not a ROS message type")
     if not isinstance(spec, str):
@@ -114,19 +109,17 @@ def resolve_type(spec: object) -> type:
             "bad_type",
             f"msg_type must be a message class or a 'pkg/msg/Type' string, not {type(spec).__name__}",
         )
-    parts = spec.split("/")
-    if len(parts) == 2:
-        parts = [parts[0], "msg", parts[1]]
-    if len(parts) != 3 or parts[1] != "msg" or not all(p.isidentifier() for p in parts):
-        raise ConversionError("bad_type", f"msg_type {spec!r} is not of the form 'pkg/msg/Type'")
     try:
-        module = importlib.import_module(f"{parts[0]}.msg")
-        cls = getattr(module, parts[2])
-    except (ImportError, AttributeError):
-        raise ConversionError("bad_type", f"message type {spec!r} is not installed") from None
-    if not isinstance(cls, type):
-        raise ConversionError("bad_type", f"{spec!r} is not a ROS message type")
-    return resolve_type(cls)
+        cls: type = message_class(spec)  # the one type gate: imports only an installed interface package
+        return cls
+    except TypeGateError as exc:
+        if exc.reason == "malformed":
+            raise ConversionError(
+                "bad_type", f"msg_type {spec!r} is not of the form 'pkg/msg/Type'"
+            ) from None
+        if exc.reason == "not_installed":
+            raise ConversionError("bad_type", f"message type {spec!r} is not installed") from None
+        raise ConversionError("bad_type", f"{spec!r} is not a ROS message type") from None
 
 
 def scalar_spec(cls: type) -> ScalarSpec | None:

@@ -8,8 +8,6 @@ every field before the value has a fixed size, the value's byte offset in the CD
 
 from __future__ import annotations
 
-import functools
-import importlib
 import operator
 import re
 from collections.abc import Callable
@@ -18,6 +16,8 @@ from typing import Any
 
 from rosidl_parser import definition as rd
 
+from dbglog._ros import _types
+from dbglog._ros._types import PRIMITIVES, TypeGateError
 from dbglog.viewer._data._model import FieldInfo, ValueKind
 
 __all__ = [
@@ -37,11 +37,8 @@ Scalar = float | int | bool | str | tuple[float, ...]
 
 _NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 _INDEX = re.compile(r"\[(\d*)\]")
-_FLOATS = frozenset({"float", "double", "long double"})
-_INTS = frozenset(
-    {"int8", "uint8", "int16", "uint16", "int32", "uint32", "int64", "uint64", "char", "octet", "short"}
-    | {"unsigned short", "long", "unsigned long", "long long", "unsigned long long", "wchar"}
-)
+_FLOATS = frozenset(name for name, p in PRIMITIVES.items() if p.kind == "float")
+_INTS = frozenset(name for name, p in PRIMITIVES.items() if p.kind == "int")
 _TIME_TYPES = frozenset({("builtin_interfaces", "Time"), ("builtin_interfaces", "Duration")})
 _MAX_LISTED = 2000
 _MAX_DEPTH = 10
@@ -90,22 +87,17 @@ def parse_path(path: str) -> tuple[tuple[Step, ...], bool]:
     return tuple(steps), whole
 
 
-@functools.cache
 def message_class(type_name: str) -> Any:
-    """Import the Python class of a ROS type such as ``std_msgs/msg/Float64``.
+    """Return the Python class of a ROS type such as ``std_msgs/msg/Float64`` (through the type gate).
 
     Raises:
         FieldPathError: the name is malformed or its package is not installed here.
     """
-    parts = type_name.split("/")
-    if len(parts) == 2:
-        parts = [parts[0], "msg", parts[1]]
-    if len(parts) != 3 or not all(parts):
-        raise FieldPathError(f"{type_name!r} is not a ROS message type (expected pkg/msg/Name)")
     try:
-        module = importlib.import_module(f"{parts[0]}.{parts[1]}")
-        return getattr(module, parts[2])
-    except (ImportError, AttributeError):
+        return _types.message_class(type_name)
+    except TypeGateError as exc:
+        if exc.reason == "malformed":
+            raise FieldPathError(f"{type_name!r} is not a ROS message type (expected pkg/msg/Name)") from None
         raise FieldPathError(
             f"message type {type_name} is not installed on this machine (install its package to view it)"
         ) from None
@@ -352,21 +344,7 @@ def _nested_label(slot: Any) -> str:
 
 # --- fixed CDR offsets (XCDR1, little endian: the encapsulation ROS 2 publishers use) ---------------
 
-_CDR_SIZES = {
-    "boolean": (1, "?"),
-    "octet": (1, "u1"),
-    "char": (1, "u1"),
-    "uint8": (1, "u1"),
-    "int8": (1, "i1"),
-    "int16": (2, "<i2"),
-    "uint16": (2, "<u2"),
-    "int32": (4, "<i4"),
-    "uint32": (4, "<u4"),
-    "int64": (8, "<i8"),
-    "uint64": (8, "<u8"),
-    "float": (4, "<f4"),
-    "double": (8, "<f8"),
-}
+_CDR_SIZES = {name: (p.size, p.dtype) for name, p in PRIMITIVES.items() if p.size}
 
 
 class _VariableSizeError(Exception):

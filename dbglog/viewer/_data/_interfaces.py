@@ -1,22 +1,19 @@
 """Installed ROS message types, found without importing anything, and message values checked against them.
 
-Types come from the ament index (``rosidl_interfaces`` resources, when a ROS prefix is sourced) and from a
-scan of the Python path for ``<package>/msg/__init__.py`` (the PyPI wheels). A type name from a dashboard
-is only ever imported when it is on that list, so a file cannot make the viewer import an arbitrary module.
+Type names go through the one type gate (``dbglog._ros._types``: only an installed interface package's
+``msg`` module is ever imported), so a file cannot make the viewer import an arbitrary module.
 `fill_message` sets the fields of a message from JSON-like values with type and range checks (no eval).
 """
 
 from __future__ import annotations
 
-import functools
-import importlib
 import math
-import re
-import sys
-from collections.abc import Iterable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any, Final
+
+from dbglog._ros import _types
+from dbglog._ros._types import TypeGateError, installed_types, primitive
 
 __all__ = [
     "FormField",
@@ -29,23 +26,6 @@ __all__ = [
     "value_kind",
 ]
 
-_TYPE = re.compile(r"([a-z][a-z0-9_]*)/(?:msg/)?([A-Z][A-Za-z0-9]*)")
-_IMPORT = re.compile(r"^from\s+[\w.]+\._\w+\s+import\s+(\w+)", re.MULTILINE)
-_INTS: Final = {
-    "int8": (-(2**7), 2**7 - 1),
-    "uint8": (0, 2**8 - 1),
-    "byte": (0, 2**8 - 1),
-    "octet": (0, 2**8 - 1),
-    "char": (0, 2**8 - 1),
-    "int16": (-(2**15), 2**15 - 1),
-    "uint16": (0, 2**16 - 1),
-    "int32": (-(2**31), 2**31 - 1),
-    "uint32": (0, 2**32 - 1),
-    "int64": (-(2**63), 2**63 - 1),
-    "uint64": (0, 2**64 - 1),
-}
-_FLOATS: Final = {"float", "double", "float32", "float64"}
-_FLOAT32_MAX: Final = 3.4028234663852886e38
 MAX_FORM_FIELDS: Final = 200
 MAX_DEPTH: Final = 8
 
@@ -60,73 +40,22 @@ def normalize_type(name: str) -> str:
     Raises:
         InterfaceError: the text is not a message type name.
     """
-    match = _TYPE.fullmatch(name.strip()) if isinstance(name, str) else None
-    if match is None:
-        raise InterfaceError(
-            f"{name!r} is not a message type name (expected pkg/msg/Name, e.g. std_msgs/msg/Bool)"
-        )
-    return f"{match.group(1)}/msg/{match.group(2)}"
-
-
-def _scan_python_path(paths: Iterable[str]) -> set[str]:
-    found: set[str] = set()
-    for entry in paths:
-        try:
-            root = Path(entry)
-            if not root.is_dir():
-                continue
-            for init in root.glob("*/msg/__init__.py"):
-                package = init.parent.parent.name
-                if not re.fullmatch(r"[a-z][a-z0-9_]*", package):
-                    continue
-                try:
-                    text = init.read_text(encoding="utf-8", errors="replace")[:200_000]
-                except OSError:
-                    continue
-                found.update(f"{package}/msg/{n}" for n in _IMPORT.findall(text) if n[:1].isupper())
-        except OSError:
-            continue
-    return found
-
-
-def _scan_ament_index() -> set[str]:
     try:
-        from ament_index_python import get_resource, get_resources
-    except ImportError:
-        return set()
-    found: set[str] = set()
-    try:
-        packages = get_resources("rosidl_interfaces")
-        for package in packages:
-            content, _ = get_resource("rosidl_interfaces", package)
-            for line in content.splitlines():
-                if line.startswith("msg/") and line.endswith(".msg"):
-                    found.add(f"{package}/msg/{line[4:-4]}")
-    except (OSError, LookupError, ValueError):  # no ROS prefix sourced, or a broken index entry
-        return set()
-    return found
-
-
-@functools.cache
-def installed_types() -> tuple[str, ...]:
-    """Return every installed message type as ``pkg/msg/Name``, sorted (scanned once, nothing imported)."""
-    return tuple(sorted(_scan_python_path(sys.path) | _scan_ament_index()))
+        return _types.normalize_type(name)
+    except TypeGateError as exc:
+        raise InterfaceError(str(exc)) from None
 
 
 def message_type(name: str) -> Any:
-    """Return the message class of an installed type (imported only when `installed_types` lists it).
+    """Return the message class of an installed type (through the one type gate, ``dbglog._ros._types``).
 
     Raises:
         InterfaceError: the name is malformed or no installed package provides it.
     """
-    full = normalize_type(name)
-    if full not in installed_types():
-        raise InterfaceError(f"message type {full} is not installed on this machine")
-    package, _, type_name = full.split("/")
     try:
-        return getattr(importlib.import_module(f"{package}.msg"), type_name)
-    except (ImportError, AttributeError) as exc:
-        raise InterfaceError(f"message type {full} cannot be loaded: {exc}") from None
+        return _types.message_class(name)
+    except TypeGateError as exc:
+        raise InterfaceError(str(exc)) from None
 
 
 def _members(cls: Any) -> list[tuple[str, str, Any]]:
@@ -139,21 +68,14 @@ def _nested(slot: Any) -> Any | None:
     from rosidl_parser.definition import NamespacedType
 
     if isinstance(slot, NamespacedType):
-        return getattr(importlib.import_module(".".join(slot.namespaces)), slot.name)
+        return _types.message_class("/".join([*slot.namespaces, slot.name]))
     return None
 
 
 def value_kind(type_str: str) -> str | None:
     """Return ``bool``, ``int``, ``float`` or ``string`` for a primitive field type string, else None."""
-    if type_str == "boolean":
-        return "bool"
-    if type_str in _INTS:
-        return "int"
-    if type_str in _FLOATS:
-        return "float"
-    if type_str == "string" or type_str.startswith("string<"):
-        return "string"
-    return None
+    found = primitive(type_str)
+    return None if found is None else found.kind
 
 
 @dataclass(frozen=True, slots=True)
@@ -188,6 +110,11 @@ def form_fields(cls: Any) -> list[FormField]:
     return out
 
 
+def _bounds(type_str: str) -> tuple[Any, Any]:
+    found = primitive(type_str)
+    return (None, None) if found is None else (found.low, found.high)
+
+
 def _convert(value: object, type_str: str, where: str) -> object:
     kind = value_kind(type_str)
     if kind == "bool":
@@ -199,7 +126,7 @@ def _convert(value: object, type_str: str, where: str) -> object:
             value = int(value)
         if isinstance(value, bool) or not isinstance(value, int):
             raise InterfaceError(f"{where} is {type_str}, a whole number; got {value!r}")
-        low, high = _INTS[type_str]
+        low, high = _bounds(type_str)
         if not low <= value <= high:
             raise InterfaceError(f"{where} is {type_str}: {value} is outside {low}..{high}")
         return value
@@ -207,7 +134,8 @@ def _convert(value: object, type_str: str, where: str) -> object:
         if isinstance(value, bool) or not isinstance(value, int | float):
             raise InterfaceError(f"{where} is {type_str}, a number; got {value!r}")
         number = float(value)
-        if not math.isfinite(number) or (type_str in ("float", "float32") and abs(number) > _FLOAT32_MAX):
+        high = _bounds(type_str)[1]
+        if not math.isfinite(number) or (high is not None and abs(number) > high):
             raise InterfaceError(f"{where} is {type_str}: {value!r} is out of range")
         return number
     if kind == "string":
