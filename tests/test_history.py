@@ -258,9 +258,11 @@ def test_late_payloads_are_merged_in_time_order() -> None:
     assert texts[-2:] == ["live 9", "old 5"]
 
 
-def _decimated_history(samples: int) -> tuple[History, np.ndarray[Any, Any], np.ndarray[Any, Any]]:
+def _decimated_history(
+    samples: int, chunk: int = 1000
+) -> tuple[History, np.ndarray[Any, Any], np.ndarray[Any, Any]]:
     rng = np.random.default_rng(7)
-    h = History(clock=None, chunk_samples=1000)
+    h = History(clock=None, chunk_samples=chunk)
     t = np.sort(rng.uniform(0, 100, samples))
     v = rng.normal(size=t.size)
     v[samples // 4 : samples // 4 + 100] = np.nan
@@ -290,9 +292,13 @@ def test_decimate_keeps_each_pixels_min_and_max() -> None:
     assert few_t[1:-1].tolist() == raw_t.tolist()
 
 
-def test_decimate_from_block_summaries_is_off_by_at_most_one_block() -> None:
-    """Over many samples per pixel the envelope is exact overall and each column is within one block."""
-    h, t, v = _decimated_history(200_000)
+@pytest.mark.parametrize("chunk", [1000, 65536])
+def test_decimate_from_block_summaries_is_off_by_at_most_one_block(chunk: int) -> None:
+    """Over many samples per pixel the envelope is exact overall and each column is within one block.
+
+    With 65536-sample chunks everything is in the open chunk, whose blocks are filled in as it grows.
+    """
+    h, t, v = _decimated_history(200_000, chunk)
     pixels = 40  # 160,000 samples in range: 4,000 per column, block summaries answer
     dt, dv = h.decimate(T, 10.0, 90.0, pixels)
     inner_t, inner_v = dt[1:-1], dv[1:-1]

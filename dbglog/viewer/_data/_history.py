@@ -90,7 +90,7 @@ class _Chunk:
     it has published, so a reader holding this view never sees a half-written sample.
     """
 
-    __slots__ = ("blob", "data", "hi", "lo", "n", "offsets", "start", "times")
+    __slots__ = ("blob", "data", "hi", "lo", "n", "nb", "offsets", "start", "times")
 
     def __init__(
         self,
@@ -111,6 +111,19 @@ class _Chunk:
         self.lo: _F64 | None = None
         """Closed numeric chunks: min of each block of `_BLOCK` samples from index 0 (NaN-ignoring)."""
         self.hi: _F64 | None = None
+        self.nb = 0
+        """Open numeric chunk (writer side): blocks whose min/max are filled in, ``n // _BLOCK``."""
+
+    def update_blocks(self) -> None:
+        """Fill in the min/max of the blocks an open numeric chunk has completed since the last call."""
+        nb1 = self.n // _BLOCK
+        if self.lo is None or self.hi is None or nb1 <= self.nb or not isinstance(self.data, np.ndarray):
+            return
+        seg = self.data[self.nb * _BLOCK : nb1 * _BLOCK].astype(np.float64, copy=False).reshape(-1, _BLOCK)
+        with np.errstate(invalid="ignore"):
+            self.lo[self.nb : nb1] = np.fmin.reduce(seg, axis=1)
+            self.hi[self.nb : nb1] = np.fmax.reduce(seg, axis=1)
+        self.nb = nb1
 
     def summarize(self) -> None:
         """Compute the block minima and maxima of a closed numeric chunk."""
@@ -238,7 +251,9 @@ class _Track:
         chunks, firsts, before = self.closed_cache
         o = self.open
         if o is not None and o.size:
-            chunks = (*chunks, _Chunk(o.times, o.data, o.start, o.n))
+            view = _Chunk(o.times, o.data, o.start, o.n)
+            view.lo, view.hi = o.lo, o.hi  # filled for every block below n // _BLOCK
+            chunks = (*chunks, view)
             firsts = [*firsts, o.first]
             before = [*before, before[-1] + o.size]
         p = self.pending
@@ -263,6 +278,8 @@ class _Track:
                 total += self.open_bytes + _PAYLOAD_OVERHEAD * len(o.data)
             elif o.data is not None:
                 total += o.data.nbytes
+            if o.lo is not None and o.hi is not None:
+                total += o.lo.nbytes + o.hi.nbytes
         delta = total - self.nbytes
         self.nbytes = total
         return delta
@@ -306,6 +323,16 @@ def _envelope(pieces: Sequence[tuple[_F64, _F64, _F64]], edges: _F64) -> tuple[_
     vals[0::2] = lows
     vals[1::2] = highs
     return np.repeat(first_t, 2), vals
+
+
+def _open_chunk(times: _F64, data: _Arr | list[bytes], n: int) -> _Chunk:
+    """Make an open chunk holding `n` samples; a numeric one gets its block min/max arrays."""
+    chunk = _Chunk(times, data, 0, n)
+    if isinstance(data, np.ndarray):
+        chunk.lo = np.empty(len(times) // _BLOCK + 1)
+        chunk.hi = np.empty(len(times) // _BLOCK + 1)
+        chunk.update_blocks()
+    return chunk
 
 
 def _check_time(t: float) -> None:
@@ -538,7 +565,7 @@ class History:
         times = np.empty(cap, dtype=np.float64)
         data: _Arr | list[bytes] = [] if track.kind == "payloads" else np.empty(cap, dtype=track.dtype)
         track.open_bytes = 0
-        return _Chunk(times, data, 0, 0)
+        return _open_chunk(times, data, 0)
 
     def _close_open(self, track: _Track) -> None:
         o = track.open
@@ -584,7 +611,7 @@ class History:
                         new_data = np.empty(new_cap, dtype=track.dtype)
                         if o.data is not None:
                             new_data[:live] = o.data[o.start : o.n]
-                    o = track.open = _Chunk(times, new_data, 0, live)
+                    o = track.open = _open_chunk(times, new_data, live)
                 else:
                     full = o.n == cap
                     self._close_open(track)
@@ -606,6 +633,7 @@ class History:
                 o.data[o.n : o.n + k] = data[done : done + k]
             o.times[o.n : o.n + k] = t[done : done + k]
             o.n += k
+            o.update_blocks()
             done += k
 
     def _merge(self, track: _Track, t: _F64, data: _Arr | list[bytes]) -> None:
@@ -691,7 +719,7 @@ class History:
         if chunk is not None and chunk.size and chunk.first < horizon:
             cut = int(np.searchsorted(chunk.times[chunk.start : chunk.n], horizon, side="left"))
             new = _Chunk(chunk.times, chunk.data, chunk.start + cut, chunk.n, chunk.blob, chunk.offsets)
-            new.lo, new.hi = chunk.lo, chunk.hi
+            new.lo, new.hi, new.nb = chunk.lo, chunk.hi, chunk.nb
             if track.closed:
                 track.closed[0] = new
             else:
@@ -883,6 +911,14 @@ class History:
             times = np.concatenate([p[0] for p in pieces]) if pieces else np.empty(0)
             vals = np.concatenate([p[1] for p in pieces]) if pieces else np.empty(0)
         else:
+            if blocks and len(pieces) > 1:  # block summaries are small: one pass beats many small ones
+                pieces = [
+                    (
+                        np.concatenate([p[0] for p in pieces]),
+                        np.concatenate([p[1] for p in pieces]),
+                        np.concatenate([p[2] for p in pieces]),
+                    )
+                ]
             times, vals = _envelope(pieces, np.linspace(t0, t1, pixels + 1)[:-1])
         before = self.at(topic, float(np.nextafter(t0, -np.inf)))
         after_t = self.next_time(topic, t1)
