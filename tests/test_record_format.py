@@ -293,3 +293,55 @@ def test_writer_never_overwrites_unless_forced(tmp_path: Path) -> None:
     assert path.read_bytes() == b"precious"
     McapWriter(path, force=True).close()
     assert read_recording(path).topics == {}
+
+
+def test_values_without_payloads_match_and_out_of_order_times_are_sorted(tmp_path: Path) -> None:
+    """keep_payloads=False reads the same values; messages logged out of order come back sorted."""
+    path = tmp_path / "shuffled.mcap"
+    w = McapWriter(path, chunk_bytes=2000)
+    ch = w.add_channel("/rosdashboard/v", "std_msgs/msg/Float64")
+    order = [(i * 7919) % 600 for i in range(600)]
+    for i in order:
+        w.write(ch, T0 + i * 1000, serialize_message(Float64(data=float(i))), T0 + i * 1000)
+    w.close()
+    for keep in (True, False):
+        v = read_recording(path, keep_payloads=keep).topics["/rosdashboard/v"]
+        assert v.values is not None
+        assert v.values.tolist() == [float(i) for i in range(600)]
+        assert v.times_ns.tolist() == [T0 + i * 1000 for i in range(600)]
+    full = read_recording(path).topics["/rosdashboard/v"]
+    assert full.payload(5) == serialize_message(Float64(data=5.0))
+
+
+def test_tags_and_echo_of_a_file_name_what_is_missing(tmp_path: Path) -> None:
+    """tags_table lists tags with count and first/last value; echo names an unknown tag, topic or field."""
+    from dbglog.record._inspect import echo_lines, tags_table
+
+    path = tmp_path / "run.mcap"
+    _sample_file(path, 50).close()
+    rows = {line.split()[0]: line.split() for line in tags_table(path).splitlines()[2:]}
+    assert sorted(rows) == ["count", "ok", "speed", "state"]
+    assert rows["count"][1:3] == ["std_msgs/msg/Int32", "50"]
+    assert rows["count"][-2:] == ["-250", "-201"]
+    assert rows["ok"][-2:] == ["true", "false"]
+    assert "/cmd_vel" in tags_table(path, all_topics=True)
+    assert (
+        list(echo_lines(path, "/cmd_vel.angular.z", stamp=True))[1] == f"{(T0 + 10_000_000) / 1e9:.6f} -1.5"
+    )
+    assert list(echo_lines(path, "/cmd_vel/linear/x"))[2] == "0.5"
+    with pytest.raises(
+        RecordingError, match=r"no tag 'nope' in this recording \(tags: count, ok, speed, state\)"
+    ):
+        list(echo_lines(path, "nope"))
+    with pytest.raises(RecordingError, match=r"no topic /nope in this recording"):
+        list(echo_lines(path, "/nope"))
+    with pytest.raises(
+        RecordingError,
+        match=r"field 'speed' is not in geometry_msgs/msg/Twist; its fields are: linear, angular",
+    ):
+        list(echo_lines(path, "/cmd_vel.speed"))
+    warnings: list[str] = []
+    _flushed(tmp_path / "killed.mcap", 2, 10).abandon()
+    assert list(echo_lines(tmp_path / "killed.mcap", "speed", warn=warnings.append))[-1] == "19.0"
+    assert len(warnings) == 1
+    assert "killed.mcap: no readable summary" in warnings[0]

@@ -108,11 +108,14 @@ class _Acc:
     pub: list[npt.NDArray[np.int64]] = field(default_factory=list)
     data: list[npt.NDArray[np.uint8]] = field(default_factory=list)
     lengths: list[npt.NDArray[np.int64]] = field(default_factory=list)
+    values: list[npt.NDArray[np.float64]] = field(default_factory=list)
+    """Scalar topics read without their payloads: the values, decoded chunk by chunk."""
 
 
 class _Loader:
-    def __init__(self, path: str, buf: mmap.mmap | bytes) -> None:
+    def __init__(self, path: str, buf: mmap.mmap | bytes, keep_payloads: bool = True) -> None:
         self.path = path
+        self.keep_payloads = keep_payloads
         self.buf = buf
         self.size = len(buf)
         self.schemas: dict[int, tuple[str, str, str]] = {}
@@ -219,6 +222,17 @@ class _Loader:
             starts, lengths, log, pub = starts[keep], lengths[keep], log[keep], pub[keep]
         if len(lengths) == 0:
             return
+        if not self.keep_payloads:
+            chan = self.channels[cid]
+            name = self.schemas.get(chan.schema_id, ("", "", ""))[0]
+            offsets = np.zeros(len(lengths) + 1, dtype=np.int64)
+            offsets[:-1] = starts
+            values = _scalars(name, u, offsets, lengths)
+            if values is not None:
+                acc.log.append(log)
+                acc.pub.append(pub)
+                acc.values.append(values)
+                return
         size = int(lengths[0])
         if np.all(lengths == size):
             block = u[starts[:, None] + np.arange(size)].ravel()
@@ -370,6 +384,8 @@ class _Loader:
             name, encoding, text = self.schemas.get(chan.schema_id, ("", "", ""))
             acc = self.acc.get(cid, _Acc())
             count = sum(len(x) for x in acc.log)
+            if acc.values and acc.data:  # mixed (a scan that met the schema late): keep it simple
+                acc.values = []
             if chan.encoding not in _SUPPORTED_ENCODINGS:
                 unreadable[chan.topic] = f"message encoding {chan.encoding!r} is not CDR ({count} messages)"
                 continue
@@ -385,7 +401,7 @@ class _Loader:
             times = np.where(pub > 0, pub, log)
             offsets = np.zeros(len(lengths) + 1, dtype=np.int64)
             np.cumsum(lengths, out=offsets[1:])
-            if len(log) > 1 and np.any(np.diff(log) < 0):
+            if not acc.values and len(log) > 1 and np.any(np.diff(log) < 0):
                 order = np.argsort(log, kind="stable")
                 times = times[order]
                 starts = offsets[:-1][order]
@@ -394,7 +410,15 @@ class _Loader:
                 data = data[np.arange(int(lengths.sum())) - np.repeat(ends - lengths - starts, lengths)]
                 offsets = np.zeros(len(lengths) + 1, dtype=np.int64)
                 np.cumsum(lengths, out=offsets[1:])
-            values = _scalars(name, data, offsets, lengths)
+            values: npt.NDArray[np.float64] | None
+            if acc.values and len(lengths) == 0:
+                kept = np.concatenate(acc.values)
+                if len(log) > 1 and np.any(np.diff(log) < 0):
+                    order = np.argsort(log, kind="stable")
+                    times, kept = times[order], kept[order]
+                values = kept
+            else:
+                values = _scalars(name, data, offsets, lengths)
             if values is not None and not keep_payloads:
                 data, offsets = np.empty(0, np.uint8), np.zeros(1, np.int64)
             topics[chan.topic] = TopicData(chan.topic, name, times, values, text, data, offsets)
@@ -482,7 +506,7 @@ def read_recording(path: str | os.PathLike[str], *, keep_payloads: bool = True) 
         raise RecordingError(f"{path}: cannot open it ({exc.strerror or exc})") from None
     if bytes(buf[: len(MAGIC)]) != MAGIC:
         raise RecordingError(f"{path}: not an MCAP file (it does not start with the MCAP magic bytes)")
-    loader = _Loader(path, buf)
+    loader = _Loader(path, buf, keep_payloads)
     done = loader.indexed()
     if not done:
         loader.schemas.clear()

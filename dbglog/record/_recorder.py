@@ -9,6 +9,8 @@ by nodes already running are recorded too).
 
 from __future__ import annotations
 
+import contextlib
+import threading
 import time
 from collections import deque
 from collections.abc import Callable, Sequence
@@ -26,6 +28,7 @@ _DEPTH = 1000
 """KEEP_LAST depth of each subscription: a second of backlog at 1 kHz."""
 _TAKE_MAX = 4096
 _GRAPH_PERIOD = 0.25
+_MIN_CYCLE = 0.005
 _WAIT_S = 0.05
 """Longest wait on the wait set: signals (Ctrl-C, SIGTERM, SIGUSR1) are handled at least this often."""
 
@@ -124,6 +127,7 @@ class Recorder:
         self.node_name = node_name or f"dbglog_record_{os.getpid()}"
         self.stats = Stats()
         self._subs: dict[str, _Sub] = {}
+        self._version = 0
         self._running = True
         self.warn: Callable[[str], None] = lambda _m: None
 
@@ -139,6 +143,14 @@ class Recorder:
         from rclpy.node import Node
         from rclpy.signals import SignalHandlerOptions
 
+        syncing = threading.Event()
+        syncer = None
+        if self.writer is not None:
+            # fsync can block for long on a busy disk: never in the take loop (a stall loses messages
+            # once the publishers' KEEP_LAST history wraps).
+            syncer = threading.Thread(target=self._sync_loop, args=(syncing,), name="dbglog-record-sync")
+            syncer.daemon = True
+            syncer.start()
         context = Context()
         rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
         node = Node(self.node_name, context=context, start_parameter_services=False, enable_rosout=False)
@@ -146,29 +158,34 @@ class Recorder:
             next_graph = next_flush = next_tick = 0.0
             wait_set: Any = None
             wait_subs: list[_Sub] = []
+            wait_version = -1
+            by_pointer: dict[Any, _Sub] = {}
             while self._running:
-                now = time.monotonic()
+                now = cycle_start = time.monotonic()
                 if now >= next_graph:
                     self._refresh(node)
                     next_graph = now + _GRAPH_PERIOD
-                subs = list(self._subs.values())
-                if wait_set is None or subs != wait_subs:
-                    wait_subs = subs
-                    wait_set = _rclpy.WaitSet(max(1, len(subs)), 0, 0, 0, 0, 0, context.handle)
+                if wait_set is None or self._version != wait_version:
+                    wait_version = self._version
+                    wait_subs = list(self._subs.values())
+                    by_pointer = {s.sub.handle.pointer: s for s in wait_subs}
+                    wait_set = _rclpy.WaitSet(max(1, len(wait_subs)), 0, 0, 0, 0, 0, context.handle)
                 wait_set.clear_entities()
                 for s in wait_subs:
                     wait_set.add_subscription(s.sub.handle)
                 if wait_subs:
                     wait_set.wait(int(_WAIT_S * 1e9))
-                    ready = set(wait_set.get_ready_entities("subscription"))
-                    for s in wait_subs:
-                        if s.sub.handle.pointer in ready:
-                            self._take(s)
+                    for pointer in wait_set.get_ready_entities("subscription"):
+                        self._take(by_pointer[pointer])
                 else:
                     time.sleep(_WAIT_S)
                 now = time.monotonic()
+                # Under load, let messages queue for a few ms: fewer, bigger takes per cycle.
+                rest = _MIN_CYCLE - (now - cycle_start)
+                if rest > 0:
+                    time.sleep(rest)
                 if self.writer is not None and now >= next_flush:
-                    self.writer.flush(sync=True)
+                    self.writer.flush()
                     next_flush = now + self.flush_period
                 if now >= next_tick:
                     self._trim()
@@ -179,12 +196,25 @@ class Recorder:
             for s in list(self._subs.values()):
                 self._take(s)
         finally:
+            syncing.set()
+            if syncer is not None:
+                syncer.join()
             if self.writer is not None:
                 self.writer.flush(sync=True)
             for s in self._subs.values():
                 node.destroy_subscription(s.sub)
             node.destroy_node()
             rclpy.shutdown(context=context)
+
+    def _sync_loop(self, done: threading.Event) -> None:
+        """Push what was flushed to the disk once a second (survives a power cut, not only a kill)."""
+        import os
+
+        assert self.writer is not None
+        fd = self.writer.fileno()
+        while not done.wait(1.0):
+            with contextlib.suppress(OSError):
+                os.fsync(fd)
 
     # ----- graph ------------------------------------------------------------------------------------
 
@@ -242,6 +272,7 @@ class Recorder:
         if self.writer is not None:
             channel = self.writer.add_channel(name, msg_type, metadata={"offered_qos_profiles": ""})
         self._subs[name] = _Sub(name, msg_type, cls, sub, channel, reliable, transient)
+        self._version += 1
         self.stats.skipped.pop(name, None)
         self.stats.topics = len(self._subs)
 

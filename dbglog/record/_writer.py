@@ -273,6 +273,10 @@ class McapWriter:
         if sync:
             os.fsync(self._file.fileno())
 
+    def fileno(self) -> int:
+        """The file descriptor (to fsync from another thread)."""
+        return self._file.fileno()
+
     @property
     def pending(self) -> int:
         """Messages in the open chunk (not yet in the file)."""
