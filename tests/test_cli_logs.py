@@ -6,6 +6,7 @@ import json
 import os
 import pty
 import select
+import signal
 import subprocess
 import sys
 import time
@@ -16,6 +17,7 @@ from pathlib import Path
 import pytest
 
 from dbglog.viewer._cli_logs import LogLine, format_line
+from tests._ros import RosPeer, wait_until
 
 _LOGGER_SCRIPT = """
 import json, sys
@@ -126,6 +128,48 @@ def _logs(*args: str, timeout: float = 40.0) -> subprocess.CompletedProcess[str]
     )
 
 
+@pytest.fixture(scope="module")
+def watcher() -> Iterator[RosPeer]:
+    """A ROS participant that watches the graph for `dbglog logs`' subscription."""
+    with RosPeer("logs_watcher") as peer:
+        yield peer
+
+
+def _subscribed(peer: RosPeer) -> bool:
+    infos = peer.node.get_subscriptions_info_by_topic("/rosout")
+    return any(info.node_name == "dbglog_logs" for info in infos)
+
+
+def _logs_then_batch(
+    loggers: tuple[Logger, Logger, Logger],
+    watcher: RosPeer,
+    token: str,
+    *args: str,
+    stdout: int | None = None,
+) -> tuple[int, str]:
+    """Start `dbglog logs ARGS`, log a batch once it has subscribed, return its exit code and stdout.
+
+    Logging after the subscription exists keeps these tests independent of how long the CLI takes to
+    start (lines older than /rosout's 10 s lifespan would be gone).
+    """
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "dbglog", "logs", *args],
+        stdout=subprocess.PIPE if stdout is None else stdout,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        assert wait_until(lambda: _subscribed(watcher), timeout=40), "dbglog logs never subscribed to /rosout"
+        _log_batch(loggers, token)
+        out, err = proc.communicate(timeout=40)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+    assert proc.returncode == 0, err
+    return proc.returncode, out or ""
+
+
 def _messages(stdout: str, token: str) -> list[str]:
     return sorted(line.split(f"{token} ", 1)[1] for line in stdout.splitlines() if token in line)
 
@@ -155,25 +199,19 @@ def test_logs_prints_lines_logged_before_it_started_by_three_processes(
     assert any(" FATAL [driver] " in line for line in lines)
 
 
-def test_logs_colours_lines_on_a_terminal(loggers: tuple[Logger, Logger, Logger]) -> None:
+def test_logs_colours_lines_on_a_terminal(loggers: tuple[Logger, Logger, Logger], watcher: RosPeer) -> None:
     """On a terminal (a pseudo-terminal here) an error line is red; NO_COLOR turns colour off."""
     for no_color, expect_red in ((None, True), ("1", False)):
         token = uuid.uuid4().hex[:8]
-        _log_batch(loggers, token)  # fresh lines: /rosout keeps them 10 s
         leader, follower = pty.openpty()
-        env = dict(os.environ)
-        env.pop("NO_COLOR", None)
+        saved = os.environ.pop("NO_COLOR", None)
         if no_color is not None:
-            env["NO_COLOR"] = no_color
-        proc = subprocess.Popen(
-            [sys.executable, "-m", "dbglog", "logs", "--grep", token, "--level", "error", "--count", "2"],
-            stdout=follower,
-            stderr=subprocess.PIPE,
-            env=env,
-        )
-        os.close(follower)
+            os.environ["NO_COLOR"] = no_color
         try:
-            assert proc.wait(timeout=40) == 0
+            _logs_then_batch(
+                loggers, watcher, token, "--grep", token, "--level", "error", "--count", "2", stdout=follower
+            )
+            os.close(follower)
             output = b""
             while select.select([leader], [], [], 0.2)[0]:
                 try:
@@ -184,51 +222,43 @@ def test_logs_colours_lines_on_a_terminal(loggers: tuple[Logger, Logger, Logger]
                     break
                 output += chunk
         finally:
+            os.environ.pop("NO_COLOR", None)
+            if saved is not None:
+                os.environ["NO_COLOR"] = saved
             os.close(leader)
-            if proc.poll() is None:
-                proc.kill()
-            proc.wait()
-            if proc.stderr is not None:
-                proc.stderr.close()
         text = output.decode()
         assert f"{token} pg-error" in text
         assert ("\x1b[31m" in text) is expect_red, text
 
 
-def test_logs_filters_by_minimum_level(loggers: tuple[Logger, Logger, Logger]) -> None:
+def test_logs_filters_by_minimum_level(loggers: tuple[Logger, Logger, Logger], watcher: RosPeer) -> None:
     """--level warn shows warn, error and fatal lines only."""
     token = uuid.uuid4().hex[:8]
-    _log_batch(loggers, token)
-    done = _logs("--grep", token, "--level", "warn", "--count", "3")
-    assert done.returncode == 0, done.stderr
-    assert _messages(done.stdout, token) == ["d-fatal", "pg-error", "pl-warn speed=2.5"]
+    _, out = _logs_then_batch(loggers, watcher, token, "--grep", token, "--level", "warn", "--count", "3")
+    assert _messages(out, token) == ["d-fatal", "pg-error", "pl-warn speed=2.5"]
 
 
-def test_logs_filters_by_node_glob(loggers: tuple[Logger, Logger, Logger]) -> None:
+def test_logs_filters_by_node_glob(loggers: tuple[Logger, Logger, Logger], watcher: RosPeer) -> None:
     """--node 'planner*' shows both planners' lines and no other node's."""
     token = uuid.uuid4().hex[:8]
-    _log_batch(loggers, token)
-    done = _logs("--grep", token, "--node", "planner*", "--count", "3")
-    assert done.returncode == 0, done.stderr
-    assert _messages(done.stdout, token) == ["pg-error", "pg-info", "pl-warn speed=2.5"]
+    _, out = _logs_then_batch(loggers, watcher, token, "--grep", token, "--node", "planner*", "--count", "3")
+    assert _messages(out, token) == ["pg-error", "pg-info", "pl-warn speed=2.5"]
 
 
-def test_logs_filters_by_re2_grep(loggers: tuple[Logger, Logger, Logger]) -> None:
+def test_logs_filters_by_re2_grep(loggers: tuple[Logger, Logger, Logger], watcher: RosPeer) -> None:
     """--grep keeps the lines whose message has a match of the RE2 pattern."""
     token = uuid.uuid4().hex[:8]
-    _log_batch(loggers, token)
-    done = _logs("--grep", rf"{token} .*speed=[0-9]+\.5", "--count", "2")
-    assert done.returncode == 0, done.stderr
-    assert _messages(done.stdout, token) == ["pl-warn speed=2.5", "t-info speed=1.5"]
+    _, out = _logs_then_batch(
+        loggers, watcher, token, "--grep", rf"{token} .*speed=[0-9]+\.5", "--count", "2"
+    )
+    assert _messages(out, token) == ["pl-warn speed=2.5", "t-info speed=1.5"]
 
 
-def test_logs_count_stops_after_n_lines(loggers: tuple[Logger, Logger, Logger]) -> None:
+def test_logs_count_stops_after_n_lines(loggers: tuple[Logger, Logger, Logger], watcher: RosPeer) -> None:
     """--count 2 prints exactly two lines and exits 0."""
     token = uuid.uuid4().hex[:8]
-    _log_batch(loggers, token)
-    done = _logs("--grep", token, "--count", "2")
-    assert done.returncode == 0, done.stderr
-    assert len(done.stdout.splitlines()) == 2
+    _, out = _logs_then_batch(loggers, watcher, token, "--grep", token, "--count", "2")
+    assert len(out.splitlines()) == 2
 
 
 def test_logs_since_zero_follows_new_lines_only(loggers: tuple[Logger, Logger, Logger]) -> None:
@@ -259,12 +289,28 @@ def test_logs_since_zero_follows_new_lines_only(loggers: tuple[Logger, Logger, L
     assert message.startswith("new ")
 
 
+def test_logs_follows_until_sigterm_and_exits_0(watcher: RosPeer) -> None:
+    """Without --count it keeps following; SIGTERM stops it cleanly with exit 0."""
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "dbglog", "logs"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
+    try:
+        assert wait_until(lambda: _subscribed(watcher), timeout=40)
+        assert proc.poll() is None
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=15)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+    assert proc.returncode == 0, err
+    assert err == ""
+
+
 def test_logs_since_skips_lines_stamped_earlier() -> None:
     """--since 30 drops a kept line stamped two minutes ago but prints one stamped a second ago."""
     from rcl_interfaces.msg import Log
     from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-
-    from tests._ros import RosPeer
 
     token = uuid.uuid4().hex[:8]
     qos = QoSProfile(
