@@ -16,6 +16,11 @@ fixed cost of the GL stack), the dashboard idle (a static source: drawing only, 
 live (the real engine fed by a publisher process sending 50 x 100 Hz Float64), and the live dashboard with
 vsync on for reference. Percentiles are the median over repeats. The GL renderer, the X screen depth and the
 load average are printed, since all of them move the figures.
+
+A second table (``--loop run``, the default ``--scenarios`` include it) runs the viewer as ``dbglog view``
+does, through ``ViewerApp.run`` with its frame cap (``--fps``) and its idle skipping, and reports the viewer
+process's CPU: empty and idle, 20 widgets idle, 20 widgets live. ``--compare TREE`` runs the same rows with
+the ``dbglog`` package of another checkout (e.g. ``git worktree add /tmp/old HEAD~1``) beside this one.
 """
 
 from __future__ import annotations
@@ -135,18 +140,20 @@ def _x_depth() -> str:
 
 def _ui(args: argparse.Namespace) -> None:
     """Build the dashboard, render for the warm-up plus the measured time, print frame times as JSON."""
+    if args.code:
+        sys.path.insert(0, args.code)  # measure another checkout's viewer (dbglog is not imported yet)
     import dearpygui.dearpygui as dpg
 
-    from dbglog.viewer._data._model import Binding
-    from dbglog.viewer._data._model import DataSource as _DataSource
+    # Only names that older checkouts had too (`--compare`): the public data types, the UI's entry points.
+    from dbglog.viewer import Binding
+    from dbglog.viewer import DataSource as _DataSource
     from dbglog.viewer._ui import StaticSource, ViewerApp
     from dbglog.viewer._widgets import WidgetRegistry
-    from dbglog.viewer._widgets._geometry import Rect
 
     engine: Any = None
     source: _DataSource
     if args.source == "engine":
-        from dbglog.viewer._data._engine import Engine
+        from dbglog.viewer import Engine
 
         engine = Engine(stale_after=2.0)
         engine.start()
@@ -159,7 +166,9 @@ def _ui(args: argparse.Namespace) -> None:
                 static.push(f"{_PREFIX}{i}", "data", math.sin(k / 10 + i), now - 2 + k * 0.01)
         source = static
     width, height = args.width, args.height
-    app = ViewerApp(source, WidgetRegistry.builtin(), width=width, height=height)
+    # (a viewer without a cap takes neither option)
+    options: dict[str, Any] = {"fps": args.fps, "data_fps": args.data_fps} if args.fps else {}
+    app = ViewerApp(source, WidgetRegistry.builtin(), width=width, height=height, **options)
     app.start()
     dpg.set_viewport_vsync(args.vsync)
     app.set_snap(False)
@@ -167,7 +176,8 @@ def _ui(args: argparse.Namespace) -> None:
     for n, (kind, topics) in enumerate(_layout() if args.source != "empty" else []):
         item = app.add_widget(kind, 0, 0)
         assert item is not None
-        item.place(Rect(8 + cell_w * (n % 5), 8 + cell_h * (n // 5), cell_w - 8, cell_h - 8), rebuild=True)
+        rect = type(item.rect)  # the viewer's Rect, wherever this checkout keeps it
+        item.place(rect(8 + cell_w * (n % 5), 8 + cell_h * (n // 5), cell_w - 8, cell_h - 8), rebuild=True)
         app.apply_bindings(item, tuple(Binding(f"{_PREFIX}{t}", "data") for t in topics))
     app.select(None)
     warm_end = time.monotonic() + args.warmup
@@ -181,7 +191,21 @@ def _ui(args: argparse.Namespace) -> None:
     cpu0 = time.process_time()
     t0 = time.perf_counter()
     end = t0 + args.duration
-    while True:
+    if args.loop == "run":
+        # As `dbglog view` runs: the app's own loop decides when to render; count what it renders.
+        render = dpg.render_dearpygui_frame
+
+        def counted() -> None:
+            starts.append(time.perf_counter())
+            render()
+
+        dpg.render_dearpygui_frame = counted
+        app.frame_times.clear()
+        app.run(seconds=args.duration)
+        dpg.render_dearpygui_frame = render
+        totals = list(app.frame_times)
+        works = [float("nan")] * len(totals)
+    while args.loop == "frames":
         start = time.perf_counter()
         if start >= end:
             break
@@ -201,6 +225,7 @@ def _ui(args: argparse.Namespace) -> None:
         engine.stop()
     intervals = [b - a for a, b in itertools.pairwise(starts)]
     out = {
+        "rendered": len(starts),
         "totals": totals,
         "works": works,
         "intervals": intervals,
@@ -222,7 +247,15 @@ def _pct(values: list[float], q: float) -> float:
     return ordered[min(len(ordered) - 1, int(q * len(ordered)))]
 
 
-def _measure(source: str, args: argparse.Namespace, *, vsync: bool, shot: str = "") -> dict[str, Any]:
+def _measure(
+    source: str,
+    args: argparse.Namespace,
+    *,
+    vsync: bool,
+    shot: str = "",
+    loop: str = "frames",
+    code: str = "",
+) -> dict[str, Any]:
     """Run one UI child (and a publisher for the live source); return its frame statistics."""
     pub = None
     if source == "engine":
@@ -251,6 +284,14 @@ def _measure(source: str, args: argparse.Namespace, *, vsync: bool, shot: str = 
         "benchmarks.bench_ui",
         "--role",
         "ui",
+        "--loop",
+        loop,
+        "--code",
+        code,
+        "--fps",
+        str(args.fps if loop == "run" and not code else 0),
+        "--data-fps",
+        str(args.data_fps),
         "--source",
         source,
         "--topics",
@@ -289,8 +330,8 @@ def _measure(source: str, args: argparse.Namespace, *, vsync: bool, shot: str = 
     renders = [t - w for t, w in zip(totals, works, strict=True)]
     intervals = [t * 1000 for t in data["intervals"]]
     return {
-        "frames": len(totals),
-        "fps": len(totals) / data["elapsed"],
+        "frames": data["rendered"],
+        "fps": data["rendered"] / data["elapsed"],
         "p50": _pct(totals, 0.50),
         "p95": _pct(totals, 0.95),
         "p99": _pct(totals, 0.99),
@@ -330,9 +371,22 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--vsync", action="store_true", help="(ui role) keep vsync on")
     parser.add_argument(
         "--scenarios",
-        default="empty,static,engine,engine-vsync",
-        help="comma-separated subset of empty, static, engine, engine-vsync",
+        default="empty,static,engine,engine-vsync,empty-run,static-run,engine-run",
+        help="comma-separated subset of empty, static, engine, engine-vsync (frames rendered back to back) "
+        "and empty-run, static-run, engine-run (the viewer's own loop, as `dbglog view` runs it)",
     )
+    parser.add_argument("--fps", type=float, default=60.0, help="frame cap of the -run rows (default 60)")
+    parser.add_argument(
+        "--data-fps", type=float, default=20.0, help="data redraw cap of the -run rows (default 20)"
+    )
+    parser.add_argument(
+        "--compare",
+        default="",
+        metavar="TREE",
+        help="also run the -run rows with the dbglog package of this checkout (e.g. a worktree of HEAD~1)",
+    )
+    parser.add_argument("--loop", choices=("frames", "run"), default="frames", help=argparse.SUPPRESS)
+    parser.add_argument("--code", default="", help=argparse.SUPPRESS)
     parser.add_argument("--shot", default="", help="write a PNG of the live dashboard at the end")
     args = parser.parse_args(argv)
     local_ros_env()
@@ -347,6 +401,9 @@ def main(argv: list[str] | None = None) -> int:
         "static": ("static", False, "20 widgets idle, vsync off (drawing only)"),
         "engine": ("engine", False, "20 widgets live: 50 topics x 100 Hz, vsync off"),
         "engine-vsync": ("engine", True, "20 widgets live, vsync on (for reference)"),
+        "empty-run": ("empty", False, "empty dashboard, nothing changing"),
+        "static-run": ("static", False, "20 widgets, nothing changing"),
+        "engine-run": ("engine", False, "20 widgets live: 50 topics x 100 Hz"),
     }
     chosen = [s.strip() for s in args.scenarios.split(",") if s.strip()]
     unknown = [s for s in chosen if s not in labels]
@@ -354,58 +411,97 @@ def main(argv: list[str] | None = None) -> int:
         parser.error(f"unknown scenario(s) {', '.join(unknown)}; choose from {', '.join(labels)}")
     load_before = os.getloadavg()
     rows = []
+    run_rows = []
     env_line = ""
     for name in chosen:
         source, vsync, label = labels[name]
-        runs = [
-            _measure(
-                source,
-                args,
-                vsync=vsync,
-                shot=args.shot if (name == "engine" and r == args.repeats - 1) else "",
-            )
-            for r in range(args.repeats)
-        ]
-        env_line = f"GL: {runs[0]['gl']}; X screen {runs[0]['screen']}"
-        med = {k: statistics.median(r[k] for r in runs) for k in runs[0] if k not in ("gl", "screen")}
-        rows.append(
-            [
-                label,
-                f"{med['frames']:.0f}",
-                _fmt(med["p50"]),
-                _fmt(med["p95"]),
-                _fmt(med["p99"]),
-                f"{_fmt(med['work50'])} / {_fmt(med['work95'])}",
-                f"{_fmt(med['render50'])} / {_fmt(med['render95'])}",
-                f"{_fmt(med['int50'])} / {_fmt(med['int95'])} / {_fmt(med['int99'])}",
-                f"{med['fps']:.0f}",
-                f"{med['cpu']:.0f}% / {med['cpu_ms']:.1f}",
-                f"{med['msgs']:.0f}",
-                f"{med['ups']:.0f}",
-                f"{med['live']:.0f}",
+        loop = "run" if name.endswith("-run") else "frames"
+        codes = [""] + ([args.compare] if args.compare and loop == "run" else [])
+        for code in codes:
+            runs = [
+                _measure(
+                    source,
+                    args,
+                    vsync=vsync,
+                    shot=args.shot if (name == "engine" and r == args.repeats - 1) else "",
+                    loop=loop,
+                    code=code,
+                )
+                for r in range(args.repeats)
             ]
-        )
+            env_line = f"GL: {runs[0]['gl']}; X screen {runs[0]['screen']}"
+            med = {k: statistics.median(r[k] for r in runs) for k in runs[0] if k not in ("gl", "screen")}
+            if loop == "run":
+                run_rows.append(
+                    [
+                        label,
+                        f"{code} (no cap)"
+                        if code
+                        else f"this checkout (caps {args.fps:g} fps, data {args.data_fps:g} fps)",
+                        f"{med['fps']:.1f}",
+                        f"{med['cpu']:.1f}%",
+                        _fmt(med["cpu_ms"]),
+                        f"{_fmt(med['p50'])} / {_fmt(med['p95'])}",
+                        f"{med['msgs']:.0f}",
+                        f"{med['live']:.0f}",
+                    ]
+                )
+                continue
+            rows.append(
+                [
+                    label,
+                    f"{med['frames']:.0f}",
+                    _fmt(med["p50"]),
+                    _fmt(med["p95"]),
+                    _fmt(med["p99"]),
+                    f"{_fmt(med['work50'])} / {_fmt(med['work95'])}",
+                    f"{_fmt(med['render50'])} / {_fmt(med['render95'])}",
+                    f"{_fmt(med['int50'])} / {_fmt(med['int95'])} / {_fmt(med['int99'])}",
+                    f"{med['fps']:.0f}",
+                    f"{med['cpu']:.0f}% / {med['cpu_ms']:.1f}",
+                    f"{med['msgs']:.0f}",
+                    f"{med['ups']:.0f}",
+                    f"{med['live']:.0f}",
+                ]
+            )
     load_after = os.getloadavg()
-    print_table(
-        f"Viewer frame time at {args.width}x{args.height}, {args.topics} topics "
-        f"(median of {args.repeats} x {args.duration:g} s)",
-        [
-            "scenario",
-            "frames",
-            "production p50 ms",
-            "p95 ms",
-            "p99 ms",
-            "app work p50 / p95",
-            "render p50 / p95",
-            "interval p50 / p95 / p99 ms",
-            "fps",
-            "UI process CPU / ms per frame",
-            "engine msgs/s",
-            "widget updates/s",
-            "widgets live",
-        ],
-        rows,
-    )
+    if run_rows:
+        print_table(
+            f"Viewer process CPU as `dbglog view` runs, {args.width}x{args.height} "
+            f"(median of {args.repeats} x {args.duration:g} s)",
+            [
+                "dashboard",
+                "viewer code",
+                "frames/s",
+                "CPU, % of one core",
+                "CPU ms per frame",
+                "frame production p50 / p95 ms",
+                "engine msgs/s",
+                "widgets live",
+            ],
+            run_rows,
+        )
+    if rows:
+        print_table(
+            f"Viewer frame time at {args.width}x{args.height}, {args.topics} topics "
+            f"(median of {args.repeats} x {args.duration:g} s)",
+            [
+                "scenario",
+                "frames",
+                "production p50 ms",
+                "p95 ms",
+                "p99 ms",
+                "app work p50 / p95",
+                "render p50 / p95",
+                "interval p50 / p95 / p99 ms",
+                "fps",
+                "UI process CPU / ms per frame",
+                "engine msgs/s",
+                "widget updates/s",
+                "widgets live",
+            ],
+            rows,
+        )
     env = {
         k: os.environ.get(k, "unset") for k in ("LIBGL_ALWAYS_SOFTWARE", "GALLIUM_DRIVER", "LP_NUM_THREADS")
     }

@@ -97,8 +97,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         type=fps_arg,
         default=60.0,
         metavar="N",
-        help="frame cap (default 60); the viewer redraws only when something changed, so idle it uses "
-        "almost no CPU",
+        help="frame cap while you work in the window (default 60); the viewer redraws only when "
+        "something changed, so idle it uses almost no CPU",
+    )
+    parser.add_argument(
+        "--data-fps",
+        type=fps_arg,
+        default=20.0,
+        metavar="N",
+        help="draw new data at most this often while you do not touch the window (default 20; at most "
+        "--fps): the viewer's CPU use with live data scales with it",
     )
     parser.add_argument(
         "--stale-after",
@@ -149,7 +157,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"dbglog view: error: {exc}", file=sys.stderr)
         return 1
     width, height = args.size
-    app = ViewerApp(engine, registry, width=width, height=height, fps=args.fps)
+    app = ViewerApp(engine, registry, width=width, height=height, fps=args.fps, data_fps=args.data_fps)
     try:
         app.start()
         from dbglog.viewer._ui._auto import AutoDashboard, all_live, write_report

@@ -43,7 +43,16 @@ from dbglog.viewer._ui._dialogs import (
     topic_widget_name,
 )
 from dbglog.viewer._ui._frame import GRIP, TITLE_H, CanvasItem
-from dbglog.viewer._ui._pacing import DEFAULT_FPS, Pacer, wait_readable, x_connection_fd
+from dbglog.viewer._ui._pacing import (
+    DEFAULT_DATA_FPS,
+    DEFAULT_FPS,
+    DIALOG_IDLE_RENDER_S,
+    IDLE_RENDER_S,
+    Pacer,
+    XInput,
+    wait_readable,
+    x_connection_fd,
+)
 from dbglog.viewer._ui._quit import QuitDialog
 from dbglog.viewer._widgets import WidgetRegistry
 from dbglog.viewer._widgets._geometry import (
@@ -121,6 +130,7 @@ class ViewerApp:
         registry: the widget types (default: built-ins plus installed plugins).
         width / height: the window size in pixels.
         fps: the frame cap of `run` (which also skips frames while nothing changes).
+        data_fps: how often `run` draws new data at most while the user does nothing.
     """
 
     def __init__(
@@ -132,6 +142,7 @@ class ViewerApp:
         height: int = 900,
         title: str = "dbglog viewer",
         fps: float = DEFAULT_FPS,
+        data_fps: float = DEFAULT_DATA_FPS,
     ) -> None:
         self.source = source
         self.registry = registry if registry is not None else WidgetRegistry.discover()
@@ -151,11 +162,14 @@ class ViewerApp:
         """Called once per frame on the UI thread, after the widgets refresh (the auto-dashboard)."""
         self.last_work_s = 0.0
         """Seconds the last frame spent before `render_dearpygui_frame` (input, snapshots, widget updates)."""
-        self.pacer = Pacer(fps)
+        self.pacer = Pacer(fps, min(fps, data_fps))
         """When `run` renders: the frame cap, and no frames while nothing changes."""
         self.rendered = 0
         """Frames rendered so far (the benchmark and the CPU test read this)."""
         self._x_fd: int | None = None
+        self._x_input: XInput | None = None
+        self._input_now = False
+        """Whether the last rendered frame saw the user at work (`_input_seen`)."""
         self._wheel_lock = threading.Lock()
         self._wheel = 0.0
         """Mouse wheel turns not yet applied (the wheel handler adds them, the next frame scrolls)."""
@@ -214,7 +228,8 @@ class ViewerApp:
         self._build()
         if visible:
             dpg.show_viewport()
-            self._x_fd = x_connection_fd()
+            self._x_input = XInput.of_glfw(dpg.internal_dpg.__file__)
+            self._x_fd = self._x_input.fd if self._x_input is not None else x_connection_fd()
         for _ in range(2):
             self.frame()
 
@@ -421,6 +436,7 @@ class ViewerApp:
     def frame(self) -> float:
         """Poll input, refresh changed widgets, render one frame; return the frame's duration in seconds."""
         t0 = time.perf_counter()
+        self._look()
         self._work()
         self.last_work_s = time.perf_counter() - t0
         self._render(time.monotonic())
@@ -442,25 +458,37 @@ class ViewerApp:
             if deadline is not None and now >= deadline:
                 break
             t0 = time.perf_counter()
-            self._work()
+            self._look()
             if pacer.due(now):
+                self._work()  # widgets take the newest data only for a frame that shows it
                 self.last_work_s = time.perf_counter() - t0
                 self._render(now)
                 self.frame_times.append(time.perf_counter() - t0)
-                if self._input_seen():
+                if self._input_now:
                     pacer.poke(now)
             now = time.monotonic()
             wait = pacer.wait(now)
             if deadline is not None:
                 wait = min(wait, max(0.0, deadline - now))
-            if pacer.active(now) or pacer.pending:
+            if pacer.active(now):
                 if wait > 0:
                     time.sleep(wait)
-            elif wait_readable(self._x_fd, wait):
+            elif (self._x_input is not None and self._x_input.pending()) or wait_readable(self._x_fd, wait):
                 pacer.poke(time.monotonic())  # input for the window: render it at once, and keep up
 
+    def _look(self) -> None:
+        """Between frames: run the hooks and see whether anything on screen would change (no drawing)."""
+        for hook in self.frame_hooks:
+            hook()
+        if any(item.changed(self.source) for item in self.items):
+            self.pacer.request(time.monotonic())
+        key = self._view_state()
+        if key != self._view_key:  # the user's doing (or a dialog's): render at the cap for a while
+            self._view_key = key
+            self.pacer.poke(time.monotonic())
+
     def _work(self) -> None:
-        """Everything of a frame but rendering: input, snapshots, widget updates, hooks, dialogs, chrome."""
+        """Everything of a frame but rendering: input, snapshots, widget updates, dialogs, chrome."""
         self._poll_mouse()
         changed = self._apply_wheel()
         now = time.time()
@@ -470,8 +498,6 @@ class ViewerApp:
             if item.edited:  # a control changed its own saved value (a toggle switched, a slider moved)
                 item.edited = False
                 self._mark_dirty()
-        for hook in self.frame_hooks:
-            hook()
         for dialog in (self.dialog, self.file_request.dialog if self.file_request is not None else None):
             if dialog is None:
                 continue
@@ -484,7 +510,10 @@ class ViewerApp:
         changed = self._draw_grid() or changed
         changed = self._update_status() or changed
         if changed:
-            self.pacer.request()
+            self.pacer.request(time.monotonic())
+        # With a dialog open a text cursor may blink: idle frames come more often then.
+        dialog_open = self.dialog is not None or self.file_request is not None
+        self.pacer.idle_render_s = DIALOG_IDLE_RENDER_S if dialog_open else IDLE_RENDER_S
         key = self._view_state()
         if key != self._view_key:  # the user's doing (or a dialog's): render at the cap for a while
             self._view_key = key
@@ -506,9 +535,11 @@ class ViewerApp:
 
     def _render(self, now: float) -> None:
         self._render_starts.append(now)
+        t0 = time.perf_counter()
         dpg.render_dearpygui_frame()
         self.rendered += 1
-        self.pacer.rendered(now)
+        self.pacer.rendered(now, time.perf_counter() - t0)
+        self._input_now = self._input_seen()
         for key in (dpg.mvKey_ModCtrl, dpg.mvKey_ModShift):
             if dpg.is_key_down(key):
                 self._mods_seen[key] = now

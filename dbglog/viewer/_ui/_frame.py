@@ -186,16 +186,31 @@ class CanvasItem:
 
     # -- live updates -------------------------------------------------------------------------------
 
-    def refresh(self, source: DataSource, now: float) -> bool:
-        """Read the snapshots; redraw only when a count, status or reason changed; True if redrawn."""
-        if self.widget is None or self.failed:
-            return False
+    def _snapshots(self, source: DataSource) -> list[SeriesSnapshot]:
         snapshots = [source.snapshot(b) for b in self.bindings]
         stale_after = self.config.stale_after if isinstance(self.config, WidgetConfig) else None
         if stale_after is not None:
             snapshots = [s.with_stale_time(stale_after) for s in snapshots]
         if self.widget_cls is not None:  # a kind the widget did not declare is an error, not shown
             snapshots = [shown_as(self.widget_cls, s) for s in snapshots]
+        return snapshots
+
+    def changed(self, source: DataSource) -> bool:
+        """Whether `refresh` would redraw now (a count, status or reason changed), without redrawing."""
+        if self.widget is None or self.failed:
+            return False
+        try:
+            own = self.widget.status()
+        except Exception:  # `refresh` disables the widget and says why
+            return True
+        key = (*((s.count, s.status, s.reason) for s in self._snapshots(source)), own)
+        return key != self._key or self.widget.props_changed
+
+    def refresh(self, source: DataSource, now: float) -> bool:
+        """Read the snapshots; redraw only when a count, status or reason changed; True if redrawn."""
+        if self.widget is None or self.failed:
+            return False
+        snapshots = self._snapshots(source)
         try:
             own = self.widget.status()  # control widgets report their own state (publishing)
         except Exception as exc:

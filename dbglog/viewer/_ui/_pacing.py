@@ -2,12 +2,14 @@
 
 A frame costs 10-40 ms of CPU with a software renderer (Mesa llvmpipe), however little changed, so the
 loop renders only when something did (new data for a widget, input, a dialog, an edit) and otherwise
-waits: for the X connection to have input, for new data (looked for every `idle_poll_s`), or for the
-slow idle frame (`idle_render_s`) that keeps blinking cursors and late events going. No Dear PyGui here.
+waits: for input on the X connection (`XInput`), for new data (looked for every `idle_poll_s`), or for
+the slow idle frame (`idle_render_s`) that keeps a text cursor blinking. No Dear PyGui calls here.
 """
 
 from __future__ import annotations
 
+import ctypes
+import ctypes.util
 import math
 import os
 import select
@@ -16,10 +18,25 @@ import stat
 import time
 from dataclasses import dataclass
 
-__all__ = ["DEFAULT_FPS", "Pacer", "wait_readable", "x_connection_fd"]
+__all__ = [
+    "DEFAULT_DATA_FPS",
+    "DEFAULT_FPS",
+    "DIALOG_IDLE_RENDER_S",
+    "IDLE_RENDER_S",
+    "Pacer",
+    "XInput",
+    "wait_readable",
+    "x_connection_fd",
+]
 
 DEFAULT_FPS = 60.0
 """The default frame cap (``dbglog view --fps``)."""
+DEFAULT_DATA_FPS = 20.0
+"""How often new data is drawn at most by default (``dbglog view --data-fps``)."""
+IDLE_RENDER_S = 10.0
+"""Seconds between two frames while nothing changes: a safety net, as input and new data wake the loop."""
+DIALOG_IDLE_RENDER_S = 0.5
+"""The same with a dialog open, whose text cursor blinks."""
 
 
 @dataclass
@@ -27,61 +44,119 @@ class Pacer:
     """Decides, from the monotonic clock, whether the loop renders now and how long it may wait.
 
     Args:
-        fps: the frame cap; frames never start closer together than 1/fps.
-        active_s: after input or a change, keep rendering at the cap this long (hover effects, tooltips,
-            the frames Dear ImGui needs to settle after a click).
+        fps: the frame cap while the user is at work; frames never start closer together than 1/fps.
+        data_fps: how often new data is drawn at most while nobody touches anything (at most `fps`); and
+            between two such frames the loop rests at least as long as the last frame took, so that
+            showing live data never takes more than half the loop's time (a software renderer's frames
+            can take 50 ms and more).
+        active_s: after input, keep rendering at the cap this long (hover effects, tooltips, the frames
+            Dear ImGui needs to settle after a click).
         idle_render_s: while idle, still render this often.
-        idle_poll_s: while idle, look for new data this often (without rendering).
+        idle_poll_s: while idle, look for new data this often (without rendering); while data flows,
+            every 1/data_fps.
     """
 
     fps: float = DEFAULT_FPS
+    data_fps: float = DEFAULT_DATA_FPS
     active_s: float = 1.0
-    idle_render_s: float = 0.5
-    idle_poll_s: float = 0.05
+    idle_render_s: float = IDLE_RENDER_S
+    idle_poll_s: float = 0.1
     last_render: float = -math.inf
     active_until: float = -math.inf
+    last_change: float = -math.inf
+    last_took: float = 0.0
+    """How long the last frame took to render, in seconds."""
     pending: bool = False
-    """Something changed since the last frame: render it as soon as the cap allows."""
+    """Something changed since the last frame: render it as soon as the caps allow."""
 
     def __post_init__(self) -> None:
-        if not (math.isfinite(self.fps) and self.fps > 0):
-            raise ValueError(f"fps must be a positive number, not {self.fps}")
+        for name in ("fps", "data_fps"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0):
+                raise ValueError(f"{name} must be a positive number, not {value}")
 
     @property
     def period(self) -> float:
         """The shortest time between two frames."""
         return 1.0 / self.fps
 
+    @property
+    def data_period(self) -> float:
+        """The shortest time between the starts of two frames that only show new data."""
+        return max(self.period, 1.0 / self.data_fps, 2.0 * self.last_took)
+
     def poke(self, now: float) -> None:
-        """Something changed or the user did something: render at the cap for a while."""
+        """The user did something: render at the cap for a while."""
         self.active_until = max(self.active_until, now + self.active_s)
 
-    def request(self) -> None:
-        """Something on screen changed (new data, a new status text): render one frame soon."""
+    def request(self, now: float | None = None) -> None:
+        """Something on screen changed (new data, a new status text): render a frame soon."""
         self.pending = True
+        self.last_change = time.monotonic() if now is None else now
 
     def active(self, now: float) -> bool:
-        """Whether the loop is rendering at the cap (not idle)."""
+        """Whether the loop is rendering at the cap for the user (not idle)."""
         return now < self.active_until
 
     def due(self, now: float) -> bool:
         """Whether to render a frame now."""
-        if now - self.last_render < self.period:
+        since = now - self.last_render
+        if since < self.period:
             return False
-        return self.pending or self.active(now) or now - self.last_render >= self.idle_render_s
+        if self.active(now):
+            return True
+        return (self.pending and since >= self.data_period) or since >= self.idle_render_s
 
-    def rendered(self, now: float) -> None:
-        """A frame was rendered at `now`."""
+    def rendered(self, now: float, took: float = 0.0) -> None:
+        """A frame was rendered at `now`, in `took` seconds."""
         self.last_render = now
+        self.last_took = max(0.0, took)
         self.pending = False
 
     def wait(self, now: float) -> float:
         """Seconds the loop may sleep before it has anything to do."""
-        next_frame = self.last_render + self.period
-        if self.pending or self.active(now):
-            return max(0.0, next_frame - now)
-        idle_frame = max(next_frame, self.last_render + self.idle_render_s)
+        if self.active(now):
+            return max(0.0, self.last_render + self.period - now)
+        if self.pending:
+            return max(0.0, self.last_render + self.data_period - now)
+        flowing = now - self.last_change < 1.0  # data keeps coming: look again when it may be drawn
+        if flowing:
+            return max(0.0, self.last_render + self.data_period - now)
+        idle_frame = self.last_render + max(self.period, self.idle_render_s)
         return max(0.0, min(self.idle_poll_s, idle_frame - now))
+
+
+class XInput:
+    """The X connection GLFW reads the window's input from: its socket, and whether Xlib holds events.
+
+    Events can reach Xlib's queue while a frame is drawn (the buffer swap reads from the socket), after
+    GLFW polled: the socket is then quiet though input waits, so the loop asks Xlib too (`pending`).
+    Call only from the thread that renders.
+    """
+
+    def __init__(self, display: int, fd: int, x11: ctypes.CDLL) -> None:
+        self.display, self.fd, self._x11 = display, fd, x11
+
+    @classmethod
+    def of_glfw(cls, library: str) -> XInput | None:
+        """The X connection of the GLFW linked into `library` (Dear PyGui's extension), or None (not X11)."""
+        try:
+            glfw = ctypes.CDLL(library)  # already loaded: the same GLFW, with its open display
+            get_display = glfw.glfwGetX11Display
+            x11 = ctypes.CDLL(ctypes.util.find_library("X11") or "libX11.so.6")
+        except (OSError, AttributeError):
+            return None
+        get_display.restype, get_display.argtypes = ctypes.c_void_p, []
+        x11.XEventsQueued.restype, x11.XEventsQueued.argtypes = ctypes.c_int, [ctypes.c_void_p, ctypes.c_int]
+        x11.XConnectionNumber.restype, x11.XConnectionNumber.argtypes = ctypes.c_int, [ctypes.c_void_p]
+        display = get_display()
+        if not display:
+            return None
+        return cls(display, x11.XConnectionNumber(display), x11)
+
+    def pending(self) -> bool:
+        """Whether Xlib already holds events that GLFW has not taken (no I/O: QueuedAlready)."""
+        return bool(self._x11.XEventsQueued(self.display, 0) > 0)
 
 
 def x_connection_fd() -> int | None:
