@@ -396,6 +396,44 @@ def scenario_type_clash(tmp: Path) -> None:
             app.close()
 
 
+def scenario_controls_get_their_own_seam(tmp: Path) -> None:
+    """A control gets its publish target and the app's own publisher at mount; the engine never subscribes
+    to its topic (only a display widget's series is bound); a new binding retargets it; close stops it."""
+    from dbglog.viewer._data._engine import Engine
+    from dbglog.viewer._data._model import Binding
+    from dbglog.viewer.widget_api import WidgetContext
+
+    with RosPeer("controls_seam_peer") as peer, Engine(graph_period=0.1) as engine:
+        first = peer.subscribe("/ctl_ui/seam_a", Float64)
+        second = peer.subscribe("/ctl_ui/seam_b", Float64)
+        app = _viewer(engine)
+        try:
+            slider = _control(app, "slider", "/ctl_ui/seam_a", minimum=0.0, maximum=10.0)
+            dial = app.add_widget("dial", 400, 20)
+            assert dial is not None
+            app.apply_bindings(dial, (Binding("/ctl_ui/seam_b"),))
+            assert slider.widget.context == WidgetContext((Binding("/ctl_ui/seam_a"),), app.publisher)
+            assert dial.widget.context == WidgetContext((), app.publisher), "a display widget has no targets"
+            _pump(app, lambda: slider.status is Status.LIVE, what="slider live")
+            slider.widget.on_change(slider.widget.slider, 2.0)
+            _pump(app, lambda: first.values() == [2.0], what="2.0 on seam_a")
+            assert engine.bindings() == [Binding("/ctl_ui/seam_b")], "only the dial's series is bound"
+            endpoints = peer.node.get_subscriptions_info_by_topic("/ctl_ui/seam_a")
+            assert [e.node_name for e in endpoints] == ["controls_seam_peer"], "the engine never subscribes"
+            # A new binding is a new target: the same publisher, now on seam_b, still no engine series for it.
+            app.apply_bindings(slider, (Binding("/ctl_ui/seam_b"),))
+            assert slider.widget.context.targets == (Binding("/ctl_ui/seam_b"),)
+            _pump(app, lambda: slider.status is Status.LIVE, what="live on seam_b")
+            slider.widget.on_change(slider.widget.slider, 3.0)
+            _pump(app, lambda: second.values() == [3.0], what="3.0 on seam_b")
+            assert first.values() == [2.0]
+            assert engine.bindings() == [Binding("/ctl_ui/seam_b")]
+            publisher = app.publisher
+        finally:
+            app.close()
+        assert publisher._thread is None, "closing the viewer stops its publishing service"
+
+
 def scenario_steer_the_demo_robot(tmp: Path) -> None:
     """The demo dashboard's Teleop group steers the simulated turtle: teleop, stopped, autopilot again."""
     import threading

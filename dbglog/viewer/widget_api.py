@@ -26,6 +26,8 @@ Example::
                 dpg.set_value(self.text, f"{last:.{int(self.prop('decimals'))}f}")
 
 Only the viewer's UI thread calls these methods; a widget must not start threads that call Dear PyGui.
+At mount the viewer hands each widget a `WidgetContext` (``self.context``): the publish targets of a
+control's bindings and the app's publishing service (``self.publisher()``); the app owns both.
 Everything a plugin needs is importable from this module (the data types `SeriesSnapshot`, `ValueKind`,
 `Status` and `Binding` are re-exported here); the ``_``-prefixed modules are private. The full reference
 and a step-by-step tutorial are in ``docs/plugins.md``.
@@ -60,6 +62,7 @@ __all__ = [
     "Status",
     "ValueKind",
     "Widget",
+    "WidgetContext",
     "format_color",
     "kind_problem",
     "parse_color",
@@ -188,12 +191,27 @@ def _describe(value: object) -> str:
     return f"{type(value).__name__} {text[:40]}"
 
 
+@dataclass(frozen=True, slots=True)
+class WidgetContext:
+    """What the viewer hands a widget at mount (and again when its bindings change); the app owns it.
+
+    Args:
+        targets: where a control publishes: its bindings (topic, and the field a single value sets); empty
+            for a display widget, whose bindings are series the data engine fills instead.
+        publisher: the app's publishing service (None for a widget mounted outside a viewer).
+    """
+
+    targets: tuple[Binding, ...] = ()
+    publisher: PublishService | None = None
+
+
 class Widget(abc.ABC):
     """Base class of every viewer widget: declare the class attributes, implement `create` and `update`.
 
-    The viewer constructs a widget with its validated property values, calls `create` once with a parent
-    container and the body size in pixels, then `update` whenever one of its series changed, `resize`
-    when the user resizes it, `set_properties` after the properties dialog, and `destroy` at the end.
+    The viewer constructs a widget with its validated property values, mounts it (`context` set, then
+    `create` once with a parent container and the body size in pixels), then calls `update` whenever one
+    of its series changed, `set_context` when its bindings change, `resize` when the user resizes it,
+    `set_properties` after the properties dialog, and `destroy` at the end.
 
     All of these run on the viewer's UI thread. An exception from any of them disables this widget only:
     its frame turns red with the reason and it is not called again; the other widgets keep running.
@@ -226,6 +244,8 @@ class Widget(abc.ABC):
         self.height = 0
         self.props_changed = False
         """Set by `save_property`; the viewer copies `props` into the dashboard and clears it."""
+        self.context = WidgetContext()
+        """The publish targets and the app's publisher, given at mount (`mount`, `set_context`)."""
 
     @classmethod
     def default_properties(cls) -> dict[str, PropValue]:
@@ -262,10 +282,21 @@ class Widget(abc.ABC):
         """Return a COLOR property as RGBA."""
         return parse_color(str(self.props[name]))
 
-    def mount(self, parent: int | str, width: int, height: int) -> None:
-        """Remember where the widget lives and build it (the viewer calls this, not `create`)."""
+    def mount(self, parent: int | str, width: int, height: int, context: WidgetContext | None = None) -> None:
+        """Remember where the widget lives and build it (the viewer calls this, not `create`).
+
+        Args:
+            parent / width / height: the container and the body size in pixels.
+            context: the targets and publisher the app gives it; None keeps the current one (a rebuild).
+        """
+        if context is not None:
+            self.context = context
         self.parent, self.width, self.height = parent, width, height
         self.create(parent, width, height)
+
+    def set_context(self, context: WidgetContext) -> None:
+        """Take a new context (the user changed the widget's bindings); the default stores it."""
+        self.context = context
 
     @abc.abstractmethod
     def create(self, parent: int | str, width: int, height: int) -> None:
@@ -282,19 +313,22 @@ class Widget(abc.ABC):
         """
         return None
 
-    @staticmethod
-    def publisher() -> PublishService:
-        """Return the viewer's publishing service, for control widgets (it starts on first use).
+    def publisher(self) -> PublishService:
+        """Return the publishing service the app gave this widget at mount (its thread starts on first use).
 
         Example::
 
             self.publisher().update(self, PublishRequest("/led", default_type="std_msgs/msg/Bool",
                                                          value=True, value_kind="bool"), send=True)
             state = self.publisher().state(self)   # PublishState(status, reason, ...)
-        """
-        from dbglog.viewer._publishing._publish import shared_service
 
-        return shared_service()
+        Raises:
+            RuntimeError: the widget was mounted outside a viewer, without a publisher.
+        """
+        publisher = self.context.publisher
+        if publisher is None:
+            raise RuntimeError(f"{type(self).__name__} was mounted without a publisher (outside a viewer)")
+        return publisher
 
     def resize(self, width: int, height: int) -> None:
         """Fit the new body size; the default rebuilds the widget (create again in the same parent)."""

@@ -1,6 +1,8 @@
 """The viewer's publishing service for control widgets: its own rclpy context, node and thread.
 
-Widgets call `PublishService.update` from the UI thread; it only stores the request and wakes the
+The app creates one service and owns it: every widget gets it in its `WidgetContext` at mount, with its
+publish targets (the data engine never subscribes to a control's topic to learn its type). Widgets call
+`PublishService.update` from the UI thread; it only stores the request and wakes the
 service thread, so the UI never waits on ROS. The thread resolves each topic's type from the graph
 (a clash is an error in that widget's state), keeps one publisher per topic, sends at most
 ``rate_limit_hz`` messages per widget (the latest value always goes out, a little later), repeats at
@@ -11,7 +13,6 @@ message, each setting its own field.
 
 from __future__ import annotations
 
-import atexit
 import logging
 import threading
 import time
@@ -34,7 +35,6 @@ __all__ = [
     "PublishRequest",
     "PublishService",
     "PublishState",
-    "shared_service",
 ]
 
 _log = logging.getLogger("dbglog.viewer.publish")
@@ -473,20 +473,6 @@ class PublishService:
             subs,
             entry.sent,
         )
-
-
-_shared: list[PublishService] = []
-_shared_lock = threading.Lock()
-
-
-def shared_service() -> PublishService:
-    """Return the viewer's one publishing service (created on first use, stopped at exit)."""
-    with _shared_lock:
-        if not _shared:
-            service = PublishService()
-            _shared.append(service)
-            atexit.register(service.stop)
-        return _shared[0]
 
 
 def with_value(request: PublishRequest, value: Value | None) -> PublishRequest:

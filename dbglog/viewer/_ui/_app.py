@@ -32,6 +32,7 @@ from dbglog.viewer._document._dashboard import (
     load_dashboard,
     save_dashboard,
 )
+from dbglog.viewer._publishing._publish import PublishService
 from dbglog.viewer._ui import _theme as theme
 from dbglog.viewer._ui._dialogs import (
     Dialog,
@@ -183,6 +184,8 @@ class ViewerApp:
         self._fps_text = ""
         self._fps_at = -1.0
         self._refs: collections.Counter[Binding] = collections.Counter()
+        self.publisher = PublishService()
+        """The controls' publishing service: this app's own, handed to every widget at mount."""
         self._drag: _Drag | None = None
         self._left_down = False
         self._right_down = False
@@ -242,6 +245,7 @@ class ViewerApp:
         for binding in list(self._refs):
             self.source.unbind(binding)
         self._refs.clear()
+        self.publisher.stop()
         self._started = False
         dpg.destroy_context()
 
@@ -857,7 +861,7 @@ class ViewerApp:
                 n += 1
                 name = f"{cls.label} {n}"
         config = WidgetConfig(type_name, name, rect.x, rect.y, rect.w, rect.h, (), cls.default_properties())
-        item = CanvasItem(config, cls, self.canvas, self._frame_theme)
+        item = CanvasItem(config, cls, self.canvas, self._frame_theme, publisher=self.publisher)
         self.items.append(item)
         self.select(item)
         self._mark_dirty()
@@ -884,7 +888,7 @@ class ViewerApp:
         """Remove a widget and release its series."""
         if item not in self.items:
             return
-        for b in item.bindings:
+        for b in item.series:
             self._unbind(b)
         self.items.remove(item)
         if self.selected is item:
@@ -897,9 +901,11 @@ class ViewerApp:
 
     def add_config(self, config: WidgetConfig) -> CanvasItem:
         """Place a ready-made widget (bindings and properties set) on the canvas and bind its series."""
-        item = CanvasItem(config, self.registry.get(config.type), self.canvas, self._frame_theme)
+        item = CanvasItem(
+            config, self.registry.get(config.type), self.canvas, self._frame_theme, publisher=self.publisher
+        )
         self.items.append(item)
-        for b in item.bindings:
+        for b in item.series:
             self._bind(b)
         return item
 
@@ -913,13 +919,13 @@ class ViewerApp:
         if type_name == item.config.type:
             return item
         config = retype(item.config, cls, min_frame=(cls.min_size[0], cls.min_size[1] + TITLE_H))
-        new = CanvasItem(config, cls, self.canvas, self._frame_theme)
+        new = CanvasItem(config, cls, self.canvas, self._frame_theme, publisher=self.publisher)
         self.items[self.items.index(item)] = new
         if self._auto_names.get(item) == item.name:
             self._auto_names[new] = new.name
-        for b in new.bindings:
+        for b in new.series:
             self._bind(b)
-        for b in item.bindings:
+        for b in item.series:
             self._unbind(b)
         if self.dialog is not None and getattr(self.dialog, "item", None) is item:
             self.dialog.close()
@@ -941,11 +947,12 @@ class ViewerApp:
         after its new topic; a name the user gave it stays.
         """
         auto = self._auto_named(item)
-        for b in bindings:
-            self._bind(b)
-        for b in item.bindings:
-            self._unbind(b)
+        old = item.series
         item.set_bindings(bindings)
+        for b in item.series:  # a control's bindings are where it publishes: no series for them
+            self._bind(b)
+        for b in old:
+            self._unbind(b)
         if auto:
             name = topic_widget_name(bindings, {i.name for i in self.items if i is not item})
             if name is not None and name != item.name:
@@ -1165,9 +1172,9 @@ class ViewerApp:
             if isinstance(config, RawWidget) and not result.legacy and config.type != "?":
                 # The placeholder says what is missing: a plugin that failed to load, or none installed.
                 config = RawWidget(config.data, self.registry.missing_reason(config.type))
-            item = CanvasItem(config, cls, self.canvas, self._frame_theme)
+            item = CanvasItem(config, cls, self.canvas, self._frame_theme, publisher=self.publisher)
             self.items.append(item)
-            for b in item.bindings:
+            for b in item.series:
                 self._bind(b)
         # Widgets were left out (too many, too deep, unsafe text): saving over the file would lose them,
         # so it opens untitled and Save asks for a name (docs/viewer.md, Dashboard files).
@@ -1216,7 +1223,7 @@ class ViewerApp:
         """Remove every widget."""
         self._close_dialog()
         for item in list(self.items):
-            for b in item.bindings:
+            for b in item.series:
                 self._unbind(b)
             item.destroy()
         self.items.clear()

@@ -13,7 +13,7 @@ from dbglog.viewer._document._dashboard import RawWidget, WidgetConfig
 from dbglog.viewer._ui._theme import DIM, HEADER, STATUS_COLORS, TEXT
 from dbglog.viewer._widgets._common import text_size
 from dbglog.viewer._widgets._geometry import Rect
-from dbglog.viewer.widget_api import PropValue, Widget, shown_as
+from dbglog.viewer.widget_api import PropValue, PublishService, Widget, WidgetContext, shown_as
 
 __all__ = ["TITLE_H", "CanvasItem", "combined_status"]
 
@@ -46,9 +46,13 @@ class CanvasItem:
         widget_cls: type[Widget] | None,
         canvas: int | str,
         theme: int | str,
+        *,
+        publisher: PublishService | None = None,
     ) -> None:
         self.config = config
         self.widget_cls = widget_cls
+        self.publisher = publisher
+        """The app's publishing service, handed to the widget in its `WidgetContext`."""
         self.widget: Widget | None = None
         self.failed = ""
         """Why the widget was disabled after raising, or empty."""
@@ -98,6 +102,17 @@ class CanvasItem:
         return self.config.bindings if isinstance(self.config, WidgetConfig) else ()
 
     @property
+    def series(self) -> tuple[Binding, ...]:
+        """The bindings the data source fills: none for a control (its bindings are where it publishes)."""
+        publishes = self.widget_cls is not None and self.widget_cls.publishes
+        return () if publishes else self.bindings
+
+    def context(self) -> WidgetContext:
+        """What the widget is given at mount: a control's publish targets, and the app's publisher."""
+        publishes = self.widget_cls is not None and self.widget_cls.publishes
+        return WidgetContext(self.bindings if publishes else (), self.publisher)
+
+    @property
     def min_size(self) -> tuple[int, int]:
         """The smallest frame the widget accepts."""
         if self.widget_cls is None:
@@ -123,7 +138,7 @@ class CanvasItem:
         if self.widget_cls is not None and isinstance(self.config, WidgetConfig):
             try:
                 self.widget = self.widget_cls(dict(self.config.properties))
-                self.widget.mount(self.body, bw, bh)
+                self.widget.mount(self.body, bw, bh, self.context())
             except Exception as exc:  # a broken widget class must not take the viewer down
                 self._fail(f"widget failed to build: {exc!r}")
         else:
@@ -187,7 +202,7 @@ class CanvasItem:
     # -- live updates -------------------------------------------------------------------------------
 
     def _snapshots(self, source: DataSource) -> list[SeriesSnapshot]:
-        snapshots = [source.snapshot(b) for b in self.bindings]
+        snapshots = [source.snapshot(b) for b in self.series]
         stale_after = self.config.stale_after if isinstance(self.config, WidgetConfig) else None
         if stale_after is not None:
             snapshots = [s.with_stale_time(stale_after) for s in snapshots]
@@ -305,6 +320,11 @@ class CanvasItem:
             self.config = replace(self.config, bindings=bindings)
             self.invalidate()
             self._draw_header(int(self.geometry()[2]))
+            if self.widget is not None and not self.failed:
+                try:
+                    self.widget.set_context(self.context())  # a control's new publish target
+                except Exception as exc:
+                    self._fail(f"widget failed to take its new bindings: {exc!r}")
 
     def set_properties(self, props: dict[str, PropValue]) -> None:
         """Apply validated property values and rebuild the widget."""

@@ -1,9 +1,10 @@
 """Control widgets that publish: Button, Toggle, Slider, Text field and a generic Publish form.
 
 A control's binding (set in Topic setup) is where it publishes: the topic and, for a single value, the
-field (``linear.x`` of a ``geometry_msgs/msg/Twist``). The type comes from the ROS graph when the topic
-exists, else from the ``msg_type`` property or the control's default; a clash is the widget's error. The
-viewer's publishing service sends off the UI thread, at most ``rate_limit`` messages per second. The
+field (``linear.x`` of a ``geometry_msgs/msg/Twist``). The viewer hands it as the control's publish target
+in its `WidgetContext` (the data engine does not subscribe to it). The type comes from the ROS graph when
+the topic exists, else from the ``msg_type`` property or the control's default; a clash is the widget's
+error. The app's publishing service sends off the UI thread, at most ``rate_limit`` messages per second. The
 value logic (parsing a message property, stepping a slider) is in plain functions tested without a display.
 """
 
@@ -25,7 +26,15 @@ from dbglog.viewer._data._interfaces import (
 )
 from dbglog.viewer._publishing._publish import DEFAULT_RATE_LIMIT_HZ, PublishRequest, Value
 from dbglog.viewer._widgets._common import DIM
-from dbglog.viewer.widget_api import Property, PropKind, SeriesSnapshot, Status, ValueKind, Widget
+from dbglog.viewer.widget_api import (
+    Property,
+    PropKind,
+    SeriesSnapshot,
+    Status,
+    ValueKind,
+    Widget,
+    WidgetContext,
+)
 
 __all__ = [
     "ButtonWidget",
@@ -97,7 +106,7 @@ _TYPE_HELP = (
 
 
 class _Control(Widget):
-    """What every control shares: its target from the binding, the publisher state as its status."""
+    """What every control shares: its target from the context, the publisher state as its status."""
 
     publishes = True
     default_type: ClassVar[str] = "std_msgs/msg/Float64"
@@ -123,13 +132,14 @@ class _Control(Widget):
         return state.status, state.reason
 
     def update(self, snapshots: Sequence[SeriesSnapshot], now: float) -> None:
-        """Take the target from the binding and keep the publisher ready (nothing is sent)."""
-        binding = snapshots[0].binding if snapshots else None
-        topic = binding.topic if binding is not None else ""
-        fld = binding.field if binding is not None else ""
-        if (topic, fld) != (self.topic, self.field):
-            self.topic, self.field = topic, fld
-            self._prepare()
+        """Show the target line (a control reads no series: its target comes with its context)."""
+        self._show_note()
+
+    def set_context(self, context: WidgetContext) -> None:
+        """Take the new target (the user changed the binding) and keep the publisher ready."""
+        super().set_context(context)
+        if self._retarget():
+            self._prepare(send=self.repeat_hz() > 0)
         self._show_note()
 
     def destroy(self) -> None:
@@ -137,10 +147,22 @@ class _Control(Widget):
         self.publisher().release(self)
         super().destroy()
 
-    def mount(self, parent: int | str, width: int, height: int) -> None:
-        """Build the widget; after a rebuild (new size or properties) take the publisher back."""
+    def mount(self, parent: int | str, width: int, height: int, context: WidgetContext | None = None) -> None:
+        """Take the target, build the widget and make the publisher ready (again after a rebuild)."""
+        if context is not None:
+            self.context = context
+        self._retarget()
         super().mount(parent, width, height)
         self._prepare(send=self.repeat_hz() > 0)
+
+    def _retarget(self) -> bool:
+        """Take topic and field from the context's first target; True when they changed."""
+        targets = self.context.targets
+        target = (targets[0].topic, targets[0].field) if targets else ("", "")
+        if target == (self.topic, self.field):
+            return False
+        self.topic, self.field = target
+        return True
 
     # -- publishing ---------------------------------------------------------------------------------
 
@@ -322,13 +344,6 @@ class SliderWidget(_Control):
         if dpg.does_item_exist(self.slider) and dpg.get_value(self.slider) != v:
             dpg.set_value(self.slider, v)
         self.send()
-
-    def update(self, snapshots: Sequence[SeriesSnapshot], now: float) -> None:
-        """Take the target; in "at rate" mode start sending at once."""
-        was = (self.topic, self.field)
-        super().update(snapshots, now)
-        if self.repeat_hz() > 0 and (self.topic, self.field) != was and self.topic:
-            self._prepare(send=True)
 
 
 class TextFieldWidget(_Control):
