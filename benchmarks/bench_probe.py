@@ -275,6 +275,8 @@ def subscriber(expect: int, history: int) -> None:
         raw = engine.latencies()
         lat = sorted(raw[raw == raw].tolist())
         p99 = lat[int(0.99 * (len(lat) - 1))] * 1e3 if lat else None
+        p50 = lat[int(0.5 * (len(lat) - 1))] * 1e3 if lat else None
+        p90 = lat[int(0.9 * (len(lat) - 1))] * 1e3 if lat else None
         print(
             json.dumps(
                 {
@@ -282,6 +284,8 @@ def subscriber(expect: int, history: int) -> None:
                     "counts": counts,
                     "ordered": ordered,
                     "latency_p99_ms": p99,
+                    "latency_p50_ms": p50,
+                    "latency_p90_ms": p90,
                     "expected": total,
                     "engine_cpu_s": engine.stats().thread_cpu_s,
                 }

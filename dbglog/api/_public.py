@@ -125,6 +125,9 @@ def _rate(ch: Channel, once: object, throttle: object, skip_first: object) -> bo
         return None
     frame = sys._getframe(2)  # the user's call into logfloat & co.
     site = (frame.f_code.co_filename, frame.f_lineno)
+    if throttle is not None and not once and not skip_first and _LIMITER.throttled(ch.tag, site, throttle):
+        REPORTER.rate_limited.incr()
+        return False
     if _LIMITER.allow(ch.tag, site, once=once, skip_first=skip_first, throttle=throttle):
         return True
     REPORTER.rate_limited.incr()

@@ -58,6 +58,18 @@ class RateLimiter:
                 state.last_pass = now
             return True
 
+    def throttled(self, tag: str, site: Site, throttle: float) -> bool:
+        """True when a throttle-only call from a known site is held back (no lock: one dict lookup).
+
+        False means "maybe passes": the caller then decides with `allow`, under the lock, so exactly one
+        call per period passes even when threads race.
+        """
+        state = self._sites.get((tag, site))
+        if state is None or self._clock() - state.last_pass >= throttle:
+            return False
+        state.calls += 1  # only once/skip_first read it, which a throttle-only site never uses
+        return True
+
     def clear(self) -> None:
         """Forget every call site."""
         with self._lock:
