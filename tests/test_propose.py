@@ -259,6 +259,32 @@ def test_preview_agrees_with_matching_line_by_line(
     assert source in rows.tolist()
 
 
+@settings(max_examples=100, deadline=None)
+@given(_lines(), st.data())
+def test_preview_of_runs_of_that_kind_agrees_with_matching_line_by_line(
+    case: tuple[str, list[str]], data: st.DataObject
+) -> None:
+    """Runs of lines of the proposal's kind (other numbers, nan, other spacing) read as RE2 reads them."""
+    line, numbers = case
+    index = data.draw(st.sampled_from([0, len(numbers) - 1]))  # where numpy may read the values
+    proposal = propose(line, index)
+    spans = find_numbers(line)
+    lines: list[str] = []
+    for _ in range(data.draw(st.integers(5, 30))):
+        variant = line
+        for span in reversed(spans):
+            variant = variant[: span.start] + data.draw(_numbers()) + variant[span.end :]
+        if data.draw(st.booleans()):
+            variant = variant.replace(" ", "  ", 1)
+        lines.append(variant)
+        if data.draw(st.integers(0, 9)) == 0:
+            lines.append("unrelated line 7")
+    rows, values = match_lines(proposal, lines)
+    slow_rows, slow_values = _match_slow(proposal, lines)
+    assert rows.tolist() == slow_rows.tolist()
+    assert np.array_equal(values, slow_values, equal_nan=True)
+
+
 def test_preview_counts_and_values_in_order() -> None:
     """preview returns the count and the values in line order; other lines don't count."""
     proposal = propose("battery=87% voltage 12.1V", 0)

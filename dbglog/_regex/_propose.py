@@ -10,10 +10,11 @@ import fnmatch
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Final, Literal
+from typing import Any, Final, Literal
 
 import numpy as np
 import re2
+from numpy.lib.stride_tricks import sliding_window_view
 
 from dbglog._regex._compile import MAX_LINE, MAX_PROGRAM_SIZE, re2_options
 from dbglog._ros._tags import tag_problem
@@ -73,6 +74,7 @@ _SCANNER = re2.compile(
 )
 _G_NUM, _G_SPECIAL, _G_TAIL = 1, 2, 3
 _UNANCHORED = re2._Anchor.UNANCHORED
+_ANCHOR_START = re2._Anchor.ANCHOR_START
 
 
 class ProposalError(ValueError):
@@ -463,26 +465,174 @@ def match_joined(
     empty = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.float64))
     if "\x00" in proposal.line or "\x01" in proposal.line:
         return empty  # its pattern would need the separators themselves: no stored line can match it
+    line_starts = np.asarray(starts, dtype=np.int64)
     # One RE2 call per matching line: RE2's DFA skips the other lines without returning to Python
-    # (about 1 µs of binding overhead per call is the floor; see benchmarks/bench_logs.py).
+    # (about 1 µs of binding overhead per call is the floor; see benchmarks/bench_logs.py). Where
+    # lines of that kind follow each other, one DFA call finds the whole run and numpy reads the values.
     match = _preview_regex(proposal)._regexp.Match
+    fast = _FastValues.for_proposal(proposal, data, line_starts)
+    find_run = _runs_regex(proposal)._regexp.Match if fast is not None else None
     end = len(data)
     pos = 0
+    adjacent = 0
     found: list[int] = []
     texts: list[bytes] = []
+    blocks: list[tuple[np.ndarray, np.ndarray]] = []
     while pos < end:
+        if find_run is not None and fast is not None and adjacent >= _RUN_AFTER:
+            run_end = find_run(_ANCHOR_START, data, pos, end)[0][1]
+            if run_end > pos:
+                _flush(found, texts, line_starts, blocks)
+                first, last = np.searchsorted(line_starts, (pos, run_end))
+                blocks.append(fast.values(int(first), int(last), match))
+                pos = int(run_end)
+            adjacent = 0
+            continue
         spans = match(_UNANCHORED, data, pos, end)
-        start, pos = spans[0]
+        start, stop = spans[0]
         if start < 0:
             break
+        adjacent = adjacent + 1 if start == pos else 0
+        pos = stop
         s, e = spans[1]
         found.append(start)
         texts.append(bytes(data[s:e]))
-    if not found:
+    _flush(found, texts, line_starts, blocks)
+    if not blocks:
         return empty
-    rows = np.searchsorted(np.asarray(starts, dtype=np.int64), np.asarray(found, dtype=np.int64))
-    values = np.fromiter(map(float, texts), dtype=np.float64, count=len(texts))
-    return rows.astype(np.int64), values
+    return np.concatenate([r for r, _ in blocks]), np.concatenate([v for _, v in blocks])
+
+
+_RUN_AFTER: Final = 4
+"""Consecutive matching lines after which the next lines are read as a run (one DFA call, numpy)."""
+_NUM_BYTES: Final = np.zeros(256, dtype=bool)
+_NUM_BYTES[list(b"0123456789.eE+-")] = True
+_DIGIT_BYTES: Final = np.zeros(256, dtype=bool)
+_DIGIT_BYTES[list(b"0123456789")] = True
+_WINDOW: Final = 24
+"""Longest number (in bytes) read by numpy; a longer one is read by RE2."""
+
+
+def _flush(
+    found: list[int], texts: list[bytes], starts: np.ndarray, blocks: list[tuple[np.ndarray, np.ndarray]]
+) -> None:
+    """Move the lines matched one by one into `blocks` (rows and values)."""
+    if not found:
+        return
+    rows = np.searchsorted(starts, np.asarray(found, dtype=np.int64)).astype(np.int64)
+    blocks.append((rows, np.fromiter(map(float, texts), dtype=np.float64, count=len(texts))))
+    found.clear()
+    texts.clear()
+
+
+def _runs_regex(proposal: Proposal) -> re2._Regexp:
+    """Consecutive stored lines that all match (no capture group: RE2's DFA alone)."""
+    lead = r"\x00" if proposal.anchored_start else r"\x00[^\x00\x01]*?"
+    trail = r"\x01" if proposal.anchored_end else r"[^\x00\x01]*\x01"
+    return re2.compile(f"(?:{lead}{_ungrouped(proposal.body)}{trail})+", options=re2_options(32 << 20))
+
+
+@dataclass(frozen=True, slots=True)
+class _FastValues:
+    """Reads the number of lines known to match with numpy, where its place is fixed by literal text.
+
+    *Prefix* mode: the text before the number is literal (no other number) and each line starts with
+    exactly the original's bytes; the number is the run of number characters after them. *Suffix* mode:
+    the same from the end of the line. The run is the capture because the pattern's pieces on the other
+    side begin with a character no number contains. Lines that do not fit (other whitespace, nan, a very
+    long number) are matched by RE2 one by one.
+    """
+
+    raw: bytes | bytearray | memoryview
+    data: np.ndarray
+    """`raw` with `_WINDOW` zero bytes before and after (and room for the fixed text)."""
+    starts: np.ndarray
+    ends: np.ndarray
+    """Offset of each line's ``\\x01``."""
+    fixed: bytes
+    from_start: bool
+
+    @staticmethod
+    def for_proposal(
+        proposal: Proposal, data: bytes | bytearray | memoryview, starts: np.ndarray
+    ) -> _FastValues | None:
+        number = proposal.number
+        if not math.isfinite(number.value) or not len(starts):
+            return None
+        visible = _visible(proposal.line)[0]
+        before = visible[: number.start].encode("utf-8", "surrogatepass")
+        after = visible[number.end :].encode("utf-8", "surrogatepass")
+        numbers = find_numbers(proposal.line)
+        buffer = np.frombuffer(data, dtype=np.uint8)
+        ends = np.append(starts[1:], len(buffer)) - 1
+        pad = np.zeros(_WINDOW, dtype=np.uint8)
+        padded = np.concatenate([pad, buffer, pad, np.zeros(256, dtype=np.uint8)])
+        if (
+            proposal.anchored_start
+            and proposal.index == 0
+            and len(before) <= 256
+            and not (after and _NUM_BYTES[after[0]])
+        ):
+            return _FastValues(data, padded, starts, ends, before, True)
+        if (
+            proposal.anchored_end
+            and proposal.index == len(numbers) - 1
+            and len(after) <= 256
+            and not (before and _NUM_BYTES[before[-1]])
+        ):
+            return _FastValues(data, padded, starts, ends, after, False)
+        return None
+
+    def values(self, first: int, last: int, match: Any) -> tuple[np.ndarray, np.ndarray]:
+        """Rows ``first..last-1`` (all matching) and their values."""
+        rows = np.arange(first, last, dtype=np.int64)
+        fixed = np.frombuffer(self.fixed, dtype=np.uint8)
+        # `data` is padded with _WINDOW zero bytes before (and after): offsets shift by _WINDOW.
+        windows = sliding_window_view(self.data, _WINDOW)
+        if self.from_start:
+            head = self.starts[first:last] + 1 + _WINDOW
+            begin = head + len(fixed)
+            same = self._same(head, fixed)
+            window = windows[begin]
+            is_num = _NUM_BYTES[window]
+            length = np.where(is_num.all(axis=1), _WINDOW, np.argmin(is_num, axis=1))
+        else:
+            tail = self.ends[first:last] - len(fixed) + _WINDOW
+            same = self._same(tail, fixed)
+            back = _NUM_BYTES[windows[tail - _WINDOW][:, ::-1]]
+            length = np.where(back.all(axis=1), _WINDOW, np.argmin(back, axis=1))
+            begin = tail - length
+            window = windows[begin]
+        inside = np.arange(_WINDOW) < length[:, None]
+        has_digit = (_DIGIT_BYTES[window] & inside).any(axis=1)
+        good = same & (length < _WINDOW) & has_digit
+        values = np.empty(len(rows), dtype=np.float64)
+        if good.any():
+            everyone = bool(good.all())
+            text = window * inside if everyone else window[good] * inside[good]
+            try:
+                parsed = (
+                    np.ascontiguousarray(text, dtype=np.uint8).view(f"S{_WINDOW}").ravel().astype(np.float64)
+                )
+            except ValueError:
+                good[:] = False
+            else:
+                if everyone:
+                    values = parsed
+                else:
+                    values[good] = parsed
+        for k in np.flatnonzero(~good):  # read by RE2
+            row = first + int(k)
+            spans = match(_ANCHOR_START, self.raw, int(self.starts[row]), int(self.ends[row]) + 1)
+            s, e = spans[1]
+            values[k] = float(bytes(self.raw[s:e]))
+        return rows, values
+
+    def _same(self, at: np.ndarray, fixed: np.ndarray) -> np.ndarray:
+        """Whether the (padded) data holds `fixed` at each offset of `at`."""
+        if not len(fixed):
+            return np.ones(len(at), dtype=bool)
+        return np.asarray((sliding_window_view(self.data, len(fixed))[at] == fixed).all(axis=1))
 
 
 def _match_slow(proposal: Proposal, lines: Sequence[str]) -> tuple[np.ndarray, np.ndarray]:
