@@ -172,7 +172,7 @@ def test_record_default_gets_kept_values_new_tags_and_every_sample(
     _stderr_until(rec, " 2 topics")
     robot.send("go")
     assert robot.line() == "sent"
-    _counts(rec, lambda c: _settled(c, 4 * n))
+    _counts(rec, lambda c: _settled(c, 3 * 100))
     code, err = rec.end(signal.SIGINT)
     assert code == 0, err
     assert f"to {out}" in err

@@ -146,6 +146,7 @@ def run(args: argparse.Namespace) -> int:
     if writer is not None:
         say(
             f"wrote {writer.messages:,} messages on {recorder.stats.topics} topics to {args.output} "
-            f"({_human(writer.size)})"
+            f"({_human(writer.size)}); longest pause of the take loop "
+            f"{recorder.stats.longest_gap_s * 1e3:.0f} ms"
         )
     return 0

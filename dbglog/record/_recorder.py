@@ -96,6 +96,8 @@ class Stats:
     messages: int = 0
     topics: int = 0
     bytes_on_disk: int = 0
+    longest_gap_s: float = 0.0
+    """Longest time the take loop spent away from its wait set (graph polls, chunk writes, the OS)."""
     skipped: dict[str, str] = field(default_factory=dict)
     """Topic -> why it is not recorded (type not installed, publishers disagree)."""
 
@@ -160,6 +162,7 @@ class Recorder:
             wait_subs: list[_Sub] = []
             wait_version = -1
             by_pointer: dict[Any, _Sub] = {}
+            last_wait_end = 0.0
             while self._running:
                 now = cycle_start = time.monotonic()
                 if now >= next_graph:
@@ -174,7 +177,11 @@ class Recorder:
                 for s in wait_subs:
                     wait_set.add_subscription(s.sub.handle)
                 if wait_subs:
+                    before = time.monotonic()
+                    if last_wait_end and before - last_wait_end > self.stats.longest_gap_s:
+                        self.stats.longest_gap_s = before - last_wait_end
                     wait_set.wait(int(_WAIT_S * 1e9))
+                    last_wait_end = time.monotonic()
                     for pointer in wait_set.get_ready_entities("subscription"):
                         self._take(by_pointer[pointer])
                 else:

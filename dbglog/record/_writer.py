@@ -12,8 +12,8 @@ from __future__ import annotations
 import os
 import struct
 import zlib
+from array import array
 from collections.abc import Mapping
-from dataclasses import dataclass, field
 from typing import IO, TYPE_CHECKING
 
 from mcap.data_stream import RecordBuilder
@@ -49,17 +49,22 @@ class RecordingError(Exception):
     """A recording that cannot be written or read; the message names the file and what is wrong."""
 
 
-@dataclass
 class _Open:
-    """The chunk being filled."""
+    """The chunk being filled: its records and, per message, channel, log time and offset."""
 
-    records: bytearray = field(default_factory=bytearray)
-    index: dict[int, list[tuple[int, int]]] = field(default_factory=dict)
-    bulk: dict[int, list[tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]]]] = field(default_factory=dict)
-    """Index entries of `write_fixed`, as (log times, offsets) arrays."""
-    start: int = 0
-    end: int = 0
-    count: int = 0
+    __slots__ = ("bulk", "channels", "offsets", "records", "times")
+
+    def __init__(self) -> None:
+        self.records = bytearray()
+        self.channels = array("H")
+        self.times = array("q")
+        self.offsets = array("q")
+        self.bulk: list[tuple[int, npt.NDArray[np.int64], npt.NDArray[np.int64]]] = []
+        """Entries of `write_fixed`: (channel, log times, offsets)."""
+
+    @property
+    def count(self) -> int:
+        return len(self.channels) + sum(len(t) for _, t, _ in self.bulk)
 
 
 class McapWriter:
@@ -170,18 +175,9 @@ class McapWriter:
         offset = len(records)
         records += _MESSAGE.pack(_MESSAGE_OP, 22 + len(data), channel, sequence, log_time, publish_time)
         records += data
-        entries = chunk.index.get(channel)
-        if entries is None:
-            entries = chunk.index[channel] = []
-        entries.append((log_time, offset))
-        if chunk.count == 0:
-            chunk.start = chunk.end = log_time
-        elif log_time < chunk.start:
-            chunk.start = log_time
-        elif log_time > chunk.end:
-            chunk.end = log_time
-        chunk.count += 1
-        self._counts[channel] += 1
+        chunk.channels.append(channel)
+        chunk.times.append(log_time)
+        chunk.offsets.append(offset)
         if offset > self.chunk_bytes:
             self.close_chunk()
 
@@ -215,26 +211,35 @@ class McapWriter:
             chunk.records += rows.tobytes()
             offsets = base + np.arange(hi - lo, dtype=np.int64) * (31 + size)
             times = log_times[lo:hi]
-            chunk.bulk.setdefault(channel, []).append((times.astype(np.int64), offsets))
-            first, last = int(times.min()), int(times.max())
-            chunk.start = first if chunk.count == 0 else min(chunk.start, first)
-            chunk.end = last if chunk.count == 0 else max(chunk.end, last)
-            chunk.count += hi - lo
-            self._counts[channel] += hi - lo
+            chunk.bulk.append((channel, times.astype(np.int64), offsets))
             if len(chunk.records) > self.chunk_bytes:
                 self.close_chunk()
 
     def close_chunk(self) -> None:
         """Compress and write the open chunk and its message indexes (nothing when it is empty)."""
+        import numpy as np
+
         chunk = self._open
-        if chunk.count == 0:
+        if not chunk.channels and not chunk.bulk:
             return
         self._open = _Open()
+        channels = [np.frombuffer(chunk.channels, dtype=np.uint16).astype(np.int64)]
+        times = [np.frombuffer(chunk.times, dtype=np.int64)]
+        offsets = [np.frombuffer(chunk.offsets, dtype=np.int64)]
+        for channel, t_part, o_part in chunk.bulk:
+            channels.append(np.full(len(t_part), channel, dtype=np.int64))
+            times.append(t_part)
+            offsets.append(o_part)
+        ch = np.concatenate(channels)
+        t = np.concatenate(times)
+        o = np.concatenate(offsets)
+        count = len(ch)
+        start, end = int(t.min()), int(t.max())
         raw = bytes(chunk.records)
         compressed = self._zstd.compress(raw)
         compression = b"zstd"
         body_len = 8 + 8 + 8 + 4 + 4 + len(compression) + 8 + len(compressed)
-        head = _CHUNK_HEAD.pack(_CHUNK_OP, body_len, chunk.start, chunk.end, len(raw), zlib.crc32(raw))
+        head = _CHUNK_HEAD.pack(_CHUNK_OP, body_len, start, end, len(raw), zlib.crc32(raw))
         head += struct.pack("<I", len(compression)) + compression + struct.pack("<Q", len(compressed))
         chunk_start = self.size
         chunk_length = len(head) + len(compressed)
@@ -242,17 +247,25 @@ class McapWriter:
         index_offsets: dict[int, int] = {}
         index_start = chunk_start + chunk_length
         pos = index_start
-        for channel in sorted(chunk.index.keys() | chunk.bulk.keys()):
-            pairs = _index_pairs(chunk.index.get(channel, []), chunk.bulk.get(channel, []))
+        order = np.lexsort((t, ch))  # by channel, then log time
+        ch, t, o = ch[order], t[order], o[order]
+        bounds = (np.flatnonzero(np.diff(ch)) + 1).tolist()
+        for lo, hi in zip([0, *bounds], [*bounds, count], strict=True):
+            channel = int(ch[lo])
+            pairs_arr = np.empty((hi - lo, 2), dtype="<u8")
+            pairs_arr[:, 0] = t[lo:hi]
+            pairs_arr[:, 1] = o[lo:hi]
+            pairs = pairs_arr.tobytes()
             record = _INDEX_HEAD.pack(_INDEX_OP, 2 + 4 + len(pairs), channel, len(pairs)) + pairs
             index_offsets[channel] = pos
             pos += len(record)
             parts.append(record)
+            self._counts[channel] += hi - lo
         self._put(b"".join(parts))
         self._chunk_indexes.append(
             ChunkIndex(
-                message_start_time=chunk.start,
-                message_end_time=chunk.end,
+                message_start_time=start,
+                message_end_time=end,
                 chunk_start_offset=chunk_start,
                 chunk_length=chunk_length,
                 message_index_offsets=index_offsets,
@@ -262,9 +275,9 @@ class McapWriter:
                 uncompressed_size=len(raw),
             )
         )
-        self.messages += chunk.count
-        self._start = chunk.start if not self._start else min(self._start, chunk.start)
-        self._end = max(self._end, chunk.end)
+        self._start = start if not self.messages else min(self._start, start)
+        self._end = max(self._end, end)
+        self.messages += count
 
     def flush(self, *, sync: bool = False) -> None:
         """Close the open chunk and hand everything to the OS (`sync`: to the disk too)."""
@@ -364,26 +377,3 @@ class McapWriter:
 def _end(builder: RecordBuilder) -> bytes:
     """The bytes built so far (mcap's `RecordBuilder.end` is not annotated)."""
     return builder.end()  # type: ignore[no-untyped-call,no-any-return]
-
-
-def _index_pairs(
-    entries: list[tuple[int, int]], bulk: list[tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]]]
-) -> bytes:
-    """The (log time, offset) pairs of one channel's message index, sorted by time, as bytes."""
-    if not bulk:
-        entries.sort()
-        return struct.pack(f"<{2 * len(entries)}Q", *(v for pair in entries for v in pair))
-    import numpy as np
-
-    times = [t for t, _ in bulk]
-    offsets = [o for _, o in bulk]
-    if entries:
-        times.append(np.array([t for t, _ in entries], dtype=np.int64))
-        offsets.append(np.array([o for _, o in entries], dtype=np.int64))
-    t = np.concatenate(times)
-    o = np.concatenate(offsets)
-    order = np.argsort(t, kind="stable")
-    pairs = np.empty((len(t), 2), dtype="<u8")
-    pairs[:, 0] = t[order]
-    pairs[:, 1] = o[order]
-    return pairs.tobytes()
