@@ -79,6 +79,72 @@ def _publisher(args: argparse.Namespace) -> None:
     rclpy.shutdown(context=context)
 
 
+_SDK_ROBOT = """
+import math, sys, time
+import dbglog
+topics, seconds = int(sys.argv[1]), float(sys.argv[2])
+tags = [f"bench_sdk/t{i}" for i in range(topics)]
+dbglog.init()
+print("ready", flush=True)
+sys.stdin.readline()
+k = 0
+start = t = time.monotonic()
+while time.monotonic() - start < seconds:
+    for i, tag in enumerate(tags):
+        dbglog.logfloat(tag, round(math.sin(k * 0.01 + i) + 0.001 * ((k * 7919 + i) % 13), 4))
+    k += 1
+    t += 0.01
+    time.sleep(max(0.0, t - time.monotonic()))
+dbglog.flush()
+print(k * topics, flush=True)
+sys.stdin.readline()
+"""
+
+
+def _sdk_run(args: argparse.Namespace, out: Path) -> dict[str, float]:
+    """The dbglog SDK logging Float64 tags at 100 Hz, recorded with the default targets."""
+    from dbglog.record import read_recording
+
+    robot = subprocess.Popen(
+        [sys.executable, "-c", _SDK_ROBOT, str(args.topics), str(args.sdk_seconds)],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        text=True,
+    )
+    assert robot.stdout is not None
+    assert robot.stdin is not None
+    assert robot.stdout.readline().strip() == "ready"
+    rec = subprocess.Popen(
+        [sys.executable, "-m", "dbglog", "record", "-o", str(out), "--force"],
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    assert rec.stderr is not None
+    while "1 topics" not in rec.stderr.readline():  # the batch topic is there: go
+        pass
+    time.sleep(1.0)
+    robot.stdin.write("go\n")
+    robot.stdin.flush()
+    samples = int(robot.stdout.readline())
+    last = -1
+    while True:
+        words = rec.stderr.readline().replace(",", "").split()
+        if "messages" in words:
+            count = int(words[words.index("messages") - 1])
+            if count == last:
+                break
+            last = count
+    rec.send_signal(signal.SIGINT)
+    rec.communicate(timeout=120)
+    robot.stdin.close()
+    robot.wait(30)
+    recording = read_recording(out)
+    batch = recording.topics.get("/_dbglog/samples")
+    batch_bytes = sum(len(p) for p in batch.payloads()) if batch is not None else 0
+    tag_msgs = sum(len(t) for n, t in recording.topics.items() if n.startswith("/rosdashboard/"))
+    return {"samples": samples, "bytes": out.stat().st_size, "tag_msgs": tag_msgs, "batch_raw": batch_bytes}
+
+
 def _record_run(args: argparse.Namespace, out: Path) -> dict[str, float]:
     """Start the recorder CLI and the publisher; return sent, recorded, lost, CPU and the file's size."""
     import numpy as np
@@ -228,7 +294,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--peer-minutes", type=float, default=3.0, help="part decoded by mcap_ros2")
     parser.add_argument("--publishers", type=int, default=2, help="publisher processes for the record run")
     parser.add_argument("--part", type=int, default=0, help=argparse.SUPPRESS)
-    parser.add_argument("--only", choices=["record", "load"], default=None)
+    parser.add_argument("--sdk-seconds", type=float, default=30.0, help="length of the SDK run")
+    parser.add_argument("--only", choices=["record", "sdk", "load"], default=None)
     parser.add_argument("--domain", type=int, default=None)
     args = parser.parse_args(argv)
     if args.domain is None:
@@ -254,6 +321,20 @@ def main(argv: list[str] | None = None) -> int:
                     f"{r['cpu'] / max(1.0, r['seconds']):.2f}",
                     f"{r['bytes'] / 1e6:.1f} MB",
                     f"{r['bytes'] / max(1, r['recorded']):.1f}",
+                ]
+            ],
+        )
+    if args.only in (None, "sdk"):
+        r = _sdk_run(args, tmp / "sdk.mcap")
+        print_table(
+            f"dbglog SDK: {args.topics} Float64 tags x 100 Hz for {args.sdk_seconds:g} s, default targets",
+            ["samples logged", "per-tag messages recorded", "file", "bytes/sample (both copies)"],
+            [
+                [
+                    f"{r['samples']:,.0f}",
+                    f"{r['tag_msgs']:,.0f}",
+                    f"{r['bytes'] / 1e6:.2f} MB",
+                    f"{r['bytes'] / r['samples']:.1f}",
                 ]
             ],
         )
