@@ -10,7 +10,7 @@ import fnmatch
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any, Final, Literal
+from typing import Any, Final, Literal, NamedTuple
 
 import numpy as np
 import re2
@@ -81,8 +81,7 @@ class ProposalError(ValueError):
     """No pattern could be proposed (no such number, or the line repeats itself around it); says why."""
 
 
-@dataclass(frozen=True, slots=True)
-class NumberSpan:
+class NumberSpan(NamedTuple):
     """One number found in a line: where it is (character offsets), its text, value and glued unit."""
 
     start: int
@@ -319,8 +318,9 @@ def _build(
     """Return the body of a pattern around ``numbers[index]`` within `budget`, and whether it reaches
     the start and the end of `visible`."""
     target = numbers[index]
-    lo = max(0, target.start - budget)
-    hi = min(len(visible), target.end + budget)
+    reach = budget // 2 + 64  # each side takes about half the budget (one character costs about 1)
+    lo = max(0, target.start - reach)
+    hi = min(len(visible), target.end + reach)
     left: list[tuple[str, int]] = []  # pieces before the number, in text order
     right: list[tuple[str, int]] = []
     cursor = lo
