@@ -9,7 +9,8 @@ sample on ``/rosdashboard/<tag>``. Version 1 layout, little-endian, in the messa
     pad      zero bytes to a multiple of 8 from the start of the payload
     index    u16 x n_samples, padded to 8
     times    i64 x n_samples (source time, ns since the epoch)
-    values   8 bytes x n_samples: f64 (Float*), i64 (Int*, Bool), u64 (UInt*), i64 string number (String)
+    values   f64 x n_samples: the number (Bool 0/1; integers beyond 2**53 rounded, as a viewer's
+             float64 series holds them anyway), or for String the text's number
     strings  u32 x n_strings lengths, then the UTF-8 texts back to back
 
 `writer` is random per connection and `seq` counts its batches from 0, so a reader sees lost batches.
@@ -71,15 +72,6 @@ _HEADER = struct.Struct("<4sBBHIQQI")
 _TAG = struct.Struct("<BH")
 _CDR_PREFIX = struct.Struct("<4sIII")
 _CDR_PREFIX_SIZE = _CDR_PREFIX.size
-_VALUE_DTYPES = {
-    "Float64": "<f8",
-    "Float32": "<f8",
-    "UInt8": "<u8",
-    "UInt16": "<u8",
-    "UInt32": "<u8",
-    "UInt64": "<u8",
-}
-"""Value slot dtype per type; the others are i64."""
 
 
 class BatchError(ValueError):
@@ -101,7 +93,7 @@ def encode_batch(
     tags: Sequence[tuple[int, bytes]],
     index: array[int],
     times: array[int],
-    values: bytes | bytearray,
+    values: array[float] | bytes,
     strings: Sequence[bytes],
 ) -> bytes:
     """Return the full CDR message (``UInt8MultiArray``) of one batch.
@@ -112,7 +104,7 @@ def encode_batch(
         tags: (type code, tag UTF-8) per tag; samples refer to them by position.
         index: ``array('H')``: each sample's tag position.
         times: ``array('q')``: each sample's source time in ns.
-        values: 8 bytes per sample, see the module docstring.
+        values: ``array('d')`` (or its bytes): each sample's value, see the module docstring.
         strings: the texts of String samples, numbered in order.
     """
     n = len(index)
@@ -127,7 +119,7 @@ def encode_batch(
     parts.append(idx)
     parts.append(bytes(_pad8(len(idx))))
     parts.append(times.tobytes())
-    parts.append(bytes(values))
+    parts.append(values.tobytes() if isinstance(values, array) else bytes(values))
     if strings:
         parts.append(array("I", [len(s) for s in strings]).tobytes())
         parts.extend(strings)
@@ -211,14 +203,14 @@ def decode_batch(cdr: bytes) -> DecodedBatch:
         sel = order[bounds[i] : bounds[i + 1]]
         if not len(sel):
             continue
-        column = np.frombuffer(raw, dtype=_VALUE_DTYPES.get(std_type, "<i8"))[sel]
+        column = np.frombuffer(raw, dtype="<f8")[sel]
         values: npt.NDArray[np.float64] | list[str]
         if std_type == "String":
             try:
-                values = [texts[k] for k in column.tolist()]
-            except IndexError as exc:
+                values = [texts[int(k)] for k in column.tolist()]
+            except (IndexError, ValueError) as exc:
                 raise BatchError("a String sample refers to a missing text") from exc
         else:
-            values = column.astype(np.float64)
+            values = column.copy()
         out.append(TagSamples(name, std_type, times[sel], values))
     return DecodedBatch(writer, seq, n, out)

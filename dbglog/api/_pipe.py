@@ -148,17 +148,25 @@ class Pipe:
             for _ in items:
                 runtime.reporter.count("shut_down")
             return len(items)
-        batched = self._publish_batch(items)
+        chans, vals, times = zip(*items, strict=True)
+        order = list(dict.fromkeys(chans))
+        batched = self._publish_batch(order, chans, vals, times)
         if yield_gil:
             time.sleep(_YIELD_S)
-        send = runtime.send_queued
         published = runtime.reporter.published.incr
+        now = time.monotonic()
+        watched = {c for c in order if not (batched and c.alive and not c.listened(now))}
+        if not watched:  # only the viewer listens (it reads the batch): each tag's newest on its topic
+            for _ in items:
+                published()
+            self._publish_newest(dict(zip(chans, vals, strict=True)))
+            return len(items)
+        send = runtime.send_queued
         clock = time.perf_counter_ns
         last = clock()
-        now = time.monotonic()
         newest: dict[Channel, object] = {}
         for ch, value, _ in items:
-            if batched and ch.alive and not ch.listened(now):
+            if ch not in watched:
                 newest[ch] = value  # in the batch; nobody reads the tag's topic: only its newest goes there
                 published()
                 continue
@@ -176,39 +184,47 @@ class Pipe:
             if yield_gil and clock() - last > _YIELD_NS:
                 time.sleep(_YIELD_S)
                 last = clock()
+        self._publish_newest(newest)
+        return len(items)
+
+    @staticmethod
+    def _publish_newest(newest: dict[Channel, object]) -> None:
+        """Publish each unwatched tag's newest sample on its topic (the batch carried and counted all)."""
         for ch, value in newest.items():
-            with contextlib.suppress(Exception):  # counted with the batch, which carried it
+            with contextlib.suppress(Exception):
                 if ch.encode is not None:
                     ch.publish_raw(ch.encode(value))
                 else:
                     ch.send(value, message=False)
-        return len(items)
 
-    def _publish_batch(self, items: list[Item]) -> bool:
-        """Publish `items` as one batch message; False when it could not be sent."""
+    def _publish_batch(
+        self,
+        order: list[Channel],
+        chans: tuple[Channel, ...],
+        vals: tuple[object, ...],
+        times: tuple[int, ...],
+    ) -> bool:
+        """Publish one batch message of the samples (columns built by C loops); False if it failed."""
         publish = self.runtime.batch_publish
         if publish is None:
             return False
-        table: dict[Channel, int] = {}
-        tags: list[tuple[int, bytes]] = []
-        index = array("H")
-        times = array("q")
-        values = bytearray()
+        lookup = {c: i for i, c in enumerate(order)}
+        tags = [(c.code, c.tag_bytes) for c in order]
+        index = array("H", map(lookup.__getitem__, chans))
         strings: list[bytes] = []
-        add_index, add_time = index.append, times.append
-        for ch, value, t in items:
-            i = table.get(ch)
-            if i is None:
-                i = table[ch] = len(tags)
-                tags.append((ch.code, ch.tag_bytes))
-            add_index(i)
-            add_time(t)
-            if ch.slot is None:
-                values += _pack_q(len(strings))
-                strings.append(str(value).encode("utf-8", "replace"))
-            else:
-                values += ch.slot(value)
-        message = encode_batch(self.writer, self.seq, tags, index, times, values, strings)
+        odd = {c for c in order if c.text or c.convert is not None}
+        numbers: Any = vals
+        if odd:  # texts become their number in `strings`, Float32 values are rounded like the topic's
+            numbers = list(vals)
+            for i in [i for i, c in enumerate(chans) if c in odd]:
+                ch = chans[i]
+                if ch.text:
+                    strings.append(str(numbers[i]).encode("utf-8", "replace"))
+                    numbers[i] = len(strings) - 1
+                elif ch.convert is not None:
+                    numbers[i] = ch.convert(numbers[i])
+        values = array("d", numbers)
+        message = encode_batch(self.writer, self.seq, tags, index, array("q", times), values, strings)
         self.seq += 1
         try:
             publish(message)
@@ -219,40 +235,23 @@ class Pipe:
                 self.runtime.reporter.warn(
                     "publish_failed",
                     "batch",
-                    f"dbglog: publishing a batch of {len(items)} samples failed "
+                    f"dbglog: publishing a batch of {len(chans)} samples failed "
                     f"({type(exc).__name__}: {exc}); the viewer misses them, ROS tools still get them",
                     exc,
                 )
             return False
 
 
-_pack_q = struct.Struct("<q").pack
-_pack_d = struct.Struct("<d").pack
 _pack_f = struct.Struct("<f").pack
 _unpack_f = struct.Struct("<f").unpack
-_pack_uq = struct.Struct("<Q").pack
-_TRUE = _pack_q(1)
-_FALSE = _pack_q(0)
 
 
-def _float32_slot(value: Any) -> bytes:
-    return _pack_d(_unpack_f(_pack_f(value))[0])
+def _float32(value: Any) -> float:
+    """Round to float32, as the tag's Float32 message holds it."""
+    result: float = _unpack_f(_pack_f(value))[0]
+    return result
 
 
-def _bool_slot(value: Any) -> bytes:
-    return _TRUE if value else _FALSE
-
-
-def slot_packer(std_type: str) -> Callable[[Any], bytes] | None:
-    """Return the 8-byte batch value packer of a std_msgs scalar type (None for String)."""
-    if std_type == "String":
-        return None
-    if std_type == "Float64":
-        return _pack_d
-    if std_type == "Float32":
-        return _float32_slot
-    if std_type == "Bool":
-        return _bool_slot
-    if std_type.startswith("UInt"):
-        return _pack_uq
-    return _pack_q
+def batch_converter(std_type: str) -> Callable[[Any], float] | None:
+    """Return the per-sample conversion of a std_msgs scalar type's values for the batch, if any."""
+    return _float32 if std_type == "Float32" else None

@@ -29,7 +29,7 @@ from dbglog.api._convert import (
     type_name,
 )
 from dbglog.api._errors import Reporter, safe_repr
-from dbglog.api._pipe import Pipe, slot_packer
+from dbglog.api._pipe import Pipe, batch_converter
 
 __all__ = ["MAX_TAGS", "Channel", "Runtime"]
 
@@ -59,6 +59,7 @@ class Channel:
         "alive",
         "checked",
         "code",
+        "convert",
         "created",
         "encode",
         "listening",
@@ -67,10 +68,10 @@ class Channel:
         "publish_raw",
         "publisher",
         "queued",
-        "slot",
         "spec",
         "tag",
         "tag_bytes",
+        "text",
         "topic",
     )
 
@@ -97,7 +98,9 @@ class Channel:
         )
         """Scalar std_msgs values go through the queue and the batch; other messages are sent at once."""
         self.code = type_code(spec.name) if self.queued and spec is not None else 0
-        self.slot = slot_packer(spec.name) if self.queued and spec is not None else None
+        self.convert = batch_converter(spec.name) if self.queued and spec is not None else None
+        """Per-sample conversion of the value for the batch (Float32 rounding), if any."""
+        self.text = spec is not None and spec.kind == "str"
 
     def listened(self, now: float) -> bool:
         """True when the tag's topic has a subscriber (or the tag is new): then it gets every sample."""
