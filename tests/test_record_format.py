@@ -345,3 +345,24 @@ def test_tags_and_echo_of_a_file_name_what_is_missing(tmp_path: Path) -> None:
     assert list(echo_lines(tmp_path / "killed.mcap", "speed", warn=warnings.append))[-1] == "19.0"
     assert len(warnings) == 1
     assert "killed.mcap: no readable summary" in warnings[0]
+
+
+def test_a_time_range_reads_only_its_messages(tmp_path: Path) -> None:
+    """start_ns/end_ns keep the messages logged inside the range, indexed or scanned, sorted."""
+    path = tmp_path / "range.mcap"
+    w = _flushed(path, 10, 100)  # log times T0 + 0 ... T0 + 999, ten chunks
+    w.close()
+    for keep in (True, False):
+        rec = read_recording(path, start_ns=T0 + 250, end_ns=T0 + 612, keep_payloads=keep)
+        speed = rec.topics["/rosdashboard/speed"]
+        assert speed.values is not None
+        assert speed.values.tolist() == [float(i) for i in range(250, 613)]
+        assert speed.times_ns.tolist() == [T0 + i for i in range(250, 613)]
+    assert read_recording(path, start_ns=T0 + 250).topics["/rosdashboard/speed"].payload(0) == (
+        serialize_message(Float64(data=250.0))
+    )
+    killed = tmp_path / "killed.mcap"
+    _flushed(killed, 3, 100).abandon()
+    tail = read_recording(killed, start_ns=T0 + 290).topics["/rosdashboard/speed"]
+    assert tail.values is not None
+    assert tail.values.tolist() == [float(i) for i in range(290, 300)]

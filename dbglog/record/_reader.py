@@ -113,8 +113,15 @@ class _Acc:
 
 
 class _Loader:
-    def __init__(self, path: str, buf: mmap.mmap | bytes, keep_payloads: bool = True) -> None:
+    def __init__(
+        self,
+        path: str,
+        buf: mmap.mmap | bytes,
+        keep_payloads: bool = True,
+        span: tuple[int, int] | None = None,
+    ) -> None:
         self.path = path
+        self.span = span
         self.keep_payloads = keep_payloads
         self.buf = buf
         self.size = len(buf)
@@ -300,6 +307,10 @@ class _Loader:
         for cid, c in summary.channels.items():
             self.channels[cid] = _Chan(c.topic, c.schema_id, c.message_encoding)
         for ci in sorted(summary.chunk_indexes, key=lambda c: c.chunk_start_offset):
+            if self.span is not None and (
+                ci.message_end_time < self.span[0] or ci.message_start_time > self.span[1]
+            ):
+                continue  # outside the time range asked for: not even decompressed
             where = ci.chunk_start_offset
             end = where + ci.chunk_length
             if end > self.size:
@@ -401,24 +412,25 @@ class _Loader:
             times = np.where(pub > 0, pub, log)
             offsets = np.zeros(len(lengths) + 1, dtype=np.int64)
             np.cumsum(lengths, out=offsets[1:])
-            if not acc.values and len(log) > 1 and np.any(np.diff(log) < 0):
-                order = np.argsort(log, kind="stable")
-                times = times[order]
-                starts = offsets[:-1][order]
-                lengths = lengths[order]
-                ends = np.cumsum(lengths)
-                data = data[np.arange(int(lengths.sum())) - np.repeat(ends - lengths - starts, lengths)]
-                offsets = np.zeros(len(lengths) + 1, dtype=np.int64)
-                np.cumsum(lengths, out=offsets[1:])
-            values: npt.NDArray[np.float64] | None
-            if acc.values and len(lengths) == 0:
-                kept = np.concatenate(acc.values)
-                if len(log) > 1 and np.any(np.diff(log) < 0):
-                    order = np.argsort(log, kind="stable")
-                    times, kept = times[order], kept[order]
-                values = kept
-            else:
-                values = _scalars(name, data, offsets, lengths)
+            kept = np.concatenate(acc.values) if acc.values and len(lengths) == 0 else None
+            pick: npt.NDArray[np.int64] | None = None
+            if self.span is not None:
+                pick = np.flatnonzero((log >= self.span[0]) & (log <= self.span[1]))
+            if len(log) > 1 and np.any(np.diff(log if pick is None else log[pick]) < 0):
+                base = np.arange(len(log)) if pick is None else pick
+                pick = base[np.argsort(log[base], kind="stable")]
+            if pick is not None:
+                times = times[pick]
+                if kept is not None:
+                    kept = kept[pick]
+                else:
+                    starts = offsets[:-1][pick]
+                    lengths = lengths[pick]
+                    ends = np.cumsum(lengths)
+                    data = data[np.arange(int(lengths.sum())) - np.repeat(ends - lengths - starts, lengths)]
+                    offsets = np.zeros(len(lengths) + 1, dtype=np.int64)
+                    np.cumsum(lengths, out=offsets[1:])
+            values = kept if kept is not None else _scalars(name, data, offsets, lengths)
             if values is not None and not keep_payloads:
                 data, offsets = np.empty(0, np.uint8), np.zeros(1, np.int64)
             topics[chan.topic] = TopicData(chan.topic, name, times, values, text, data, offsets)
@@ -473,12 +485,21 @@ def _scalars(
     return values
 
 
-def read_recording(path: str | os.PathLike[str], *, keep_payloads: bool = True) -> Recording:
+def read_recording(
+    path: str | os.PathLike[str],
+    *,
+    keep_payloads: bool = True,
+    start_ns: int | None = None,
+    end_ns: int | None = None,
+) -> Recording:
     """Load every topic of the MCAP file at `path` (read-only; never modifies it).
 
     Args:
         path: an ``.mcap`` file, or a rosbag2 directory holding one (with its ``metadata.yaml``).
         keep_payloads: keep the CDR bytes of single-value topics too (their `values` are always read).
+        start_ns: keep only messages logged at or after this time (ns since the epoch); with an index,
+            chunks before it are not even decompressed (a first frame of a long file at once).
+        end_ns: keep only messages logged at or before this time.
 
     Raises:
         RecordingError: the file cannot be opened or is not MCAP at all (the message names it).
@@ -489,7 +510,12 @@ def read_recording(path: str | os.PathLike[str], *, keep_payloads: bool = True) 
         if not files:
             raise RecordingError(f"{path}: a directory without an .mcap file (is it a rosbag2 bag?)")
         if len(files) > 1:
-            parts = [read_recording(os.path.join(path, f), keep_payloads=keep_payloads) for f in files]
+            parts = [
+                read_recording(
+                    os.path.join(path, f), keep_payloads=keep_payloads, start_ns=start_ns, end_ns=end_ns
+                )
+                for f in files
+            ]
             return _merge(path, parts)
         path = os.path.join(path, files[0])
     try:
@@ -506,7 +532,10 @@ def read_recording(path: str | os.PathLike[str], *, keep_payloads: bool = True) 
         raise RecordingError(f"{path}: cannot open it ({exc.strerror or exc})") from None
     if bytes(buf[: len(MAGIC)]) != MAGIC:
         raise RecordingError(f"{path}: not an MCAP file (it does not start with the MCAP magic bytes)")
-    loader = _Loader(path, buf, keep_payloads)
+    span = None
+    if start_ns is not None or end_ns is not None:
+        span = (start_ns if start_ns is not None else -(2**63), end_ns if end_ns is not None else 2**63 - 1)
+    loader = _Loader(path, buf, keep_payloads, span)
     done = loader.indexed()
     if not done:
         loader.schemas.clear()
