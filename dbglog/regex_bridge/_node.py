@@ -26,18 +26,14 @@ from pathlib import Path
 from types import TracebackType
 from typing import Any, Final, Self
 
-import rclpy
 from rcl_interfaces.msg import Log
-from rclpy.context import Context
-from rclpy.guard_condition import GuardCondition
-from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
-from rclpy.node import Node
 from rclpy.qos import QoSProfile
 from rclpy.serialization import deserialize_message
 from std_msgs.msg import Bool, Float64, Int64, String
 
 from dbglog._regex._compile import NumberKind
 from dbglog._ros._cdr import SCALAR_FORMATS, read_log, read_string, scalar_encoder
+from dbglog._ros._node import PrivateNode, WaitSet, take_batch
 from dbglog._ros._qos import log_qos, tag_qos
 from dbglog.regex_bridge._engine import Matcher
 from dbglog.regex_bridge._rules import ROSOUT, RuleSet
@@ -225,10 +221,10 @@ class Bridge:
         self._warn_every = warn_every
         self._published = _Published(dedup_window)
         self._duplicates = 0
-        self._context = Context()
-        rclpy.init(context=self._context)
+        self._ros = PrivateNode(node_name, rosout=True)
+        self._context = self._ros.context
         try:
-            self.node = Node(node_name, context=self._context, start_parameter_services=False)
+            self.node = self._ros.node
             qos = tag_qos()
             self._publishers = {
                 o.topic: self.node.create_publisher(_MSG_TYPES[o.kind], o.topic, qos) for o in rules.outputs
@@ -251,9 +247,9 @@ class Bridge:
                 )
                 for topic in rules.source_topics
             ]
-            self._wake = GuardCondition(None, None, context=self._context)
+            self._wake = self._ros.guard()
         except Exception:
-            rclpy.shutdown(context=self._context)
+            self._ros.close()
             raise
         self._own_logger = self.node.get_logger().name
         self._names: dict[bytes, str] = {}
@@ -297,9 +293,7 @@ class Bridge:
                     f"could not write the state file {self._state} ({exc.strerror or exc}): a bridge started "
                     "within the next 10 s may publish lines from /rosout's history a second time"
                 )
-        self.node.destroy_node()
-        if self._context.ok():
-            rclpy.shutdown(context=self._context)
+        self._ros.close()
 
     def __enter__(self) -> Self:
         return self
@@ -320,7 +314,8 @@ class Bridge:
             )
 
     def _run(self) -> None:
-        wait_set = _rclpy.WaitSet(len(self._sources), 1, 0, 0, 0, 0, self._context.handle)
+        wait_set = WaitSet(self._ros, self._wake)
+        subscriptions = [sub for sub, _topic, _is_log in self._sources]
         while not self._stop.is_set():
             busy = False
             self._published.age(time.monotonic())
@@ -330,30 +325,24 @@ class Bridge:
                 names: list[str] = []
                 levels: list[int] = []
                 raws: list[bytes] = []
-                for _ in range(_BURST):
+                try:
+                    taken, _stamps = take_batch(handle.take_message, msg_type, True, _BURST)
+                except Exception:  # e.g. the context is going away; the loop re-checks
+                    self._errors += 1
+                    taken = []
+                busy = busy or bool(taken)
+                self._lines += len(taken)
+                for raw in taken:
                     try:
-                        taken = handle.take_message(msg_type, True)
-                    except Exception:  # e.g. the context is going away; the loop re-checks
-                        self._errors += 1
-                        break
-                    if taken is None:
-                        break
-                    busy = True
-                    self._lines += 1
-                    try:
-                        self._read(taken[0], is_log, texts, names, levels, raws)
+                        self._read(raw, is_log, texts, names, levels, raws)
                     except Exception:  # a bad line never stops the bridge
                         self._errors += 1
                 if texts:
                     self._match_and_publish(texts, names, levels, raws if is_log else None, topic)
             self._maybe_warn()
             if not busy and not self._stop.is_set():
-                wait_set.clear_entities()
-                for sub, _topic, _is_log in self._sources:
-                    wait_set.add_subscription(sub.handle)
-                wait_set.add_guard_condition(self._wake.handle)
                 try:
-                    wait_set.wait(_WAIT_NS)
+                    wait_set.wait(subscriptions, _WAIT_NS)
                 except Exception:  # shutdown interrupts the wait
                     if not self._context.ok():
                         return

@@ -10,6 +10,7 @@ copies (``snapshot``); nothing here imports Dear PyGui.
 
 from __future__ import annotations
 
+import functools
 import logging
 import math
 import threading
@@ -26,6 +27,7 @@ import numpy.typing as npt
 from dbglog._regex._compile import CompiledRegex, RegexError, compile_regex, parse_number
 from dbglog._ros._batch import BATCH_TOPIC
 from dbglog._ros._cdr import decode_fixed
+from dbglog._ros._node import NodeIdentity, PrivateNode, WaitSet, take_batch
 from dbglog._ros._qos import LOG_DEPTH, subscription_qos
 from dbglog.viewer._data._batchsub import BatchIngest, BatchStats
 from dbglog.viewer._data._fields import (
@@ -200,6 +202,8 @@ class Engine:
         self._ready = threading.Event()
         self._start_error: BaseException | None = None
         self._guard: Any = None
+        self.identity: NodeIdentity | None = None
+        """The engine node's identity on the graph once started (publishers tell its endpoints by it)."""
         self._taken = 0
         self._cycles = 0
         self._thread_cpu = 0.0
@@ -379,46 +383,28 @@ class Engine:
 
     def _run(self) -> None:
         try:
-            import rclpy
-            from rclpy.context import Context
-            from rclpy.guard_condition import GuardCondition
-            from rclpy.node import Node
-            from rclpy.signals import SignalHandlerOptions
-
-            context = Context()
-            rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
-            node = Node(
-                self.node_name,
-                context=context,
-                start_parameter_services=False,
-                enable_rosout=False,
-            )
-            self._guard = GuardCondition(None, None, context=context)
+            ros = PrivateNode(self.node_name)
+            self._guard = ros.guard()
         except Exception as exc:
             self._start_error = exc
             self._ready.set()
             return
+        self.identity = ros.identity
         self._graph_since = time.monotonic()
         self._ready.set()
+        node = ros.node
         try:
-            self._loop(node, context)
+            self._loop(ros)
         finally:
             self._guard = None
-            self._batches.close(node)
-            for topic in list(self._subs.values()):
-                node.destroy_subscription(topic.sub)
-            self._subs = {}
-            node.destroy_node()
-            if context.ok():
-                rclpy.shutdown(context=context)
+            subs, self._subs = list(self._subs.values()), {}
+            destroy = [functools.partial(node.destroy_subscription, topic.sub) for topic in subs]
+            ros.close([functools.partial(self._batches.close, node), *destroy])
 
-    def _loop(self, node: Any, context: Any) -> None:
-        from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
-
+    def _loop(self, ros: PrivateNode) -> None:
+        node, context = ros.node, ros.context
         next_graph = 0.0
-        wait_set: Any = None
-        wait_subs: list[_TopicSub] = []
-        wait_batch: Any = None
+        wait_set = WaitSet(ros, self._guard)
         while self._running and context.ok():
             cycle_start = time.monotonic()
             try:
@@ -429,21 +415,14 @@ class Engine:
                 if cycle_start >= next_graph:
                     self._refresh_graph(node)
                     next_graph = time.monotonic() + self.graph_period
-                subs = list(self._subs.values())
+                wait_subs = list(self._subs.values())
                 batch_sub = self._batches.sub
-                if wait_set is None or subs != wait_subs or batch_sub is not wait_batch:
-                    wait_subs, wait_batch = subs, batch_sub
-                    wait_set = _rclpy.WaitSet(len(subs) + 1, 1, 0, 0, 0, 0, context.handle)
-                wait_set.clear_entities()
-                for topic in wait_subs:
-                    wait_set.add_subscription(topic.sub.handle)
+                subscriptions = [topic.sub for topic in wait_subs]
                 if batch_sub is not None:
-                    wait_set.add_subscription(batch_sub.handle)
-                wait_set.add_guard_condition(self._guard.handle)
+                    subscriptions.append(batch_sub)
                 timeout = max(0.0, next_graph - time.monotonic())
-                wait_set.wait(int(timeout * 1e9))
+                ready = wait_set.wait(subscriptions, int(timeout * 1e9))
                 self._cycles += 1
-                ready = set(wait_set.get_ready_entities("subscription"))
                 if ready:
                     for topic in wait_subs:
                         if topic.sub.handle.pointer in ready:
@@ -454,7 +433,7 @@ class Engine:
                 if not (self._running and context.ok()):
                     return
                 _log.exception("viewer engine cycle failed; continuing")
-                wait_set = None
+                wait_set.reset()
                 time.sleep(0.05)
             self._thread_cpu = time.thread_time()
             rest = self.min_cycle - (time.monotonic() - cycle_start)
@@ -719,7 +698,7 @@ class Engine:
 
     def _drain(self, topic: _TopicSub) -> None:
         cls = topic.cls
-        taken, stamps = _take_batch(topic.sub.handle.take_message, cls, topic.fast is not None)
+        taken, stamps = take_batch(topic.sub.handle.take_message, cls, topic.fast is not None, _MAX_BATCH)
         if not stamps:
             return
         self._count(topic, stamps)
@@ -786,19 +765,6 @@ class Engine:
         n = min(len(lat), _LATENCY_SAMPLES - start)
         self._latency[start : start + n] = lat[:n]
         self._latency_n += n
-
-
-def _take_batch(take: Any, cls: Any, raw: bool) -> tuple[list[Any], list[int]]:
-    """Take up to `_MAX_BATCH` ready messages (CDR bytes when `raw`) and their source stamps (ns)."""
-    items: list[Any] = []
-    stamps: list[int] = []
-    for _ in range(_MAX_BATCH):
-        got = take(cls, raw)
-        if got is None:
-            break
-        items.append(got[0])
-        stamps.append(got[1]["source_timestamp"])
-    return items, stamps
 
 
 def _describe(binding: Binding) -> str:

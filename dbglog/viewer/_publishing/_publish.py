@@ -13,13 +13,15 @@ message, each setting its own field.
 
 from __future__ import annotations
 
+import functools
 import logging
 import threading
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 from typing import Any, Final
 
+from dbglog._ros._node import NodeIdentity, PrivateNode, own_nodes
 from dbglog.viewer._data._interfaces import (
     InterfaceError,
     fill_message,
@@ -31,7 +33,6 @@ from dbglog.viewer._data._model import Status
 
 __all__ = [
     "DEFAULT_RATE_LIMIT_HZ",
-    "OWN_NODE_PREFIX",
     "PublishRequest",
     "PublishService",
     "PublishState",
@@ -42,8 +43,6 @@ _log = logging.getLogger("dbglog.viewer.publish")
 DEFAULT_RATE_LIMIT_HZ: Final = 20.0
 """The most messages per second one control sends unless its ``rate_limit`` property says otherwise."""
 MAX_RATE_HZ: Final = 1000.0
-OWN_NODE_PREFIX: Final = "dbglog_viewer"
-"""Nodes whose name starts with this are the viewer itself (engine, controls): not counted as subscribers."""
 _GRAPH_PERIOD_S: Final = 0.5
 _MATCH_WAIT_S: Final = 2.0
 """A new publisher holds its first message this long at most, until the known subscribers have matched."""
@@ -132,14 +131,22 @@ class PublishService:
     """Publishes for control widgets on its own thread; every method is safe and quick on the UI thread.
 
     Args:
-        node_name: the service's ROS node name (keep the `OWN_NODE_PREFIX`).
+        node_name: the service's ROS node name.
         graph_period: seconds between looks at the ROS graph (topic types, subscribers).
+        own_nodes: returns the nodes that are the viewer itself (its engine, this service), whose
+            endpoints are not counted as subscribers nor asked for types; by default this process's
+            private nodes (``dbglog._ros._node.own_nodes``).
     """
 
     def __init__(
-        self, *, node_name: str = "dbglog_viewer_controls", graph_period: float = _GRAPH_PERIOD_S
+        self,
+        *,
+        node_name: str = "dbglog_viewer_controls",
+        graph_period: float = _GRAPH_PERIOD_S,
+        own_nodes: Callable[[], frozenset[NodeIdentity]] = own_nodes,
     ) -> None:
         self.node_name = node_name
+        self._own_nodes = own_nodes
         self.graph_period = graph_period
         self._cond = threading.Condition()
         self._entries: dict[object, _Entry] = {}
@@ -217,14 +224,8 @@ class PublishService:
 
     def _run(self) -> None:
         try:
-            import rclpy
-            from rclpy.context import Context
-            from rclpy.node import Node
-            from rclpy.signals import SignalHandlerOptions
-
-            context = Context()
-            rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
-            node = Node(self.node_name, context=context, start_parameter_services=False, enable_rosout=False)
+            ros = PrivateNode(self.node_name)
+            node, context = ros.node, ros.context
         except Exception as exc:
             self._start_error = f"cannot start ROS for publishing: {exc}"
             _log.error("%s", self._start_error)
@@ -263,14 +264,7 @@ class PublishService:
                     _log.exception("publishing cycle failed; continuing")
                     time.sleep(0.05)
         finally:
-            for topic in topics.values():
-                try:
-                    node.destroy_publisher(topic.publisher)
-                except Exception:  # the context may already be gone at interpreter exit
-                    _log.debug("destroy_publisher failed", exc_info=True)
-            node.destroy_node()
-            if context.ok():
-                rclpy.shutdown(context=context)
+            ros.close([functools.partial(node.destroy_publisher, t.publisher) for t in topics.values()])
 
     def _next_wake(self, next_graph: float) -> float:
         now = time.monotonic()
@@ -284,6 +278,7 @@ class PublishService:
 
     def _read_graph(self, node: Any, names: set[str]) -> _Graph:
         graph = _Graph()
+        own = self._own_nodes()
         for name in names:
             types: set[str] = set()
             subscribers = 0
@@ -295,12 +290,12 @@ class PublishService:
                 continue
             graph.all_subscribers[name] = len(subs)
             for info in subs:
-                if info.node_name.startswith(OWN_NODE_PREFIX):
+                if (info.node_namespace, info.node_name) in own:
                     continue
                 subscribers += 1
                 types.add(info.topic_type)
             for info in pubs:
-                if not info.node_name.startswith(OWN_NODE_PREFIX):
+                if (info.node_namespace, info.node_name) not in own:
                     types.add(info.topic_type)
             graph.types[name] = types
             graph.subscribers[name] = subscribers
