@@ -138,7 +138,10 @@ class CanvasItem:
         if self.widget_cls is not None and isinstance(self.config, WidgetConfig):
             try:
                 self.widget = self.widget_cls(dict(self.config.properties))
-                self.widget.mount(self.body, bw, bh, self.context())
+                # The context is set before mount, which keeps its three-argument form: plugins written
+                # before the context existed override mount(parent, width, height) and still work.
+                self.widget.context = self.context()
+                self.widget.mount(self.body, bw, bh)
             except Exception as exc:  # a broken widget class must not take the viewer down
                 self._fail(f"widget failed to build: {exc!r}")
         else:
