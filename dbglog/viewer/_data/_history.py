@@ -22,6 +22,7 @@ import numpy.typing as npt
 __all__ = [
     "DEFAULT_MAX_BYTES",
     "DEFAULT_MAX_SECONDS",
+    "DEFAULT_REORDER_WINDOW",
     "History",
     "HistoryStats",
     "Sample",
