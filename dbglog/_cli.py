@@ -26,10 +26,10 @@ class _Command(Protocol):
 # name -> module implementing the _Command protocol; order is the order shown in --help.
 _COMMANDS: dict[str, str] = {
     "bridge": "dbglog.regex_bridge._cli",
-    "view": "dbglog.viewer._cli_view",
+    "view": "dbglog.viewer._cli._cli_view",
     "tags": "dbglog.viewer._cli._cli_tags",
     "echo": "dbglog.viewer._cli._cli_echo",
-    "logs": "dbglog.viewer._cli_logs",
+    "logs": "dbglog.viewer._cli._cli_logs",
     "record": "dbglog.record._cli",
     "demo": "dbglog._demo._cli",
 }

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import pytest
 
-from dbglog.viewer._cli_logs import LogLine, format_line
+from dbglog.viewer._cli._cli_logs import LogLine, format_line
 from tests._ros import RosPeer, wait_until
 
 _LOGGER_SCRIPT = """

@@ -22,7 +22,7 @@ from pathlib import Path
 from types import FrameType
 from typing import IO
 
-from dbglog.viewer._cli_view import seconds_arg, size_arg
+from dbglog.viewer._cli._cli_view import seconds_arg, size_arg
 
 __all__ = ["HELP", "Supervisor", "add_arguments", "dashboard_path", "rules_path", "run"]
 
