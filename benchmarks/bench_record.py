@@ -353,6 +353,11 @@ def main(argv: list[str] | None = None) -> int:
         rec = read_recording(big)
         load_payload_s = time.perf_counter() - t
         del rec
+        t = time.perf_counter()
+        first = read_recording(big, end_ns=1_790_000_010_000_000_000, keep_payloads=False)
+        first_s = time.perf_counter() - t
+        first_n = sum(len(x) for x in first.topics.values())
+        del first
         part = tmp / "part.mcap"
         peer_n = _write_large(part, args.topics, 100.0, args.peer_minutes * 60)
         t = time.perf_counter()
@@ -361,7 +366,7 @@ def main(argv: list[str] | None = None) -> int:
         got, peer_s = _peer_decode(part, peer_n)
         print_table(
             f"Large file: {args.topics} topics x 100 Hz x {args.hours:g} h ({n:,} Float64 messages)",
-            ["file", "bytes/sample", "written in", "load (values)", "load (values + payloads)"],
+            ["file", "bytes/sample", "written in", "load (values)", "load (values + payloads)", "first 10 s"],
             [
                 [
                     f"{size / 1e6:.0f} MB",
@@ -369,6 +374,7 @@ def main(argv: list[str] | None = None) -> int:
                     f"{write_s:.1f} s",
                     f"{load_s:.2f} s",
                     f"{load_payload_s:.2f} s",
+                    f"{first_s:.2f} s ({first_n:,} messages)",
                 ]
             ],
         )
