@@ -41,16 +41,25 @@ import math
 import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
-from typing import ClassVar
+from typing import ClassVar, Protocol
 
 import numpy as np
 
+from dbglog.viewer._data._interfaces import (
+    InterfaceError,
+    fill_message,
+    form_fields,
+    installed_types,
+    message_type,
+)
 from dbglog.viewer._data._model import Binding, SeriesSnapshot, Status, ValueKind
-from dbglog.viewer._publishing._publish import PublishRequest, PublishService, PublishState
+from dbglog.viewer._publishing._requests import DEFAULT_RATE_LIMIT_HZ, PublishRequest, PublishState, Value
 
 __all__ = [
+    "DEFAULT_RATE_LIMIT_HZ",
     "Binding",
     "Color",
+    "InterfaceError",
     "PropKind",
     "PropValue",
     "Property",
@@ -60,11 +69,16 @@ __all__ = [
     "PublishState",
     "SeriesSnapshot",
     "Status",
+    "Value",
     "ValueKind",
     "Widget",
     "WidgetContext",
+    "fill_message",
+    "form_fields",
     "format_color",
+    "installed_types",
     "kind_problem",
+    "message_type",
     "parse_color",
     "shown_as",
 ]
@@ -189,6 +203,30 @@ class Property:
 def _describe(value: object) -> str:
     text = repr(value)
     return f"{type(value).__name__} {text[:40]}"
+
+
+class PublishService(Protocol):
+    """What a widget may ask of the app's publishing service (the viewer's own implementation runs a node).
+
+    Widgets reach it through `Widget.publisher`; they never construct one.
+    """
+
+    def update(
+        self,
+        key: object,
+        request: PublishRequest,
+        *,
+        send: bool,
+        rate_limit_hz: float = DEFAULT_RATE_LIMIT_HZ,
+        repeat_hz: float = 0.0,
+    ) -> None:
+        """Set what control `key` publishes; with `send`, queue one message (rate limited). Never blocks."""
+
+    def state(self, key: object) -> PublishState:
+        """Return the state of control `key`, for its status pill."""
+
+    def release(self, key: object) -> None:
+        """Forget control `key`."""
 
 
 @dataclass(frozen=True, slots=True)

@@ -17,23 +17,23 @@ from typing import Any, ClassVar
 
 import dearpygui.dearpygui as dpg
 
-from dbglog.viewer._data._interfaces import (
+from dbglog.viewer._widgets._common import DIM
+from dbglog.viewer.widget_api import (
+    DEFAULT_RATE_LIMIT_HZ,
     InterfaceError,
+    Property,
+    PropKind,
+    PublishRequest,
+    SeriesSnapshot,
+    Status,
+    Value,
+    ValueKind,
+    Widget,
+    WidgetContext,
     fill_message,
     form_fields,
     installed_types,
     message_type,
-)
-from dbglog.viewer._publishing._publish import DEFAULT_RATE_LIMIT_HZ, PublishRequest, Value
-from dbglog.viewer._widgets._common import DIM
-from dbglog.viewer.widget_api import (
-    Property,
-    PropKind,
-    SeriesSnapshot,
-    Status,
-    ValueKind,
-    Widget,
-    WidgetContext,
 )
 
 __all__ = [
