@@ -180,19 +180,16 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _follow(topic: str, filters: LogsFilter, count: int, colour: bool, stop: threading.Event) -> int:
-    import rclpy
     from rcl_interfaces.msg import Log
-    from rclpy.context import Context
     from rclpy.executors import SingleThreadedExecutor
-    from rclpy.node import Node
-    from rclpy.signals import SignalHandlerOptions
 
+    from dbglog._ros._node import PrivateNode
     from dbglog._ros._qos import log_qos
     from dbglog._rosenv import localhost_discovery
 
     localhost_discovery()
-    context = Context()
-    rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
+    ros = PrivateNode("dbglog_logs")
+    node = ros.node
     pending: list[LogLine] = []
     lock = threading.Lock()
 
@@ -202,8 +199,7 @@ def _follow(topic: str, filters: LogsFilter, count: int, colour: bool, stop: thr
             with lock:
                 pending.append(line)
 
-    node = Node("dbglog_logs", context=context, enable_rosout=False, start_parameter_services=False)
-    executor = SingleThreadedExecutor(context=context)
+    executor = SingleThreadedExecutor(context=ros.context)
     try:
         node.create_subscription(Log, topic, on_line, log_qos())  # reliable, transient-local, 1000
         executor.add_node(node)
@@ -233,6 +229,4 @@ def _follow(topic: str, filters: LogsFilter, count: int, colour: bool, stop: thr
         return 0
     finally:
         executor.shutdown(timeout_sec=1)
-        node.destroy_node()
-        if context.ok():
-            rclpy.shutdown(context=context)
+        ros.close()
