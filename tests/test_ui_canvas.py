@@ -389,7 +389,8 @@ def test_drop_lands_on_free_grid_spot_inside_the_canvas(viewer: Callable[[str], 
         v.drag(start, (gauge[0] + gauge[2] + 10, gauge[1] + 120), steps=12)
     else:  # the old rule let the dial run off the bottom-right of the view
         v.drag(start, (cx + cw - 8, cy + ch - 8), steps=12)
-    state = v.wait_for(lambda s: len(s["items"]) == 4)
+    # The drop adds the widget, then opens its topic setup: wait for both.
+    state = v.wait_for(lambda s: len(s["items"]) == 4 and s["dialog"] is not None)
     new = state["items"][-1]["rect"]
     for other in state["items"][:-1]:
         assert not overlap(new, other["rect"]), f"{new} overlaps {other}"

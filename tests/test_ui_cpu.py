@@ -133,6 +133,7 @@ def test_pacer_caps_the_rate_renders_changes_and_idles() -> None:
     assert p.due(0.55)
     p.rendered(0.55)
     assert p.wait(0.56) == pytest.approx(0.03), "while data flows, look again when it may be drawn"
+    assert p.wait(0.6) == pytest.approx(0.04), "and after that every data period, without spinning"
     assert not p.due(1.0)
     assert p.due(2.56), "an idle frame every idle_render_s"
     p.rendered(2.56)

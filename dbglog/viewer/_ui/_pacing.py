@@ -120,8 +120,9 @@ class Pacer:
         if self.pending:
             return max(0.0, self.last_render + self.data_period - now)
         flowing = now - self.last_change < 1.0  # data keeps coming: look again when it may be drawn
-        if flowing:
-            return max(0.0, self.last_render + self.data_period - now)
+        if flowing:  # past that moment, look again as often as data may be drawn (never spin)
+            due_at = self.last_render + self.data_period
+            return due_at - now if due_at > now else min(self.data_period, self.idle_poll_s)
         idle_frame = self.last_render + max(self.period, self.idle_render_s)
         return max(0.0, min(self.idle_poll_s, idle_frame - now))
 
