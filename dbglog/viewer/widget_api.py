@@ -45,6 +45,7 @@ from typing import ClassVar, Protocol
 
 import numpy as np
 
+from dbglog._ros._tags import tag_of
 from dbglog.viewer._data._interfaces import (
     InterfaceError,
     fill_message,
@@ -81,6 +82,7 @@ __all__ = [
     "message_type",
     "parse_color",
     "shown_as",
+    "tag_of",
 ]
 
 PropValue = float | str | bool

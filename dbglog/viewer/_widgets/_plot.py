@@ -9,7 +9,7 @@ import numpy as np
 
 from dbglog.viewer._widgets._common import SERIES_COLORS
 from dbglog.viewer._widgets._geometry import minmax_decimate, window_slice
-from dbglog.viewer.widget_api import Binding, Property, PropKind, SeriesSnapshot, ValueKind, Widget
+from dbglog.viewer.widget_api import Binding, Property, PropKind, SeriesSnapshot, ValueKind, Widget, tag_of
 
 __all__ = ["PLOT_MARGIN", "PlotWidget", "series_label"]
 
@@ -19,7 +19,7 @@ PLOT_MARGIN = 48
 
 def series_label(binding: Binding) -> str:
     """Return a short legend label for a binding: the tag or topic, plus the field."""
-    topic = binding.topic.removeprefix("/rosdashboard/")
+    topic = tag_of(binding.topic) or binding.topic
     return f"{topic}.{binding.field}" if binding.field and binding.field != "data" else topic
 
 
