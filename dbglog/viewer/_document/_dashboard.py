@@ -127,6 +127,25 @@ class WidgetConfig:
             out["stale_after"] = self.stale_after
         return out
 
+    # The union WidgetConfig | RawWidget answers these alike, so the canvas never asks which it holds.
+
+    @property
+    def editable(self) -> WidgetConfig:
+        """This entry as a widget the viewer shows and edits (a placeholder answers None)."""
+        return self
+
+    def geometry(self) -> tuple[float, float, float, float]:
+        """Place and size on the canvas: x, y, width, height."""
+        return self.x, self.y, self.width, self.height
+
+    def placed(self, x: float, y: float, width: float, height: float) -> WidgetConfig:
+        """The entry moved and resized."""
+        return replace(self, x=x, y=y, width=width, height=height)
+
+    def renamed(self, name: str) -> WidgetConfig:
+        """The entry with another name."""
+        return replace(self, name=name)
+
 
 def _binding_dict(b: Binding) -> dict[str, Any]:
     out: dict[str, Any] = {"topic": b.topic, "field": b.field, "regex": b.regex}
@@ -164,6 +183,32 @@ class RawWidget:
             value = _as_float(self.data.get(key, self.data.get(legacy)))
             out.append(min(MAX_COORD, max(0.0, value)) if value is not None else default)
         return out[0], out[1], max(out[2], 80.0), max(out[3], 60.0)
+
+    @property
+    def editable(self) -> None:
+        """A placeholder is not a widget the viewer shows or edits."""
+        return None
+
+    @property
+    def bindings(self) -> tuple[Binding, ...]:
+        """A placeholder fills no series."""
+        return ()
+
+    @property
+    def stale_after(self) -> None:
+        """A placeholder has no stale time."""
+        return None
+
+    def placed(self, x: float, y: float, width: float, height: float) -> RawWidget:
+        """The entry moved and resized (in the keys of its own format), the rest kept verbatim."""
+        data = dict(self.data)
+        x_key, y_key = ("posX", "posY") if "posX" in data else ("x", "y")
+        data.update({x_key: x, y_key: y, "width": width, "height": height})
+        return RawWidget(data, self.reason)
+
+    def renamed(self, name: str) -> RawWidget:
+        """The entry with another name, the rest kept verbatim."""
+        return RawWidget({**self.data, "name": name}, self.reason)
 
     def to_dict(self) -> dict[str, Any]:
         """Return the entry exactly as it was read."""

@@ -1,7 +1,9 @@
-"""The viewer window: toolbox, free-form canvas, menus, dialogs, status bar, and the render loop.
+"""The viewer window: toolbox, free-form canvas, menus, status bar, and the render loop wiring them together.
 
-Only the thread that created the `ViewerApp` calls Dear PyGui; data comes from a `DataSource` whose
-snapshots are read once per frame, and a widget is redrawn only when one of its series changed.
+What is on the canvas lives in a headless document (`CanvasDoc`); the mouse on the canvas is `PointerInput`,
+open/save/quit are `FileCommands`. Only the thread that created the `ViewerApp` calls Dear PyGui; data
+comes from a `DataSource` whose snapshots are read once per frame, and a widget is redrawn only when one
+of its series changed.
 """
 
 from __future__ import annotations
@@ -9,13 +11,9 @@ from __future__ import annotations
 import collections
 import ctypes
 import os
-import re
 import sys
-import threading
 import time
-import weakref
 from collections.abc import Callable
-from dataclasses import dataclass
 from pathlib import Path
 from types import TracebackType
 from typing import Any, Self
@@ -23,15 +21,8 @@ from typing import Any, Self
 import dearpygui.dearpygui as dpg
 
 from dbglog.viewer._data._model import Binding, DataSource
-from dbglog.viewer._document._dashboard import (
-    Dashboard,
-    DashboardError,
-    LoadResult,
-    RawWidget,
-    WidgetConfig,
-    load_dashboard,
-    save_dashboard,
-)
+from dbglog.viewer._document._canvas_doc import CanvasDoc, TopicSetup
+from dbglog.viewer._document._dashboard import Dashboard, LoadResult, WidgetConfig
 from dbglog.viewer._publishing._publish import PublishService
 from dbglog.viewer._ui import _theme as theme
 from dbglog.viewer._ui._dialogs import (
@@ -39,11 +30,10 @@ from dbglog.viewer._ui._dialogs import (
     MessageDialog,
     PropertiesDialog,
     RenameDialog,
-    SaveAsDialog,
     TopicDialog,
-    topic_widget_name,
 )
-from dbglog.viewer._ui._frame import GRIP, TITLE_H, CanvasItem
+from dbglog.viewer._ui._files import FileCommands, FileRequest
+from dbglog.viewer._ui._frame import TITLE_H, CanvasItem
 from dbglog.viewer._ui._pacing import (
     DEFAULT_DATA_FPS,
     DEFAULT_FPS,
@@ -54,16 +44,14 @@ from dbglog.viewer._ui._pacing import (
     wait_readable,
     x_connection_fd,
 )
+from dbglog.viewer._ui._pointer import PointerInput
 from dbglog.viewer._ui._quit import QuitDialog
 from dbglog.viewer._widgets import WidgetRegistry
 from dbglog.viewer._widgets._geometry import (
-    Part,
     Rect,
     canvas_extent,
     free_spot,
-    hit_test,
     rects_outside,
-    scroll_target,
     snap_rect,
     uncovered,
 )
@@ -76,8 +64,6 @@ TOOLBOX_W = 190
 SETTLE_FRAMES = 3
 """Frames rendered before a screenshot is captured, so that the last update is fully on screen."""
 STATUS_H = 34
-WHEEL_STEP = 60.0
-"""Pixels the canvas scrolls per notch of the mouse wheel."""
 CHORD_S = 0.15
 """How long after a rendered frame saw Ctrl or Shift down a shortcut's key still counts it as held."""
 
@@ -102,25 +88,6 @@ def keep_freed_memory() -> bool:
         mallopt(m_mmap_threshold, 32 << 20),
     ]
     return all(r == 1 for r in results)
-
-
-@dataclass
-class _Drag:
-    item: CanvasItem
-    part: Part
-    start: tuple[float, float]
-    rect: Rect
-    target: Rect
-
-
-@dataclass
-class _FileRequest:
-    item: int | str
-    save: bool
-    then: Callable[[], object] | None
-    """Called after a successful Save As (the quit prompt's Save: then quit)."""
-    dialog: SaveAsDialog | None = None
-    """The Save As dialog (Open uses Dear PyGui's file dialog)."""
 
 
 class ViewerApp:
@@ -148,13 +115,8 @@ class ViewerApp:
         self.source = source
         self.registry = registry if registry is not None else WidgetRegistry.discover()
         self.width, self.height, self.title = width, height, title
-        self.items: list[CanvasItem] = []
-        self.selected: CanvasItem | None = None
-        self.path: Path | None = None
-        self.dirty = False
-        self.grid_size = 20
-        self.snap = True
-        self.load_messages: list[str] = []
+        self.doc: CanvasDoc[CanvasItem] = CanvasDoc(source, self._update_title)
+        """What is on the canvas: widgets, their bindings, selection, the file and whether it is modified."""
         self.dialog: Dialog | None = None
         self.pointer_override: tuple[float, float] | None = None
         """When set, used instead of the real mouse position (scripted sessions and tests)."""
@@ -171,29 +133,17 @@ class ViewerApp:
         self._x_input: XInput | None = None
         self._input_now = False
         """Whether the last rendered frame saw the user at work (`_input_seen`)."""
-        self._wheel_lock = threading.Lock()
-        self._wheel = 0.0
-        """Mouse wheel turns not yet applied (the wheel handler adds them, the next frame scrolls)."""
         self._mouse_seen: tuple[float, float] = (-1.0, -1.0)
-        self._scroll_set: dict[int, tuple[int, float]] = {}
-        """Axis (0 x, 1 y) -> (frames rendered when the wheel set it, the offset set)."""
         self._mods_seen: dict[int, float] = {}
         """Modifier key -> when a rendered frame last saw it down (`held`)."""
         self._view_key: tuple[object, ...] = ()
         self._render_starts: collections.deque[float] = collections.deque(maxlen=240)
         self._fps_text = ""
         self._fps_at = -1.0
-        self._refs: collections.Counter[Binding] = collections.Counter()
         self.publisher = PublishService()
         """The controls' publishing service: this app's own, handed to every widget at mount."""
-        self._drag: _Drag | None = None
-        self._left_down = False
-        self._right_down = False
-        self._menu_item: CanvasItem | None = None
-        self._menu_shown = False
-        """Whether the context menu was open at the last poll (ImGui closes it before a click is seen)."""
-        self._auto_names: weakref.WeakKeyDictionary[CanvasItem, str] = weakref.WeakKeyDictionary()
-        """Widget -> the name its topic gave it (while it keeps that name, a new topic renames it)."""
+        self.pointer_input = PointerInput(self)
+        self.files = FileCommands(self)
         self._grid_key: tuple[int, int, int, int, int, bool, bool, tuple[Rect, ...]] | None = None
         self._window_size = (0, 0)
         self._backdrop_key: tuple[float, ...] | None = None
@@ -201,8 +151,43 @@ class ViewerApp:
         self._status_text = ""
         self._status_left = ""
         self._quitting = False
-        self.file_request: _FileRequest | None = None
+
+    # -- the document, as the window shows it ------------------------------------------------------
+
+    @property
+    def items(self) -> list[CanvasItem]:
+        """The widgets in drawing order (last on top)."""
+        return self.doc.items
+
+    @property
+    def selected(self) -> CanvasItem | None:
+        """The highlighted widget."""
+        return self.doc.selected
+
+    @property
+    def path(self) -> Path | None:
+        """The dashboard's file (None: untitled)."""
+        return self.doc.path
+
+    @property
+    def dirty(self) -> bool:
+        """Whether there are unsaved changes."""
+        return self.doc.dirty
+
+    @property
+    def load_messages(self) -> list[str]:
+        """What could not be loaded from the dashboard as it was."""
+        return self.doc.load_messages
+
+    @property
+    def file_request(self) -> FileRequest | None:
         """The open file dialog (Open or Save As), or None."""
+        return self.files.request
+
+    @property
+    def started(self) -> bool:
+        """Whether the window exists (between `start` and `close`)."""
+        return self._started
 
     # -- lifecycle ----------------------------------------------------------------------------------
 
@@ -215,7 +200,7 @@ class ViewerApp:
         if font is not None:
             dpg.bind_font(font)
         theme.apply_theme()
-        self._frame_theme = theme.frame_theme()
+        self.frame_theme = theme.frame_theme()
         self._selected_theme = theme.selected_frame_theme()
         # The close button only asks (`request_quit`): the window closes when `quit` stops the loop.
         dpg.create_viewport(
@@ -241,10 +226,8 @@ class ViewerApp:
         if not self._started:
             return
         self._quitting = True  # Dear PyGui calls the exit callback once more while destroying the context
-        self._close_dialog()
-        for binding in list(self._refs):
-            self.source.unbind(binding)
-        self._refs.clear()
+        self.close_dialog()
+        self.doc.release_all()
         self.publisher.stop()
         self._started = False
         dpg.destroy_context()
@@ -321,25 +304,36 @@ class ViewerApp:
             no_saved_settings=True,
             min_size=(170, 20),
         ) as self.menu:
+            on_item = self.pointer_input.menu_action
             dpg.add_menu_item(
-                label="Topic setup\u2026", callback=lambda *_: self._menu(self.open_topic_dialog)
+                label="Topic setup\u2026",
+                callback=lambda *_: on_item(self.open_topic_dialog),
             )
             dpg.add_menu_item(
-                label="Properties\u2026", callback=lambda *_: self._menu(self.open_properties_dialog)
+                label="Properties\u2026",
+                callback=lambda *_: on_item(self.open_properties_dialog),
             )
-            dpg.add_menu_item(label="Rename\u2026", callback=lambda *_: self._menu(self.open_rename_dialog))
-            dpg.add_menu_item(label="Bring to front", callback=lambda *_: self._menu(self.bring_to_front))
+            dpg.add_menu_item(
+                label="Rename\u2026",
+                callback=lambda *_: on_item(self.open_rename_dialog),
+            )
+            dpg.add_menu_item(
+                label="Bring to front",
+                callback=lambda *_: on_item(self.bring_to_front),
+            )
             with dpg.menu(label="Change widget type"):
                 self.type_entries: dict[str, int | str] = {}
                 """Widget type -> its entry in the submenu (the widget's own type is shown selected)."""
                 for cls in self.registry:
                     self.type_entries[cls.type_name] = dpg.add_selectable(
                         label=cls.label,
-                        callback=lambda *_, t=cls.type_name: self._menu(lambda i: self.change_type(i, t)),
+                        callback=lambda *_, t=cls.type_name: on_item(lambda i: self.change_type(i, t)),
                     )
             dpg.add_separator()
             dpg.add_menu_item(
-                label="Delete", shortcut="Del", callback=lambda *_: self._menu(self.delete_item)
+                label="Delete",
+                shortcut="Del",
+                callback=lambda *_: on_item(self.delete_item),
             )
         with dpg.handler_registry():
             dpg.add_key_press_handler(dpg.mvKey_Delete, callback=lambda *_: self.on_delete_key())
@@ -348,19 +342,19 @@ class ViewerApp:
             dpg.add_key_press_handler(dpg.mvKey_Down, callback=lambda *_: self.on_arrow_key(1))
             dpg.add_key_press_handler(dpg.mvKey_Up, callback=lambda *_: self.on_arrow_key(-1))
             dpg.add_key_press_handler(dpg.mvKey_Escape, callback=lambda *_: self.on_escape_key())
-            dpg.add_mouse_wheel_handler(callback=lambda _s, delta: self.on_wheel(delta))
+            dpg.add_mouse_wheel_handler(callback=lambda _s, delta: self.pointer_input.on_wheel(delta))
         self._update_title()
 
     def _build_menus(self) -> None:
         with dpg.menu_bar():
             with dpg.menu(label="File"):
                 dpg.add_menu_item(label="New", callback=lambda *_: self.new_dashboard())
-                dpg.add_menu_item(label="Open\u2026", callback=lambda *_: self._file_dialog(save=False))
+                dpg.add_menu_item(label="Open\u2026", callback=lambda *_: self.files.ask(save=False))
                 dpg.add_menu_item(label="Save", shortcut="Ctrl+S", callback=lambda *_: self.save())
                 self.save_as_menu = dpg.add_menu_item(
                     label="Save As\u2026",
                     shortcut="Ctrl+Shift+S",
-                    callback=lambda *_: self._file_dialog(save=True),
+                    callback=lambda *_: self.files.ask(save=True),
                 )
                 dpg.add_separator()
                 self.quit_menu = dpg.add_menu_item(
@@ -370,7 +364,7 @@ class ViewerApp:
                 self.snap_menu = dpg.add_menu_item(
                     label="Snap to grid",
                     check=True,
-                    default_value=self.snap,
+                    default_value=self.doc.snap,
                     callback=lambda s, a: self.set_snap(bool(a)),
                 )
                 dpg.add_menu_item(label="Load messages\u2026", callback=lambda *_: self.show_load_messages())
@@ -393,11 +387,13 @@ class ViewerApp:
             dpg.add_separator()
             dpg.add_text("LAYOUT", color=theme.DIM)
             self.snap_box = dpg.add_checkbox(
-                label="Snap to grid", default_value=self.snap, callback=lambda s, a: self.set_snap(bool(a))
+                label="Snap to grid",
+                default_value=self.doc.snap,
+                callback=lambda s, a: self.set_snap(bool(a)),
             )
             self.grid_slider = dpg.add_slider_int(
                 label="px",
-                default_value=self.grid_size,
+                default_value=self.doc.grid_size,
                 min_value=5,
                 max_value=80,
                 width=120,
@@ -407,7 +403,7 @@ class ViewerApp:
             with dpg.child_window(height=84, border=True, no_scrollbar=True) as self.trash:
                 self.trash_art = dpg.add_drawlist(TOOLBOX_W - 20, 62)
                 self._draw_trash(TOOLBOX_W - 20, 62)
-            with dpg.theme() as self._trash_hot, dpg.theme_component(dpg.mvChildWindow):
+            with dpg.theme() as self.trash_hot, dpg.theme_component(dpg.mvChildWindow):
                 dpg.add_theme_color(dpg.mvThemeCol_ChildBg, (110, 40, 40, 255), category=dpg.mvThemeCat_Core)
                 dpg.add_theme_color(
                     dpg.mvThemeCol_Border,
@@ -493,15 +489,15 @@ class ViewerApp:
 
     def _work(self) -> None:
         """Everything of a frame but rendering: input, snapshots, widget updates, dialogs, chrome."""
-        self._poll_mouse()
-        changed = self._apply_wheel()
+        self.pointer_input.poll()
+        changed = self.pointer_input.apply_wheel()
         now = time.time()
         for item in self.items:
             if item.refresh(self.source, now):
                 changed = True
             if item.edited:  # a control changed its own saved value (a toggle switched, a slider moved)
                 item.edited = False
-                self._mark_dirty()
+                self.doc.mark_dirty()
         for dialog in (self.dialog, self.file_request.dialog if self.file_request is not None else None):
             if dialog is None:
                 continue
@@ -531,7 +527,7 @@ class ViewerApp:
             id(self.selected),
             id(self.dialog),
             id(self.file_request),
-            self._drag is not None,
+            self.pointer_input.drag is not None,
             self.dirty,
             self.path,
             self._window_size,
@@ -569,7 +565,7 @@ class ViewerApp:
             dpg.is_mouse_button_down(b)
             for b in (dpg.mvMouseButton_Left, dpg.mvMouseButton_Right, dpg.mvMouseButton_Middle)
         )
-        return moved or held or self._drag is not None
+        return moved or held or self.pointer_input.drag is not None
 
     def screenshot(self, path: str | os.PathLike[str], *, timeout: float = 10.0) -> Path:
         """Write a PNG of the window to `path` and return it.
@@ -628,123 +624,21 @@ class ViewerApp:
         (x, y), (w, h) = dpg.get_item_rect_min(self.trash_art), dpg.get_item_rect_size(self.trash_art)
         return Rect(float(x), float(y), float(w), float(h))
 
-    def _over_canvas(self, pos: tuple[float, float]) -> bool:
-        # The visible part of the canvas: its origin moves up and left as it scrolls.
-        ox, oy = self.canvas_origin()
-        sx, sy = dpg.get_x_scroll(self.canvas), dpg.get_y_scroll(self.canvas)
-        w, h = self.canvas_size()
-        if not Rect(ox + sx, oy + sy, w, h).contains(*pos):
-            return False
-        if self.pointer_override is not None:
-            return True
-        return bool(
-            dpg.is_item_hovered(self.canvas) or any(dpg.is_item_hovered(i.window) for i in self.items)
-        )
-
-    def _poll_mouse(self) -> None:
-        left = bool(dpg.is_mouse_button_down(dpg.mvMouseButton_Left))
-        right = bool(dpg.is_mouse_button_down(dpg.mvMouseButton_Right))
-        if self.pointer_override is None:
-            pos = self.pointer()
-            if left and not self._left_down:
-                self._on_left_press(pos)
-            elif left and self._drag is not None:
-                self.drag_to(pos)
-            elif not left and self._left_down and self._drag is not None:
-                self.release(pos)
-            if right and not self._right_down and self.dialog is None and self._over_canvas(pos):
-                self.context_menu(pos)
-        self._left_down, self._right_down = left, right
-        self._menu_shown = bool(dpg.is_item_shown(self.menu))
-
-    def _on_left_press(self, pos: tuple[float, float]) -> None:
-        if self._menu_shown or dpg.is_item_shown(self.menu):
-            return  # a click in the context menu, or one that closes it, is not a click on the canvas
-        if self.dialog is not None or not self._over_canvas(pos):
-            return
-        self.press(pos)
-
     def press(self, pos: tuple[float, float]) -> CanvasItem | None:
         """Press the left button at `pos` (window pixels): select, and start a move or resize on a handle."""
-        cx, cy = self.to_canvas(pos)
-        hit = hit_test([i.rect for i in self.items], cx, cy, title_h=TITLE_H, corner=GRIP + 4)
-        if hit is None:
-            self.select(None)
-            return None
-        item = self.items[hit[0]]
-        self.select(item)
-        self.bring_to_front(item)
-        if hit[1] in (Part.TITLE, Part.CORNER):
-            self._drag = _Drag(item, hit[1], (cx, cy), item.rect, item.rect)
-        return item
+        return self.pointer_input.press(pos)
 
     def drag_to(self, pos: tuple[float, float]) -> None:
         """Move the pointer with the button held: the widget follows, the outline shows where it will land."""
-        drag = self._drag
-        if drag is None:
-            return
-        cx, cy = self.to_canvas(pos)
-        dx, dy = cx - drag.start[0], cy - drag.start[1]
-        mw, mh = drag.item.min_size
-        if drag.part is Part.TITLE:
-            rect = drag.rect.moved(dx, dy)
-            drag.item.place(rect, rebuild=False)
-        else:
-            rect = drag.rect.resized(dx, dy, mw, mh)
-            dpg.configure_item(drag.item.window, width=int(rect.w), height=int(rect.h))
-        drag.target = snap_rect(rect, self.grid_size, min_w=mw, min_h=mh) if self.snap else rect
-        over_trash = drag.part is Part.TITLE and self.trash_rect().contains(*pos)
-        dpg.bind_item_theme(self.trash, self._trash_hot if over_trash else 0)
-        dpg.delete_item(self.overlay, children_only=True)
-        if not over_trash:
-            ox, oy = self.canvas_origin()
-            t = drag.target
-            dpg.draw_rectangle(
-                (ox + t.x, oy + t.y),
-                (ox + t.x + t.w, oy + t.y + t.h),
-                color=theme.ACCENT,
-                fill=(86, 166, 240, 28),
-                thickness=2,
-                rounding=6,
-                parent=self.overlay,
-            )
+        self.pointer_input.drag_to(pos)
 
     def release(self, pos: tuple[float, float]) -> None:
         """Let go: the widget lands on the outline, or is deleted over the delete zone."""
-        drag = self._drag
-        if drag is None:
-            return
-        self.drag_to(pos)
-        self._drag = None
-        dpg.delete_item(self.overlay, children_only=True)
-        dpg.bind_item_theme(self.trash, 0)
-        if drag.part is Part.TITLE and self.trash_rect().contains(*pos):
-            self.delete_item(drag.item)
-            return
-        if drag.target != drag.rect:
-            drag.item.place(drag.target, rebuild=True)
-            self._mark_dirty()
-        else:
-            drag.item.place(drag.rect, rebuild=drag.part is Part.CORNER)
+        self.pointer_input.release(pos)
 
     def context_menu(self, pos: tuple[float, float]) -> CanvasItem | None:
         """Open the widget's context menu at `pos` (right click)."""
-        cx, cy = self.to_canvas(pos)
-        hit = hit_test([i.rect for i in self.items], cx, cy, title_h=TITLE_H, corner=0)
-        if hit is None:
-            return None
-        item = self.items[hit[0]]
-        self.select(item)
-        self._menu_item = item
-        for type_name, entry in self.type_entries.items():
-            dpg.set_value(entry, type_name == item.config.type)
-        dpg.configure_item(self.menu, pos=(int(pos[0]), int(pos[1])), show=True)
-        return item
-
-    def _menu(self, action: Any) -> None:
-        dpg.hide_item(self.menu)
-        if self._menu_item is not None and self._menu_item in self.items:
-            action(self._menu_item)
+        return self.pointer_input.context_menu(pos)
 
     def on_delete_key(self) -> None:
         """Delete key: remove the selected widget (not while a dialog is open)."""
@@ -761,7 +655,7 @@ class ViewerApp:
         if not self.held(dpg.mvKey_ModCtrl) or self.dialog is not None or self.file_request is not None:
             return
         if self.held(dpg.mvKey_ModShift):
-            self._file_dialog(save=True)
+            self.files.ask(save=True)
         else:
             self.save()
 
@@ -775,47 +669,9 @@ class ViewerApp:
         if dpg.is_item_shown(self.menu):
             dpg.hide_item(self.menu)
         elif self.file_request is not None:
-            self.file_cancelled()
+            self.files.cancelled()
         elif self.dialog is not None:
             self.dialog.close()
-
-    def on_wheel(self, delta: float) -> None:
-        """Mouse wheel handler: keep the turn; the next frame scrolls the canvas with it (`_apply_wheel`)."""
-        with self._wheel_lock:
-            self._wheel += float(delta)
-
-    def _apply_wheel(self) -> bool:
-        """Scroll the canvas by the wheel turns since the last frame when the pointer is over its background.
-
-        Over a plot's body the wheel is the plot's (its zoom); in a dialog or menu it is theirs. Shift turns
-        it sideways. Returns True when the canvas scrolled.
-        """
-        with self._wheel_lock:
-            turns, self._wheel = self._wheel, 0.0
-        if not turns or self.file_request is not None or dpg.is_item_shown(self.menu):
-            return False
-        pos = self.pointer()
-        if not self._over_canvas(pos):
-            return False
-        cx, cy = self.to_canvas(pos)
-        hit = hit_test([i.rect for i in self.items], cx, cy, title_h=TITLE_H, corner=0)
-        if hit is not None and hit[1] is Part.BODY and self.items[hit[0]].config.type == "plot":
-            return False
-        axis = 0 if self.held(dpg.mvKey_ModShift) else 1
-        get, top, put = (
-            (dpg.get_x_scroll, dpg.get_x_scroll_max, dpg.set_x_scroll),
-            (dpg.get_y_scroll, dpg.get_y_scroll_max, dpg.set_y_scroll),
-        )[axis]
-        # Dear ImGui applies a scroll a frame after it is set, and reports it a frame later still: go on
-        # from the offset set last, not from the one reported, until it shows.
-        pending = self._scroll_set.get(axis)
-        now = float(get(self.canvas))
-        if pending is not None and self.rendered - pending[0] <= 2:
-            now = pending[1]
-        target = scroll_target(now, turns, top(self.canvas), WHEEL_STEP)
-        put(self.canvas, target)
-        self._scroll_set[axis] = (self.rendered, target)
-        return target != now
 
     def view_rect(self) -> Rect:
         """The part of the canvas in view, in canvas pixels (scrolling moves it)."""
@@ -847,24 +703,18 @@ class ViewerApp:
             return None
         w, h = cls.default_size[0], cls.default_size[1] + TITLE_H
         rect = Rect(max(0.0, x - 20), max(0.0, y - TITLE_H / 2), float(w), float(h))
-        if self.snap:
-            rect = snap_rect(rect, self.grid_size, min_w=cls.min_size[0], min_h=cls.min_size[1] + TITLE_H)
+        doc = self.doc
+        if doc.snap:
+            rect = snap_rect(rect, doc.grid_size, min_w=cls.min_size[0], min_h=cls.min_size[1] + TITLE_H)
         # Never on top of another widget, nor off the visible canvas: the nearest free grid spot.
         rect = free_spot(
-            rect, [i.rect for i in self.items], self.view_rect(), self.grid_size if self.snap else 0
+            rect, [i.rect for i in doc.items], self.view_rect(), doc.grid_size if doc.snap else 0
         )
-        taken = {i.name for i in self.items}
-        if name is None:
-            n = 1
-            name = cls.label
-            while name in taken:
-                n += 1
-                name = f"{cls.label} {n}"
+        name = doc.unique_name(cls.label) if name is None else name
         config = WidgetConfig(type_name, name, rect.x, rect.y, rect.w, rect.h, (), cls.default_properties())
-        item = CanvasItem(config, cls, self.canvas, self._frame_theme, publisher=self.publisher)
-        self.items.append(item)
+        item = doc.add(CanvasItem(config, cls, self.canvas, self.frame_theme, publisher=self.publisher))
         self.select(item)
-        self._mark_dirty()
+        doc.mark_dirty()
         return item
 
     # -- widget operations --------------------------------------------------------------------------
@@ -872,138 +722,96 @@ class ViewerApp:
     def select(self, item: CanvasItem | None) -> None:
         """Highlight `item` (or nothing)."""
         if self.selected is not None and self.selected in self.items:
-            dpg.bind_item_theme(self.selected.window, self._frame_theme)
-        self.selected = item
+            dpg.bind_item_theme(self.selected.window, self.frame_theme)
+        self.doc.selected = item
         if item is not None:
             dpg.bind_item_theme(item.window, self._selected_theme)
 
     def bring_to_front(self, item: CanvasItem) -> None:
         """Draw `item` above the others."""
-        if self.items and self.items[-1] is not item:
-            self.items.remove(item)
-            self.items.append(item)
+        if self.doc.to_front(item):
             dpg.move_item(item.window, parent=self.canvas)
 
     def delete_item(self, item: CanvasItem) -> None:
         """Remove a widget and release its series."""
-        if item not in self.items:
+        if not self.doc.remove(item):
             return
-        for b in item.series:
-            self._unbind(b)
-        self.items.remove(item)
-        if self.selected is item:
-            self.selected = None
-        if self.dialog is not None and getattr(self.dialog, "item", None) is item:
-            self.dialog.close()
+        self._close_dialog_of(item)
         item.destroy()
-        self._mark_dirty()
         self.set_status(f"deleted {item.name!r}")
 
     def add_config(self, config: WidgetConfig) -> CanvasItem:
         """Place a ready-made widget (bindings and properties set) on the canvas and bind its series."""
-        item = CanvasItem(
-            config, self.registry.get(config.type), self.canvas, self._frame_theme, publisher=self.publisher
-        )
-        self.items.append(item)
-        for b in item.series:
-            self._bind(b)
-        return item
+        cls = self.registry.get(config.type)
+        return self.doc.add(CanvasItem(config, cls, self.canvas, self.frame_theme, publisher=self.publisher))
 
     def change_type(self, item: CanvasItem, type_name: str) -> CanvasItem | None:
         """Swap `item` for a widget of another kind with the same name, place and bindings."""
         from dbglog.viewer._document._autodash import retype
 
         cls = self.registry.get(type_name)
-        if cls is None or not isinstance(item.config, WidgetConfig) or item not in self.items:
+        config = item.config.editable
+        if cls is None or config is None or item not in self.items:
             return None
-        if type_name == item.config.type:
+        if type_name == config.type:
             return item
-        config = retype(item.config, cls, min_frame=(cls.min_size[0], cls.min_size[1] + TITLE_H))
-        new = CanvasItem(config, cls, self.canvas, self._frame_theme, publisher=self.publisher)
-        self.items[self.items.index(item)] = new
-        if self._auto_names.get(item) == item.name:
-            self._auto_names[new] = new.name
-        for b in new.series:
-            self._bind(b)
-        for b in item.series:
-            self._unbind(b)
-        if self.dialog is not None and getattr(self.dialog, "item", None) is item:
-            self.dialog.close()
+        config = retype(config, cls, min_frame=(cls.min_size[0], cls.min_size[1] + TITLE_H))
+        new = CanvasItem(config, cls, self.canvas, self.frame_theme, publisher=self.publisher)
+        self.doc.replace(item, new)
+        self._close_dialog_of(item)
         item.destroy()
         self.select(new)
-        self._mark_dirty()
         self.set_status(f"{new.name!r} is now a {cls.label}")
         return new
 
     def rename(self, item: CanvasItem, name: str) -> None:
         """Give a widget a new title."""
-        item.rename(name)
-        self._mark_dirty()
+        self.doc.rename(item, name)
 
     def apply_bindings(self, item: CanvasItem, bindings: tuple[Binding, ...]) -> None:
-        """Point a widget at new series (binding the new ones before releasing the old).
-
-        A widget still called by its type ("Dial 2") or by the name its last topic gave it is named
-        after its new topic; a name the user gave it stays.
-        """
-        auto = self._auto_named(item)
-        old = item.series
-        item.set_bindings(bindings)
-        for b in item.series:  # a control's bindings are where it publishes: no series for them
-            self._bind(b)
-        for b in old:
-            self._unbind(b)
-        if auto:
-            name = topic_widget_name(bindings, {i.name for i in self.items if i is not item})
-            if name is not None and name != item.name:
-                item.rename(name)
-                self._auto_names[item] = name
-        self._mark_dirty()
-
-    def _auto_named(self, item: CanvasItem) -> bool:
-        if self._auto_names.get(item) == item.name:
-            return True
-        label = item.widget_cls.label if item.widget_cls is not None else None
-        return label is not None and re.fullmatch(re.escape(label) + r"( \d+)?", item.name) is not None
+        """Point a widget at new series (see `CanvasDoc.set_bindings`: a topic may rename it)."""
+        self.doc.set_bindings(item, bindings)
 
     def set_snap(self, on: bool) -> None:
         """Switch snap-to-grid on or off."""
-        self.snap = on
-        dpg.set_value(self.snap_box, on)
-        dpg.set_value(self.snap_menu, on)
-        self._mark_dirty()
+        self.doc.set_snap(on)
+        self.show_grid_settings()
 
     def set_grid_size(self, size: int) -> None:
         """Change the grid spacing in pixels (5-400)."""
-        self.grid_size = max(2, min(400, int(size)))
-        dpg.set_value(self.grid_slider, min(80, self.grid_size))
-        self._mark_dirty()
+        self.doc.set_grid_size(size)
+        self.show_grid_settings()
+
+    def show_grid_settings(self) -> None:
+        """Show the document's grid settings in the toolbox and the View menu."""
+        dpg.set_value(self.snap_box, self.doc.snap)
+        dpg.set_value(self.snap_menu, self.doc.snap)
+        dpg.set_value(self.grid_slider, min(80, self.doc.grid_size))
 
     def _bind(self, binding: Binding) -> None:
-        if self._refs[binding] == 0:
-            self.source.bind(binding)
-        self._refs[binding] += 1
+        self.doc.bind(binding)
 
     def _unbind(self, binding: Binding) -> None:
-        if self._refs[binding] <= 0:
-            return
-        self._refs[binding] -= 1
-        if self._refs[binding] == 0:
-            del self._refs[binding]
-            self.source.unbind(binding)
+        self.doc.unbind(binding)
 
     # -- dialogs ------------------------------------------------------------------------------------
 
-    def _close_dialog(self) -> None:
+    def close_dialog(self) -> None:
         """Cancel the open dialog, if any (as its Cancel button would)."""
         if self.dialog is not None:
             self.dialog.close()
 
-    def _open(self, dialog: Dialog) -> Dialog:
+    def _close_dialog_of(self, item: CanvasItem) -> None:
+        if self.dialog is not None and getattr(self.dialog, "item", None) is item:
+            self.dialog.close()
+
+    def open_dialog(self, dialog: Dialog) -> Dialog:
+        """Make `dialog` the open one (one modal at a time)."""
         self.dialog = dialog
         return dialog
 
-    def _closed(self, dialog: Dialog) -> None:
+    def dialog_closed(self, dialog: Dialog) -> None:
+        """A dialog's close callback: it is no longer the open one."""
         if self.dialog is dialog:
             self.dialog = None
 
@@ -1011,36 +819,36 @@ class ViewerApp:
         """Open the topic setup for `item` (placeholders have none)."""
         if item.widget_cls is None:
             return None
-        self._close_dialog()
-        dialog = TopicDialog(item, self.source, self._closed, self.apply_bindings, self._bind, self._unbind)
-        self._open(dialog)
+        self.close_dialog()
+        dialog = TopicDialog(item, TopicSetup(self.doc, item), self.dialog_closed)
+        self.open_dialog(dialog)
         return dialog
 
     def open_properties_dialog(self, item: CanvasItem) -> PropertiesDialog | None:
         """Open the properties dialog for `item`."""
         if item.widget_cls is None:
             return None
-        self._close_dialog()
+        self.close_dialog()
         dialog = PropertiesDialog(item, self._closed_dirty)
-        self._open(dialog)
+        self.open_dialog(dialog)
         return dialog
 
     def open_rename_dialog(self, item: CanvasItem) -> RenameDialog:
         """Open the rename dialog for `item`."""
-        self._close_dialog()
+        self.close_dialog()
         dialog = RenameDialog(item, self._closed_dirty)
-        self._open(dialog)
+        self.open_dialog(dialog)
         return dialog
 
     def _closed_dirty(self, dialog: Dialog) -> None:
-        self._closed(dialog)
-        self._mark_dirty()
+        self.dialog_closed(dialog)
+        self.doc.mark_dirty()
 
     def show_message(self, title: str, message: str) -> MessageDialog:
         """Show a message in a modal dialog."""
-        self._close_dialog()
-        dialog = MessageDialog(title, message, self._closed)
-        self._open(dialog)
+        self.close_dialog()
+        dialog = MessageDialog(title, message, self.dialog_closed)
+        self.open_dialog(dialog)
         return dialog
 
     def show_load_messages(self) -> None:
@@ -1048,66 +856,37 @@ class ViewerApp:
         text = "\n".join(self.load_messages) or "The dashboard loaded without problems."
         self.show_message("Load messages", text)
 
-    def _file_dialog(self, *, save: bool, then: Callable[[], object] | None = None) -> None:
-        """Open the file dialog; after a successful Save As, call `then` (cancelling calls nothing)."""
-        self._close_file_dialog()
-        if save:
-            dialog = SaveAsDialog(
-                self.path.parent if self.path else Path.cwd(),
-                self.path.name if self.path else "dashboard.json",
-                lambda p: self.file_chosen(str(p)),
-                self._save_as_closed,
-            )
-            self.file_request = _FileRequest(dialog.window, save, then, dialog)
-            return
-        with dpg.file_dialog(
-            label="Open dashboard",
-            width=700,
-            height=450,
-            modal=True,
-            callback=lambda _, a, *__: self.file_chosen(
-                a.get("file_path_name") if isinstance(a, dict) else None
-            ),
-            cancel_callback=lambda *_: self.file_cancelled(),
-            default_path=str(self.path.parent if self.path else Path.cwd()),
-        ) as item:
-            dpg.add_file_extension(".json", color=(86, 166, 240, 255))
-            dpg.add_file_extension(".*")
-        self.file_request = _FileRequest(item, save, then)
-
-    def file_chosen(self, path: str | None) -> None:
-        """The file dialog's OK: open or save `path` (then go on as asked, e.g. quit after saving)."""
-        request = self.file_request
-        self._close_file_dialog()
-        if request is None or not path:
-            return
-        if not request.save:
-            self.open_path(path)
-        elif self.save(path) and request.then is not None:
-            request.then()
+    # -- files and quitting (`FileCommands`) --------------------------------------------------------
 
     def file_cancelled(self) -> None:
         """The file dialog's Cancel: nothing happens (after the quit prompt's Save, the viewer stays open)."""
-        request = self.file_request
-        self._close_file_dialog()
-        if request is not None and request.then is not None:
-            self.set_status("not saved: the viewer stays open")
+        self.files.cancelled()
 
-    def _save_as_closed(self, dialog: Dialog) -> None:
-        # Closed by its Cancel or close button, or Escape (choosing a file forgets the request first).
-        if self.file_request is not None and self.file_request.dialog is dialog:
-            self.file_cancelled()
+    def dashboard(self) -> Dashboard:
+        """The current dashboard as it would be saved."""
+        return self.doc.dashboard()
 
-    def _close_file_dialog(self) -> None:
-        request, self.file_request = self.file_request, None
-        if request is None:
-            return
-        if request.dialog is not None:
-            request.dialog.close()
-        elif dpg.does_item_exist(request.item):
-            dpg.delete_item(request.item)
+    def load(self, result: LoadResult, path: Path | None = None) -> None:
+        """Replace the canvas with a loaded dashboard."""
+        self.files.load(result, path)
 
-    # -- quitting -----------------------------------------------------------------------------------
+    def open_path(self, path: str | os.PathLike[str]) -> bool:
+        """Open a dashboard file; on failure show why and keep the current dashboard."""
+        return self.files.open_path(path)
+
+    def save(self, path: str | os.PathLike[str] | None = None) -> bool:
+        """Save to `path` (or the current file; with neither, ask for one)."""
+        return self.files.save(path)
+
+    def new_dashboard(self, path: Path | None = None) -> None:
+        """Start an empty dashboard (that Save writes to `path`, when given)."""
+        self.files.new(path)
+
+    def clear(self) -> None:
+        """Remove every widget."""
+        self.close_dialog()
+        for item in self.doc.clear():
+            item.destroy()
 
     @property
     def quitting(self) -> bool:
@@ -1119,22 +898,7 @@ class ViewerApp:
 
         With nothing unsaved the window closes at once; otherwise the quit prompt opens and is returned.
         """
-        if not self._started or self._quitting:
-            return None
-        if not self.dirty:
-            self.quit()
-            return None
-        if isinstance(self.dialog, QuitDialog):
-            return self.dialog
-        self._close_dialog()  # one modal at a time: an open dialog is cancelled as by its Cancel
-        self._close_file_dialog()
-        if dpg.does_item_exist(self.menu):
-            dpg.hide_item(self.menu)
-        dialog = QuitDialog(
-            self.path.name if self.path else None, self._save_and_quit, self.quit, self._closed
-        )
-        self._open(dialog)
-        return dialog
+        return self.files.request_quit()
 
     def quit(self) -> None:
         """Close the window now, whatever is unsaved: the render loop (`run`) ends."""
@@ -1143,99 +907,10 @@ class ViewerApp:
         self._quitting = True
         dpg.stop_dearpygui()
 
-    def _save_and_quit(self) -> None:
-        if self.path is None:
-            self._file_dialog(save=True, then=self.quit)  # Save As; cancelling it keeps the viewer open
-        elif self.save():
-            self.quit()
-
     def _on_close_request(self) -> None:
         # Dear PyGui's exit callback: the window's close button (the viewport was made with disable_close).
         if self._started and not self._quitting:
             self.request_quit()
-
-    # -- files --------------------------------------------------------------------------------------
-
-    def dashboard(self) -> Dashboard:
-        """The current dashboard as it would be saved."""
-        return Dashboard([i.config for i in self.items], self.grid_size, self.snap)
-
-    def load(self, result: LoadResult, path: Path | None = None) -> None:
-        """Replace the canvas with a loaded dashboard."""
-        self.clear()
-        self.grid_size, self.snap = result.dashboard.grid_size, result.dashboard.snap
-        dpg.set_value(self.snap_box, self.snap)
-        dpg.set_value(self.snap_menu, self.snap)
-        dpg.set_value(self.grid_slider, min(80, self.grid_size))
-        for config in result.dashboard.widgets:
-            cls = self.registry.get(config.type) if isinstance(config, WidgetConfig) else None
-            if isinstance(config, RawWidget) and not result.legacy and config.type != "?":
-                # The placeholder says what is missing: a plugin that failed to load, or none installed.
-                config = RawWidget(config.data, self.registry.missing_reason(config.type))
-            item = CanvasItem(config, cls, self.canvas, self._frame_theme, publisher=self.publisher)
-            self.items.append(item)
-            for b in item.series:
-                self._bind(b)
-        # Widgets were left out (too many, too deep, unsafe text): saving over the file would lose them,
-        # so it opens untitled and Save asks for a name (docs/viewer.md, Dashboard files).
-        self.path = path if result.complete else None
-        self.dirty = False
-        self.load_messages = list(result.messages)
-        kind = "legacy ROSDashboard file" if result.legacy else "dashboard"
-        note = f"; {len(result.messages)} problem(s): View \u203a Load messages" if result.messages else ""
-        if not result.complete:
-            note += f"; {result.left_out} widget(s) left out, so it is untitled: Save asks for a name"
-        self.set_status(f"opened {kind} {path.name if path else ''}{note}")
-        self._update_title()
-
-    def open_path(self, path: str | os.PathLike[str]) -> bool:
-        """Open a dashboard file; on failure show why and keep the current dashboard."""
-        p = Path(path)
-        try:
-            result = load_dashboard(p, self.registry.get)
-        except DashboardError as exc:
-            self.show_message("Cannot open dashboard", str(exc))
-            self.set_status(f"open failed: {exc}")
-            return False
-        self.load(result, p)
-        return True
-
-    def save(self, path: str | os.PathLike[str] | None = None) -> bool:
-        """Save to `path` (or the current file; with neither, ask for one)."""
-        if path is None and self.path is None:
-            self._file_dialog(save=True)
-            return False
-        target = Path(path) if path is not None else self.path
-        assert target is not None
-        try:
-            save_dashboard(self.dashboard(), target)
-        except DashboardError as exc:
-            self.show_message("Cannot save dashboard", str(exc))
-            self.set_status(f"save failed: {exc}")
-            return False
-        self.path = target
-        self.dirty = False
-        self.set_status(f"saved {target}")
-        self._update_title()
-        return True
-
-    def clear(self) -> None:
-        """Remove every widget."""
-        self._close_dialog()
-        for item in list(self.items):
-            for b in item.series:
-                self._unbind(b)
-            item.destroy()
-        self.items.clear()
-        self.selected = None
-
-    def new_dashboard(self, path: Path | None = None) -> None:
-        """Start an empty dashboard (that Save writes to `path`, when given)."""
-        self.clear()
-        self.path = path
-        self.dirty = False
-        self.load_messages = []
-        self._update_title()
 
     # -- chrome -------------------------------------------------------------------------------------
 
@@ -1245,14 +920,9 @@ class ViewerApp:
         if self._started:
             dpg.set_value(self.status_msg, text)
 
-    def _mark_dirty(self) -> None:
-        if not self.dirty:  # a dragged slider marks it every frame: set the title once
-            self.dirty = True
-            self._update_title()
-
     def _update_title(self) -> None:
-        name = self.path.name if self.path else "untitled"
-        dpg.set_viewport_title(f"{self.title} \u2014 {name}{' *' if self.dirty else ''}")
+        if self._started:
+            dpg.set_viewport_title(self.doc.title(self.title))
 
     def _update_status(self) -> bool:
         """Refresh the status bar's left part (content at once, fps twice a second); True if it changed."""
@@ -1266,13 +936,7 @@ class ViewerApp:
                 self._fps_text = "idle"
             else:
                 self._fps_text = f"{min(recent, 999)} fps"
-        name = str(self.path) if self.path else "untitled"
-        count = len(self.items)
-        parts = [
-            f"{name}{' (modified)' if self.dirty else ''}",
-            f"{count} widget{'' if count == 1 else 's'}",
-            f"grid {self.grid_size}px {'on' if self.snap else 'off'}",
-        ]
+        parts = self.doc.summary()
         if self._fps_text:
             parts.append(self._fps_text)
         text = "  " + "   \u00b7   ".join(parts) + "   "
@@ -1309,21 +973,22 @@ class ViewerApp:
         if view_w <= 0:
             return False
         # Widgets are opaque: the grid is drawn only where none hides it (the one being dragged aside).
-        moving = self._drag.item if self._drag is not None else None
+        drag = self.pointer_input.drag
+        moving = drag.item if drag is not None else None
         covers = tuple(i.rect for i in self.items if i is not moving)
         extent = canvas_extent(view_w, view_h, [i.rect for i in self.items], theme.SCROLLBAR)
         w, h = int(extent[0]), int(extent[1])
-        key = (w, h, view_w, view_h, self.grid_size, self.snap, bool(self.items), covers)
+        key = (w, h, view_w, view_h, self.doc.grid_size, self.doc.snap, bool(self.items), covers)
         if key == self._grid_key:
             return False
         self._grid_key = key
         layer = self.grid_layer
         dpg.delete_item(layer, children_only=True)
         dpg.configure_item(layer, width=max(1, w), height=max(1, h))
-        step = self.grid_size
+        step = self.doc.grid_size
         while w / step > 160 or h / step > 160:
             step *= 2
-        color = theme.GRID if self.snap else (31, 34, 41, 255)
+        color = theme.GRID if self.doc.snap else (31, 34, 41, 255)
         for x in range(0, w, step):
             spans = [(r.y, r.y + r.h) for r in covers if r.x <= x - 1 and x + 1 <= r.x + r.w]
             for a, b in uncovered(0, h, spans):

@@ -125,14 +125,14 @@ class AutoDashboard:
             probe, deadline = self._probes.get(info.name, (Binding(info.name, "data"), now + ARRAY_WAIT_S))
             if info.name not in self._probes:
                 self._probes[info.name] = (probe, deadline)
-                self.app._bind(probe)
+                self.app.doc.bind(probe)
             last = source.snapshot(probe).last
             if isinstance(last, tuple):
                 length = len(last)
             elif now < deadline:
                 return
             self._probes.pop(info.name)
-            self.app._unbind(probe)
+            self.app.doc.unbind(probe)
         elif info.tag is None and not source.fields(info.name):
             return  # the type is not known yet: try again next time
         suggestions = suggest(info, array_length=lambda _t: length, fields=source.fields)
@@ -163,7 +163,7 @@ class AutoDashboard:
 
     def _drop_probes(self) -> None:
         for probe, _deadline in self._probes.values():
-            self.app._unbind(probe)
+            self.app.doc.unbind(probe)
         self._probes.clear()
 
 

@@ -3,20 +3,22 @@
 from __future__ import annotations
 
 import os
-from collections.abc import Callable, Collection, Sequence
+from collections.abc import Callable
 from pathlib import Path
+from typing import Protocol
 
 import dearpygui.dearpygui as dpg
 
 from dbglog._regex._compile import RegexError, compile_regex
-from dbglog._ros._tags import TAG_PREFIX
 from dbglog.viewer._data._model import (
     Binding,
-    DataSource,
     FieldInfo,
+    SeriesSnapshot,
     Status,
+    TopicInfo,
     ValueKind,
 )
+from dbglog.viewer._document._canvas_doc import topic_widget_name
 from dbglog.viewer._document._dashboard import WidgetConfig, check_stale_after
 from dbglog.viewer._ui._frame import CanvasItem
 from dbglog.viewer._ui._theme import DIM, STATUS_COLORS
@@ -38,6 +40,7 @@ __all__ = [
     "RenameDialog",
     "SaveAsDialog",
     "TopicDialog",
+    "TopicHost",
     "dashboard_file_name",
     "formula_check",
     "regex_preview",
@@ -187,36 +190,6 @@ class RenameDialog(Dialog):
         self.item.rename(text[:200])
         self.close()
         return True
-
-
-def _tag_parts(topic: str) -> list[str]:
-    tag = topic[len(TAG_PREFIX) :] if topic.startswith(TAG_PREFIX) else topic
-    return [p for p in tag.split("/") if p]
-
-
-def topic_widget_name(bindings: Sequence[Binding], taken: Collection[str] = ()) -> str | None:
-    """Return a title for a widget showing `bindings`, or None when none has a topic.
-
-    The last component of the tag (``/rosdashboard/motor/speed`` -> ``speed``), with the field unless it
-    is ``data`` (``cmd_vel.linear.x``); several topics are listed. A name in `taken` gets the tag's
-    components before it, then a number.
-    """
-    bound = [b for b in bindings if b.topic.strip("/")]
-    if not bound:
-        return None
-    topics = list(dict.fromkeys(b.topic for b in bound))
-    field = bound[0].field.strip() if len(bound) == 1 else ""
-    suffix = f".{field}" if field and field != "data" else ""
-    parts = [_tag_parts(t) for t in topics]
-    for depth in range(1, max(len(p) for p in parts) + 1):
-        name = ", ".join("/".join(p[-depth:]) for p in parts[:3]) + ("\u2026" if len(parts) > 3 else "")
-        name = (name + suffix)[:200]
-        if name not in taken:
-            return name
-    n = 2
-    while f"{name} {n}" in taken:
-        n += 1
-    return f"{name} {n}"
 
 
 def dashboard_file_name(text: str) -> str:
@@ -457,23 +430,44 @@ def _is_unit(raw: list[float]) -> bool:
     return all(isinstance(c, float) and 0.0 <= c <= 1.0 for c in raw)
 
 
+class TopicHost(Protocol):
+    """What the Topic setup dialog reaches: the graph, a previewed series, and where its result goes."""
+
+    def topics(self) -> list[TopicInfo]:
+        """The topics of the live graph."""
+        ...
+
+    def fields(self, topic: str) -> list[FieldInfo]:
+        """The fields of `topic`'s message type."""
+        ...
+
+    def snapshot(self, binding: Binding) -> SeriesSnapshot:
+        """The series of a previewed binding."""
+        ...
+
+    def preview(self, binding: Binding) -> None:
+        """Keep `binding` bound while its latest value is shown."""
+
+    def end_preview(self, binding: Binding) -> None:
+        """Release a previewed binding."""
+
+    def apply(self, bindings: tuple[Binding, ...]) -> None:
+        """Give the widget its new bindings."""
+
+
 class TopicDialog(Dialog):
     """Pick the topic (type-ahead from the live graph), the field (from the message type) and a regex."""
 
     def __init__(
         self,
         item: CanvasItem,
-        source: DataSource,
+        setup: TopicHost,
         on_close: Callable[[Dialog], None],
-        on_apply: Callable[[CanvasItem, tuple[Binding, ...]], None],
-        bind: Callable[[Binding], None],
-        unbind: Callable[[Binding], None],
     ) -> None:
         super().__init__(f"Topic setup \u2014 {item.name}", 620, on_close)
         self.item = item
-        self.source = source
-        self._on_apply = on_apply
-        self._bind, self._unbind = bind, unbind
+        self.setup = setup
+        """The graph to choose from, the preview's series, and where the result goes."""
         cls = item.widget_cls
         self.max_bindings = cls.max_bindings if cls is not None else 1
         self.accepts = cls.accepts if cls is not None else frozenset()
@@ -595,7 +589,7 @@ class TopicDialog(Dialog):
     def suggestions(self) -> list[str]:
         """Return the topics on the graph matching what is typed (prefix matches first)."""
         typed = str(dpg.get_value(self.topic_input)).strip().lower()
-        names = list(self.source.topics())
+        names = list(self.setup.topics())
         prefix = [t for t in names if t.name.lower().startswith(typed)]
         inner = [t for t in names if typed in t.name.lower() and t not in prefix]
         return [f"{t.name}   [{', '.join(t.types)}]" for t in prefix + inner]
@@ -625,7 +619,7 @@ class TopicDialog(Dialog):
     def enter(self) -> None:
         """Enter in the topic field: take the highlighted suggestion; once a known topic is there, OK."""
         typed = str(dpg.get_value(self.topic_input)).strip()
-        known = {t.name for t in self.source.topics()}
+        known = {t.name for t in self.setup.topics()}
         choice = self.highlighted()
         if typed in known or choice is None:
             self.apply()  # a topic not on the graph yet (its node not started) is taken as typed
@@ -648,7 +642,7 @@ class TopicDialog(Dialog):
 
     def _refresh_fields(self, selected: str) -> None:
         topic = str(dpg.get_value(self.topic_input)).strip()
-        self._fields = self.source.fields(topic) if topic else []
+        self._fields = self.setup.fields(topic) if topic else []
         labels = ["(whole message)"] + [self._field_label(f) for f in self._fields]
         dpg.configure_item(self.field_combo, items=labels)
         current = next((self._field_label(f) for f in self._fields if f.path == selected), None)
@@ -812,13 +806,13 @@ class TopicDialog(Dialog):
         want = Binding(b.topic, b.field) if b.topic else None
         if want != self._preview_binding:
             if self._preview_binding is not None:
-                self._unbind(self._preview_binding)
+                self.setup.end_preview(self._preview_binding)
             if want is not None:
-                self._bind(want)
+                self.setup.preview(want)
             self._preview_binding = want
         latest: str | None = None
         if want is not None:
-            snap = self.source.snapshot(want)
+            snap = self.setup.snapshot(want)
             if snap.last is not None:
                 latest = str(snap.last)
                 dpg.set_value(self.latest, f"latest value: {latest[:200]!r}   ({snap.status.value})")
@@ -851,13 +845,13 @@ class TopicDialog(Dialog):
             Binding(b.topic if b.topic.startswith("/") else "/" + b.topic, b.field, b.regex, b.transforms)
             for b in bindings
         )
-        self._on_apply(self.item, bindings)
+        self.setup.apply(bindings)
         self.close()
         return True
 
     def close(self) -> None:
         """Drop the preview series and remove the dialog."""
         if self._preview_binding is not None:
-            self._unbind(self._preview_binding)
+            self.setup.end_preview(self._preview_binding)
             self._preview_binding = None
         super().close()

@@ -81,9 +81,6 @@ class CanvasItem:
 
     def geometry(self) -> tuple[float, float, float, float]:
         """Return x, y, width, height on the canvas."""
-        if isinstance(self.config, WidgetConfig):
-            c = self.config
-            return c.x, c.y, c.width, c.height
         return self.config.geometry()
 
     @property
@@ -99,7 +96,7 @@ class CanvasItem:
     @property
     def bindings(self) -> tuple[Binding, ...]:
         """The widget's series (none for a placeholder)."""
-        return self.config.bindings if isinstance(self.config, WidgetConfig) else ()
+        return self.config.bindings
 
     @property
     def series(self) -> tuple[Binding, ...]:
@@ -111,6 +108,11 @@ class CanvasItem:
         """What the widget is given at mount: a control's publish targets, and the app's publisher."""
         publishes = self.widget_cls is not None and self.widget_cls.publishes
         return WidgetContext(self.bindings if publishes else (), self.publisher)
+
+    @property
+    def label(self) -> str | None:
+        """The widget type's label (None for a placeholder)."""
+        return self.widget_cls.label if self.widget_cls is not None else None
 
     @property
     def min_size(self) -> tuple[int, int]:
@@ -135,9 +137,10 @@ class CanvasItem:
         with dpg.group(parent=self.window, indent=PAD) as body:
             self.body = body
         bw, bh = self.body_size(w, h)
-        if self.widget_cls is not None and isinstance(self.config, WidgetConfig):
+        config = self.config.editable
+        if self.widget_cls is not None and config is not None:
             try:
-                self.widget = self.widget_cls(dict(self.config.properties))
+                self.widget = self.widget_cls(dict(config.properties))
                 # The context is set before mount, which keeps its three-argument form: plugins written
                 # before the context existed override mount(parent, width, height) and still work.
                 self.widget.context = self.context()
@@ -206,7 +209,7 @@ class CanvasItem:
 
     def _snapshots(self, source: DataSource) -> list[SeriesSnapshot]:
         snapshots = [source.snapshot(b) for b in self.series]
-        stale_after = self.config.stale_after if isinstance(self.config, WidgetConfig) else None
+        stale_after = self.config.stale_after
         if stale_after is not None:
             snapshots = [s.with_stale_time(stale_after) for s in snapshots]
         if self.widget_cls is not None:  # a kind the widget did not declare is an error, not shown
@@ -234,13 +237,14 @@ class CanvasItem:
         except Exception as exc:
             self._fail(f"widget failed to report its status: {exc!r}")
             return False
-        if self.widget.props_changed and isinstance(self.config, WidgetConfig):
+        config = self.config.editable
+        if self.widget.props_changed and config is not None:
             # The widget changed a property itself (a control's value): keep it for saving, and say so
             # when the value really differs (a slider let go where it was changes nothing).
             self.widget.props_changed = False
             props = dict(self.widget.props)
-            if props != dict(self.config.properties):
-                self.config = replace(self.config, properties=props)
+            if props != dict(config.properties):
+                self.config = replace(config, properties=props)
                 self.edited = True
         key = (*((s.count, s.status, s.reason) for s in snapshots), own)
         if key == self._key:
@@ -283,13 +287,7 @@ class CanvasItem:
 
     def place(self, rect: Rect, *, rebuild: bool) -> None:
         """Move/resize the frame; with `rebuild`, fit the widget body to the new size."""
-        if isinstance(self.config, WidgetConfig):
-            self.config = replace(self.config, x=rect.x, y=rect.y, width=rect.w, height=rect.h)
-        else:
-            data = dict(self.config.data)
-            x_key, y_key = ("posX", "posY") if "posX" in data else ("x", "y")
-            data.update({x_key: rect.x, y_key: rect.y, "width": rect.w, "height": rect.h})
-            self.config = RawWidget(data, self.config.reason)
+        self.config = self.config.placed(rect.x, rect.y, rect.w, rect.h)
         w, h = int(rect.w), int(rect.h)
         dpg.configure_item(self.window, pos=(int(rect.x), int(rect.y)), width=w, height=h)
         if rebuild:
@@ -305,22 +303,21 @@ class CanvasItem:
 
     def rename(self, name: str) -> None:
         """Change the title."""
-        if isinstance(self.config, WidgetConfig):
-            self.config = replace(self.config, name=name)
-        else:
-            self.config = RawWidget({**self.config.data, "name": name}, self.config.reason)
+        self.config = self.config.renamed(name)
         self._draw_header(int(self.geometry()[2]))
 
     def set_stale_after(self, seconds: float | None) -> None:
         """Give the widget its own stale time (None: the viewer's)."""
-        if isinstance(self.config, WidgetConfig) and seconds != self.config.stale_after:
-            self.config = replace(self.config, stale_after=seconds)
+        config = self.config.editable
+        if config is not None and seconds != config.stale_after:
+            self.config = replace(config, stale_after=seconds)
             self.invalidate()
 
     def set_bindings(self, bindings: tuple[Binding, ...]) -> None:
         """Point the widget at new series."""
-        if isinstance(self.config, WidgetConfig):
-            self.config = replace(self.config, bindings=bindings)
+        config = self.config.editable
+        if config is not None:
+            self.config = replace(config, bindings=bindings)
             self.invalidate()
             self._draw_header(int(self.geometry()[2]))
             if self.widget is not None and not self.failed:
@@ -331,9 +328,10 @@ class CanvasItem:
 
     def set_properties(self, props: dict[str, PropValue]) -> None:
         """Apply validated property values and rebuild the widget."""
-        if not isinstance(self.config, WidgetConfig) or self.widget is None:
+        config = self.config.editable
+        if config is None or self.widget is None:
             return
-        self.config = replace(self.config, properties={**self.config.properties, **props})
+        self.config = replace(config, properties={**config.properties, **props})
         if self.failed:
             return  # saved with the dashboard; a disabled widget is not called again
         try:
