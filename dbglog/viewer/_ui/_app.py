@@ -25,6 +25,7 @@ from dbglog.viewer._document._canvas_doc import CanvasDoc, TopicSetup
 from dbglog.viewer._document._dashboard import Dashboard, LoadResult, WidgetConfig
 from dbglog.viewer._publishing._publish import PublishService
 from dbglog.viewer._ui import _theme as theme
+from dbglog.viewer._ui._chrome import PAYLOAD_TYPE, CanvasPaint, Toolbox
 from dbglog.viewer._ui._dialogs import (
     Dialog,
     MessageDialog,
@@ -49,18 +50,12 @@ from dbglog.viewer._ui._quit import QuitDialog
 from dbglog.viewer._widgets import WidgetRegistry
 from dbglog.viewer._widgets._geometry import (
     Rect,
-    canvas_extent,
     free_spot,
-    rects_outside,
     snap_rect,
-    uncovered,
 )
 
 __all__ = ["PAYLOAD_TYPE", "ViewerApp", "keep_freed_memory"]
 
-PAYLOAD_TYPE = "dbglog-widget"
-"""Drag payload type of the toolbox buttons; the canvas accepts only this."""
-TOOLBOX_W = 190
 SETTLE_FRAMES = 3
 """Frames rendered before a screenshot is captured, so that the last update is fully on screen."""
 STATUS_H = 34
@@ -144,9 +139,6 @@ class ViewerApp:
         """The controls' publishing service: this app's own, handed to every widget at mount."""
         self.pointer_input = PointerInput(self)
         self.files = FileCommands(self)
-        self._grid_key: tuple[int, int, int, int, int, bool, bool, tuple[Rect, ...]] | None = None
-        self._window_size = (0, 0)
-        self._backdrop_key: tuple[float, ...] | None = None
         self._started = False
         self._status_text = ""
         self._status_left = ""
@@ -246,9 +238,9 @@ class ViewerApp:
     def _build(self) -> None:
         # Fill rate is what a software renderer (Mesa llvmpipe) pays for, ~9 ms per frame for one layer over
         # the whole 1440x900 window. So this is not Dear PyGui's "primary window" (which always fills its
-        # background) but a window without one that follows the viewport's size (`_fit_window`); the viewport
-        # is cleared to the canvas colour, the canvas and the toolbox (same colour) have no fill of their own,
-        # and the window colour is painted only around them (`_draw_backdrop`).
+        # background) but a window without one that follows the viewport's size (`CanvasPaint.fit_window`);
+        # the viewport is cleared to the canvas colour, the canvas and the toolbox (same colour) have no fill
+        # of their own, and the window colour is painted only around them (`CanvasPaint.draw_backdrop`).
         with dpg.window(
             pos=(0, 0),
             width=self.width,
@@ -266,7 +258,15 @@ class ViewerApp:
             self._build_menus()
             # A child window reports no position; the group that starts with the toolbox does.
             with dpg.group(horizontal=True) as self.body_group:
-                self._build_toolbox()
+                self.tools = Toolbox(
+                    self.registry,
+                    snap=self.doc.snap,
+                    grid_size=self.doc.grid_size,
+                    height=-STATUS_H,
+                    on_snap=self.set_snap,
+                    on_grid_size=self.set_grid_size,
+                )
+                self.toolbox, self.toolbox_buttons = self.tools.window, self.tools.buttons
                 # Scrollbars appear when widgets lie beyond the view; the wheel scrolls it too, but through
                 # `_apply_wheel` (not Dear ImGui's own wheel scrolling), which leaves the wheel to plots.
                 self.canvas = dpg.add_child_window(
@@ -289,52 +289,11 @@ class ViewerApp:
         dpg.bind_item_theme(self.main, theme.main_window_theme())
         unfilled = theme.unfilled_child_theme()
         dpg.bind_item_theme(self.canvas, unfilled)
-        dpg.bind_item_theme(self.toolbox, unfilled)
-        self.backdrop = dpg.add_viewport_drawlist(front=False)
+        dpg.bind_item_theme(self.tools.window, unfilled)
+        self.paint = CanvasPaint(dpg.add_viewport_drawlist(front=False), self.grid_layer)
         self.overlay = dpg.add_viewport_drawlist(front=True)
-        # A real popup: Dear ImGui keeps its submenu part of it (a click there is a click in the menu), and
-        # closes the whole menu on a click outside it.
-        with dpg.window(
-            popup=True,
-            show=False,
-            no_title_bar=True,
-            no_move=True,
-            no_resize=True,
-            autosize=True,
-            no_saved_settings=True,
-            min_size=(170, 20),
-        ) as self.menu:
-            on_item = self.pointer_input.menu_action
-            dpg.add_menu_item(
-                label="Topic setup\u2026",
-                callback=lambda *_: on_item(self.open_topic_dialog),
-            )
-            dpg.add_menu_item(
-                label="Properties\u2026",
-                callback=lambda *_: on_item(self.open_properties_dialog),
-            )
-            dpg.add_menu_item(
-                label="Rename\u2026",
-                callback=lambda *_: on_item(self.open_rename_dialog),
-            )
-            dpg.add_menu_item(
-                label="Bring to front",
-                callback=lambda *_: on_item(self.bring_to_front),
-            )
-            with dpg.menu(label="Change widget type"):
-                self.type_entries: dict[str, int | str] = {}
-                """Widget type -> its entry in the submenu (the widget's own type is shown selected)."""
-                for cls in self.registry:
-                    self.type_entries[cls.type_name] = dpg.add_selectable(
-                        label=cls.label,
-                        callback=lambda *_, t=cls.type_name: on_item(lambda i: self.change_type(i, t)),
-                    )
-            dpg.add_separator()
-            dpg.add_menu_item(
-                label="Delete",
-                shortcut="Del",
-                callback=lambda *_: on_item(self.delete_item),
-            )
+        self.pointer_input.build_menu()
+        self.menu = self.pointer_input.menu
         with dpg.handler_registry():
             dpg.add_key_press_handler(dpg.mvKey_Delete, callback=lambda *_: self.on_delete_key())
             dpg.add_key_press_handler(dpg.mvKey_Q, callback=lambda *_: self.on_quit_key())
@@ -368,68 +327,6 @@ class ViewerApp:
                     callback=lambda s, a: self.set_snap(bool(a)),
                 )
                 dpg.add_menu_item(label="Load messages\u2026", callback=lambda *_: self.show_load_messages())
-
-    def _build_toolbox(self) -> None:
-        with dpg.child_window(
-            width=TOOLBOX_W, height=-STATUS_H, border=False, no_scrollbar=True
-        ) as self.toolbox:
-            dpg.add_text("WIDGETS", color=theme.DIM)
-            self.toolbox_buttons: dict[str, int | str] = {}
-            for cls in self.registry:
-                button = dpg.add_button(label=cls.label, width=-1, height=32)
-                with dpg.drag_payload(parent=button, payload_type=PAYLOAD_TYPE, drag_data=cls.type_name):
-                    dpg.add_text(f"+ {cls.label}")
-                with dpg.tooltip(button):
-                    dpg.add_text(cls.description or cls.label)
-                    dpg.add_text("Drag onto the canvas", color=theme.DIM)
-                self.toolbox_buttons[cls.type_name] = button
-            dpg.add_spacer(height=6)
-            dpg.add_separator()
-            dpg.add_text("LAYOUT", color=theme.DIM)
-            self.snap_box = dpg.add_checkbox(
-                label="Snap to grid",
-                default_value=self.doc.snap,
-                callback=lambda s, a: self.set_snap(bool(a)),
-            )
-            self.grid_slider = dpg.add_slider_int(
-                label="px",
-                default_value=self.doc.grid_size,
-                min_value=5,
-                max_value=80,
-                width=120,
-                callback=lambda s, a: self.set_grid_size(int(a)),
-            )
-            dpg.add_spacer(height=6)
-            with dpg.child_window(height=84, border=True, no_scrollbar=True) as self.trash:
-                self.trash_art = dpg.add_drawlist(TOOLBOX_W - 20, 62)
-                self._draw_trash(TOOLBOX_W - 20, 62)
-            with dpg.theme() as self.trash_hot, dpg.theme_component(dpg.mvChildWindow):
-                dpg.add_theme_color(dpg.mvThemeCol_ChildBg, (110, 40, 40, 255), category=dpg.mvThemeCat_Core)
-                dpg.add_theme_color(
-                    dpg.mvThemeCol_Border,
-                    theme.STATUS_COLORS[next(s for s in theme.STATUS_COLORS if s.value == "error")],
-                    category=dpg.mvThemeCat_Core,
-                )
-            if self.registry.problems:
-                dpg.add_spacer(height=6)
-                dpg.add_text(
-                    "Plugin problems",
-                    color=theme.STATUS_COLORS[next(s for s in theme.STATUS_COLORS if s.value == "error")],
-                )
-                for problem in self.registry.problems:
-                    dpg.add_text(problem, wrap=TOOLBOX_W - 16, color=theme.DIM)
-
-    def _draw_trash(self, w: int, h: int) -> None:
-        dl = self.trash_art
-        cx = 26
-        body = theme.DIM
-        dpg.draw_rectangle((cx - 9, 22), (cx + 9, 46), color=body, thickness=2, rounding=2, parent=dl)
-        dpg.draw_line((cx - 13, 18), (cx + 13, 18), color=body, thickness=2, parent=dl)
-        dpg.draw_line((cx - 4, 14), (cx + 4, 14), color=body, thickness=2, parent=dl)
-        for dx in (-4, 0, 4):
-            dpg.draw_line((cx + dx, 26), (cx + dx, 42), color=body, parent=dl)
-        dpg.draw_text((48, 14), "Delete zone", size=15, color=theme.TEXT, parent=dl)
-        dpg.draw_text((48, 34), "drop a widget here", size=13, color=body, parent=dl)
 
     # -- frame loop ---------------------------------------------------------------------------------
 
@@ -505,9 +402,7 @@ class ViewerApp:
                 dialog.tick()
             except Exception as exc:  # a dialog must never stop the render loop
                 self.set_status(f"dialog error: {exc!r}")
-        self._fit_window()
-        self._draw_backdrop()
-        changed = self._draw_grid() or changed
+        changed = self._draw_chrome() or changed
         changed = self._update_status() or changed
         if changed:
             self.pacer.request(time.monotonic())
@@ -530,7 +425,7 @@ class ViewerApp:
             self.pointer_input.drag is not None,
             self.dirty,
             self.path,
-            self._window_size,
+            self.paint.window_size,
         )
 
     def _render(self, now: float) -> None:
@@ -621,8 +516,7 @@ class ViewerApp:
 
     def trash_rect(self) -> Rect:
         """The delete zone in window pixels."""
-        (x, y), (w, h) = dpg.get_item_rect_min(self.trash_art), dpg.get_item_rect_size(self.trash_art)
-        return Rect(float(x), float(y), float(w), float(h))
+        return self.tools.trash_rect()
 
     def press(self, pos: tuple[float, float]) -> CanvasItem | None:
         """Press the left button at `pos` (window pixels): select, and start a move or resize on a handle."""
@@ -784,9 +678,8 @@ class ViewerApp:
 
     def show_grid_settings(self) -> None:
         """Show the document's grid settings in the toolbox and the View menu."""
-        dpg.set_value(self.snap_box, self.doc.snap)
+        self.tools.show_grid(self.doc.snap, self.doc.grid_size)
         dpg.set_value(self.snap_menu, self.doc.snap)
-        dpg.set_value(self.grid_slider, min(80, self.doc.grid_size))
 
     def _bind(self, binding: Binding) -> None:
         self.doc.bind(binding)
@@ -946,59 +839,14 @@ class ViewerApp:
         dpg.set_value(self.status_left, text)
         return True
 
-    def _fit_window(self) -> None:
-        size = (dpg.get_viewport_client_width(), dpg.get_viewport_client_height())
-        if size != self._window_size and size[0] > 0 and size[1] > 0:
-            self._window_size = size
-            dpg.configure_item(self.main, width=size[0], height=size[1])
-
-    def _draw_backdrop(self) -> None:
+    def _draw_chrome(self) -> bool:
+        """Fit the window to the viewport, paint around the canvas, draw the grid; True if the grid moved."""
+        self.paint.fit_window(self.main)
         ox, oy = self.canvas_origin()
         w, h = self.canvas_size()
         (tx, ty), (tw, th) = dpg.get_item_rect_min(self.body_group), dpg.get_item_rect_size(self.toolbox)
-        key: tuple[float, ...] = (*self._window_size, ox, oy, w, h, tx, ty, tw, th)
-        if key == self._backdrop_key:
-            return
-        self._backdrop_key = key
-        dpg.delete_item(self.backdrop, children_only=True)
-        outer = Rect(0, 0, float(self._window_size[0]), float(self._window_size[1]))
-        for r in rects_outside(outer, (Rect(ox, oy, w, h), Rect(tx, ty, tw, th))):
-            dpg.draw_rectangle(
-                (r.x, r.y), (r.x + r.w, r.y + r.h), color=theme.BG, fill=theme.BG, parent=self.backdrop
-            )
-
-    def _draw_grid(self) -> bool:
-        """Draw the grid over the whole scrolled area of the canvas; True if it was redrawn."""
-        view_w, view_h = self.canvas_size()
-        if view_w <= 0:
-            return False
-        # Widgets are opaque: the grid is drawn only where none hides it (the one being dragged aside).
-        drag = self.pointer_input.drag
-        moving = drag.item if drag is not None else None
-        covers = tuple(i.rect for i in self.items if i is not moving)
-        extent = canvas_extent(view_w, view_h, [i.rect for i in self.items], theme.SCROLLBAR)
-        w, h = int(extent[0]), int(extent[1])
-        key = (w, h, view_w, view_h, self.doc.grid_size, self.doc.snap, bool(self.items), covers)
-        if key == self._grid_key:
-            return False
-        self._grid_key = key
-        layer = self.grid_layer
-        dpg.delete_item(layer, children_only=True)
-        dpg.configure_item(layer, width=max(1, w), height=max(1, h))
-        step = self.doc.grid_size
-        while w / step > 160 or h / step > 160:
-            step *= 2
-        color = theme.GRID if self.doc.snap else (31, 34, 41, 255)
-        for x in range(0, w, step):
-            spans = [(r.y, r.y + r.h) for r in covers if r.x <= x - 1 and x + 1 <= r.x + r.w]
-            for a, b in uncovered(0, h, spans):
-                dpg.draw_line((x, a), (x, b), color=color, parent=layer)
-        for y in range(0, h, step):
-            spans = [(r.x, r.x + r.w) for r in covers if r.y <= y - 1 and y + 1 <= r.y + r.h]
-            for a, b in uncovered(0, w, spans):
-                dpg.draw_line((a, y), (b, y), color=color, parent=layer)
-        if not self.items:
-            msg = "Drag a widget from the toolbox onto the canvas"
-            at = (view_w / 2 - len(msg) * 4.6, view_h / 2 - 10)
-            dpg.draw_text(at, msg, size=17, color=theme.DIM, parent=layer)
-        return True
+        self.paint.draw_backdrop(Rect(ox, oy, w, h), Rect(tx, ty, tw, th))
+        drag = self.pointer_input.drag  # widgets are opaque: no grid under them (the dragged one aside)
+        covers = tuple(i.rect for i in self.items if drag is None or i is not drag.item)
+        rects = [i.rect for i in self.items]
+        return self.paint.draw_grid((w, h), rects, covers, self.doc.grid_size, self.doc.snap)

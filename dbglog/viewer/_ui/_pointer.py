@@ -54,6 +54,56 @@ class PointerInput:
         """Mouse wheel turns not yet applied (the wheel handler adds them, the next frame scrolls)."""
         self._scroll_set: dict[int, tuple[int, float]] = {}
         """Axis (0 x, 1 y) -> (frames rendered when the wheel set it, the offset set)."""
+        self.menu: int | str = 0
+        """The widgets' context menu (`build_menu`)."""
+        self.type_entries: dict[str, int | str] = {}
+        """Widget type -> its entry in the context menu (the widget's own type is shown selected)."""
+
+    def build_menu(self) -> None:
+        """Create the widgets' context menu (hidden until a right click)."""
+        app = self.app
+        # A real popup: Dear ImGui keeps its submenu part of it (a click there is a click in the menu), and
+        # closes the whole menu on a click outside it.
+        with dpg.window(
+            popup=True,
+            show=False,
+            no_title_bar=True,
+            no_move=True,
+            no_resize=True,
+            autosize=True,
+            no_saved_settings=True,
+            min_size=(170, 20),
+        ) as menu:
+            self.menu = menu
+            on_item = self.menu_action
+            dpg.add_menu_item(
+                label="Topic setup\u2026",
+                callback=lambda *_: on_item(app.open_topic_dialog),
+            )
+            dpg.add_menu_item(
+                label="Properties\u2026",
+                callback=lambda *_: on_item(app.open_properties_dialog),
+            )
+            dpg.add_menu_item(
+                label="Rename\u2026",
+                callback=lambda *_: on_item(app.open_rename_dialog),
+            )
+            dpg.add_menu_item(
+                label="Bring to front",
+                callback=lambda *_: on_item(app.bring_to_front),
+            )
+            with dpg.menu(label="Change widget type"):
+                for cls in app.registry:
+                    self.type_entries[cls.type_name] = dpg.add_selectable(
+                        label=cls.label,
+                        callback=lambda *_, t=cls.type_name: on_item(lambda i: app.change_type(i, t)),
+                    )
+            dpg.add_separator()
+            dpg.add_menu_item(
+                label="Delete",
+                shortcut="Del",
+                callback=lambda *_: on_item(app.delete_item),
+            )
 
     def over_canvas(self, pos: tuple[float, float]) -> bool:
         """Whether `pos` (window pixels) is over the visible canvas and nothing covers it there."""
@@ -124,7 +174,7 @@ class PointerInput:
             dpg.configure_item(drag.item.window, width=int(rect.w), height=int(rect.h))
         drag.target = snap_rect(rect, app.doc.grid_size, min_w=mw, min_h=mh) if app.doc.snap else rect
         over_trash = drag.part is Part.TITLE and app.trash_rect().contains(*pos)
-        dpg.bind_item_theme(app.trash, app.trash_hot if over_trash else 0)
+        app.tools.hot(over_trash)
         dpg.delete_item(app.overlay, children_only=True)
         if not over_trash:
             ox, oy = app.canvas_origin()
@@ -147,7 +197,7 @@ class PointerInput:
         self.drag_to(pos)
         self.drag = None
         dpg.delete_item(app.overlay, children_only=True)
-        dpg.bind_item_theme(app.trash, 0)
+        app.tools.hot(False)
         if drag.part is Part.TITLE and app.trash_rect().contains(*pos):
             app.delete_item(drag.item)
             return
@@ -166,7 +216,7 @@ class PointerInput:
         item = hit[0]
         app.select(item)
         self._menu_item = item
-        for type_name, entry in app.type_entries.items():
+        for type_name, entry in self.type_entries.items():
             dpg.set_value(entry, type_name == item.config.type)
         dpg.configure_item(app.menu, pos=(int(pos[0]), int(pos[1])), show=True)
         return item
