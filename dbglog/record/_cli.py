@@ -33,6 +33,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--all", action="store_true", help="record every topic on the graph")
     parser.add_argument("--force", action="store_true", help="overwrite FILE if it exists")
     parser.add_argument(
+        "--no-batch",
+        action="store_true",
+        help="leave out /_dbglog/samples (smaller files; tags then hold what their own topics carry)",
+    )
+    parser.add_argument(
         "--snapshot",
         type=float,
         metavar="SECONDS",
@@ -72,7 +77,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"dbglog record: {message}", file=sys.stderr, flush=True)
 
     try:
-        targets = parse_targets(args.targets, everything=args.all)
+        targets = parse_targets(args.targets, everything=args.all, batch=not args.no_batch)
     except ValueError as exc:
         say(str(exc))
         return 2

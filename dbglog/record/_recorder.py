@@ -42,28 +42,32 @@ class Targets:
     topics: frozenset[str] = frozenset()
     prefixes: tuple[str, ...] = ()
     """Tag topics: the tag itself and its sub-tags (``motor`` -> ``motor/rpm``)."""
+    batch: bool = True
+    """Record the SDK's batch topic (every sample with its source time) with tag targets."""
 
     def wants(self, topic: str) -> bool:
         """True when `topic` is to be recorded."""
-        if self.everything or topic in self.topics:
-            return True
         if topic == BATCH_TOPIC:
-            return self.all_tags or bool(self.prefixes)
+            return topic in self.topics or (
+                self.batch and (self.everything or self.all_tags or bool(self.prefixes))
+            )
         if self.all_tags and topic.startswith(TAG_PREFIX):
+            return True
+        if self.everything or topic in self.topics:
             return True
         return any(topic == p or topic.startswith(p + "/") for p in self.prefixes)
 
 
-def parse_targets(targets: Sequence[str], *, everything: bool) -> Targets:
+def parse_targets(targets: Sequence[str], *, everything: bool, batch: bool = True) -> Targets:
     """Read ``proximity`` as a tag, ``/odom`` as a topic; none: every tag plus /rosout.
 
     Raises:
         ValueError: a target is empty or malformed (the message names it).
     """
     if everything:
-        return Targets(everything=True, all_tags=True)
+        return Targets(everything=True, all_tags=True, batch=batch)
     if not targets:
-        return Targets(all_tags=True, topics=frozenset({ROSOUT}))
+        return Targets(all_tags=True, topics=frozenset({ROSOUT}), batch=batch)
     topics: set[str] = set()
     prefixes: list[str] = []
     for target in targets:
@@ -74,7 +78,7 @@ def parse_targets(targets: Sequence[str], *, everything: bool) -> Targets:
             topics.add(name)
         else:
             prefixes.append(TAG_PREFIX + name)
-    return Targets(all_tags=False, topics=frozenset(topics), prefixes=tuple(prefixes))
+    return Targets(all_tags=False, topics=frozenset(topics), prefixes=tuple(prefixes), batch=batch)
 
 
 @dataclass
