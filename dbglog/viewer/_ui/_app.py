@@ -681,12 +681,6 @@ class ViewerApp:
         self.tools.show_grid(self.doc.snap, self.doc.grid_size)
         dpg.set_value(self.snap_menu, self.doc.snap)
 
-    def _bind(self, binding: Binding) -> None:
-        self.doc.bind(binding)
-
-    def _unbind(self, binding: Binding) -> None:
-        self.doc.unbind(binding)
-
     # -- dialogs ------------------------------------------------------------------------------------
 
     def close_dialog(self) -> None:
