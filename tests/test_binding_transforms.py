@@ -251,7 +251,7 @@ def test_dashboard_round_trip_keeps_transforms() -> None:
     config = first.dashboard.widgets[0]
     again = parse_dashboard(json.loads(json.dumps(first.dashboard.to_dict())), registry.get)
     assert again.dashboard.widgets[0] == config
-    binding, empty = config.bindings  # type: ignore[union-attr]
+    binding, empty = config.bindings
     assert binding.transforms == (RadToDeg(), Clamp(high=5.0))
     assert empty.transforms == ()
     assert hash(binding) == hash(Binding("/a", "", "", (RadToDeg(), Clamp(high=5.0))))
@@ -268,7 +268,7 @@ def test_transforms_are_values_and_files_stay_byte_identical() -> None:
     text = SAVED.read_text(encoding="utf-8")
     result = parse_dashboard(json.loads(text), registry.get)
     assert dumps(result.dashboard) == text
-    every, empty, dunder, not_a_list = result.dashboard.widgets[0].bindings  # type: ignore[union-attr]
+    every, empty, dunder, not_a_list = result.dashboard.widgets[0].bindings
     assert every.transforms == (
         Scale(2.0, -1.5),
         DegToRad(),
@@ -371,7 +371,7 @@ def test_escape_corpus_dashboard_through_the_loader_and_the_viewer(tmp_path: Pat
     result = load_dashboard(board, WidgetRegistry.discover().get)
     by_name = {w.name: w for w in result.dashboard.widgets}
     for i, name in enumerate(names):
-        (kept,) = by_name[name].bindings  # type: ignore[union-attr]
+        (kept,) = by_name[name].bindings
         (rejected,) = kept.transforms
         assert isinstance(rejected, Invalid), name
         assert json.loads(rejected.written)[0]["kind"] == "formula", name
@@ -380,7 +380,7 @@ def test_escape_corpus_dashboard_through_the_loader_and_the_viewer(tmp_path: Pat
             for m in result.messages
         ), name
     assert len([m for m in result.messages if m.endswith(REJECTED)]) == len(names)
-    assert by_name["Good"].bindings[0].transforms  # type: ignore[union-attr]
+    assert by_name["Good"].bindings[0].transforms
     report = tmp_path / "report.json"
     env = dict(os.environ)
     proc = subprocess.run(
@@ -407,10 +407,10 @@ def test_escape_corpus_dashboard_through_the_loader_and_the_viewer(tmp_path: Pat
         env=env,
     )
     assert proc.returncode == 0, proc.stderr[-3000:]
-    rejected = [line for line in proc.stderr.splitlines() if line.endswith(REJECTED)]
-    assert len(rejected) == len(names)
+    rejected_lines = [line for line in proc.stderr.splitlines() if line.endswith(REJECTED)]
+    assert len(rejected_lines) == len(names)
     for name in names:
-        assert any(f"{name!r}: bindings[0]: transforms[0] (formula)" in line for line in rejected), name
+        assert any(f"{name!r}: bindings[0]: transforms[0] (formula)" in line for line in rejected_lines), name
     shown = {w["name"]: w for w in json.loads(report.read_text())["widgets"]}
     assert len(shown) == len(names) + 1
     assert all(shown[name]["status"] == "error" for name in names)
@@ -433,7 +433,7 @@ def test_shipped_dashboards_show_the_azimuth_in_degrees_and_the_demo_has_teleop(
         assert result.messages == [], path
         compass = next(w for w in result.dashboard.widgets if w.type == "compass" and "zimuth" in w.name)
         assert compass.properties["units"] == "degrees"  # type: ignore[union-attr]
-        (binding,) = compass.bindings  # type: ignore[union-attr]
+        (binding,) = compass.bindings
         assert binding.topic == "/rosdashboard/sound/azimuth"
         assert binding.transforms == (RadToDeg(),)
     demo = load_dashboard(root / "dbglog" / "_demo" / "demo_dashboard.json", registry.get).dashboard
