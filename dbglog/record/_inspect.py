@@ -19,12 +19,12 @@ import numpy as np
 import numpy.typing as npt
 
 from dbglog._ros._batch import BATCH_TOPIC, BatchError, decode_batch
+from dbglog._ros._tags import TAG_PREFIX
 from dbglog.record._reader import Recording, TopicData, read_recording
 from dbglog.record._writer import RecordingError
 
 __all__ = ["TagSeries", "echo_lines", "tag_series", "tags_table"]
 
-TAG_PREFIX = "/rosdashboard/"
 _FIELD = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)(?:\[(\d+)\])?$")
 
 

@@ -18,11 +18,11 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from dbglog._ros._batch import BATCH_DEPTH, BATCH_TOPIC
+from dbglog._ros._tags import TAG_PREFIX
 from dbglog.record._writer import McapWriter
 
 __all__ = ["Recorder", "Targets", "parse_targets"]
 
-TAG_PREFIX = "/rosdashboard/"
 ROSOUT = "/rosout"
 _DEPTH = 1000
 """KEEP_LAST depth of each subscription: a second of backlog at 1 kHz."""
@@ -262,7 +262,7 @@ class Recorder:
     ) -> None:
         import importlib
 
-        from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+        from dbglog._ros._qos import subscription_qos
 
         pkg, _, short = msg_type.partition("/msg/")
         try:
@@ -272,12 +272,8 @@ class Recorder:
             return
         if old is not None:
             node.destroy_subscription(old.sub)
-        qos = QoSProfile(
-            history=HistoryPolicy.KEEP_LAST,
-            depth=max(_DEPTH, BATCH_DEPTH) if name == BATCH_TOPIC else _DEPTH,
-            reliability=ReliabilityPolicy.RELIABLE if reliable else ReliabilityPolicy.BEST_EFFORT,
-            durability=DurabilityPolicy.TRANSIENT_LOCAL if transient else DurabilityPolicy.VOLATILE,
-        )
+        depth = max(_DEPTH, BATCH_DEPTH) if name == BATCH_TOPIC else _DEPTH
+        qos = subscription_qos(depth, reliable=reliable, transient=transient)
         sub = node.create_subscription(cls, name, lambda _m: None, qos, raw=True)
         channel = 0
         if self.writer is not None:
