@@ -20,6 +20,7 @@ import numpy.typing as npt
 
 from dbglog._ros._batch import BATCH_TOPIC, BatchError, decode_batch
 from dbglog._ros._tags import TAG_PREFIX
+from dbglog._ros._text import format_line
 from dbglog.record._reader import Recording, TopicData, read_recording
 from dbglog.record._writer import RecordingError
 
@@ -267,7 +268,7 @@ def echo_lines(
                     value = value[idx]
                 except IndexError:
                     raise RecordingError(f"{topic}: index {idx} is out of range in {name}") from None
-        yield _line(t, _plain(value), stamp)
+        yield format_line(_plain(value), t if stamp else None)
 
 
 def _decoder(data: TopicData) -> Callable[[bytes], Any]:
@@ -297,18 +298,6 @@ def _plain(value: Any) -> object:
     return value
 
 
-def _line(t: float, value: object, stamp: bool) -> str:
-    if isinstance(value, bool):
-        text = "true" if value else "false"
-    elif isinstance(value, float):
-        text = repr(value)
-    elif isinstance(value, tuple):
-        text = "[" + ", ".join(repr(v) for v in value) + "]"
-    else:
-        text = str(value)
-    return f"{t:.6f} {text}" if stamp else text
-
-
 def _lines(times: list[float], values: list[Any], stamp: bool) -> Iterator[str]:
     for t, v in zip(times, values, strict=True):
-        yield _line(t, v, stamp)
+        yield format_line(v, t if stamp else None)

@@ -9,6 +9,7 @@ import time
 from typing import TYPE_CHECKING
 
 from dbglog._ros._tags import TAG_PREFIX
+from dbglog._ros._text import format_line
 from dbglog.viewer._cli._cli_tags import DISCOVERY_HORIZON_S
 
 if TYPE_CHECKING:
@@ -86,19 +87,6 @@ def split_target(target: str, graph_topics: set[str]) -> tuple[str, str] | None:
         if prefix in graph_topics:
             return prefix, ".".join(parts[cut:])
     return None
-
-
-def format_line(value: object, stamp: float | None = None) -> str:
-    """Render one value for a line of output."""
-    if isinstance(value, bool):
-        text = "true" if value else "false"
-    elif isinstance(value, float):
-        text = repr(value)
-    elif isinstance(value, tuple):
-        text = "[" + ", ".join(repr(v) for v in value) + "]"
-    else:
-        text = str(value)
-    return text if stamp is None else f"{stamp:.6f} {text}"
 
 
 def graph_names(topics: list[TopicInfo]) -> set[str]:
