@@ -43,7 +43,19 @@ def _time_alternating(subjects: dict[str, tuple[str, dict[str, Any]]], calls: in
 
 
 def _nop(tag: str, value: float) -> None:
-    """The baseline: an empty function of the same arity."""
+    """The baseline: an empty function of the two arguments a call passes."""
+
+
+def _nop_same_signature(
+    tag: str,
+    value: float,
+    *,
+    msg_type: object = None,
+    once: bool = False,
+    throttle: float | None = None,
+    skip_first: bool = False,
+) -> None:
+    """The other baseline: an empty function with logfloat's whole signature (options keyword-only)."""
 
 
 def measure_disabled(calls: int, repeats: int) -> Timing:
@@ -55,11 +67,13 @@ def measure_disabled(calls: int, repeats: int) -> Timing:
     assert not dbglog.enabled, "run with DBGLOG=off"
     baseline = types.ModuleType("baseline")
     baseline.nop = _nop  # type: ignore[attr-defined]
+    baseline.nop_sig = _nop_same_signature  # type: ignore[attr-defined]
     logging.getLogger().setLevel(logging.WARNING)
     ns = {"dbglog": dbglog, "baseline": baseline, "logging": logging}
     result = _time_alternating(
         {
             "nop": ("baseline.nop('x', 1.0)", ns),
+            "nop_sig": ("baseline.nop_sig('x', 1.0)", ns),
             "dbglog": ("dbglog.logfloat('x', 1.0)", ns),
             "logging": ("logging.debug('x %s', 1.0)", ns),
         },
@@ -208,9 +222,21 @@ def main(argv: list[str] | None = None) -> int:
         [
             ["`baseline.nop('x', 1.0)` (empty function, module attribute)", f"{off['nop']:.1f}", "1.00×", ""],
             [
+                "`baseline.nop_sig('x', 1.0)` (empty, logfloat's signature: options keyword-only)",
+                f"{off['nop_sig']:.1f}",
+                _ratio(off["nop_sig"], off["nop"]),
+                "",
+            ],
+            [
                 "`dbglog.logfloat('x', 1.0)`",
                 f"{off['dbglog']:.1f}",
                 _ratio(off["dbglog"], off["nop"]),
+                "≤ 1.2×",
+            ],
+            [
+                "`dbglog.logfloat('x', 1.0)` vs the same-signature empty function",
+                f"{off['dbglog']:.1f}",
+                _ratio(off["dbglog"], off["nop_sig"]),
                 "≤ 1.2×",
             ],
             [

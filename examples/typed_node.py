@@ -1,7 +1,7 @@
 """An rclpy node that logs typed values with dbglog from a timer callback.
 
 Run: ``.venv/bin/python examples/typed_node.py [--duration S] [--rate HZ]`` (Ctrl-C to stop), then watch
-with ``ros2 topic echo /rosdashboard/proximity`` or the dbglog viewer. It uses only dbglog's public API and
+with ``dbglog echo proximity`` or the dbglog viewer. It uses only dbglog's public API and
 plain rclpy; to keep DDS discovery on this machine, set ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST``.
 """
 
