@@ -10,11 +10,11 @@ from typing import TYPE_CHECKING
 
 from dbglog._ros._tags import TAG_PREFIX
 from dbglog._ros._text import format_line
-from dbglog.viewer._cli._cli_tags import DISCOVERY_HORIZON_S
+from dbglog.viewer._data._suggest import DISCOVERY_HORIZON_S, graph_names
 
 if TYPE_CHECKING:
     from dbglog.viewer._data._engine import Engine
-    from dbglog.viewer._data._model import SeriesSnapshot, TopicInfo
+    from dbglog.viewer._data._model import SeriesSnapshot
 
 __all__ = ["HELP", "add_arguments", "format_line", "graph_names", "run", "split_target"]
 
@@ -87,15 +87,6 @@ def split_target(target: str, graph_topics: set[str]) -> tuple[str, str] | None:
         if prefix in graph_topics:
             return prefix, ".".join(parts[cut:])
     return None
-
-
-def graph_names(topics: list[TopicInfo]) -> set[str]:
-    """Return the topics that some other participant publishes.
-
-    The engine's own node publishes ``/parameter_events``: with one publisher that topic is ours
-    alone, so a graph holding nothing else counts as empty.
-    """
-    return {t.name for t in topics if t.publishers > (1 if t.name == "/parameter_events" else 0)}
 
 
 def _why(engine: Engine, topic: str, snap: SeriesSnapshot | None, waited: float) -> str:

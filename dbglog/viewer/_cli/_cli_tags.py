@@ -12,6 +12,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from dbglog._ros._tags import TAG_PREFIX
+from dbglog.viewer._data._suggest import DISCOVERY_HORIZON_S
 
 if TYPE_CHECKING:
     import numpy as np
@@ -36,12 +37,8 @@ HELP = "List the live dbglog tags (tag, type, rate, last value, status); --all l
 _CLEAR = "\x1b[H\x1b[2J"
 _POLL_S = 0.05
 _DEFAULT_WAIT_S = 8.0
-DISCOVERY_HORIZON_S = 4.0
-"""Fast DDS answers a newcomer's announcement at once only sometimes; a participant that misses it is
-found at its next periodic announcement (every 3 s): the graph is complete only this long after start
-(measured: up to 3.4 s on a loaded 2-core machine)."""
 _QUIET_S = 0.5
-"""...and once no topic or publisher count changed for this long."""
+"""The table prints after DISCOVERY_HORIZON_S, once no topic or publisher count changed for this long."""
 _VALUE_GRACE_S = 2.0
 """A published tag gets this long to deliver its first value before the table stops waiting for it."""
 _BURST_S = 0.3
@@ -264,8 +261,7 @@ def _settle(engine: Engine, args: argparse.Namespace, seen: dict[str, _Seen]) ->
 
 
 def _empty_message(engine: Engine, show_all: bool, waited: float) -> str:
-    from dbglog.viewer._cli._cli_echo import graph_names
-    from dbglog.viewer._data._suggest import EMPTY_GRAPH_HINT
+    from dbglog.viewer._data._suggest import EMPTY_GRAPH_HINT, graph_names
 
     domain = os.environ.get("ROS_DOMAIN_ID", "0")
     what = "topics" if show_all else "dbglog tags (/rosdashboard/...)"

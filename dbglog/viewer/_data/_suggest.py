@@ -4,8 +4,24 @@ from __future__ import annotations
 
 import difflib
 from collections.abc import Iterable
+from typing import TYPE_CHECKING
 
-__all__ = ["EMPTY_GRAPH_HINT", "close_matches", "sub_topics", "unpublished_reason"]
+if TYPE_CHECKING:
+    from dbglog.viewer._data._model import TopicInfo
+
+__all__ = [
+    "DISCOVERY_HORIZON_S",
+    "EMPTY_GRAPH_HINT",
+    "close_matches",
+    "graph_names",
+    "sub_topics",
+    "unpublished_reason",
+]
+
+DISCOVERY_HORIZON_S = 4.0
+"""Fast DDS answers a newcomer's announcement at once only sometimes; a participant that misses it is
+found at its next periodic announcement (every 3 s): the graph is complete only this long after start
+(measured: up to 3.4 s on a loaded 2-core machine)."""
 
 EMPTY_GRAPH_HINT = (
     "the ROS graph shows no topics at all: is the robot on the same ROS_DOMAIN_ID, and does "
@@ -61,3 +77,12 @@ def unpublished_reason(wanted: str, known: Iterable[str]) -> str:
     if similar:
         return f"nothing publishes {wanted}; did you mean {' or '.join(similar)}?"
     return f"nothing publishes {wanted} (not on the ROS graph yet)"
+
+
+def graph_names(topics: list[TopicInfo]) -> set[str]:
+    """Return the topics that some other participant publishes.
+
+    The engine's own node publishes ``/parameter_events``: with one publisher that topic is ours
+    alone, so a graph holding nothing else counts as empty.
+    """
+    return {t.name for t in topics if t.publishers > (1 if t.name == "/parameter_events" else 0)}
