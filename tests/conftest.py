@@ -8,6 +8,8 @@ from collections.abc import Iterator
 
 import pytest
 
+from tests._xvfb import x_display
+
 # Before anything imports rclpy: every process of this session (and its children) shares one random
 # domain, and discovery never leaves this machine unless the caller set the range explicitly.
 os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
@@ -26,3 +28,10 @@ def _reset_dbglog_state() -> Iterator[None]:
         from dbglog.api._public import reset
 
         reset()
+
+
+@pytest.fixture(scope="module")
+def display() -> Iterator[str]:
+    """The X display for GUI tests: the caller's, or a private Xvfb started for the test module."""
+    with x_display() as name:
+        yield name

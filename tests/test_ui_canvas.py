@@ -24,7 +24,6 @@ import numpy.typing as npt
 import pytest
 
 from tests._ros import wait_until
-from tests._xvfb import x_display
 
 pytestmark = pytest.mark.gui
 
@@ -158,13 +157,6 @@ def run_here(scenario: str, tmp_dir: str) -> None:
 
 
 # -- this side: a desktop with a mouse -----------------------------------------------------------------
-
-
-@pytest.fixture(scope="module")
-def display() -> Iterator[str]:
-    """The X display: the caller's, or a private Xvfb started for this module."""
-    with x_display() as name:
-        yield name
 
 
 class Viewer:

@@ -10,12 +10,11 @@ import os
 import subprocess
 import sys
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
 
-from tests._xvfb import x_display
 from tests.test_ui_canvas import ROOT, Viewer, item, viewer
 
 __all__ = ["viewer"]  # the fixture, shared with test_ui_canvas
@@ -24,13 +23,6 @@ pytestmark = pytest.mark.gui
 
 IDLE_CPU_MAX = 0.15
 """Most of one core an idle viewer may use here (it measures about 0.03; slack for a loaded machine)."""
-
-
-@pytest.fixture(scope="module")
-def display() -> Iterator[str]:
-    """The X display: the caller's, or a private Xvfb started for this module."""
-    with x_display() as name:
-        yield name
 
 
 def cpu_seconds(pid: int) -> float:

@@ -15,15 +15,7 @@ import pytest
 
 from dbglog.viewer._data._model import Binding
 from dbglog.viewer._ui._dialogs import dashboard_file_name, topic_widget_name
-from tests._xvfb import x_display
 from tests.test_ui_menus import Viewer, center, item_named, start_viewers
-
-
-@pytest.fixture(scope="module")
-def display() -> Iterator[str]:
-    """The X display: the caller's, or a private Xvfb started for this module."""
-    with x_display() as name:
-        yield name
 
 
 @pytest.fixture

@@ -22,7 +22,6 @@ from typing import Any
 import pytest
 
 from tests._ros import wait_until
-from tests._xvfb import x_display
 
 pytestmark = pytest.mark.gui
 
@@ -240,13 +239,6 @@ def run_here(scenario: str, tmp_dir: str) -> None:
 
 
 # -- this side: a desktop with a mouse and a keyboard ----------------------------------------------------
-
-
-@pytest.fixture(scope="module")
-def display() -> Iterator[str]:
-    """The X display: the caller's, or a private Xvfb started for this module."""
-    with x_display() as name:
-        yield name
 
 
 class Viewer:

@@ -25,7 +25,6 @@ import numpy as np
 import pytest
 
 from tests._ros import wait_until
-from tests._xvfb import x_display
 
 pytestmark = pytest.mark.gui
 
@@ -390,13 +389,6 @@ def run_here(scenario: str, tmp_dir: str) -> None:
 
 
 # -- the tests: start a child, act as the desktop would, check what happened ----------------------------
-
-
-@pytest.fixture(scope="module")
-def display() -> Iterator[str]:
-    """The X display: the caller's, or a private Xvfb started for this module."""
-    with x_display() as name:
-        yield name
 
 
 @pytest.fixture
