@@ -24,6 +24,7 @@ import numpy.typing as npt
 import pytest
 
 from tests._ros import wait_until
+from tests._viewer_child import ViewerChild
 
 pytestmark = pytest.mark.gui
 
@@ -159,100 +160,23 @@ def run_here(scenario: str, tmp_dir: str) -> None:
 # -- this side: a desktop with a mouse -----------------------------------------------------------------
 
 
-class Viewer:
-    """A child process running the real viewer, and the mouse (xdotool) on its display."""
+class Viewer(ViewerChild):
+    """The real viewer in a child process (see `ViewerChild`), reporting its drawn frames as ``rendered``."""
+
+    frame_key = "rendered"
 
     def __init__(self, scenario: str, tmp: Path, display: str) -> None:
-        self.tmp, self.display = tmp, display
-        code = (
-            f"import sys; sys.path.insert(0, {str(ROOT)!r}); "
-            "from tests import test_ui_canvas; test_ui_canvas.run_here(sys.argv[1], sys.argv[2])"
-        )
-        self.log = (tmp / "child.log").open("w")
-        self.proc = subprocess.Popen(
-            [sys.executable, "-c", code, scenario, str(tmp)],
-            env={**os.environ, "DISPLAY": display},
-            stdout=self.log,
-            stderr=subprocess.STDOUT,
-            cwd=ROOT,
-        )
-        self.window = ""
-
-    def output(self) -> str:
-        """What the child printed."""
-        self.log.flush()
-        return (self.tmp / "child.log").read_text()
-
-    def state(self) -> dict[str, Any]:
-        """The child's last reported state (empty before the first report)."""
-        try:
-            return dict(json.loads((self.tmp / "state.json").read_text()))
-        except (OSError, ValueError):
-            return {}
-
-    def wait_for(self, what: Callable[[dict[str, Any]], Any], timeout: float = WAIT_S) -> dict[str, Any]:
-        """Wait until the reported state satisfies `what`; fail if the child dies or time runs out."""
-
-        def check() -> bool:
-            state = self.state()
-            return self.proc.poll() is not None or (bool(state) and bool(what(state)))
-
-        ok = wait_until(check, timeout=timeout)
-        state = self.state()
-        assert ok, f"timed out; state {json.dumps(state, indent=1)}\n{self.output()}"
-        assert what(state), f"child exited with {self.proc.returncode}; state {state}\n{self.output()}"
-        return state
+        super().__init__(scenario, tmp, display, "test_ui_canvas", probe=tmp)
 
     def settle(self) -> dict[str, Any]:
         """Wait until the viewer rendered a few more frames (so it has acted on the last input)."""
-        start = int(self.state().get("rendered", 0))
-        return self.wait_for(lambda s: int(s.get("rendered", 0)) >= start + 3)
+        return self.frames(3)
 
-    def ready(self) -> dict[str, Any]:
-        """Wait for the window and for the viewer to have laid out the dashboard (a few frames)."""
-        state = self.wait_for(lambda s: s.get("rendered", 0) >= 3)
-        out = self.xdo("search", "--sync", "--pid", str(self.proc.pid))
-        self.window = out.split()[0]
-        return state
-
-    def shot(self, name: str) -> npt.NDArray[np.uint8]:
+    def png(self, name: str) -> npt.NDArray[np.uint8]:
         """A screenshot of the window, as an (h, w, channels) array."""
         from tests.test_ui import read_png
 
-        path = self.tmp / f"{name}.png"
-        (self.tmp / f"shot-{name}.request").touch()
-        assert wait_until(lambda: path.exists() and path.stat().st_size > 0, timeout=WAIT_S), self.output()
-        time.sleep(0.2)  # written in one go, but give the writer a moment to close it
-        return read_png(path)
-
-    def xdo(self, *args: str) -> str:
-        """Run xdotool on the child's display and return what it printed."""
-        done = subprocess.run(
-            ["xdotool", *args],
-            env={**os.environ, "DISPLAY": self.display},
-            capture_output=True,
-            text=True,
-            timeout=WAIT_S,
-            check=True,
-        )
-        return done.stdout
-
-    def move(self, x: float, y: float) -> None:
-        """Move the mouse to window pixel (x, y) and wait until the viewer saw it there."""
-        self.xdo("mousemove", "--window", self.window, str(round(x)), str(round(y)))
-        self.wait_for(lambda s: abs(s["mouse"][0] - round(x)) <= 1 and abs(s["mouse"][1] - round(y)) <= 1)
-
-    def drag(self, start: tuple[float, float], end: tuple[float, float], steps: int = 8) -> None:
-        """Press the left button at `start`, move to `end` in steps as a hand does, and let go there."""
-        self.move(*start)
-        self.xdo("mousedown", "1")
-        self.settle()
-        for k in range(1, steps + 1):
-            f = k / steps
-            self.move(start[0] + (end[0] - start[0]) * f, start[1] + (end[1] - start[1]) * f)
-            self.settle()
-        self.xdo("mouseup", "1")
-        self.settle()
+        return read_png(self.shot(name))
 
     def wheel(self, notches: int) -> None:
         """Turn the wheel `notches` down (negative: up) where the mouse is."""
@@ -260,13 +184,6 @@ class Viewer:
         for _ in range(abs(notches)):
             self.xdo("click", button)
         self.settle()
-
-    def stop(self) -> None:
-        """Kill the child if it still runs."""
-        if self.proc.poll() is None:
-            self.proc.kill()
-            self.proc.wait(10)
-        self.log.close()
 
 
 @pytest.fixture
@@ -336,7 +253,7 @@ def test_grid_covers_the_scrolled_area(viewer: Callable[[str], Viewer]) -> None:
     v.move(cx + cw - 60, cy + ch / 2)
     v.wheel(20)
     state = v.wait_for(lambda s: s["scroll"][1] >= s["scroll_max"][1] > 300)
-    img = v.shot("scrolled")
+    img = v.png("scrolled")
     x0, y0, w, h = (int(p) for p in state["canvas"])
     far = item(state, "Far")["rect"]
     # The band right of the LED, at the bottom of the view: canvas beyond the first screenful.
@@ -352,7 +269,7 @@ def test_resize_grip_is_bottom_right_and_dragging_it_resizes(viewer: Callable[[s
     v = viewer("canvas")
     state = v.ready()
     x, y, w, h = (int(p) for p in item(state, "Gauge")["rect"])
-    img = v.shot("grip")
+    img = v.png("grip")
     right = img[y + h - 18 : y + h - 2, x + w - 18 : x + w - 2]
     left = img[y + h - 18 : y + h - 2, x + 2 : x + 18]
     assert count_near(right, DIM, 40) >= 8, "grip lines in the bottom-right corner"
@@ -362,7 +279,7 @@ def test_resize_grip_is_bottom_right_and_dragging_it_resizes(viewer: Callable[[s
     nx, ny, nw, nh = item(state, "Gauge")["rect"]
     assert (nx, ny) == (x, y), "the top-left corner stays"
     assert (nw, nh) == (w + 100, h + 60), "snapped to the 20 px grid"
-    img = v.shot("grip-after")
+    img = v.png("grip-after")
     nx, ny, nw, nh = (int(p) for p in (nx, ny, nw, nh))
     assert count_near(img[ny + nh - 18 : ny + nh - 2, nx + nw - 18 : nx + nw - 2], DIM, 40) >= 8
     assert count_near(img[ny + nh - 18 : ny + nh - 2, nx + 2 : nx + 18], DIM, 40) == 0

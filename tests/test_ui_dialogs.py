@@ -15,7 +15,8 @@ import pytest
 
 from dbglog.viewer._data._model import Binding
 from dbglog.viewer._ui._dialogs import dashboard_file_name, topic_widget_name
-from tests.test_ui_menus import Viewer, center, item_named, start_viewers
+from tests._viewer_child import ViewerChild as Viewer
+from tests.test_ui_menus import center, item_named, start_viewers
 
 
 @pytest.fixture

@@ -11,9 +11,6 @@ from __future__ import annotations
 import json
 import os
 import shutil
-import subprocess
-import sys
-import time
 import warnings
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -21,7 +18,7 @@ from typing import Any
 
 import pytest
 
-from tests._ros import wait_until
+from tests._viewer_child import ViewerChild as Viewer
 
 pytestmark = pytest.mark.gui
 
@@ -239,136 +236,6 @@ def run_here(scenario: str, tmp_dir: str) -> None:
 
 
 # -- this side: a desktop with a mouse and a keyboard ----------------------------------------------------
-
-
-class Viewer:
-    """A child process running the real viewer, and the mouse and keyboard (xdotool) on its display."""
-
-    def __init__(self, scenario: str, tmp: Path, display: str, module: str) -> None:
-        self.tmp, self.display = tmp / "probe", display
-        self.tmp.mkdir()
-        code = (
-            f"import sys; sys.path.insert(0, {str(ROOT)!r}); "
-            f"from tests import {module}; {module}.run_here(sys.argv[1], sys.argv[2])"
-        )
-        self.log = (self.tmp / "child.log").open("w")
-        self.proc = subprocess.Popen(
-            [sys.executable, "-c", code, scenario, str(tmp)],
-            env={**os.environ, "DISPLAY": display},
-            stdout=self.log,
-            stderr=subprocess.STDOUT,
-            cwd=ROOT,
-        )
-        self.window = ""
-
-    # -- the child's reports --
-
-    def output(self) -> str:
-        """What the child printed."""
-        self.log.flush()
-        return (self.tmp / "child.log").read_text()
-
-    def state(self) -> dict[str, Any]:
-        """The child's last reported state (empty before the first report)."""
-        try:
-            return dict(json.loads((self.tmp / "state.json").read_text()))
-        except (OSError, ValueError):
-            return {}
-
-    def wait_for(self, what: Callable[[dict[str, Any]], Any], timeout: float = WAIT_S) -> dict[str, Any]:
-        """Wait until the reported state satisfies `what`; fail if the child dies or time runs out."""
-
-        def check() -> bool:
-            state = self.state()
-            return self.proc.poll() is not None or (bool(state) and bool(what(state)))
-
-        ok = wait_until(check, timeout=timeout)
-        state = self.state()
-        assert ok, f"timed out; state {json.dumps(state, indent=1)}\n{self.output()}"
-        assert what(state), f"child exited with {self.proc.returncode}; state {state}\n{self.output()}"
-        return state
-
-    def frames(self, n: int = 3) -> dict[str, Any]:
-        """Wait until the viewer drew `n` more frames (so it has seen the last input) and return the state."""
-        start = int(self.state().get("frame", 0))
-        return self.wait_for(lambda s: int(s.get("frame", 0)) >= start + n)
-
-    def ready(self) -> dict[str, Any]:
-        """Wait for the first report and the window, and give the window the keyboard."""
-        state = self.wait_for(lambda s: s.get("frame", 0) >= 3)
-        out = self.xdo("search", "--sync", "--pid", str(self.proc.pid))
-        self.window = out.split()[0]
-        self.xdo("windowfocus", "--sync", self.window)
-        return state
-
-    def shot(self, name: str) -> Path:
-        """Ask the child for a screenshot of the window; return the PNG once written."""
-        path = self.tmp / f"{name}.png"
-        (self.tmp / f"shot-{name}.request").touch()
-        assert wait_until(lambda: path.exists() and path.stat().st_size > 0, timeout=WAIT_S), self.output()
-        time.sleep(0.2)  # the PNG is written in one go, but give the writer a moment to close it
-        return path
-
-    # -- the mouse and the keyboard --
-
-    def xdo(self, *args: str) -> str:
-        """Run xdotool on the child's display and return what it printed."""
-        done = subprocess.run(
-            ["xdotool", *args],
-            env={**os.environ, "DISPLAY": self.display},
-            capture_output=True,
-            text=True,
-            timeout=WAIT_S,
-            check=True,
-        )
-        return done.stdout
-
-    def move(self, x: float, y: float) -> None:
-        """Move the mouse to window pixel (x, y) and wait until the viewer saw it there."""
-        self.xdo("mousemove", "--window", self.window, str(round(x)), str(round(y)))
-        self.wait_for(lambda s: abs(s["mouse"][0] - round(x)) <= 1 and abs(s["mouse"][1] - round(y)) <= 1)
-        self.frames(3)
-
-    def click(self, x: float, y: float, button: int = 1) -> None:
-        """Move to (x, y) and click `button` (1 left, 3 right), holding it for a few frames as a hand does."""
-        self.move(x, y)
-        self.xdo("mousedown", str(button))
-        self.frames(3)
-        self.xdo("mouseup", str(button))
-        self.frames(3)
-
-    def drag(self, start: tuple[float, float], end: tuple[float, float], steps: int = 8) -> None:
-        """Press the left button at `start`, move to `end` in steps with it held, and let go there."""
-        self.move(*start)
-        self.xdo("mousedown", "1")
-        self.frames(3)
-        for i in range(1, steps + 1):
-            x = start[0] + (end[0] - start[0]) * i / steps
-            y = start[1] + (end[1] - start[1]) * i / steps
-            self.move(x, y)
-        self.frames(3)
-        self.xdo("mouseup", "1")
-        self.frames(3)
-
-    def key(self, *names: str) -> None:
-        """Press keys (xdotool names: "Return", "ctrl+shift+s")."""
-        for name in names:  # held for a few frames, as a hand does: the viewer sees the chord together
-            self.xdo("keydown", name)
-            self.frames(3)
-            self.xdo("keyup", name)
-            self.frames(3)
-
-    def type(self, text: str) -> None:
-        """Type `text` on the keyboard."""
-        self.xdo("type", "--delay", "60", text)
-        self.frames(3)
-
-    def stop(self) -> None:
-        """Kill the child if it still runs."""
-        if self.proc.poll() is None:
-            self.proc.kill()
-            self.proc.wait(10)
-        self.log.close()
 
 
 def center(rect: list[float]) -> tuple[float, float]:
