@@ -22,7 +22,7 @@ from std_msgs.msg import Float64
 
 import dbglog
 from dbglog import DbglogWarning
-from dbglog._ros._batch import BATCH_TOPIC
+from dbglog._ros._batch import BATCH_TOPIC, is_sdk_node, sdk_node_name
 from dbglog._ros._qos import tag_qos
 from dbglog.api._public import RUNTIME
 from dbglog.viewer._data._engine import Engine
@@ -312,3 +312,18 @@ def test_plain_ros_subscriber_gets_every_sample_of_a_1khz_tag_in_order() -> None
         thread.join(30)
         assert got.wait_for(501, TIMEOUT)
         assert got.values() == [-1.0, *map(float, range(500))]
+
+
+def test_sdk_node_names_are_told_apart_from_the_viewers_own() -> None:
+    """Only the SDK's `dbglog_<pid>` node counts as a batch writer-to-be; the viewer's nodes never do."""
+    assert sdk_node_name(4242) == "dbglog_4242"
+    assert is_sdk_node(sdk_node_name(os.getpid()))
+    for other in (
+        "dbglog_viewer",
+        "dbglog_viewer_controls",
+        "dbglog_tags",
+        "dbglog_",
+        "my_dbglog_1",
+        "dbglog_1x",
+    ):
+        assert not is_sdk_node(other), other

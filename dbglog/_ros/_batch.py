@@ -19,6 +19,7 @@ No import of rclpy or numpy at module level.
 
 from __future__ import annotations
 
+import re
 import struct
 from array import array
 from collections.abc import Sequence
@@ -41,12 +42,27 @@ __all__ = [
     "TagSamples",
     "decode_batch",
     "encode_batch",
+    "is_sdk_node",
+    "sdk_node_name",
     "type_code",
 ]
 
 BATCH_TOPIC = "/_dbglog/samples"
 """Hidden (``_``) topic of the batches: ``ros2 topic list`` leaves it out unless asked."""
 BATCH_TYPE = "std_msgs/msg/UInt8MultiArray"
+_SDK_NODE = re.compile(r"dbglog_[0-9]+")
+
+
+def sdk_node_name(pid: int) -> str:
+    """Return the name of the SDK's own node in process `pid` (the node that writes the batches)."""
+    return f"dbglog_{pid}"
+
+
+def is_sdk_node(name: str) -> bool:
+    """True for a node named by `sdk_node_name` (not the viewer's, the CLI's or a user's own node)."""
+    return _SDK_NODE.fullmatch(name) is not None
+
+
 BATCH_DEPTH = 1000
 """KEEP_LAST depth of the batch writer and reader: seconds of batches at a few ms per flush."""
 

@@ -18,7 +18,7 @@ import warnings
 from collections.abc import Callable
 from typing import Any, Literal
 
-from dbglog._ros._batch import BATCH_TOPIC, SCALAR_TYPES, type_code
+from dbglog._ros._batch import BATCH_TOPIC, SCALAR_TYPES, sdk_node_name, type_code
 from dbglog._ros._cdr import scalar_encoder
 from dbglog._ros._qos import batch_qos, tag_qos
 from dbglog._ros._tags import TAG_PREFIX, sanitize_tag, tag_problem, topic_for_tag
@@ -413,7 +413,7 @@ class Runtime:
                     # logging configuration is left alone.
                     context.init([], initialize_logging=False)
                     self._node = Node(
-                        f"dbglog_{os.getpid()}",
+                        sdk_node_name(os.getpid()),
                         context=context,
                         use_global_arguments=False,
                         enable_rosout=False,

@@ -24,6 +24,7 @@ from dbglog._ros._batch import (
     BatchError,
     TagSamples,
     decode_batch,
+    is_sdk_node,
 )
 from dbglog._ros._qos import batch_qos
 from dbglog._ros._tags import topic_for_tag
@@ -42,7 +43,6 @@ _GRACE_S = 0.75
 """dbglog's own node (``dbglog_<pid>``) seen this recently publishing a scalar topic may not show its
 batch publisher yet (discovery announces a node's endpoints in any order): the per-tag subscription
 waits that long, or the switch to batches later would lose the samples in between."""
-_SDK_NODE_PREFIX = "dbglog_"
 _SCALAR_TYPE_NAMES = frozenset(f"std_msgs/msg/{name}" for name in SCALAR_TYPES)
 
 
@@ -135,7 +135,7 @@ class BatchIngest:
         """True while a scalar topic's dbglog node is too new to know whether it sends batches."""
         now = time.monotonic()
         for i in infos:
-            if not i.node_name.startswith(_SDK_NODE_PREFIX):
+            if not is_sdk_node(i.node_name):
                 continue
             key = (i.node_namespace, i.node_name)
             fresh = now - self._first_seen.setdefault(key, now) < _GRACE_S
