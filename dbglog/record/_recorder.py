@@ -10,6 +10,7 @@ by nodes already running are recorded too).
 from __future__ import annotations
 
 import contextlib
+import functools
 import threading
 import time
 from collections import deque
@@ -143,11 +144,7 @@ class Recorder:
 
     def run(self, on_tick: Callable[[], None] | None = None) -> None:
         """Subscribe, take and write until `stop`; the writer is flushed, not closed."""
-        import rclpy
-        from rclpy.context import Context
-        from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
-        from rclpy.node import Node
-        from rclpy.signals import SignalHandlerOptions
+        from dbglog._ros._node import PrivateNode, WaitSet
 
         syncing = threading.Event()
         syncer = None
@@ -157,12 +154,12 @@ class Recorder:
             syncer = threading.Thread(target=self._sync_loop, args=(syncing,), name="dbglog-record-sync")
             syncer.daemon = True
             syncer.start()
-        context = Context()
-        rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
-        node = Node(self.node_name, context=context, start_parameter_services=False, enable_rosout=False)
+        # The ground floor's private node: our own context, the command line never parsed by rclpy.
+        ros = PrivateNode(self.node_name)
+        node = ros.node
         try:
+            wait_set = WaitSet(ros, ros.guard())
             next_graph = next_flush = next_tick = 0.0
-            wait_set: Any = None
             wait_subs: list[_Sub] = []
             wait_version = -1
             by_pointer: dict[Any, _Sub] = {}
@@ -172,21 +169,17 @@ class Recorder:
                 if now >= next_graph:
                     self._refresh(node)
                     next_graph = now + _GRAPH_PERIOD
-                if wait_set is None or self._version != wait_version:
+                if self._version != wait_version:
                     wait_version = self._version
                     wait_subs = list(self._subs.values())
                     by_pointer = {s.sub.handle.pointer: s for s in wait_subs}
-                    wait_set = _rclpy.WaitSet(max(1, len(wait_subs)), 0, 0, 0, 0, 0, context.handle)
-                wait_set.clear_entities()
-                for s in wait_subs:
-                    wait_set.add_subscription(s.sub.handle)
                 if wait_subs:
                     before = time.monotonic()
                     if last_wait_end and before - last_wait_end > self.stats.longest_gap_s:
                         self.stats.longest_gap_s = before - last_wait_end
-                    wait_set.wait(int(_WAIT_S * 1e9))
+                    ready = wait_set.wait([s.sub for s in wait_subs], int(_WAIT_S * 1e9))
                     last_wait_end = time.monotonic()
-                    for pointer in wait_set.get_ready_entities("subscription"):
+                    for pointer in ready:
                         self._take(by_pointer[pointer])
                 else:
                     time.sleep(_WAIT_S)
@@ -212,10 +205,7 @@ class Recorder:
                 syncer.join()
             if self.writer is not None:
                 self.writer.flush(sync=True)
-            for s in self._subs.values():
-                node.destroy_subscription(s.sub)
-            node.destroy_node()
-            rclpy.shutdown(context=context)
+            ros.close([functools.partial(node.destroy_subscription, s.sub) for s in self._subs.values()])
 
     def _sync_loop(self, done: threading.Event) -> None:
         """Push what was flushed to the disk once a second (survives a power cut, not only a kill)."""
@@ -260,15 +250,13 @@ class Recorder:
     def _subscribe(
         self, node: Any, name: str, msg_type: str, reliable: bool, transient: bool, old: _Sub | None
     ) -> None:
-        import importlib
-
         from dbglog._ros._qos import subscription_qos
+        from dbglog._ros._types import TypeGateError, message_class
 
-        pkg, _, short = msg_type.partition("/msg/")
         try:
-            cls = getattr(importlib.import_module(f"{pkg}.msg"), short)
-        except (ImportError, AttributeError, ValueError):
-            self._skip(name, f"its type {msg_type} is not installed on this machine")
+            cls = message_class(msg_type)
+        except TypeGateError as exc:
+            self._skip(name, str(exc))
             return
         if old is not None:
             node.destroy_subscription(old.sub)
