@@ -85,6 +85,30 @@ def _labelled(window: int | str) -> dict[str, list[float] | None]:
     return out
 
 
+def _menubar(window: int | str) -> dict[str, Any]:
+    """The window's menu bar: each menu's label position and size, and where its entries sit when open.
+
+    Dear PyGui gives a menu-bar menu and its entries no rectangle: only where the label starts in the bar,
+    and, while the menu is open, where each entry starts inside the menu's popup (which opens below the bar).
+    """
+    import dearpygui.dearpygui as dpg
+
+    out: dict[str, Any] = {}
+    for bar in dpg.get_item_children(window, 1) or []:
+        if not dpg.get_item_type(bar).endswith("mvMenuBar"):
+            continue
+        for menu in dpg.get_item_children(bar, 1) or []:
+            entries = dpg.get_item_children(menu, 1) or []
+            out[dpg.get_item_label(menu)] = {
+                "pos": list(dpg.get_item_state(menu).get("pos", [0, 0])),
+                "size": list(dpg.get_text_size(dpg.get_item_label(menu))),
+                "entries": {
+                    dpg.get_item_label(e): list(dpg.get_item_state(e).get("pos", [0, 0])) for e in entries
+                },
+            }
+    return out
+
+
 class Probe:
     """Frame hook: writes the viewer's visible state to `state.json` whenever it changes."""
 
@@ -123,6 +147,7 @@ class Probe:
             "file_dialog": None,
             "dialog": None,
             "status": app._status_text,
+            "menubar": _menubar(app.main),
         }
         request = app.file_request
         if request is not None and dpg.does_item_exist(request.item):
@@ -345,6 +370,27 @@ def test_save_as_starts_with_the_file_name_and_adds_json_once(
     v.wait_for(lambda s: s["path"] == str(tmp_path / "other.json"))
     assert sorted(p.name for p in tmp_path.glob("*.json")) == ["dash.json", "mydash.json", "other.json"]
     assert shot.stat().st_size > 0
+
+
+def test_file_menu_save_as_by_mouse(viewer: Callable[[str], Viewer], tmp_path: Path) -> None:
+    """File > Save As... clicked with the mouse opens Save As on the dashboard's name; Enter saves."""
+    v = viewer("dashboard")
+    file_menu = v.state()["menubar"]["File"]
+    (fx, fy), (tw, th) = file_menu["pos"], file_menu["size"]
+    v.click(fx + tw / 2, fy + th / 2 + 3)
+    # The open menu reports where each entry starts inside its popup, which opens below the menu bar
+    # (the bar is one text line plus the theme's FramePadding of 5 px above and below).
+    state = v.wait_for(lambda s: s["menubar"]["File"]["entries"]["Save As\u2026"][1] > 0)
+    ex, ey = state["menubar"]["File"]["entries"]["Save As\u2026"]
+    bar = th + 2 * 5
+    v.click(fx + ex + 20, bar + ey + th / 2)
+    state = v.wait_for(lambda s: s["file_dialog"] is not None and s["file_dialog"]["name_active"])
+    assert state["file_dialog"]["name"] == "dash.json"
+    v.type("bymouse")
+    v.wait_for(lambda s: s["file_dialog"]["name"] == "bymouse")
+    v.key("Return")
+    v.wait_for(lambda s: s["file_dialog"] is None and s["path"] == str(tmp_path / "bymouse.json"))
+    assert json.loads((tmp_path / "bymouse.json").read_text())["widgets"]
 
 
 def test_save_as_asks_before_replacing_and_escape_cancels(
