@@ -245,8 +245,8 @@ class BatchIngest:
         recent.add(chunk, limit)
         covered = self._covered.get(name)
         if covered is None:
-            claimed = name in self._wanted and self._claim is not None
-            if claimed and self._claim is not None and self._claim(name, "std_msgs/msg/" + samples.std_type):
+            claim = self._claim
+            if name in self._wanted and claim is not None and claim(name, "std_msgs/msg/" + samples.std_type):
                 self._record_latency(times)  # attaching fed this chunk from the recent samples
             return
         for sink in covered.sinks.values():

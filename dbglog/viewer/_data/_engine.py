@@ -624,8 +624,10 @@ class Engine:
 
     def _claim_for_batch(self, name: str, msg_type: str) -> bool:
         """Feed a bound topic from batches before the graph shows its publisher (none of its own yet)."""
+        if name in self._subs:  # before building the binding table: batches call this per tag
+            return False
         bindings = self._wanted().get(name)
-        if name in self._subs or not bindings:
+        if not bindings:
             return False
         self._batches.attach(name, msg_type, bindings)
         return True
