@@ -52,7 +52,6 @@ class Pipe:
         """True while the thread waits for a sample: the next append must call `wake`."""
         self.writer = int.from_bytes(os.urandom(8), "little")
         self.seq = 0
-        self.batches = 0
         self._event = threading.Event()
         self.lock = threading.RLock()
         """Held while publishing: whoever destroys publishers takes it first (then the runtime's lock)."""
@@ -228,7 +227,6 @@ class Pipe:
         self.seq += 1
         try:
             publish(message)
-            self.batches += 1
             return True
         except Exception as exc:
             with contextlib.suppress(Exception):  # strict mode raises here: not the user's thread

@@ -285,8 +285,10 @@ class Runtime:
         if not ch.queued or ch.spec is None or self.channels.get(ch.tag) is not ch:
             return
         table = self._fast_tables.get(ch.spec.name)
+        if table is None or table.get(given) is ch:  # known already: no lock, no count on later calls
+            return
         with self._lock:
-            if table is None or sum(len(t) for t in self._fast_tables.values()) >= 4 * MAX_TAGS:
+            if sum(len(t) for t in self._fast_tables.values()) >= 4 * MAX_TAGS:
                 return
             table[given] = ch
 
@@ -458,7 +460,9 @@ class Runtime:
             raise TypeError(f"node must be an rclpy Node, not {type(node).__name__}")
         if self.state == "ready":
             self.shutdown()  # before taking the lock: locks are always taken publisher-thread lock first
-        with self._lock:
+        # The pipe lock too, in that order: the branch below destroys publishers, which only ever happens
+        # under the pipe lock (the publisher thread publishes through their raw handles).
+        with self.pipe.lock, self._lock:
             if self.state == "forked":
                 self.reporter.warn("forked", "init", _FORKED_MESSAGE.format(api="init"), None)
                 return
