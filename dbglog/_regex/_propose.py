@@ -16,7 +16,7 @@ import numpy as np
 import re2
 from numpy.lib.stride_tricks import sliding_window_view
 
-from dbglog._regex._compile import MAX_LINE, MAX_PROGRAM_SIZE, re2_options
+from dbglog._regex._compile import MAX_LINE, MAX_PROGRAM_SIZE, re2_options, shorten
 from dbglog._ros._tags import tag_problem
 
 __all__ = [
@@ -274,7 +274,7 @@ def propose(line: str, index: int, *, node: str | None = None, generalise_spaces
     """
     numbers = find_numbers(line)
     if not numbers:
-        raise ProposalError(f"no number in the line {_short(line)!r}")
+        raise ProposalError(f"no number in the line {shorten(line)!r}")
     if not 0 <= index < len(numbers):
         raise ProposalError(
             f"number {index + 1} does not exist: the line has {len(numbers)} number(s) "
@@ -357,10 +357,6 @@ def _build(
             grew = True
     body = "".join(p for p, _ in left[i:]) + f"({ANY_NUMBER_PATTERN})" + "".join(p for p, _ in right[:j])
     return body, i == 0 and lo == 0, j == len(right) and hi == len(visible)
-
-
-def _short(text: str, limit: int = 80) -> str:
-    return text if len(text) <= limit else f"{text[:limit]}… ({len(text)} chars)"
 
 
 # --- preview over stored lines ----------------------------------------------------------------------

@@ -25,14 +25,7 @@ def tag_qos() -> QoSProfile:
     Reliable and transient-local publishers also match volatile and best-effort subscribers, and a
     viewer started after the node still receives each tag's latest values.
     """
-    from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
-
-    return QoSProfile(
-        history=HistoryPolicy.KEEP_LAST,
-        depth=TAG_HISTORY_DEPTH,
-        reliability=ReliabilityPolicy.RELIABLE,
-        durability=DurabilityPolicy.TRANSIENT_LOCAL,
-    )
+    return subscription_qos(TAG_HISTORY_DEPTH, reliable=True, transient=True)
 
 
 def batch_qos() -> QoSProfile:
@@ -41,16 +34,9 @@ def batch_qos() -> QoSProfile:
     Deep enough that a viewer that falls behind for seconds still gets every batch, and a viewer
     started late gets the last seconds of every tag.
     """
-    from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
-
     from dbglog._ros._batch import BATCH_DEPTH
 
-    return QoSProfile(
-        history=HistoryPolicy.KEEP_LAST,
-        depth=BATCH_DEPTH,
-        reliability=ReliabilityPolicy.RELIABLE,
-        durability=DurabilityPolicy.TRANSIENT_LOCAL,
-    )
+    return subscription_qos(BATCH_DEPTH, reliable=True, transient=True)
 
 
 def subscription_qos(depth: int, *, reliable: bool = True, transient: bool = False) -> QoSProfile:

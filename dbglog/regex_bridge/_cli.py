@@ -11,6 +11,7 @@ import threading
 from pathlib import Path
 from types import FrameType
 
+from dbglog._regex._compile import shorten
 from dbglog.regex_bridge._rules import RulesError, load_rules
 
 __all__ = ["HELP", "add_arguments", "run"]
@@ -173,7 +174,7 @@ def suggest(args: argparse.Namespace) -> int:
         notes.append(f"# read as a ROS console line: level {level}, node {logger}; matching its message")
     numbers = find_numbers(line)
     if not numbers:
-        print(f"dbglog bridge suggest: no number in the line {_shown(line)!r}", file=sys.stderr)
+        print(f"dbglog bridge suggest: no number in the line {shorten(line)!r}", file=sys.stderr)
         return 2
     k = args.number or 1
     try:
@@ -190,7 +191,3 @@ def suggest(args: argparse.Namespace) -> int:
     print("\n".join(notes))
     print(text, end="")
     return 0
-
-
-def _shown(text: str, limit: int = 80) -> str:
-    return text if len(text) <= limit else f"{text[:limit]}… ({len(text)} chars)"

@@ -27,7 +27,6 @@ from types import TracebackType
 from typing import Any, Final, Self
 
 from rcl_interfaces.msg import Log
-from rclpy.qos import QoSProfile
 from rclpy.serialization import deserialize_message
 from std_msgs.msg import Bool, Float64, Int64, String
 
@@ -45,7 +44,6 @@ __all__ = [
     "Bridge",
     "BridgeStats",
     "encode_value",
-    "source_qos",
 ]
 
 DEFAULT_NODE_NAME: Final = "dbglog_bridge"
@@ -79,18 +77,6 @@ class BridgeStats:
     """Messages that could not be handled at all (unreadable, or a publish that failed)."""
     duplicates: int = 0
     """Values not published again: their line was already published on that topic (see `DEDUP_WINDOW`)."""
-
-
-def source_qos(depth: int = DEFAULT_DEPTH, *, durable: bool = True) -> QoSProfile:
-    """Return the QoS of a source subscription: reliable, deep keep-last history.
-
-    Args:
-        depth: how many messages may wait to be taken.
-        durable: transient-local (``/rosout``: its publishers are transient-local, so the lines they wrote
-            before this subscription was discovered still arrive); volatile for String topics, whose
-            publishers are usually volatile (a transient-local reader would not match them).
-    """
-    return log_qos(depth, durable=durable)
 
 
 def encode_value(kind: NumberKind, value: float | int | bool) -> bytes:
@@ -239,7 +225,7 @@ class Bridge:
                         Log if topic == ROSOUT else String,
                         topic,
                         _unused,
-                        source_qos(depth, durable=topic == ROSOUT),
+                        log_qos(depth, durable=topic == ROSOUT),
                         raw=True,
                     ),
                     topic,

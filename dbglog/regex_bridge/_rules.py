@@ -14,7 +14,7 @@ from typing import Any, Final, get_args
 
 import yaml
 
-from dbglog._regex._compile import SHOWN_CHARS, NumberKind, RegexError, compile_regex
+from dbglog._regex._compile import SHOWN_CHARS, NumberKind, RegexError, compile_regex, shorten
 from dbglog._ros._tags import tag_problem, topic_for_tag
 
 __all__ = [
@@ -484,8 +484,7 @@ def _r(value: Any) -> str:
     """`value`'s repr for a message; a string longer than `SHOWN_CHARS` is cut, with its length."""
     if isinstance(value, str) and len(value) > SHOWN_CHARS:
         return f"{value[:SHOWN_CHARS]!r}… ({len(value)} chars)"
-    text = repr(value)
-    return text if len(text) <= SHOWN_CHARS else f"{text[:SHOWN_CHARS]}… ({len(text)} chars)"
+    return shorten(repr(value))
 
 
 def _quoted(text: str) -> str:
