@@ -8,7 +8,7 @@ import sys
 import time
 from typing import TYPE_CHECKING
 
-from dbglog._ros._tags import TAG_PREFIX
+from dbglog._ros._tags import topic_for_tag
 from dbglog._ros._text import format_line
 from dbglog.viewer._data._suggest import DISCOVERY_HORIZON_S, graph_names
 
@@ -16,7 +16,7 @@ if TYPE_CHECKING:
     from dbglog.viewer._data._engine import Engine
     from dbglog.viewer._data._model import SeriesSnapshot
 
-__all__ = ["HELP", "add_arguments", "format_line", "graph_names", "run", "split_target"]
+__all__ = ["HELP", "add_arguments", "format_line", "run", "split_target"]
 
 HELP = "Print the values of a dbglog tag or of a topic field, one per line."
 
@@ -77,7 +77,7 @@ def split_target(target: str, graph_topics: set[str]) -> tuple[str, str] | None:
     target = target.strip()
     if not target.startswith("/"):
         tag, _, path = target.partition(".")
-        return TAG_PREFIX + tag, path
+        return topic_for_tag(tag), path
     topic, dot, path = target.partition(".")
     if dot or topic in graph_topics:
         return topic, path

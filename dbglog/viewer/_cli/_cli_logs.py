@@ -190,14 +190,12 @@ def _follow(topic: str, filters: LogsFilter, count: int, colour: bool, stop: thr
     localhost_discovery()
     ros = PrivateNode("dbglog_logs")
     node = ros.node
-    pending: list[LogLine] = []
-    lock = threading.Lock()
+    pending: list[LogLine] = []  # filled by on_line inside spin_once, on this same thread: no lock
 
     def on_line(msg: Any) -> None:
         line = LogLine(msg.stamp.sec + msg.stamp.nanosec * 1e-9, int(msg.level), msg.name, msg.msg)
         if filters.accepts(line):
-            with lock:
-                pending.append(line)
+            pending.append(line)
 
     executor = SingleThreadedExecutor(context=ros.context)
     try:
@@ -209,15 +207,14 @@ def _follow(topic: str, filters: LogsFilter, count: int, colour: bool, stop: thr
         out = sys.stdout
         while not stop.is_set():
             executor.spin_once(timeout_sec=0.05)
-            with lock:
-                if not pending:
-                    continue
-                if first_at is None:
-                    first_at = time.monotonic()
-                if not settled and time.monotonic() - first_at < _SETTLE_S:
-                    continue
-                batch = sorted(pending, key=lambda line: line.stamp) if not settled else list(pending)
-                pending.clear()
+            if not pending:
+                continue
+            if first_at is None:
+                first_at = time.monotonic()
+            if not settled and time.monotonic() - first_at < _SETTLE_S:
+                continue
+            batch = sorted(pending, key=lambda line: line.stamp) if not settled else list(pending)
+            pending.clear()
             settled = True
             for line in batch:
                 out.write(format_line(line, colour=colour) + "\n")

@@ -11,7 +11,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from dbglog._ros._tags import TAG_PREFIX
+from dbglog._ros._tags import tag_of
 from dbglog.viewer._data._suggest import DISCOVERY_HORIZON_S
 
 if TYPE_CHECKING:
@@ -22,7 +22,6 @@ if TYPE_CHECKING:
     from dbglog.viewer._data._model import SeriesSnapshot, TopicInfo
 
 __all__ = [
-    "DISCOVERY_HORIZON_S",
     "HELP",
     "add_arguments",
     "format_rate",
@@ -243,7 +242,7 @@ def _settle(engine: Engine, args: argparse.Namespace, seen: dict[str, _Seen]) ->
     waiting = _waiting_for(engine, topics, seen, now, math.inf)
     waited = f"{now - started:.1f} s"
     if waiting:
-        names = ", ".join(t if args.all else t.removeprefix(TAG_PREFIX) for t in waiting[:8])
+        names = ", ".join(t if args.all else (tag_of(t) or t) for t in waiting[:8])
         more = f" and {len(waiting) - 8} more" if len(waiting) > 8 else ""
         limit = " (the --wait limit)" if now >= deadline else ""
         print(

@@ -13,7 +13,7 @@ from collections.abc import Callable, Collection, Sequence
 from pathlib import Path
 from typing import Generic, Protocol, TypeVar
 
-from dbglog._ros._tags import TAG_PREFIX
+from dbglog._ros._tags import tag_of
 from dbglog.viewer._data._model import Binding, DataSource, FieldInfo, SeriesSnapshot, TopicInfo
 from dbglog.viewer._document._dashboard import Dashboard, RawWidget, WidgetConfig
 from dbglog.viewer._widgets._geometry import Part, Rect, hit_test
@@ -60,7 +60,7 @@ ItemT = TypeVar("ItemT", bound=DocItem)
 
 
 def _tag_parts(topic: str) -> list[str]:
-    tag = topic[len(TAG_PREFIX) :] if topic.startswith(TAG_PREFIX) else topic
+    tag = tag_of(topic) or topic
     return [p for p in tag.split("/") if p]
 
 

@@ -7,12 +7,12 @@ types without loading the service, its node or its thread.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import Final
 
 from dbglog.viewer._data._model import Status
 
-__all__ = ["DEFAULT_RATE_LIMIT_HZ", "PublishRequest", "PublishState", "Value", "with_value"]
+__all__ = ["DEFAULT_RATE_LIMIT_HZ", "PublishRequest", "PublishState", "Value"]
 
 DEFAULT_RATE_LIMIT_HZ: Final = 20.0
 """The most messages per second one control sends unless its ``rate_limit`` property says otherwise."""
@@ -56,8 +56,3 @@ class PublishState:
     """Subscriptions on the topic outside this viewer."""
     sent: int = 0
     """Messages sent so far by this control."""
-
-
-def with_value(request: PublishRequest, value: Value | None) -> PublishRequest:
-    """Return `request` with another single value."""
-    return replace(request, value=value)

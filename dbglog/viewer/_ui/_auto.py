@@ -19,7 +19,7 @@ import dearpygui.dearpygui as dpg
 from dbglog.viewer._data._model import Binding, Status, TopicInfo
 from dbglog.viewer._document._autodash import AutoLayout, is_array_type, suggest
 from dbglog.viewer._ui._app import ViewerApp
-from dbglog.viewer._widgets._geometry import Rect
+from dbglog.viewer._widgets._geometry import Rect, overlaps
 
 __all__ = ["AutoDashboard", "all_live", "widget_report", "write_report"]
 
@@ -142,7 +142,7 @@ class AutoDashboard:
 
     def _free(self, x: float, y: float, w: float, h: float) -> bool:
         rect = Rect(x, y, w, h)
-        return not any(_overlap(rect, item.rect) for item in self.app.items)
+        return not any(overlaps(rect, item.rect) for item in self.app.items)
 
     def _replaced(self) -> bool:
         """Whether the whole canvas was swapped (File, Open or New) since the last look."""
@@ -165,10 +165,6 @@ class AutoDashboard:
         for probe, _deadline in self._probes.values():
             self.app.doc.unbind(probe)
         self._probes.clear()
-
-
-def _overlap(a: Rect, b: Rect) -> bool:
-    return a.x < b.x + b.w and b.x < a.x + a.w and a.y < b.y + b.h and b.y < a.y + a.h
 
 
 def all_live(app: ViewerApp) -> bool:
