@@ -117,7 +117,8 @@ class ViewerApp:
         """When set, used instead of the real mouse position (scripted sessions and tests)."""
         self.frame_times: collections.deque[float] = collections.deque(maxlen=600)
         self.frame_hooks: list[Callable[[], None]] = []
-        """Called once per frame on the UI thread, after the widgets refresh (the auto-dashboard)."""
+        """Called on the UI thread at every turn of the loop, rendered or not, before the widgets refresh
+        (the auto-dashboard, test probes)."""
         self.last_work_s = 0.0
         """Seconds the last frame spent before `render_dearpygui_frame` (input, snapshots, widget updates)."""
         self.pacer = Pacer(fps, min(fps, data_fps))
@@ -268,7 +269,8 @@ class ViewerApp:
                 )
                 self.toolbox, self.toolbox_buttons = self.tools.window, self.tools.buttons
                 # Scrollbars appear when widgets lie beyond the view; the wheel scrolls it too, but through
-                # `_apply_wheel` (not Dear ImGui's own wheel scrolling), which leaves the wheel to plots.
+                # `PointerInput.apply_wheel` (not Dear ImGui's own wheel scrolling), which leaves the wheel
+                # to plots.
                 self.canvas = dpg.add_child_window(
                     width=-1,
                     height=-STATUS_H,
@@ -379,19 +381,15 @@ class ViewerApp:
             hook()
         if any(item.changed(self.source) for item in self.items):
             self.pacer.request(time.monotonic())
-        key = self._view_state()
-        if key != self._view_key:  # the user's doing (or a dialog's): render at the cap for a while
-            self._view_key = key
-            self.pacer.poke(time.monotonic())
+        self._poke_if_view_changed()
 
     def _work(self) -> None:
         """Everything of a frame but rendering: input, snapshots, widget updates, dialogs, chrome."""
         self.pointer_input.poll()
-        changed = self.pointer_input.apply_wheel()
+        self.pointer_input.apply_wheel()
         now = time.time()
         for item in self.items:
-            if item.refresh(self.source, now):
-                changed = True
+            item.refresh(self.source, now)
             if item.edited:  # a control changed its own saved value (a toggle switched, a slider moved)
                 item.edited = False
                 self.doc.mark_dirty()
@@ -402,15 +400,18 @@ class ViewerApp:
                 dialog.tick()
             except Exception as exc:  # a dialog must never stop the render loop
                 self.set_status(f"dialog error: {exc!r}")
-        changed = self._draw_chrome() or changed
-        changed = self._update_status() or changed
-        if changed:
-            self.pacer.request(time.monotonic())
+        # What this changes is drawn by the frame rendered right after (`_look` asked for it already).
+        self._draw_chrome()
+        self._update_status()
         # With a dialog open a text cursor may blink: idle frames come more often then.
         dialog_open = self.dialog is not None or self.file_request is not None
         self.pacer.idle_render_s = DIALOG_IDLE_RENDER_S if dialog_open else IDLE_RENDER_S
+        self._poke_if_view_changed()
+
+    def _poke_if_view_changed(self) -> None:
+        """The user's doing (or a dialog's) changed what the window shows: render at the cap for a while."""
         key = self._view_state()
-        if key != self._view_key:  # the user's doing (or a dialog's): render at the cap for a while
+        if key != self._view_key:
             self._view_key = key
             self.pacer.poke(time.monotonic())
 
@@ -811,8 +812,8 @@ class ViewerApp:
         if self._started:
             dpg.set_viewport_title(self.doc.title(self.title))
 
-    def _update_status(self) -> bool:
-        """Refresh the status bar's left part (content at once, fps twice a second); True if it changed."""
+    def _update_status(self) -> None:
+        """Refresh the status bar's left part (content at once, fps twice a second)."""
         now = time.monotonic()
         if now - self._fps_at >= 0.5 and self._render_starts:
             self._fps_at = now
@@ -827,14 +828,12 @@ class ViewerApp:
         if self._fps_text:
             parts.append(self._fps_text)
         text = "  " + "   \u00b7   ".join(parts) + "   "
-        if text == self._status_left:
-            return False
-        self._status_left = text
-        dpg.set_value(self.status_left, text)
-        return True
+        if text != self._status_left:
+            self._status_left = text
+            dpg.set_value(self.status_left, text)
 
-    def _draw_chrome(self) -> bool:
-        """Fit the window to the viewport, paint around the canvas, draw the grid; True if the grid moved."""
+    def _draw_chrome(self) -> None:
+        """Fit the window to the viewport, paint around the canvas, draw the grid (each only if changed)."""
         self.paint.fit_window(self.main)
         ox, oy = self.canvas_origin()
         w, h = self.canvas_size()
@@ -843,4 +842,4 @@ class ViewerApp:
         drag = self.pointer_input.drag  # widgets are opaque: no grid under them (the dragged one aside)
         covers = tuple(i.rect for i in self.items if drag is None or i is not drag.item)
         rects = [i.rect for i in self.items]
-        return self.paint.draw_grid((w, h), rects, covers, self.doc.grid_size, self.doc.snap)
+        self.paint.draw_grid((w, h), rects, covers, self.doc.grid_size, self.doc.snap)

@@ -142,16 +142,16 @@ class CanvasPaint:
         covers: tuple[Rect, ...],
         grid_size: int,
         snap: bool,
-    ) -> bool:
-        """Draw the grid over the whole scrolled area, except under `covers`; True if it was redrawn."""
+    ) -> None:
+        """Draw the grid over the whole scrolled area, except under `covers` (only when something moved)."""
         view_w, view_h = view
         if view_w <= 0:
-            return False
+            return
         extent = canvas_extent(view_w, view_h, rects, theme.SCROLLBAR)
         w, h = int(extent[0]), int(extent[1])
         key = (w, h, view_w, view_h, grid_size, snap, bool(rects), covers)
         if key == self._grid_key:
-            return False
+            return
         self._grid_key = key
         layer = self.grid_layer
         dpg.delete_item(layer, children_only=True)
@@ -172,4 +172,3 @@ class CanvasPaint:
             msg = "Drag a widget from the toolbox onto the canvas"
             at = (view_w / 2 - len(msg) * 4.6, view_h / 2 - 10)
             dpg.draw_text(at, msg, size=17, color=theme.DIM, parent=layer)
-        return True

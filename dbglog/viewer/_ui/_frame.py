@@ -224,19 +224,18 @@ class CanvasItem:
             own = self.widget.status()
         except Exception:  # `refresh` disables the widget and says why
             return True
-        key = (*((s.count, s.status, s.reason) for s in self._snapshots(source)), own)
-        return key != self._key or self.widget.props_changed
+        return _state_key(self._snapshots(source), own) != self._key or self.widget.props_changed
 
-    def refresh(self, source: DataSource, now: float) -> bool:
-        """Read the snapshots; redraw only when a count, status or reason changed; True if redrawn."""
+    def refresh(self, source: DataSource, now: float) -> None:
+        """Read the snapshots; redraw only when a count, status or reason changed."""
         if self.widget is None or self.failed:
-            return False
+            return
         snapshots = self._snapshots(source)
         try:
             own = self.widget.status()  # control widgets report their own state (publishing)
         except Exception as exc:
             self._fail(f"widget failed to report its status: {exc!r}")
-            return False
+            return
         config = self.config.editable
         if self.widget.props_changed and config is not None:
             # The widget changed a property itself (a control's value): keep it for saving, and say so
@@ -246,9 +245,9 @@ class CanvasItem:
             if props != dict(config.properties):
                 self.config = replace(config, properties=props)
                 self.edited = True
-        key = (*((s.count, s.status, s.reason) for s in snapshots), own)
+        key = _state_key(snapshots, own)
         if key == self._key:
-            return False
+            return
         self._key = key
         self.status, self.reason = own if own is not None else combined_status(snapshots)
         if (self.status, self.reason) != self._pill_state:
@@ -257,9 +256,8 @@ class CanvasItem:
             self.widget.update(snapshots, now)
         except Exception as exc:  # one failing widget is disabled; the others keep running
             self._fail(f"widget failed while drawing: {exc!r}")
-            return False
+            return
         self.updates += 1
-        return True
 
     def _fail(self, reason: str) -> None:
         _log.warning("%s (%s): %s", self.name, self.config.type, reason)
@@ -349,3 +347,8 @@ class CanvasItem:
                 _log.debug("%s: widget destroy failed", self.name, exc_info=True)
         if dpg.does_item_exist(self.window):
             dpg.delete_item(self.window)
+
+
+def _state_key(snapshots: Sequence[SeriesSnapshot], own: object) -> tuple[object, ...]:
+    """What a widget's redraw depends on: each series' count, status and reason, and its own state."""
+    return (*((s.count, s.status, s.reason) for s in snapshots), own)

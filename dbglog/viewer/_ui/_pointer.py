@@ -232,23 +232,23 @@ class PointerInput:
         with self._wheel_lock:
             self._wheel += float(delta)
 
-    def apply_wheel(self) -> bool:
+    def apply_wheel(self) -> None:
         """Scroll the canvas by the wheel turns since the last frame when the pointer is over its background.
 
         Over a plot's body the wheel is the plot's (its zoom); in a dialog or menu it is theirs. Shift turns
-        it sideways. Returns True when the canvas scrolled.
+        it sideways.
         """
         app = self.app
         with self._wheel_lock:
             turns, self._wheel = self._wheel, 0.0
         if not turns or app.files.request is not None or dpg.is_item_shown(app.menu):
-            return False
+            return
         pos = app.pointer()
         if not self.over_canvas(pos):
-            return False
+            return
         hit = app.doc.hit(*app.to_canvas(pos), title_h=TITLE_H, corner=0)
         if hit is not None and hit[1] is Part.BODY and hit[0].config.type == "plot":
-            return False
+            return
         axis = 0 if app.held(dpg.mvKey_ModShift) else 1
         get, top, put = (
             (dpg.get_x_scroll, dpg.get_x_scroll_max, dpg.set_x_scroll),
@@ -263,4 +263,3 @@ class PointerInput:
         target = scroll_target(now, turns, top(app.canvas), WHEEL_STEP)
         put(app.canvas, target)
         self._scroll_set[axis] = (app.rendered, target)
-        return target != now
