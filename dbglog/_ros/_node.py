@@ -14,7 +14,7 @@ import threading
 from collections.abc import Callable, Iterable
 from typing import Any, NamedTuple
 
-__all__ = ["NodeIdentity", "PrivateNode", "WaitSet", "own_nodes", "take_batch"]
+__all__ = ["NodeIdentity", "PrivateNode", "WaitSet", "no_callback", "own_nodes", "take_batch"]
 
 _log = logging.getLogger("dbglog.ros")
 _OWN: dict[int, NodeIdentity] = {}
@@ -151,3 +151,7 @@ def take_batch(
         items.append(got[0])
         stamps.append(got[1]["source_timestamp"])
     return items, stamps
+
+
+def no_callback(_msg: object) -> None:
+    """Subscription callback that never runs: the owner takes messages itself through a `WaitSet`."""

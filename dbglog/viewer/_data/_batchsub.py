@@ -26,6 +26,7 @@ from dbglog._ros._batch import (
     decode_batch,
     is_sdk_node,
 )
+from dbglog._ros._node import no_callback
 from dbglog._ros._qos import batch_qos
 from dbglog._ros._tags import topic_for_tag
 from dbglog.viewer._data._model import Binding, ValueKind
@@ -86,6 +87,7 @@ class BatchIngest:
         *,
         make_sink: Callable[[Binding, Series, Any, str], Any],
         feed: Callable[..., None],
+        feed_numbers: Callable[..., None],
         record_latency: Callable[[Any], None],
         message_class: Callable[[str], Any],
         keep: int = 10_000,
@@ -93,6 +95,7 @@ class BatchIngest:
     ) -> None:
         self._make_sink = make_sink
         self._feed = feed
+        self._feed_numbers = feed_numbers
         self._record_latency = record_latency
         self._message_class = message_class
         self._keep = keep
@@ -122,7 +125,7 @@ class BatchIngest:
         )
         if self._writer_nodes and self.sub is None:
             self._cls = self._message_class(BATCH_TYPE)
-            self.sub = node.create_subscription(self._cls, BATCH_TOPIC, _noop, batch_qos(), raw=True)
+            self.sub = node.create_subscription(self._cls, BATCH_TOPIC, no_callback, batch_qos(), raw=True)
 
     def covers(self, infos: list[Any]) -> bool:
         """True when every publisher of a topic is a batch writer's node publishing a std_msgs scalar."""
@@ -265,10 +268,10 @@ class BatchIngest:
                     self._feed(sink, [_Sample(v) for v in values], times.tolist(), now)
                 elif sink.kind not in (ValueKind.NUMBER, ValueKind.BOOL) or sink.regex or sink.extra:
                     self._feed(sink, [_Sample(v) for v in _typed(values, sink)], times.tolist(), now)
-                elif sink.chain is not None:
-                    self._feed(sink, [_Sample(v) for v in values.tolist()], times.tolist(), now)
-                else:  # the common case: a column of numbers straight into the series
-                    sink.series.push_numbers(times, values, _typed(values[-1:], sink)[0], now)
+                else:  # a column of numbers, as the engine feeds one decoded from per-tag CDR
+                    self._feed_numbers(
+                        sink, times, values if sink.chain is None else values.astype(float), now
+                    )
         except Exception as exc:  # this binding's error alone
             _log.debug("viewer engine: batch feed for %s failed", sink.binding, exc_info=True)
             sink.resolved = None
@@ -308,7 +311,3 @@ class _Sample:
 
     def __init__(self, data: object) -> None:
         self.data = data
-
-
-def _noop(_msg: object) -> None:
-    """Subscription callback that never runs (the engine takes batches itself)."""

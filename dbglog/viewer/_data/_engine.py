@@ -27,7 +27,7 @@ import numpy.typing as npt
 from dbglog._regex._compile import CompiledRegex, RegexError, compile_regex, parse_number
 from dbglog._ros._batch import BATCH_TOPIC
 from dbglog._ros._cdr import decode_fixed
-from dbglog._ros._node import NodeIdentity, PrivateNode, WaitSet, take_batch
+from dbglog._ros._node import NodeIdentity, PrivateNode, WaitSet, no_callback, take_batch
 from dbglog._ros._qos import LOG_DEPTH, subscription_qos
 from dbglog.viewer._data._batchsub import BatchIngest, BatchStats
 from dbglog.viewer._data._fields import (
@@ -130,10 +130,6 @@ class _TopicSub:
     taken: int = 0
 
 
-def _noop(_msg: object) -> None:
-    """Subscription callback that never runs (the engine takes messages itself)."""
-
-
 def _normalize(topic: str) -> str:
     topic = topic.strip()
     return topic if topic.startswith("/") else "/" + topic
@@ -211,6 +207,7 @@ class Engine:
         self._batches = BatchIngest(
             make_sink=self._make_sink,
             feed=_feed,
+            feed_numbers=_feed_numbers,
             record_latency=self._record_latency,
             message_class=message_class,
             keep=history,
@@ -668,7 +665,7 @@ class Engine:
         if msg_type == LOG_TYPE:
             depth = max(depth, LOG_DEPTH)  # room for every line a late-joining reader is re-sent
         qos = subscription_qos(depth, reliable=reliable, transient=transient)
-        sub = node.create_subscription(cls, name, _noop, qos, raw=True)
+        sub = node.create_subscription(cls, name, no_callback, qos, raw=True)
         topic = _TopicSub(name, msg_type, cls, sub, reliable, transient)
         if old is not None:
             topic.taken = old.taken
