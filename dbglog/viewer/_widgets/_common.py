@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Sequence
 
 import dearpygui.dearpygui as dpg
@@ -47,6 +48,12 @@ def latest_number(snap: SeriesSnapshot | None) -> float | None:
     if len(snap.values):
         return float(snap.values[-1])
     return None
+
+
+def clock_text(t: float) -> str:
+    """Return a source time (epoch seconds) as the local clock with milliseconds: ``12:03:04.512``."""
+    seconds, millis = divmod(round(t * 1000), 1000)
+    return time.strftime("%H:%M:%S", time.localtime(seconds)) + f".{millis:03d}"
 
 
 def format_value(value: float | None, decimals: int, unit: str = "") -> str:

@@ -33,6 +33,7 @@ __all__ = [
     "scroll_target",
     "snap",
     "snap_rect",
+    "spread",
     "thermo_fill",
     "uncovered",
     "value_fraction",
@@ -345,3 +346,26 @@ def minmax_decimate(x: FloatArray, y: FloatArray, max_points: int) -> tuple[Floa
     np.maximum(i_min, i_max, out=order[1::2])
     np.minimum(order, n - 1, out=order)
     return x[order], y[order]
+
+
+def spread(positions: Sequence[float], gap: float) -> list[float]:
+    """Move labels along one axis so that no two are closer than `gap`, each as little as it can.
+
+    Labels keep their order; a run of labels that would overlap is laid out `gap` apart and centred
+    on where its labels wanted to be (a plot's value tags at the cursor, two series with close values).
+    Returns the new positions in the order given.
+    """
+    order = sorted(range(len(positions)), key=lambda i: positions[i])
+    clusters: list[tuple[float, list[int]]] = []  # (first label's position, the labels, in order)
+    for i in order:
+        top, members = float(positions[i]), [i]
+        while clusters and clusters[-1][0] + len(clusters[-1][1]) * gap > top:
+            _, prev = clusters.pop()
+            members = prev + members
+            top = sum(positions[m] - k * gap for k, m in enumerate(members)) / len(members)
+        clusters.append((top, members))
+    out = [0.0] * len(positions)
+    for top, members in clusters:
+        for k, m in enumerate(members):
+            out[m] = top + k * gap
+    return out
