@@ -27,6 +27,7 @@ __all__ = [
     "read_log",
     "read_string",
     "scalar_encoder",
+    "string_payload",
 ]
 
 CDR_HEADER: Final = b"\x00\x01\x00\x00"
@@ -105,6 +106,12 @@ def read_string(raw: bytes) -> bytes | None:
     if n < 1 or 8 + n > len(raw):
         return None
     return raw[8 : 8 + n - 1]
+
+
+def string_payload(text: str) -> bytes:
+    """Return the CDR bytes of a std_msgs/msg/String holding `text` (what `read_string` reads back)."""
+    data = text.encode("utf-8", "replace")
+    return CDR_HEADER + struct.pack("<I", len(data) + 1) + data + b"\x00"
 
 
 def decode_fixed(

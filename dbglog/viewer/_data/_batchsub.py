@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import logging
 import time
-from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -26,18 +25,17 @@ from dbglog._ros._batch import (
     decode_batch,
     is_sdk_node,
 )
+from dbglog._ros._cdr import read_string, string_payload
 from dbglog._ros._node import no_callback
 from dbglog._ros._qos import batch_qos
 from dbglog._ros._tags import topic_for_tag
+from dbglog.viewer._data._history import History
 from dbglog.viewer._data._model import Binding, ValueKind
 from dbglog.viewer._data._series import Series
 
 __all__ = ["BatchIngest", "BatchStats"]
 
 _log = logging.getLogger("dbglog.viewer.engine")
-_RECENT = 100
-"""Samples kept per tag that nothing binds yet: what a binding made later starts with (as the per-tag
-topics' transient-local history of 100 would give it)."""
 _MAX_TAKE = 2000
 """Batches taken per wake-up at most (others get their turn)."""
 _GRACE_S = 0.75
@@ -76,8 +74,8 @@ class BatchIngest:
         feed: the engine's ``(sink, messages, times, now)`` for typed values (text, regex).
         record_latency: the engine's latency recorder (times in seconds since the epoch).
         message_class: ``type name -> class``.
-        keep: samples kept per bound topic that is not fed from batches yet (the series' history):
-            a binding made just before its writer is seen on the graph still gets every sample.
+        history: the engine's history: every tag's samples are kept there as they arrive, so a binding
+            made later (or just before its writer is seen on the graph) starts with the tag's past.
         claim: the engine's ``(topic, msg_type) -> attached``, asked when samples of a bound topic
             arrive before the graph shows its publishers (a short-lived writer may be gone by then).
     """
@@ -90,7 +88,7 @@ class BatchIngest:
         feed_numbers: Callable[..., None],
         record_latency: Callable[[Any], None],
         message_class: Callable[[str], Any],
-        keep: int = 10_000,
+        history: History,
         claim: Callable[[str, str], bool] | None = None,
     ) -> None:
         self._make_sink = make_sink
@@ -98,7 +96,7 @@ class BatchIngest:
         self._feed_numbers = feed_numbers
         self._record_latency = record_latency
         self._message_class = message_class
-        self._keep = keep
+        self._history = history
         self._claim = claim
         self._wanted: frozenset[str] = frozenset()
         self.sub: Any = None
@@ -107,7 +105,8 @@ class BatchIngest:
         self._first_seen: dict[tuple[str, str], float] = {}
         """When each scalar topic's publisher node was first seen (for the grace period)."""
         self._covered: dict[str, _Covered] = {}
-        self._recent: dict[str, _Recent] = {}
+        self._types: dict[str, str] = {}
+        """The std_msgs type each tag seen in batches has (its newest)."""
         self._last_seq: dict[int, int] = {}
         self._newest: dict[Binding, float] = {}
         """Newest sample time each binding holds: a re-attached binding is seeded only past it."""
@@ -146,6 +145,11 @@ class BatchIngest:
                 return True
         return False
 
+    def past_type(self, name: str) -> str | None:
+        """Return the type of a tag whose past the history holds from batches (None if it holds none)."""
+        msg_type = self._types.get(name)
+        return msg_type if msg_type is not None and self._history.kind(name) is not None else None
+
     def is_covered(self, name: str) -> bool:
         """True when `name` is fed from batches now."""
         return name in self._covered
@@ -171,21 +175,23 @@ class BatchIngest:
             series.set_type(msg_type, sink.kind)
             if series.count == 0:
                 series.set_waiting("subscribed; no message yet")
-            recent = self._recent.get(name)
-            if recent is not None and recent.chunks:
-                newest = self._newest.get(binding)
-                chunks = list(recent.chunks)
-                if newest is not None:
-                    chunks = [
-                        (
-                            t[t > newest],
-                            v[t > newest]
-                            if not isinstance(v, list)
-                            else [x for x, k in zip(v, (t > newest).tolist(), strict=True) if k],
-                        )
-                        for t, v in chunks
-                    ]
-                self._push(sink, [c for c in chunks if len(c[0])])
+            past = self._past(name, self._newest.get(binding))
+            if past is not None:  # received "as long ago" as its newest sample is old: its age is true
+                self._push(sink, [past], time.monotonic() - max(0.0, time.time() - float(past[0][-1])))
+
+    def _past(self, name: str, after: float | None) -> tuple[Any, Any] | None:
+        """Return the tag's held samples newer than `after` (all with None) as one chunk, or None."""
+        history = self._history
+        t0 = -np.inf if after is None else float(np.nextafter(after, np.inf))
+        kind = history.kind(name)
+        if kind == "numbers":
+            times, values = history.range(name, t0, np.inf)
+            return (times, values.astype(np.float64, copy=False)) if len(times) else None
+        if kind == "payloads":
+            times, payloads = history.payloads(name, t0, np.inf)
+            texts = [(read_string(p) or b"").decode("utf-8", "replace") for p in payloads]
+            return (times, texts) if texts else None
+        return None
 
     def detach(self, name: str) -> None:
         """Stop feeding topic `name` from batches (it has another publisher, or none)."""
@@ -215,7 +221,7 @@ class BatchIngest:
     # --- ingest (engine thread) ---------------------------------------------------------------------
 
     def drain(self) -> None:
-        """Take the ready batches and feed their samples to covered topics (or keep them as recent)."""
+        """Take the ready batches, keep every sample in the history and feed covered topics' sinks."""
         take = self.sub.handle.take_message
         for _ in range(_MAX_TAKE):
             got = take(self._cls, True)
@@ -239,28 +245,38 @@ class BatchIngest:
 
     def _ingest(self, samples: TagSamples) -> None:
         name = topic_for_tag(samples.tag)
+        self._types[name] = "std_msgs/msg/" + samples.std_type
         times = samples.times_ns.astype(np.float64) * 1e-9
         chunk = (times, samples.values)
-        recent = self._recent.get(name)
-        if recent is None:
-            recent = self._recent[name] = _Recent()
-        limit = self._keep if name in self._wanted and name not in self._covered else _RECENT
-        recent.add(chunk, limit)
+        self._remember(name, times, samples.values)
         covered = self._covered.get(name)
         if covered is None:
             claim = self._claim
             if name in self._wanted and claim is not None and claim(name, "std_msgs/msg/" + samples.std_type):
-                self._record_latency(times)  # attaching fed this chunk from the recent samples
+                self._record_latency(times)  # attaching fed this chunk from the history
             return
         for sink in covered.sinks.values():
             self._push(sink, [chunk])
         self._record_latency(times)
 
-    def _push(self, sink: Any, chunks: list[tuple[Any, Any]]) -> None:
+    def _remember(self, name: str, times: Any, values: Any) -> None:
+        """Keep a tag's samples in the history (a tag whose type changed starts a new history)."""
+        history = self._history
+        kind = "payloads" if isinstance(values, list) else "numbers"
+        if history.kind(name) not in (None, kind):
+            history.drop(name)
+        if kind == "numbers":
+            history.append_numbers(name, times, values)
+        else:
+            history.append_payloads(
+                name, times, [string_payload(v) for v in values], msg_type="std_msgs/msg/String"
+            )
+
+    def _push(self, sink: Any, chunks: list[tuple[Any, Any]], now: float | None = None) -> None:
         """Feed one sink, guarding the others from its failure."""
         if sink.resolved is None:
             return
-        now = time.monotonic()
+        now = time.monotonic() if now is None else now
         try:
             for times, values in chunks:
                 self._newest[sink.binding] = max(self._newest.get(sink.binding, -np.inf), float(times[-1]))
@@ -285,23 +301,6 @@ def _typed(values: Any, sink: Any) -> list[Any]:
     if sink.resolved.leaf_type in ("float", "double"):
         return list(values.tolist())
     return [int(v) for v in values.tolist()]
-
-
-class _Recent:
-    """A tag's newest samples, as the chunks they arrived in, trimmed to a number of samples."""
-
-    __slots__ = ("chunks", "size")
-
-    def __init__(self) -> None:
-        self.chunks: deque[tuple[Any, Any]] = deque()
-        self.size = 0
-
-    def add(self, chunk: tuple[Any, Any], limit: int) -> None:
-        """Append a chunk; drop the oldest while the rest still hold `limit` samples."""
-        self.chunks.append(chunk)
-        self.size += len(chunk[0])
-        while len(self.chunks) > 1 and self.size - len(self.chunks[0][0]) >= limit:
-            self.size -= len(self.chunks.popleft()[0])
 
 
 class _Sample:

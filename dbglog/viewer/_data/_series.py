@@ -1,7 +1,9 @@
 """One binding's series: a bounded numpy ring of (source time, value), its last value, rate and status.
 
 The engine's ROS thread pushes whole batches; any thread takes a snapshot. Both hold the series' own
-lock only for array copies, never across ROS calls.
+lock only for array copies, never across ROS calls. With a `History` (the engine's), every value the
+series takes is also kept there under the series' own key, time-indexed within the viewer's history
+budget: that is what `snapshot_at` answers from when the dashboard travels back in time.
 """
 
 from __future__ import annotations
@@ -10,12 +12,15 @@ import threading
 import time
 from collections import deque
 from collections.abc import Sequence
+from dataclasses import replace
 
 import numpy as np
 import numpy.typing as npt
 
 from dbglog.viewer._data._fields import Scalar
+from dbglog.viewer._data._history import History
 from dbglog.viewer._data._model import Binding, SeriesSnapshot, Status, ValueKind, judge_age
+from dbglog.viewer._data._timeline import NOT_YET, cut_at, typed_like
 
 __all__ = ["RATE_WINDOW_S", "Series"]
 
@@ -25,15 +30,21 @@ _CHECKPOINT_EVERY_S = 0.1
 _RATE_SETTLE_S = 0.2
 """The rate ignores the first moments of a series: a latched history arrives as one burst."""
 _MAX_TEXTS = 1000
+_MIN_WINDOW_S = 60.0
+"""A series at a past time carries at least this many seconds of samples before it (plots need a past)."""
 
 
 class Series:
     """The bounded history and live state of one binding."""
 
-    def __init__(self, binding: Binding, capacity: int) -> None:
+    def __init__(self, binding: Binding, capacity: int, store: History | None = None) -> None:
         if capacity < 1:
             raise ValueError(f"history must hold at least one value, not {capacity}")
         self.binding = binding
+        self.store = store
+        """Where every value is also kept by time (None: the ring is all there is)."""
+        self.key = f"\x00series:{id(self):x}"
+        """This series' name in the store (never a topic name: those start with '/')."""
         self._lock = threading.Lock()
         self._capacity = capacity
         self._times = np.full(capacity, np.nan)  # touch the pages now: RSS stays flat later
@@ -64,6 +75,8 @@ class Series:
         with self._lock:
             if self._kind is not None and kind != self._kind:
                 self._clear()
+                if self.store is not None:
+                    self.store.drop(self.key)
             self._kind = kind
             self._msg_type = msg_type
             self._error = error
@@ -108,6 +121,8 @@ class Series:
                 self._pos = end % self._capacity
                 self._filled = min(self._filled + n, self._capacity)
             self._landed(n, last, float(times[-1]), now)
+        if self.store is not None:
+            self.store.append_numbers(self.key, times, values)
 
     def push_texts(self, times: Sequence[float], texts: Sequence[str], now: float) -> None:
         """Append a batch of text values."""
@@ -117,12 +132,17 @@ class Series:
             self._texts.extend(texts)
             self._text_times.extend(times)
             self._landed(len(texts), texts[-1], times[-1], now)
+        if self.store is not None:
+            self.store.append_payloads(self.key, times, [t.encode("utf-8", "replace") for t in texts])
 
     def push_array(self, count: int, last: tuple[float, ...], last_time: float, now: float) -> None:
         """Record `count` array messages; only the latest array is kept."""
         if count:
             with self._lock:
                 self._landed(count, last, last_time, now)
+            if self.store is not None:
+                blob = np.asarray(last, dtype=np.float64).tobytes()  # only the latest array is kept
+                self.store.append_payloads(self.key, [last_time], [blob])
 
     def _landed(self, n: int, last: Scalar, last_time: float, now: float) -> None:
         if self._first_rx is None:
@@ -192,6 +212,80 @@ class Series:
                 age_s=age,
                 count=self._count,
             )
+
+    def snapshot_at(self, t: float, stale_after: float) -> SeriesSnapshot:
+        """Return the series as it stood at source time `t` (from the store; without one, from the ring).
+
+        Numbers: the samples of the window the ring spans live (at least `_MIN_WINDOW_S`, at most the
+        ring's capacity) that end at `t`; text: the texts up to `t`; the value, age and status at `t`.
+        """
+        store = self.store
+        if store is None:
+            return cut_at(self.snapshot(stale_after), t, stale_after)
+        with self._lock:
+            kind, msg_type, error, last_live = self._kind, self._msg_type, self._error, self._last
+            if self._filled:
+                newest = self._times[self._pos - 1] if self._pos else self._times[self._capacity - 1]
+                oldest = self._times[self._pos] if self._filled == self._capacity else self._times[0]
+                span = float(newest - oldest)
+            else:
+                span = float(self._text_times[-1] - self._text_times[0]) if self._text_times else 0.0
+        base = SeriesSnapshot(self.binding, Status.WAITING, NOT_YET, kind=kind, msg_type=msg_type)
+        if error and self._count == 0:
+            return replace(base, status=Status.ERROR, reason=error)
+        sample = store.at(self.key, t)
+        if sample is None:
+            return base
+        window = max(span, _MIN_WINDOW_S)
+        times: npt.NDArray[np.float64] = np.empty(0)
+        values: npt.NDArray[np.float64] = np.empty(0)
+        texts: tuple[str, ...] = ()
+        last: Scalar
+        if kind == ValueKind.TEXT:
+            times, payloads = store.payloads(self.key, t - window, t)
+            times, payloads = times[-_MAX_TEXTS:], payloads[-_MAX_TEXTS:]
+            texts = tuple(p.decode("utf-8", "replace") for p in payloads)
+            last = texts[-1] if texts else bytes(sample.value).decode("utf-8", "replace")  # type: ignore[arg-type]
+        elif kind == ValueKind.ARRAY:
+            assert isinstance(sample.value, bytes)
+            last = tuple(np.frombuffer(sample.value, dtype=np.float64).tolist())
+        else:
+            times, raw = store.range(self.key, t - window, t)
+            times, values = times[-self._capacity :], raw[-self._capacity :].astype(np.float64, copy=False)
+            last = typed_like(last_live, float(sample.value))
+        age = t - sample.time
+        status, reason = (Status.ERROR, error) if error else judge_age(age, stale_after)
+        before = store.at(self.key, t - RATE_WINDOW_S)  # the rate over the window before t, as live
+        recent = sample.index - (before.index if before is not None else -1)
+        rate = recent / RATE_WINDOW_S if recent > 1 else 0.0
+        return replace(
+            base,
+            status=status,
+            reason=reason,
+            times=times,
+            values=values,
+            texts=texts,
+            last=last,
+            last_time=sample.time,
+            rate_hz=rate,
+            age_s=age,
+            count=sample.index + 1,
+        )
+
+    def held(self) -> int:
+        """Return how many of this series' samples its store holds (the ring's size without a store)."""
+        if self.store is not None:
+            return self.store.count(self.key)
+        with self._lock:
+            return self._filled if self._kind not in (ValueKind.TEXT,) else len(self._texts)
+
+    def neighbour_time(self, t: float, direction: int) -> float | None:
+        """Return the time of this series' previous (-1) or next (+1) sample strictly around `t`."""
+        if self.store is None:
+            return None
+        if direction < 0:
+            return self.store.prev_time(self.key, t)
+        return self.store.next_time(self.key, t)
 
     def _rate(self, now: float) -> float:
         """Messages per second over the recent window; decays once messages stop."""

@@ -1,0 +1,261 @@
+"""One time cursor for every widget: a `DataSource` that answers "the state at time t".
+
+`Timeline` wraps the viewer's data source. Live, it passes snapshots through untouched; paused at a
+time `t` (source time, epoch seconds), every snapshot it hands out is the series *as it stood at t*:
+samples up to `t`, the last value at `t`, the status judged by the age at `t`. Widgets, built-in or
+from plugins, read snapshots as they always did and so travel in time without knowing it.
+
+A source with a history implements `TimeSource` (the engine does: it answers from its time-indexed
+store, far beyond a series' ring); any other source is cut by `cut_at`. Pure logic: no ROS, no Dear
+PyGui; the UI thread owns a `Timeline`.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Iterable
+from dataclasses import replace
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+
+from dbglog.viewer._data._history import HistoryStats
+from dbglog.viewer._data._model import (
+    Binding,
+    DataSource,
+    FieldInfo,
+    SeriesSnapshot,
+    Status,
+    TopicInfo,
+    ValueKind,
+    judge_age,
+)
+
+__all__ = ["NOT_YET", "TimeSource", "Timeline", "cut_at", "typed_like"]
+
+NOT_YET = "no value yet at the cursor time"
+"""The reason a series shows WAITING when the cursor is before its first sample."""
+
+
+@runtime_checkable
+class TimeSource(Protocol):
+    """A data source that remembers: snapshots at any time it still holds."""
+
+    def snapshot_at(self, binding: Binding, t: float) -> SeriesSnapshot:
+        """Return the series of `binding` as it stood at source time `t`."""
+
+    def time_span(self) -> tuple[float, float] | None:
+        """Return (oldest, newest) source time held over every series, None when empty."""
+
+    def neighbour_time(self, binding: Binding, t: float, direction: int) -> float | None:
+        """Return the time of the binding's previous (-1) or next (+1) sample strictly around `t`."""
+
+    def history_stats(self) -> HistoryStats:
+        """Return what the history holds (span, samples, bytes) for the status bar."""
+
+
+def cut_at(snapshot: SeriesSnapshot, t: float, stale_after: float) -> SeriesSnapshot:
+    """Return `snapshot` as it stood at time `t`: its samples up to `t`, its value and status then.
+
+    Works on any snapshot (a source without a history of its own): what the snapshot holds is all
+    there is, so a time older than its oldest sample reads as "no value yet".
+    """
+    if snapshot.status is Status.ERROR and snapshot.count == 0:
+        return snapshot
+    times = snapshot.times
+    n = int(np.searchsorted(times, t, side="right"))
+    if snapshot.kind is ValueKind.ARRAY or not len(times):
+        if snapshot.last_time is None or snapshot.last_time > t:
+            return _not_yet(snapshot)
+        age = t - snapshot.last_time
+        status, reason = judge_age(age, stale_after)
+        return replace(snapshot, status=status, reason=reason, age_s=age)
+    if n == 0:
+        return _not_yet(snapshot)
+    last_time = float(times[n - 1])
+    if snapshot.kind is ValueKind.TEXT:
+        texts = snapshot.texts[: n - (len(times) - len(snapshot.texts))] if snapshot.texts else ()
+        last: object = texts[-1] if texts else snapshot.last
+        values = snapshot.values
+    else:
+        values = snapshot.values[:n]
+        last = typed_like(snapshot.last, float(values[-1]))
+        texts = snapshot.texts
+    age = t - last_time
+    status, reason = judge_age(age, stale_after)
+    if snapshot.status is Status.ERROR:
+        status, reason = snapshot.status, snapshot.reason
+    return replace(
+        snapshot,
+        status=status,
+        reason=reason,
+        times=times[:n],
+        values=values,
+        texts=texts,
+        last=last,  # type: ignore[arg-type]
+        last_time=last_time,
+        age_s=age,
+        rate_hz=_rate(times[:n], t),
+        count=snapshot.count - (len(times) - n),
+    )
+
+
+def _not_yet(snapshot: SeriesSnapshot) -> SeriesSnapshot:
+    """The series before its first sample."""
+    return replace(
+        snapshot,
+        status=Status.WAITING,
+        reason=NOT_YET,
+        times=np.empty(0),
+        values=np.empty(0),
+        texts=(),
+        last=None,
+        last_time=None,
+        age_s=None,
+        rate_hz=0.0,
+        count=0,
+    )
+
+
+def typed_like(example: object, value: float) -> float | int | bool:
+    """Give a stored float the Python type the live series' last value has (bools and ints stay so)."""
+    if isinstance(example, bool):
+        return bool(value)
+    if isinstance(example, int) and float(value).is_integer():
+        return int(value)
+    return value
+
+
+def _rate(times: np.ndarray, t: float, window: float = 5.0) -> float:
+    """Messages per second over the `window` seconds before `t`."""
+    if len(times) < 2:
+        return 0.0
+    k = int(np.searchsorted(times, t - window, side="left"))
+    n = len(times) - k
+    if n < 2:
+        return 0.0
+    span = max(t - float(times[k]), float(times[-1]) - float(times[k]))
+    return (n - 1) / span if span > 0 else 0.0
+
+
+class Timeline:
+    """The viewer's time cursor over a data source: live, or paused at a source time.
+
+    Args:
+        source: the data source (the engine, a replay, a `StaticSource`).
+        stale_after: seconds without a sample that make a series STALE at the cursor time.
+        clock: wall clock (epoch seconds); pausing with no history pauses at its time.
+    """
+
+    def __init__(self, source: DataSource, *, stale_after: float = 2.0, clock: object = time.time) -> None:
+        self.source = source
+        self.stale_after = stale_after
+        self._clock = clock
+        self.cursor: float | None = None
+        """The source time shown (epoch seconds), or None while live."""
+
+    # --- state --------------------------------------------------------------------------------------
+
+    @property
+    def live(self) -> bool:
+        """True while the widgets follow the newest data."""
+        return self.cursor is None
+
+    def span(self) -> tuple[float, float] | None:
+        """Return (oldest, newest) source time the source holds, None when it holds nothing."""
+        if isinstance(self.source, TimeSource):
+            return self.source.time_span()
+        return None
+
+    def stats(self) -> HistoryStats | None:
+        """Return what the source's history holds, None for a source without one."""
+        if isinstance(self.source, TimeSource):
+            return self.source.history_stats()
+        return None
+
+    def pause(self, at: float | None = None) -> None:
+        """Stop following the data: the cursor holds `at` (default: the newest sample, or now)."""
+        if at is None:
+            span = self.span()
+            at = span[1] if span is not None else float(self._clock())  # type: ignore[operator]
+        self.cursor = float(at)
+
+    def resume(self) -> None:
+        """Follow the newest data again."""
+        self.cursor = None
+
+    def toggle(self) -> None:
+        """Pause at the newest sample, or resume."""
+        if self.live:
+            self.pause()
+        else:
+            self.resume()
+
+    def seek(self, t: float) -> None:
+        """Pause at `t`, clamped to the span held."""
+        span = self.span()
+        if span is not None:
+            t = min(max(t, span[0]), span[1])
+        self.cursor = float(t)
+
+    def shift(self, seconds: float) -> None:
+        """Move the cursor by `seconds` (pausing first when live)."""
+        if self.cursor is None:
+            self.pause()
+        assert self.cursor is not None
+        self.seek(self.cursor + seconds)
+
+    def step(self, bindings: Iterable[Binding], direction: int) -> bool:
+        """Move the cursor to the previous (-1) or next (+1) sample of any of `bindings`.
+
+        Returns False when there is none that way (the cursor stays).
+        """
+        if self.cursor is None:
+            self.pause()
+        assert self.cursor is not None
+        found: list[float] = []
+        for binding in bindings:
+            t = self._neighbour(binding, self.cursor, direction)
+            if t is not None:
+                found.append(t)
+        if not found:
+            return False
+        self.cursor = max(found) if direction < 0 else min(found)
+        return True
+
+    def _neighbour(self, binding: Binding, t: float, direction: int) -> float | None:
+        if isinstance(self.source, TimeSource):
+            return self.source.neighbour_time(binding, t, direction)
+        times = self.source.snapshot(binding).times
+        if direction < 0:
+            i = int(np.searchsorted(times, t, side="left")) - 1
+            return float(times[i]) if i >= 0 else None
+        j = int(np.searchsorted(times, t, side="right"))
+        return float(times[j]) if j < len(times) else None
+
+    # --- DataSource ---------------------------------------------------------------------------------
+
+    def snapshot(self, binding: Binding) -> SeriesSnapshot:
+        """Return the series live, or as it stood at the cursor time."""
+        t = self.cursor
+        if t is None:
+            return self.source.snapshot(binding)
+        if isinstance(self.source, TimeSource):
+            return self.source.snapshot_at(binding, t)
+        return cut_at(self.source.snapshot(binding), t, self.stale_after)
+
+    def bind(self, binding: Binding) -> None:
+        """Bind on the source."""
+        self.source.bind(binding)
+
+    def unbind(self, binding: Binding) -> None:
+        """Unbind on the source."""
+        self.source.unbind(binding)
+
+    def topics(self) -> list[TopicInfo]:
+        """The source's topics."""
+        return self.source.topics()
+
+    def fields(self, topic: str) -> list[FieldInfo]:
+        """The source's fields of `topic`."""
+        return self.source.fields(topic)

@@ -1,0 +1,219 @@
+"""The engine remembers (issue 16): every dbglog tag and every bound topic is kept by time, a binding
+made later starts with its topic's past, and any series answers "the state at time t".
+
+Real ROS 2 throughout: dbglog SDK publishers in child processes (tags arrive on the batch topic),
+plain rclpy publishers in this process for other topics.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import textwrap
+import time
+import uuid
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+import pytest
+from std_msgs.msg import Float64, String
+
+from dbglog._ros._tags import topic_for_tag
+from dbglog.viewer._data._engine import Engine
+from dbglog.viewer._data._model import Binding, SeriesSnapshot, Status, ValueKind
+from dbglog.viewer._data._timeline import NOT_YET, Timeline
+from dbglog.viewer._values._transforms import Scale
+from tests._ros import RosPeer, wait_until
+
+ROOT = Path(__file__).resolve().parent.parent
+TIMEOUT = 30.0
+_RUN = f"hist_{uuid.uuid4().hex[:6]}"
+
+
+@pytest.fixture(scope="module")
+def engine() -> Iterator[Engine]:
+    """One real viewer engine with a history, for the module."""
+    with Engine(node_name="history_engine", history_seconds=600, history_bytes=64 << 20) as e:
+        yield e
+
+
+@pytest.fixture(scope="module")
+def peer() -> Iterator[RosPeer]:
+    """An independent ROS participant publishing plain topics."""
+    with RosPeer("history_peer") as p:
+        yield p
+
+
+def _sdk(code: str) -> subprocess.CompletedProcess[str]:
+    """Run dbglog SDK code in a child process (its own node and batch writer)."""
+    env = {k: v for k, v in os.environ.items() if k not in ("DBGLOG", "DBGLOG_STRICT")}
+    env["PYTHONPATH"] = str(ROOT)
+    return subprocess.run(
+        [sys.executable, "-c", textwrap.dedent(code)],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=90,
+        cwd=ROOT,
+        check=False,
+    )
+
+
+def _wait_snap(engine: Engine, binding: Binding, ok: object) -> SeriesSnapshot:
+    assert callable(ok)
+    wait_until(lambda: bool(ok(engine.snapshot(binding))), TIMEOUT)
+    snap = engine.snapshot(binding)
+    assert ok(snap), f"condition never held: {snap}"
+    return snap
+
+
+def _sdk_log_known_values(tag: str, n: int, period: float) -> None:
+    """Log the values 0..n-1, one per `period` seconds, from a child process; wait for delivery."""
+    done = _sdk(
+        f"""
+        import time, dbglog
+        dbglog.init()
+        time.sleep(2.0)  # the viewer's engine sees the batch writer first
+        for i in range({n}):
+            dbglog.logfloat({tag!r}, float(i))
+            time.sleep({period})
+        assert dbglog.flush(5.0)
+        """
+    )
+    assert done.returncode == 0, done.stderr
+
+
+def test_a_tag_logged_before_anything_binds_it_is_back_filled(engine: Engine) -> None:
+    """Every dbglog tag is kept from the moment it is seen: a plot added later starts with its past."""
+    tag = f"{_RUN}/early"
+    _sdk_log_known_values(tag, 200, 0.005)
+    topic = topic_for_tag(tag)
+    assert wait_until(lambda: engine.store.count(topic) >= 200, TIMEOUT), engine.store.stats()
+    binding = Binding(topic)
+    started = time.monotonic()
+    engine.bind(binding)
+    snap = _wait_snap(engine, binding, lambda s: s.count >= 200)
+    assert time.monotonic() - started < 5
+    assert snap.values.tolist() == [float(i) for i in range(200)]
+    assert np.all(np.diff(snap.times) > 0)
+    assert engine.samples_held(binding) == 200
+    # A second binding on the same tag with a transform gets the same past, transformed.
+    scaled = Binding(topic, transforms=(Scale(2.0),))
+    engine.bind(scaled)
+    snap2 = _wait_snap(engine, scaled, lambda s: s.count >= 200)
+    assert snap2.values.tolist() == [2.0 * i for i in range(200)]
+
+
+def test_snapshot_at_gives_the_value_and_status_at_that_time(engine: Engine, peer: RosPeer) -> None:
+    """A series at time t: the last value at t, its samples up to t, stale when nothing came for a while."""
+    topic = f"/{_RUN}/plain"
+    pub = peer.publisher(topic, Float64)
+    binding = Binding(topic)
+    engine.bind(binding)
+    assert peer.wait_for_subscribers(pub, timeout=TIMEOUT)
+    for i in range(50):
+        pub.publish(Float64(data=float(i)))
+        time.sleep(0.01)
+    time.sleep(2.5)  # a gap longer than the stale time
+    for i in range(50, 60):
+        pub.publish(Float64(data=float(i)))
+        time.sleep(0.01)
+    snap = _wait_snap(engine, binding, lambda s: s.count >= 60)
+    times, values = snap.times, snap.values
+    assert values.tolist() == [float(i) for i in range(60)]
+    for k in (0, 10, 49, 55):
+        at = engine.snapshot_at(binding, float(times[k]))
+        assert at.last == float(k), (k, at)
+        assert at.last_time == float(times[k])
+        assert at.values[-1] == float(k) and len(at.values) == k + 1
+        assert at.status is Status.LIVE
+        assert at.count == k + 1
+    mid = float(times[49]) + 2.2  # in the gap, past the stale time
+    gap = engine.snapshot_at(binding, mid)
+    assert gap.last == 49.0
+    assert gap.status is Status.STALE and "no message for 2.2 s" in gap.reason
+    before = engine.snapshot_at(binding, float(times[0]) - 1)
+    assert before.status is Status.WAITING and before.reason == NOT_YET and before.last is None
+    # Stepping walks the samples one by one.
+    assert engine.neighbour_time(binding, float(times[10]), +1) == float(times[11])
+    assert engine.neighbour_time(binding, float(times[10]), -1) == float(times[9])
+    span = engine.time_span()
+    assert span is not None and span[0] <= times[0] and span[1] >= times[-1]
+
+
+def test_a_binding_added_later_on_a_plain_topic_starts_with_its_past(engine: Engine, peer: RosPeer) -> None:
+    """A topic one widget binds is kept raw: another widget on another field of it gets the past too."""
+    topic = f"/{_RUN}/words"
+    pub = peer.publisher(topic, String)
+    first = Binding(topic)
+    engine.bind(first)
+    assert peer.wait_for_subscribers(pub, timeout=TIMEOUT)
+    for i in range(40):
+        pub.publish(String(data=f"distance {i / 10:.1f} m"))
+        time.sleep(0.01)
+    snap = _wait_snap(engine, first, lambda s: s.count >= 40)
+    assert snap.kind is ValueKind.TEXT
+    assert engine.store.count(topic) == 40
+    later = Binding(topic, regex=r"distance (\S+) m")
+    engine.bind(later)
+    got = _wait_snap(engine, later, lambda s: s.count >= 40)
+    assert got.values.tolist() == [i / 10 for i in range(40)]
+    assert got.times.tolist() == snap.times.tolist()
+    # Text at a past time: the texts up to it, the last one the text then.
+    at = engine.snapshot_at(first, float(snap.times[9]))
+    assert at.last == "distance 0.9 m"
+    assert at.texts[-1] == "distance 0.9 m" and len(at.texts) == 10
+    # New messages after the back-fill arrive once, in order.
+    for i in range(40, 45):
+        pub.publish(String(data=f"distance {i / 10:.1f} m"))
+    got = _wait_snap(engine, later, lambda s: s.count >= 45)
+    assert got.values.tolist() == [i / 10 for i in range(45)]
+
+
+def test_unbinding_frees_the_series_history_but_keeps_the_topic(engine: Engine, peer: RosPeer) -> None:
+    """A removed widget's values leave the history; the topic's own history stays for the next one."""
+    topic = f"/{_RUN}/freed"
+    pub = peer.publisher(topic, Float64)
+    binding = Binding(topic, transforms=(Scale(3.0),))
+    engine.bind(binding)
+    assert peer.wait_for_subscribers(pub, timeout=TIMEOUT)
+    for i in range(20):
+        pub.publish(Float64(data=float(i)))
+        time.sleep(0.005)
+    _wait_snap(engine, binding, lambda s: s.count >= 20)
+    key = next(k for k in engine.store.topics() if k.startswith("\x00") and engine.store.count(k) == 20)
+    engine.unbind(binding)
+    keep = Binding(f"/{_RUN}/other_to_wake_the_engine")
+    engine.bind(keep)  # any change makes the ROS thread reconcile
+    assert wait_until(lambda: key not in engine.store.topics(), TIMEOUT)
+    assert engine.store.count(topic) == 20
+
+
+def test_timeline_over_the_engine_pauses_steps_and_resumes(engine: Engine, peer: RosPeer) -> None:
+    """The Timeline is the DataSource widgets read: paused, it hands out the past; live, the present."""
+    topic = f"/{_RUN}/timeline"
+    pub = peer.publisher(topic, Float64)
+    binding = Binding(topic)
+    timeline = Timeline(engine)
+    timeline.bind(binding)
+    assert peer.wait_for_subscribers(pub, timeout=TIMEOUT)
+    for i in range(10):
+        pub.publish(Float64(data=float(i)))
+        time.sleep(0.01)
+    snap = _wait_snap(engine, binding, lambda s: s.count >= 10)
+    timeline.seek(float(snap.times[4]))
+    assert not timeline.live
+    assert timeline.snapshot(binding).last == 4.0
+    assert timeline.step([binding], +1) and timeline.snapshot(binding).last == 5.0
+    assert timeline.step([binding], -1) and timeline.step([binding], -1)
+    assert timeline.snapshot(binding).last == 3.0
+    for i in range(10, 15):
+        pub.publish(Float64(data=float(i)))
+    _wait_snap(engine, binding, lambda s: s.count >= 15)
+    assert timeline.snapshot(binding).last == 3.0  # paused: new data does not move the widgets
+    timeline.resume()
+    assert timeline.snapshot(binding).last == 14.0
+    stats = timeline.stats()
+    assert stats is not None and stats.bytes_used > 0 and stats.samples >= 15
