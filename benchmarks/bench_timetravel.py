@@ -1,0 +1,215 @@
+"""Time travel benchmark (issue 16): moving the cursor through a long history, and back-filling a new widget.
+
+Run from the repository root: ``.venv/bin/python -m benchmarks.bench_timetravel`` (``--help`` for options).
+
+* **cursor**: 50 topics x 100 Hz for ``--minutes`` (60: 18 M samples) held in the viewer's history, 20 of
+  them bound (each binding's values kept too, as the engine keeps them). One cursor move = every bound
+  series answering "the state at t" (`Series.snapshot_at`, what the engine's `snapshot_at` runs), at random
+  times over the span; also one step (previous/next sample of all 20). Medians and p95 of the moves; the
+  widgets' drawing is measured by ``bench_ui``.
+* **backfill**: a real viewer engine and a real dbglog SDK child that logs ``--backfill-samples`` values of
+  a tag (10 minutes of a 100 Hz tag = 60,000) before anything binds it; then a binding is made and timed
+  until its series holds every one of them (repeats, each on a new tag).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import random
+import statistics
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+
+import numpy as np
+
+_ROOT = Path(__file__).resolve().parent.parent
+if str(_ROOT) not in sys.path:
+    sys.path.insert(0, str(_ROOT))
+
+from benchmarks._common import local_ros_env, print_table  # noqa: E402
+from dbglog.viewer._data._history import History  # noqa: E402
+from dbglog.viewer._data._model import Binding  # noqa: E402
+from dbglog.viewer._data._series import Series  # noqa: E402
+from dbglog.viewer._data._timeline import Timeline  # noqa: E402
+
+_T0 = 1_700_000_000.0
+
+
+def _p(samples: list[float], q: float) -> float:
+    return float(np.percentile(np.asarray(samples), q))
+
+
+class _SeriesSource:
+    """The engine's TimeSource answers, without ROS: bound series over one history."""
+
+    def __init__(self, store: History, series: dict[Binding, Series]) -> None:
+        self.store, self.series = store, series
+
+    def snapshot_at(self, binding: Binding, t: float) -> object:
+        return self.series[binding].snapshot_at(t, 2.0)
+
+    def time_span(self) -> tuple[float, float] | None:
+        s = self.store.stats()
+        return None if s.oldest is None or s.newest is None else (s.oldest, s.newest)
+
+    def neighbour_time(self, binding: Binding, t: float, direction: int) -> float | None:
+        return self.series[binding].neighbour_time(t, direction)
+
+    def history_stats(self) -> object:
+        return self.store.stats()
+
+    def snapshot(self, binding: Binding) -> object:
+        return self.series[binding].snapshot(2.0)
+
+    def bind(self, binding: Binding) -> None:
+        """Bindings are made up front."""
+
+    def unbind(self, binding: Binding) -> None:
+        """Bindings are made up front."""
+
+    def topics(self) -> list[object]:
+        return []
+
+    def fields(self, topic: str) -> list[object]:
+        return []
+
+
+def _cursor(args: argparse.Namespace) -> None:
+    store = History(clock=None, max_seconds=7200, max_bytes=2**40)
+    names = [f"/rosdashboard/t{k}" for k in range(args.topics)]
+    bound = {Binding(n): Series(Binding(n), 10_000, store) for n in names[: args.widgets]}
+    per = args.rate
+    base = np.arange(per) / args.rate
+    start = time.perf_counter()
+    for b in range(args.minutes * 60):
+        t = _T0 + b + base
+        now = time.monotonic()
+        for k, name in enumerate(names):
+            v = np.sin(t * (0.1 + k * 0.01))
+            store.append_numbers(name, t, v)
+            series = bound.get(Binding(name))
+            if series is not None:
+                series.push_numbers(t, v, float(v[-1]), now)
+    fill_s = time.perf_counter() - start
+    stats = store.stats()
+    source = _SeriesSource(store, bound)
+    timeline = Timeline(source)  # type: ignore[arg-type]
+    span = timeline.span()
+    assert span is not None
+    rng = random.Random(7)
+    moves: list[float] = []
+    steps: list[float] = []
+    for _ in range(args.moves):
+        t = rng.uniform(*span)
+        begin = time.perf_counter()
+        timeline.seek(t)
+        snaps = [timeline.snapshot(b) for b in bound]
+        moves.append((time.perf_counter() - begin) * 1e3)
+        assert all(s.last is not None for s in snaps)
+        begin = time.perf_counter()
+        timeline.step(list(bound), +1)
+        snaps = [timeline.snapshot(b) for b in bound]
+        steps.append((time.perf_counter() - begin) * 1e3)
+    print_table(
+        f"Cursor: {args.topics} topics × {args.rate} Hz × {args.minutes} min = "
+        f"{stats.samples:,} samples held ({stats.bytes_used / 2**20:,.0f} MiB, filled in {fill_s:.0f} s); "
+        f"{args.widgets} bound series; {args.moves} moves",
+        ["operation", "p50 ms", "p95 ms", "max ms", "target"],
+        [
+            [
+                f"seek to a random time, {args.widgets} series at t",
+                f"{statistics.median(moves):.2f}",
+                f"{_p(moves, 95):.2f}",
+                f"{max(moves):.2f}",
+                "p95 ≤ 50 ms with the redraw",
+            ],
+            [
+                f"step to the next sample of {args.widgets} series, then read them",
+                f"{statistics.median(steps):.2f}",
+                f"{_p(steps, 95):.2f}",
+                f"{max(steps):.2f}",
+                "",
+            ],
+        ],
+    )
+
+
+_CHILD = """
+import time, dbglog
+dbglog.init()
+time.sleep(2.0)
+for i in range({n}):
+    dbglog.logfloat({tag!r}, float(i))
+    if i % 500 == 499:
+        time.sleep(0.002)
+assert dbglog.flush(10.0)
+"""
+
+
+def _backfill(args: argparse.Namespace) -> None:
+    from dbglog._ros._tags import topic_for_tag
+    from dbglog.viewer._data._engine import Engine
+
+    env = {**os.environ, "PYTHONPATH": str(_ROOT)}
+    took: list[float] = []
+    counts: list[int] = []
+    with Engine(node_name="bench_timetravel") as engine:
+        for r in range(args.repeats):
+            tag = f"bench/backfill/r{r}_{os.getpid()}"
+            topic = topic_for_tag(tag)
+            code = textwrap.dedent(_CHILD.format(n=args.backfill_samples, tag=tag))
+            subprocess.run([sys.executable, "-c", code], env=env, check=True, timeout=300)
+            deadline = time.monotonic() + 30
+            while engine.store.count(topic) < args.backfill_samples and time.monotonic() < deadline:
+                time.sleep(0.01)
+            held = engine.store.count(topic)
+            binding = Binding(topic)
+            begin = time.perf_counter()
+            engine.bind(binding)
+            while engine.snapshot(binding).count < held and time.perf_counter() - begin < 30:
+                time.sleep(0.0005)
+            took.append((time.perf_counter() - begin) * 1e3)
+            counts.append(engine.snapshot(binding).count)
+            engine.unbind(binding)
+    print_table(
+        f"Back-fill: a binding made after {args.backfill_samples:,} samples of its tag were logged "
+        f"(real engine, SDK child), {args.repeats} repeats",
+        ["samples back-filled", "p50 ms", "max ms", "target"],
+        [
+            [
+                f"{min(counts):,}–{max(counts):,} of {args.backfill_samples:,}",
+                f"{statistics.median(took):.1f}",
+                f"{max(took):.1f}",
+                "≤ 100 ms for 10 min of a 100 Hz tag",
+            ]
+        ],
+    )
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the benchmark and print Markdown tables."""
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--only", choices=["cursor", "backfill"], default=None)
+    parser.add_argument("--topics", type=int, default=50)
+    parser.add_argument("--rate", type=int, default=100)
+    parser.add_argument("--minutes", type=int, default=60)
+    parser.add_argument("--widgets", type=int, default=20)
+    parser.add_argument("--moves", type=int, default=200)
+    parser.add_argument("--backfill-samples", type=int, default=60_000)
+    parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--domain", type=int, default=None, help="ROS_DOMAIN_ID (random by default)")
+    args = parser.parse_args(argv)
+    if args.only in (None, "backfill"):
+        local_ros_env(args.domain)
+        _backfill(args)
+    if args.only in (None, "cursor"):
+        _cursor(args)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
