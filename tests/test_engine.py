@@ -116,6 +116,8 @@ def test_nested_fields_and_indexed_message_sequences(engine: Engine, peer: RosPe
         peer.publisher(pose_topic, PoseStamped),
         peer.publisher(multi_topic, Float64MultiArray),
     )
+    for pub in (tw, po, mu):  # the first messages must not go out before the engine subscribed
+        assert peer.wait_for_subscribers(pub, timeout=TIMEOUT)
 
     def twist(i: int) -> Twist:
         m = Twist()

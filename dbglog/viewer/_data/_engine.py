@@ -12,11 +12,9 @@ from __future__ import annotations
 
 import functools
 import logging
-import math
 import threading
 import time
 from collections import defaultdict
-from collections.abc import Iterable
 from dataclasses import dataclass, field
 from types import TracebackType
 from typing import Any, Self
@@ -24,7 +22,7 @@ from typing import Any, Self
 import numpy as np
 import numpy.typing as npt
 
-from dbglog._regex._compile import CompiledRegex, RegexError, compile_regex, parse_number
+from dbglog._regex._compile import CompiledRegex, RegexError, compile_regex
 from dbglog._ros._batch import BATCH_TOPIC
 from dbglog._ros._cdr import decode_fixed
 from dbglog._ros._node import NodeIdentity, PrivateNode, WaitSet, no_callback, take_batch
@@ -32,7 +30,6 @@ from dbglog._ros._qos import LOG_DEPTH, subscription_qos
 from dbglog.viewer._data._batchsub import BatchIngest, BatchStats
 from dbglog.viewer._data._fields import (
     FieldPathError,
-    Resolved,
     fixed_size,
     list_fields,
     message_class,
@@ -42,6 +39,7 @@ from dbglog.viewer._data._fields import (
 from dbglog.viewer._data._history import DEFAULT_MAX_BYTES, DEFAULT_MAX_SECONDS, History, HistoryStats
 from dbglog.viewer._data._model import Binding, FieldInfo, SeriesSnapshot, Status, TopicInfo, ValueKind
 from dbglog.viewer._data._series import Series
+from dbglog.viewer._data._sinks import Sink, backfill, break_sink, feed, feed_numbers, make_sink
 from dbglog.viewer._data._suggest import close_matches, sub_topics, unpublished_reason
 from dbglog.viewer._values._transforms import TransformChain, TransformError
 
@@ -52,8 +50,6 @@ _MAX_BATCH = 20_000
 """At most this many messages are taken from one subscription per cycle (others get their turn)."""
 _RESUBSCRIBE_DEDUP_S = 1.0
 _LATENCY_SAMPLES = 1 << 20
-_FAIL_STREAK = 5
-"""A binding's transforms that yield NaN with a reason this many samples in a row put it in ERROR."""
 _MIN_DEPTH = 50
 """No subscription queues fewer messages than this, however many topics share the budget."""
 _VARIABLE_DEPTH = 100
@@ -97,24 +93,6 @@ class EngineStats:
 
 
 @dataclass(eq=False, slots=True)
-class _Sink:
-    """One binding fed by a topic subscription."""
-
-    binding: Binding
-    series: Series
-    regex: CompiledRegex | None
-    resolved: Resolved | None = None
-    kind: ValueKind | None = None
-    skip_until_ns: int = 0
-    """After a re-subscription, messages up to this source stamp were already taken (re-sent history)."""
-    chain: TransformChain | None = None
-    """The binding's transforms with this sink's own state (derivative, average, unwrap)."""
-    extra: dict[str, Resolved] = field(default_factory=dict)
-    """Other fields of the same message that the formulas read, by path."""
-    fail_streak: int = 0
-
-
-@dataclass(eq=False, slots=True)
 class _TopicSub:
     """A live subscription on one topic (ROS thread only) and the bindings it feeds."""
 
@@ -124,8 +102,8 @@ class _TopicSub:
     sub: Any
     reliable: bool
     transient: bool
-    sinks: dict[Binding, _Sink] = field(default_factory=dict)
-    fast: list[tuple[_Sink, int, str]] | None = None
+    sinks: dict[Binding, Sink] = field(default_factory=dict)
+    fast: list[tuple[Sink, int, str]] | None = None
     newest_ns: int = 0
     skip_deadline: float = 0.0
     held_until_ns: int = 0
@@ -220,8 +198,8 @@ class Engine:
         self._subs: dict[str, _TopicSub] = {}
         self._batches = BatchIngest(
             make_sink=self._make_sink,
-            feed=_feed,
-            feed_numbers=_feed_numbers,
+            feed=feed,
+            feed_numbers=feed_numbers,
             record_latency=self._record_latency,
             message_class=message_class,
             history=self.store,
@@ -522,63 +500,19 @@ class Engine:
                 if sink.kind is not None:
                     series.set_type(topic.msg_type, sink.kind)
                     series.set_waiting("subscribed; no message yet")
-                    self._backfill(topic, sink)  # the new widget starts with the topic's past
+                    backfill(
+                        self.store, topic.name, topic.cls, sink
+                    )  # the new widget starts with the topic's past
             topic.fast = self._fast_plan(topic)
 
-    def _make_sink(self, binding: Binding, series: Series, cls: Any, msg_type: str) -> _Sink:
-        """Resolve one binding against the topic's type; any failure is that binding's error alone."""
-        try:
-            return self._build_sink(binding, series, cls, msg_type)
-        except Exception as exc:  # a binding must never take its topic's other bindings down
-            _log.debug("viewer engine: binding %s failed", binding, exc_info=True)
-            series.set_error(f"cannot bind {_describe(binding)} on {msg_type}: {exc}", msg_type=msg_type)
-            return _Sink(binding, series, None)
-
-    def _build_sink(self, binding: Binding, series: Series, cls: Any, msg_type: str) -> _Sink:
-        sink = _Sink(binding, series, self._regexes.get(binding))
-        try:
-            resolved = resolve(cls, binding.field)
-        except FieldPathError as exc:
-            series.set_error(str(exc), msg_type=msg_type)
-            return sink
-        kind = resolved.kind
-        if sink.regex is not None:
-            if kind != ValueKind.TEXT:
-                series.set_error(
-                    f"a regex applies to text fields, but {resolved.path!r} is {resolved.leaf_type}",
-                    msg_type=msg_type,
-                )
-                return sink
-            kind = ValueKind.NUMBER
-        chain = self._chains.get(binding)
-        if chain is not None:
-            if kind not in (ValueKind.NUMBER, ValueKind.BOOL):
-                series.set_error(
-                    f"transforms apply to numbers, but {resolved.path!r} is {resolved.leaf_type}",
-                    msg_type=msg_type,
-                )
-                return sink
-            for path in sorted(chain.fields):
-                try:
-                    other = resolve(cls, path)
-                except FieldPathError as exc:
-                    series.set_error(f"a formula reads {path!r}: {exc}", msg_type=msg_type)
-                    return sink
-                if other.kind not in (ValueKind.NUMBER, ValueKind.BOOL):
-                    series.set_error(
-                        f"a formula reads {path!r}, which is {other.leaf_type}, not a number",
-                        msg_type=msg_type,
-                    )
-                    return sink
-                sink.extra[path] = other
-            sink.chain = chain.fresh()
-            kind = ValueKind.NUMBER  # a transformed bool is a number
-        sink.resolved = resolved
-        sink.kind = kind
-        return sink
+    def _make_sink(self, binding: Binding, series: Series, cls: Any, msg_type: str) -> Sink:
+        """Resolve one binding against the topic's type (its regex and transforms as bound)."""
+        return make_sink(
+            binding, series, cls, msg_type, self._regexes.get(binding), self._chains.get(binding)
+        )
 
     @staticmethod
-    def _fast_plan(topic: _TopicSub) -> list[tuple[_Sink, int, str]] | None:
+    def _fast_plan(topic: _TopicSub) -> list[tuple[Sink, int, str]] | None:
         """Return the raw-CDR plan when every bound field has a fixed offset, else None."""
         plan = []
         for sink in topic.sinks.values():
@@ -757,7 +691,7 @@ class Engine:
             else:
                 series.set_type(msg_type, sink.kind)
                 series.set_waiting("subscribed; no message yet")
-                if self._backfill(topic, sink):
+                if backfill(self.store, topic.name, topic.cls, sink):
                     sink.skip_until_ns = topic.held_until_ns
         topic.fast = self._fast_plan(topic)
         self._subs[name] = topic
@@ -786,9 +720,9 @@ class Engine:
                         keep = np.asarray(stamps, dtype=np.int64) > sink.skip_until_ns
                         t, values = times[keep], values[keep]
                     try:
-                        _feed_numbers(sink, t, values, now)
+                        feed_numbers(sink, t, values, now)
                     except Exception as exc:  # this binding's error alone; the others keep going
-                        _break(sink, exc)
+                        break_sink(sink, exc)
                         broken = True
                 if broken:
                     topic.fast = self._fast_plan(topic)
@@ -806,16 +740,16 @@ class Engine:
             try:
                 if skipping and sink.skip_until_ns:
                     fresh = [s > sink.skip_until_ns for s in stamps]
-                    _feed(
+                    feed(
                         sink,
                         [m for m, k in zip(messages, fresh, strict=True) if k],
                         [t for t, k in zip(times_list, fresh, strict=True) if k],
                         now,
                     )
                 else:
-                    _feed(sink, messages, times_list, now)
+                    feed(sink, messages, times_list, now)
             except Exception as exc:  # this binding's error alone; the others keep going
-                _break(sink, exc)
+                break_sink(sink, exc)
         self._record_latency(np.asarray(times_list))
 
     def _remember(self, topic: _TopicSub, buffers: list[bytes], stamps: list[int]) -> None:
@@ -840,36 +774,6 @@ class Engine:
             self.store.append_numbers(topic.name, times, columns[0])
         except ValueError:  # e.g. the other kind held from before: that history is over
             self.store.drop(topic.name)
-
-    def _backfill(self, topic: _TopicSub, sink: _Sink) -> bool:
-        """Feed a new binding the topic's held past (before any live message); True when it had one."""
-        store, name = self.store, topic.name
-        kind = store.kind(name)
-        if kind is None or sink.resolved is None:
-            return False
-        try:
-            if kind == "numbers":
-                times, raw = store.range(name, -np.inf, np.inf)
-                if not len(times) or sink.kind not in (ValueKind.NUMBER, ValueKind.BOOL):
-                    return False
-                _feed_numbers(sink, times, raw.astype(np.float64, copy=False), _as_received(times))
-                return True
-            times, payloads = store.payloads(name, -np.inf, np.inf)
-            if not len(times):
-                return False
-            if sink.resolved.cdr is not None and sink.regex is None and not sink.extra:
-                columns = decode_fixed(payloads, [sink.resolved.cdr])
-                if columns is not None:
-                    _feed_numbers(sink, times, columns[0], _as_received(times))
-                    return True
-            from rclpy.serialization import deserialize_message
-
-            messages = [deserialize_message(b, topic.cls) for b in payloads]
-            _feed(sink, messages, times.tolist(), _as_received(times))
-            return True
-        except Exception as exc:  # this binding's error alone
-            _break(sink, exc)
-            return False
 
     def _count(self, topic: _TopicSub, stamps: list[int]) -> None:
         topic.taken += len(stamps)
@@ -897,149 +801,3 @@ def _scalar_plan(cls: Any, msg_type: str) -> tuple[int, str] | None:
     if resolved.kind not in (ValueKind.NUMBER, ValueKind.BOOL):
         return None
     return resolved.cdr
-
-
-def _as_received(times: npt.NDArray[np.float64]) -> float:
-    """The monotonic time a sample as old as the newest of `times` would have been received at."""
-    return time.monotonic() - max(0.0, time.time() - float(times[-1]))
-
-
-def _describe(binding: Binding) -> str:
-    """Name a binding's field for a message: ``field 'data.x'`` or ``the whole message``."""
-    return f"field {binding.field.strip()!r}" if binding.field.strip() else "the whole message"
-
-
-def _break(sink: _Sink, exc: Exception) -> None:
-    """Stop feeding a binding whose extraction raised; its series shows why (no traceback, once)."""
-    _log.debug("viewer engine: binding %s failed", sink.binding, exc_info=True)
-    where = sink.resolved.path if sink.resolved is not None else sink.binding.field
-    sink.resolved = None
-    sink.series.set_error(f"cannot read {where!r}: {type(exc).__name__}: {exc}")
-
-
-def _feed_numbers(
-    sink: _Sink, times: npt.NDArray[np.float64], values: npt.NDArray[np.float64], now: float
-) -> None:
-    """Push one binding's column of numbers decoded from raw CDR (transformed when it has transforms)."""
-    if not len(values):
-        return
-    if sink.chain is not None:
-        out = _transform(sink, times, values, None)
-        sink.series.push_numbers(times, out, float(out[-1]), now)
-        _check_failures(sink, out, (float(times[-1]), float(values[-1]), {}))
-    else:
-        sink.series.push_numbers(times, values, _typed_last(sink, values[-1]), now)
-
-
-def _typed_last(sink: _Sink, value: float) -> float | int | bool:
-    """Give the last numeric value its field's Python type back (int fields stay ints)."""
-    assert sink.resolved is not None
-    if sink.kind == ValueKind.BOOL:
-        return bool(value)
-    if sink.resolved.leaf_type in ("float", "double"):
-        return float(value)
-    return int(value)
-
-
-def _number_or_nan(get: Any, msg: Any) -> float:
-    """Read one numeric field for a formula; NaN when the message does not have it (short sequence)."""
-    try:
-        return float(get(msg))
-    except (IndexError, AttributeError, TypeError, ValueError):
-        return math.nan
-
-
-def _transform(
-    sink: _Sink,
-    times: npt.NDArray[np.float64],
-    values: npt.NDArray[np.float64],
-    columns: dict[str, list[float]] | None,
-) -> npt.NDArray[np.float64]:
-    """Apply the sink's transforms to a batch (its state carries over to the next batch)."""
-    assert sink.chain is not None
-    cols = {k: np.asarray(v, dtype=np.float64) for k, v in columns.items()} if columns else None
-    return sink.chain.apply_array(times, values, cols)
-
-
-def _check_failures(
-    sink: _Sink,
-    out: npt.NDArray[np.float64],
-    sample: tuple[float, float, dict[str, float]],
-) -> None:
-    """Put the series in ERROR when the transforms keep failing (NaN with a reason) sample after sample.
-
-    `sample` is the batch's last input (time, value, other fields), re-run alone for a precise reason.
-    """
-    assert sink.chain is not None
-    reason = sink.chain.last_error
-    if reason is None or not len(out) or not math.isnan(out[-1]):
-        sink.fail_streak = 0
-        return
-    good = np.flatnonzero(~np.isnan(out))
-    trailing = len(out) - (int(good[-1]) + 1 if len(good) else 0)
-    sink.fail_streak = trailing if len(good) else sink.fail_streak + trailing
-    if sink.fail_streak >= _FAIL_STREAK:
-        probe = sink.chain.fresh()
-        probe.apply(*sample)
-        sink.series.set_error(f"transform failed: {probe.last_error or reason}")
-
-
-def _feed(sink: _Sink, messages: Iterable[Any], times: list[float], now: float) -> None:
-    """Extract one binding's values from typed messages and push them to its series."""
-    resolved = sink.resolved
-    assert resolved is not None
-    get = resolved.get
-    regex = sink.regex
-    values: list[Any] = []
-    value_times: list[float] = []
-    extra = list(sink.extra.items())
-    columns: dict[str, list[float]] = {path: [] for path, _ in extra}
-    error = ""
-    unmatched = 0
-    for msg, t in zip(messages, times, strict=True):
-        try:
-            value: Any = get(msg)
-        except (IndexError, AttributeError, TypeError, ValueError) as exc:
-            error = f"cannot read {resolved.path!r}: {exc}"
-            continue
-        if regex is not None:
-            captured = regex.extract(value)
-            if captured is None:
-                unmatched += 1
-                continue
-            try:
-                value = float(parse_number(captured))
-            except ValueError:
-                try:
-                    value = float(parse_number(captured, "bool"))
-                except ValueError:
-                    error = f"the regex captured {captured!r}, which is not a number"
-                    continue
-        values.append(value)
-        value_times.append(t)
-        for path, other in extra:
-            columns[path].append(_number_or_nan(other.get, msg))
-        error = ""
-    series = sink.series
-    if values:
-        if sink.kind == ValueKind.TEXT:
-            series.push_texts(value_times, values, now)
-        elif sink.kind == ValueKind.ARRAY:
-            series.push_array(len(values), values[-1], value_times[-1], now)
-        elif sink.chain is not None:
-            t_arr = np.asarray(value_times, dtype=np.float64)
-            out = _transform(sink, t_arr, np.asarray(values, dtype=np.float64), columns)
-            series.push_numbers(t_arr, out, float(out[-1]), now)
-            last_fields = {k: v[-1] for k, v in columns.items()}
-            _check_failures(sink, out, (value_times[-1], float(values[-1]), last_fields))
-        else:
-            series.push_numbers(
-                np.asarray(value_times, dtype=np.float64),
-                np.asarray(values, dtype=np.float64),
-                values[-1],
-                now,
-            )
-    if error:
-        series.set_error(error)
-    elif unmatched and not values and series.count == 0:
-        series.set_waiting(f"no message matched the regex {regex.pattern if regex else ''!r} yet")

@@ -1,0 +1,294 @@
+"""A binding's sink: its field, regex and transforms resolved against a message type, and the feeding.
+
+The engine (live ROS topics) and a replay (a recording's history) turn messages into a binding's
+values with the same code: `make_sink` resolves a binding once per topic type, `feed` extracts from
+typed messages, `feed_numbers` takes a column already decoded from CDR, `backfill` feeds a new binding
+the past its topic has in a `History`. No Dear PyGui; rclpy only to deserialize a payload.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from dbglog._regex._compile import CompiledRegex, parse_number
+from dbglog._ros._cdr import decode_fixed
+from dbglog.viewer._data._fields import FieldPathError, Resolved, resolve
+from dbglog.viewer._data._history import History
+from dbglog.viewer._data._model import Binding, ValueKind
+from dbglog.viewer._data._series import Series
+from dbglog.viewer._values._transforms import TransformChain
+
+__all__ = ["Sink", "as_received", "backfill", "break_sink", "feed", "feed_numbers", "make_sink"]
+
+_log = logging.getLogger("dbglog.viewer.engine")
+_FAIL_STREAK = 5
+"""A binding's transforms that yield NaN with a reason this many samples in a row put it in ERROR."""
+
+
+@dataclass(eq=False, slots=True)
+class Sink:
+    """One binding fed by a topic subscription."""
+
+    binding: Binding
+    series: Series
+    regex: CompiledRegex | None
+    resolved: Resolved | None = None
+    kind: ValueKind | None = None
+    skip_until_ns: int = 0
+    """After a re-subscription, messages up to this source stamp were already taken (re-sent history)."""
+    chain: TransformChain | None = None
+    """The binding's transforms with this sink's own state (derivative, average, unwrap)."""
+    extra: dict[str, Resolved] = field(default_factory=dict)
+    """Other fields of the same message that the formulas read, by path."""
+    fail_streak: int = 0
+
+
+def make_sink(
+    binding: Binding,
+    series: Series,
+    cls: Any,
+    msg_type: str,
+    regex: CompiledRegex | None,
+    chain: TransformChain | None,
+) -> Sink:
+    """Resolve one binding against the topic's type; any failure is that binding's error alone."""
+    try:
+        return _build_sink(binding, series, cls, msg_type, regex, chain)
+    except Exception as exc:  # a binding must never take its topic's other bindings down
+        _log.debug("viewer engine: binding %s failed", binding, exc_info=True)
+        series.set_error(f"cannot bind {_describe(binding)} on {msg_type}: {exc}", msg_type=msg_type)
+        return Sink(binding, series, None)
+
+
+def _build_sink(
+    binding: Binding,
+    series: Series,
+    cls: Any,
+    msg_type: str,
+    regex: CompiledRegex | None,
+    chain: TransformChain | None,
+) -> Sink:
+    sink = Sink(binding, series, regex)
+    try:
+        resolved = resolve(cls, binding.field)
+    except FieldPathError as exc:
+        series.set_error(str(exc), msg_type=msg_type)
+        return sink
+    kind = resolved.kind
+    if sink.regex is not None:
+        if kind != ValueKind.TEXT:
+            series.set_error(
+                f"a regex applies to text fields, but {resolved.path!r} is {resolved.leaf_type}",
+                msg_type=msg_type,
+            )
+            return sink
+        kind = ValueKind.NUMBER
+    if chain is not None:
+        if kind not in (ValueKind.NUMBER, ValueKind.BOOL):
+            series.set_error(
+                f"transforms apply to numbers, but {resolved.path!r} is {resolved.leaf_type}",
+                msg_type=msg_type,
+            )
+            return sink
+        for path in sorted(chain.fields):
+            try:
+                other = resolve(cls, path)
+            except FieldPathError as exc:
+                series.set_error(f"a formula reads {path!r}: {exc}", msg_type=msg_type)
+                return sink
+            if other.kind not in (ValueKind.NUMBER, ValueKind.BOOL):
+                series.set_error(
+                    f"a formula reads {path!r}, which is {other.leaf_type}, not a number",
+                    msg_type=msg_type,
+                )
+                return sink
+            sink.extra[path] = other
+        sink.chain = chain.fresh()
+        kind = ValueKind.NUMBER  # a transformed bool is a number
+    sink.resolved = resolved
+    sink.kind = kind
+    return sink
+
+
+def backfill(store: History, name: str, cls: Any, sink: Sink) -> bool:
+    """Feed a new binding its topic's past held in `store` (before any live message); True when it had one."""
+    kind = store.kind(name)
+    if kind is None or sink.resolved is None:
+        return False
+    try:
+        if kind == "numbers":
+            times, raw = store.range(name, -np.inf, np.inf)
+            if not len(times) or sink.kind not in (ValueKind.NUMBER, ValueKind.BOOL):
+                return False
+            feed_numbers(sink, times, raw.astype(np.float64, copy=False), as_received(times))
+            return True
+        times, payloads = store.payloads(name, -np.inf, np.inf)
+        if not len(times):
+            return False
+        if sink.resolved.cdr is not None and sink.regex is None and not sink.extra:
+            columns = decode_fixed(payloads, [sink.resolved.cdr])
+            if columns is not None:
+                feed_numbers(sink, times, columns[0], as_received(times))
+                return True
+        from rclpy.serialization import deserialize_message
+
+        messages = [deserialize_message(b, cls) for b in payloads]
+        feed(sink, messages, times.tolist(), as_received(times))
+        return True
+    except Exception as exc:  # this binding's error alone
+        break_sink(sink, exc)
+        return False
+
+
+def as_received(times: npt.NDArray[np.float64]) -> float:
+    """The monotonic time a sample as old as the newest of `times` would have been received at."""
+    return time.monotonic() - max(0.0, time.time() - float(times[-1]))
+
+
+def _describe(binding: Binding) -> str:
+    """Name a binding's field for a message: ``field 'data.x'`` or ``the whole message``."""
+    return f"field {binding.field.strip()!r}" if binding.field.strip() else "the whole message"
+
+
+def break_sink(sink: Sink, exc: Exception) -> None:
+    """Stop feeding a binding whose extraction raised; its series shows why (no traceback, once)."""
+    _log.debug("viewer engine: binding %s failed", sink.binding, exc_info=True)
+    where = sink.resolved.path if sink.resolved is not None else sink.binding.field
+    sink.resolved = None
+    sink.series.set_error(f"cannot read {where!r}: {type(exc).__name__}: {exc}")
+
+
+def feed_numbers(
+    sink: Sink, times: npt.NDArray[np.float64], values: npt.NDArray[np.float64], now: float
+) -> None:
+    """Push one binding's column of numbers decoded from raw CDR (transformed when it has transforms)."""
+    if not len(values):
+        return
+    if sink.chain is not None:
+        out = _transform(sink, times, values, None)
+        sink.series.push_numbers(times, out, float(out[-1]), now)
+        _check_failures(sink, out, (float(times[-1]), float(values[-1]), {}))
+    else:
+        sink.series.push_numbers(times, values, _typed_last(sink, values[-1]), now)
+
+
+def _typed_last(sink: Sink, value: float) -> float | int | bool:
+    """Give the last numeric value its field's Python type back (int fields stay ints)."""
+    assert sink.resolved is not None
+    if sink.kind == ValueKind.BOOL:
+        return bool(value)
+    if sink.resolved.leaf_type in ("float", "double"):
+        return float(value)
+    return int(value)
+
+
+def _number_or_nan(get: Any, msg: Any) -> float:
+    """Read one numeric field for a formula; NaN when the message does not have it (short sequence)."""
+    try:
+        return float(get(msg))
+    except (IndexError, AttributeError, TypeError, ValueError):
+        return math.nan
+
+
+def _transform(
+    sink: Sink,
+    times: npt.NDArray[np.float64],
+    values: npt.NDArray[np.float64],
+    columns: dict[str, list[float]] | None,
+) -> npt.NDArray[np.float64]:
+    """Apply the sink's transforms to a batch (its state carries over to the next batch)."""
+    assert sink.chain is not None
+    cols = {k: np.asarray(v, dtype=np.float64) for k, v in columns.items()} if columns else None
+    return sink.chain.apply_array(times, values, cols)
+
+
+def _check_failures(
+    sink: Sink,
+    out: npt.NDArray[np.float64],
+    sample: tuple[float, float, dict[str, float]],
+) -> None:
+    """Put the series in ERROR when the transforms keep failing (NaN with a reason) sample after sample.
+
+    `sample` is the batch's last input (time, value, other fields), re-run alone for a precise reason.
+    """
+    assert sink.chain is not None
+    reason = sink.chain.last_error
+    if reason is None or not len(out) or not math.isnan(out[-1]):
+        sink.fail_streak = 0
+        return
+    good = np.flatnonzero(~np.isnan(out))
+    trailing = len(out) - (int(good[-1]) + 1 if len(good) else 0)
+    sink.fail_streak = trailing if len(good) else sink.fail_streak + trailing
+    if sink.fail_streak >= _FAIL_STREAK:
+        probe = sink.chain.fresh()
+        probe.apply(*sample)
+        sink.series.set_error(f"transform failed: {probe.last_error or reason}")
+
+
+def feed(sink: Sink, messages: Iterable[Any], times: list[float], now: float) -> None:
+    """Extract one binding's values from typed messages and push them to its series."""
+    resolved = sink.resolved
+    assert resolved is not None
+    get = resolved.get
+    regex = sink.regex
+    values: list[Any] = []
+    value_times: list[float] = []
+    extra = list(sink.extra.items())
+    columns: dict[str, list[float]] = {path: [] for path, _ in extra}
+    error = ""
+    unmatched = 0
+    for msg, t in zip(messages, times, strict=True):
+        try:
+            value: Any = get(msg)
+        except (IndexError, AttributeError, TypeError, ValueError) as exc:
+            error = f"cannot read {resolved.path!r}: {exc}"
+            continue
+        if regex is not None:
+            captured = regex.extract(value)
+            if captured is None:
+                unmatched += 1
+                continue
+            try:
+                value = float(parse_number(captured))
+            except ValueError:
+                try:
+                    value = float(parse_number(captured, "bool"))
+                except ValueError:
+                    error = f"the regex captured {captured!r}, which is not a number"
+                    continue
+        values.append(value)
+        value_times.append(t)
+        for path, other in extra:
+            columns[path].append(_number_or_nan(other.get, msg))
+        error = ""
+    series = sink.series
+    if values:
+        if sink.kind == ValueKind.TEXT:
+            series.push_texts(value_times, values, now)
+        elif sink.kind == ValueKind.ARRAY:
+            series.push_array(len(values), values[-1], value_times[-1], now)
+        elif sink.chain is not None:
+            t_arr = np.asarray(value_times, dtype=np.float64)
+            out = _transform(sink, t_arr, np.asarray(values, dtype=np.float64), columns)
+            series.push_numbers(t_arr, out, float(out[-1]), now)
+            last_fields = {k: v[-1] for k, v in columns.items()}
+            _check_failures(sink, out, (value_times[-1], float(values[-1]), last_fields))
+        else:
+            series.push_numbers(
+                np.asarray(value_times, dtype=np.float64),
+                np.asarray(values, dtype=np.float64),
+                values[-1],
+                now,
+            )
+    if error:
+        series.set_error(error)
+    elif unmatched and not values and series.count == 0:
+        series.set_waiting(f"no message matched the regex {regex.pattern if regex else ''!r} yet")
