@@ -1,0 +1,213 @@
+"""A recording as the viewer's data source: its messages in a `History`, bindings fed by the engine's code.
+
+`load_replay(path)` reads an MCAP file (``dbglog record``'s, ``ros2 bag``'s, any ROS 2 profile file)
+into a history: dbglog tags from the batch topic (every sample with its source time) or their own topics,
+single-value std_msgs topics as numbers, every other topic as its CDR bytes. `ReplaySource` then
+answers like the live engine: `bind` resolves a binding's field, regex and transforms with the same
+sink code (`_sinks`) and fills its series from the whole recording at once; `snapshot_at` gives the
+state at any time, so the same `Timeline`, widgets and dashboards replay what they showed live. No
+ROS graph, no Dear PyGui; rclpy only to deserialize payloads of types installed here.
+"""
+
+from __future__ import annotations
+
+import os
+import threading
+
+import numpy as np
+
+from dbglog._regex._compile import CompiledRegex, RegexError, compile_regex
+from dbglog._ros._batch import BATCH_TOPIC
+from dbglog._ros._cdr import string_payload
+from dbglog._ros._tags import topic_for_tag
+from dbglog.record._inspect import tag_series
+from dbglog.record._reader import Recording, read_recording
+from dbglog.viewer._data._fields import FieldPathError, list_fields, message_class
+from dbglog.viewer._data._history import History, HistoryStats
+from dbglog.viewer._data._model import Binding, FieldInfo, SeriesSnapshot, Status, TopicInfo
+from dbglog.viewer._data._series import Series
+from dbglog.viewer._data._sinks import backfill, make_sink
+from dbglog.viewer._data._suggest import close_matches
+from dbglog.viewer._values._transforms import TransformChain, TransformError
+
+__all__ = ["ReplaySource", "history_of", "load_replay"]
+
+_FOREVER_S = 100 * 365 * 86400.0
+"""A recording is kept whole: its history has no duration limit (the memory cap still holds)."""
+
+
+def history_of(recording: Recording, *, max_bytes: int) -> tuple[History, dict[str, str]]:
+    """Return a history holding every readable message of `recording`, and each topic's type."""
+    store = History(clock=None, max_seconds=_FOREVER_S, max_bytes=max_bytes)
+    types: dict[str, str] = {}
+    for tag, series in tag_series(recording).items():
+        name = topic_for_tag(tag)
+        times = series.times_ns.astype(np.float64) * 1e-9
+        types[name] = f"std_msgs/msg/{series.std_type}"
+        if isinstance(series.values, list):
+            payloads = [string_payload(v) for v in series.values]
+            store.append_payloads(name, times, payloads, msg_type=types[name])
+        else:
+            store.append_numbers(name, times, series.values)
+    for name, topic in recording.topics.items():
+        if name == BATCH_TOPIC or name in types or not len(topic):
+            continue
+        types[name] = topic.msg_type
+        times = topic.times_ns.astype(np.float64) * 1e-9
+        if topic.values is not None:
+            store.append_numbers(name, times, topic.values)
+        else:
+            store.append_payloads(name, times, list(topic.payloads()), msg_type=topic.msg_type)
+    return store, types
+
+
+def load_replay(
+    path: str | os.PathLike[str], *, max_bytes: int = 4 << 30, stale_after: float = 2.0
+) -> ReplaySource:
+    """Open a recording for the viewer (read-only).
+
+    Raises:
+        RecordingError: the file cannot be read at all (the message names it and says why).
+    """
+    recording = read_recording(path)
+    store, types = history_of(recording, max_bytes=max_bytes)
+    problems = list(recording.problems)
+    unreadable = recording.unreadable.items()
+    problems += [f"{recording.path}: {topic} is unreadable: {why}" for topic, why in unreadable]
+    return ReplaySource(store, types, stale_after=stale_after, name=recording.path, problems=problems)
+
+
+class ReplaySource:
+    """A `DataSource` and `TimeSource` over a history nothing feeds live (a recording).
+
+    Live (no cursor), a series shows the end of the recording.
+
+    Args:
+        store: the recording's history (topics by name).
+        types: each topic's ROS type.
+        stale_after: seconds without a sample that make a series STALE at a time.
+        capacity: values a series hands a widget at most (as the live engine's ring).
+        name: what the recording is called in messages (its path).
+        problems: what is wrong with the file (shown to the user, the readable part plays).
+    """
+
+    def __init__(
+        self,
+        store: History,
+        types: dict[str, str],
+        *,
+        stale_after: float = 2.0,
+        capacity: int = 10_000,
+        name: str = "the recording",
+        problems: list[str] | None = None,
+    ) -> None:
+        self.store = store
+        self.types = dict(types)
+        self.stale_after = stale_after
+        self.capacity = capacity
+        self.name = name
+        self.problems = list(problems or [])
+        self._lock = threading.Lock()
+        self._series: dict[Binding, Series] = {}
+        span = store.stats()
+        self._end = span.newest if span.newest is not None else 0.0
+
+    # --- DataSource ---------------------------------------------------------------------------------
+
+    def bind(self, binding: Binding) -> None:
+        """Fill a series for `binding` from the whole recording (idempotent)."""
+        with self._lock:
+            if binding in self._series:
+                return
+            series = self._series[binding] = Series(binding, self.capacity, self.store)
+        name = binding.topic.strip()
+        name = name if name.startswith("/") else "/" + name
+        msg_type = self.types.get(name)
+        if msg_type is None:
+            near = close_matches(name, set(self.types))
+            hint = f" (did you mean {', '.join(near)}?)" if near else ""
+            series.set_error(f"{name} is not in {self.name}{hint}")
+            return
+        try:
+            cls = message_class(msg_type)
+        except FieldPathError as exc:
+            series.set_error(str(exc), msg_type=msg_type)
+            return
+        regex: CompiledRegex | None = None
+        chain: TransformChain | None = None
+        try:
+            regex = compile_regex(binding.regex) if binding.regex.strip() else None
+            chain = TransformChain(binding.transforms) if binding.transforms else None
+        except (RegexError, TransformError) as exc:
+            series.set_error(str(exc), msg_type=msg_type)
+            return
+        sink = make_sink(binding, series, cls, msg_type, regex, chain)
+        if sink.kind is None:
+            return
+        series.set_type(msg_type, sink.kind)
+        if not backfill(self.store, name, cls, sink):
+            series.set_waiting(f"{name} has no message in {self.name}")
+
+    def unbind(self, binding: Binding) -> None:
+        """Forget the series of `binding` (its values leave the history)."""
+        with self._lock:
+            series = self._series.pop(binding, None)
+        if series is not None:
+            series.store = None
+            self.store.drop(series.key)
+
+    def snapshot(self, binding: Binding) -> SeriesSnapshot:
+        """Return the series at the end of the recording."""
+        return self.snapshot_at(binding, self._end)
+
+    def topics(self) -> list[TopicInfo]:
+        """Return the recording's readable topics."""
+        return [TopicInfo(name, (t,), 1) for name, t in sorted(self.types.items())]
+
+    def fields(self, topic: str) -> list[FieldInfo]:
+        """Return the field paths of a topic's type (empty when that type is not installed here)."""
+        msg_type = self.types.get(topic if topic.startswith("/") else "/" + topic)
+        if msg_type is None:
+            return []
+        try:
+            return list_fields(message_class(msg_type))
+        except FieldPathError:
+            return []
+
+    # --- TimeSource ---------------------------------------------------------------------------------
+
+    def snapshot_at(self, binding: Binding, t: float) -> SeriesSnapshot:
+        """Return the series for `binding` as it stood at source time `t`."""
+        series = self._series.get(binding)
+        if series is None:
+            return SeriesSnapshot(binding, Status.ERROR, reason="not bound (call bind() first)")
+        if series.count == 0:  # nothing to travel through: why (not in the file, a bad field ...)
+            return series.snapshot(self.stale_after)
+        return series.snapshot_at(t, self.stale_after)
+
+    def time_span(self) -> tuple[float, float] | None:
+        """Return (first, last) source time of the recording."""
+        stats = self.store.stats()
+        if stats.oldest is None or stats.newest is None:
+            return None
+        return stats.oldest, stats.newest
+
+    def neighbour_time(self, binding: Binding, t: float, direction: int) -> float | None:
+        """Return the time of the binding's previous (-1) or next (+1) sample strictly around `t`."""
+        series = self._series.get(binding)
+        return None if series is None else series.neighbour_time(t, direction)
+
+    def history_stats(self) -> HistoryStats:
+        """Return what the recording's history holds."""
+        return self.store.stats()
+
+    def samples_held(self, binding: Binding) -> int:
+        """Return how many samples of `binding`'s series are held."""
+        series = self._series.get(binding)
+        return 0 if series is None else series.held()
+
+    @property
+    def duration(self) -> float:
+        """Seconds from the first to the last message."""
+        span = self.time_span()
+        return 0.0 if span is None else max(0.0, span[1] - span[0])

@@ -1,0 +1,161 @@
+"""A recording as the viewer's data source (issue 17.4): bindings, fields, regex and transforms work as
+live, the state at any time, files from independent writers, a batch topic from a real SDK recording."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+
+import pytest
+from geometry_msgs.msg import Twist
+from rclpy.serialization import serialize_message
+from std_msgs.msg import Float64, String
+
+from dbglog.record import McapWriter, RecordingError
+from dbglog.viewer._data._model import Binding, Status, ValueKind
+from dbglog.viewer._data._replay import load_replay
+from dbglog.viewer._data._timeline import NOT_YET, Timeline
+from dbglog.viewer._values._transforms import Scale
+
+ROOT = Path(__file__).resolve().parent.parent
+T0 = 1_700_000_000_000_000_000
+STEP = 10_000_000  # 100 Hz
+
+
+def _file(path: Path, n: int = 300) -> None:
+    w = McapWriter(path)
+    speed = w.add_channel("/rosdashboard/speed", "std_msgs/msg/Float64")
+    words = w.add_channel("/log/words", "std_msgs/msg/String")
+    twist = w.add_channel("/cmd_vel", "geometry_msgs/msg/Twist")
+    for i in range(n):
+        t = T0 + i * STEP
+        w.write(speed, t, serialize_message(Float64(data=i * 0.5)), t)
+        w.write(words, t, serialize_message(String(data=f"distance {i} mm")), t)
+        msg = Twist()
+        msg.linear.x, msg.angular.z = float(i), -2.0 * i
+        w.write(twist, t, serialize_message(msg), t)
+    w.close()
+
+
+def test_bindings_fields_regex_and_transforms_replay_as_live(tmp_path: Path) -> None:
+    """Every kind of binding fills from the whole file at bind; the end of the file is 'live'."""
+    path = tmp_path / "run.mcap"
+    _file(path)
+    source = load_replay(path)
+    speed, scaled = Binding("/rosdashboard/speed"), Binding("/rosdashboard/speed", transforms=(Scale(10.0),))
+    lin, words = Binding("/cmd_vel", "linear.x"), Binding("/log/words")
+    mm = Binding("/log/words", regex=r"distance (\d+) mm")
+    for b in (speed, scaled, lin, words, mm):
+        source.bind(b)
+    assert source.snapshot(speed).values.tolist()[-3:] == [148.5, 149.0, 149.5]
+    assert source.snapshot(scaled).last == 1495.0
+    assert source.snapshot(lin).values.tolist() == [float(i) for i in range(300)]
+    assert source.snapshot(mm).values.tolist() == [float(i) for i in range(300)]
+    assert source.snapshot(words).kind is ValueKind.TEXT
+    assert source.samples_held(speed) == 300
+    assert source.time_span() == (T0 * 1e-9, (T0 + 299 * STEP) * 1e-9)
+    at = source.snapshot_at(lin, (T0 + 120 * STEP) * 1e-9 + 0.004)
+    assert at.last == 120.0 and at.status is Status.LIVE
+    assert source.snapshot_at(words, (T0 + 7 * STEP) * 1e-9).last == "distance 7 mm"
+    early = source.snapshot_at(speed, T0 * 1e-9 - 1)
+    assert early.status is Status.WAITING and early.reason == NOT_YET
+    # The same Timeline the live viewer uses steps through the file.
+    timeline = Timeline(source)
+    timeline.seek((T0 + 10 * STEP) * 1e-9)
+    assert timeline.step([speed], +1) and timeline.snapshot(speed).last == 5.5
+    assert [t.name for t in source.topics()] == ["/cmd_vel", "/log/words", "/rosdashboard/speed"]
+    assert any(f.path == "linear.x" for f in source.fields("/cmd_vel"))
+
+
+def test_bad_bindings_say_what_is_wrong(tmp_path: Path) -> None:
+    """A topic not in the file names close matches; a bad field or regex is that binding's error."""
+    path = tmp_path / "run.mcap"
+    _file(path, 20)
+    source = load_replay(path)
+    typo, field = Binding("/rosdashboard/sped"), Binding("/cmd_vel", "linear.q")
+    regex = Binding("/log/words", regex="(unclosed")
+    for b in (typo, field, regex):
+        source.bind(b)
+    snap = source.snapshot(typo)
+    assert snap.status is Status.ERROR
+    assert "not in" in snap.reason and "/rosdashboard/speed" in snap.reason
+    bad = source.snapshot(field)
+    assert bad.status is Status.ERROR and "field 'q' is not in geometry_msgs/msg/Vector3" in bad.reason
+    assert source.snapshot(regex).status is Status.ERROR
+
+
+def test_a_missing_or_foreign_file_is_refused_by_name(tmp_path: Path) -> None:
+    """Opening something that is not a recording says which file and why."""
+    with pytest.raises(RecordingError, match="nope.mcap: no such file"):
+        load_replay(tmp_path / "nope.mcap")
+    junk = tmp_path / "junk.mcap"
+    junk.write_bytes(b"hello, not mcap")
+    with pytest.raises(RecordingError, match="junk.mcap: not an MCAP file"):
+        load_replay(junk)
+
+
+def test_a_file_from_mcap_ros2s_writer_replays(tmp_path: Path) -> None:
+    """An independent writer's file (mcap_ros2) replays value by value."""
+    from mcap_ros2.writer import Writer
+
+    path = tmp_path / "peer.mcap"
+    with path.open("wb") as f:
+        writer = Writer(f)
+        schema = writer.register_msgdef("std_msgs/msg/Float64", "float64 data\n")
+        for i in range(100):
+            t = T0 + i * STEP
+            writer.write_message("/x", schema, {"data": i / 4}, log_time=t, publish_time=t)
+        writer.finish()  # type: ignore[no-untyped-call]
+    source = load_replay(path)
+    b = Binding("/x")
+    source.bind(b)
+    assert source.snapshot(b).values.tolist() == [i / 4 for i in range(100)]
+
+
+def test_a_real_sdk_recording_replays_every_sample_from_the_batch_topic(tmp_path: Path) -> None:
+    """dbglog record next to an SDK publisher: the replayed tag holds every logged sample, in order."""
+    out = tmp_path / "sdk.mcap"
+    env = {k: v for k, v in os.environ.items() if k not in ("DBGLOG", "DBGLOG_STRICT")}
+    env["PYTHONPATH"] = str(ROOT)
+    recorder = subprocess.Popen(
+        [sys.executable, "-m", "dbglog", "record", "-o", str(out)],
+        env=env,
+        cwd=ROOT,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        time.sleep(2.0)
+        code = textwrap.dedent(
+            """
+            import time, dbglog
+            dbglog.init()
+            time.sleep(1.5)
+            for i in range(500):
+                dbglog.logfloat("replay/ramp", float(i))
+                dbglog.logstring("replay/state", f"s{i}", throttle=0.0)
+                time.sleep(0.002)
+            assert dbglog.flush(5.0)
+            time.sleep(1.0)
+            """
+        )
+        done = subprocess.run(
+            [sys.executable, "-c", code], env=env, cwd=ROOT, capture_output=True, text=True, timeout=90
+        )
+        assert done.returncode == 0, done.stderr
+        time.sleep(1.0)
+    finally:
+        recorder.send_signal(2)
+        _, err = recorder.communicate(timeout=30)
+    assert recorder.returncode == 0, err
+    source = load_replay(out)
+    ramp, state = Binding("/rosdashboard/replay/ramp"), Binding("/rosdashboard/replay/state")
+    source.bind(ramp)
+    source.bind(state)
+    assert source.snapshot(ramp).values.tolist() == [float(i) for i in range(500)]
+    assert source.snapshot(state).last == "s499"
+    assert source.samples_held(state) == 500
