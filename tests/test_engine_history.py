@@ -127,20 +127,26 @@ def test_snapshot_at_gives_the_value_and_status_at_that_time(engine: Engine, pee
         at = engine.snapshot_at(binding, float(times[k]))
         assert at.last == float(k), (k, at)
         assert at.last_time == float(times[k])
-        assert at.values[-1] == float(k) and len(at.values) == k + 1
+        assert at.values[-1] == float(k)
+        assert len(at.values) == k + 1
         assert at.status is Status.LIVE
         assert at.count == k + 1
     mid = float(times[49]) + 2.2  # in the gap, past the stale time
     gap = engine.snapshot_at(binding, mid)
     assert gap.last == 49.0
-    assert gap.status is Status.STALE and "no message for 2.2 s" in gap.reason
+    assert gap.status is Status.STALE
+    assert "no message for 2.2 s" in gap.reason
     before = engine.snapshot_at(binding, float(times[0]) - 1)
-    assert before.status is Status.WAITING and before.reason == NOT_YET and before.last is None
+    assert before.status is Status.WAITING
+    assert before.reason == NOT_YET
+    assert before.last is None
     # Stepping walks the samples one by one.
     assert engine.neighbour_time(binding, float(times[10]), +1) == float(times[11])
     assert engine.neighbour_time(binding, float(times[10]), -1) == float(times[9])
     span = engine.time_span()
-    assert span is not None and span[0] <= times[0] and span[1] >= times[-1]
+    assert span is not None
+    assert span[0] <= times[0]
+    assert span[1] >= times[-1]
 
 
 def test_a_binding_added_later_on_a_plain_topic_starts_with_its_past(engine: Engine, peer: RosPeer) -> None:
@@ -164,7 +170,8 @@ def test_a_binding_added_later_on_a_plain_topic_starts_with_its_past(engine: Eng
     # Text at a past time: the texts up to it, the last one the text then.
     at = engine.snapshot_at(first, float(snap.times[9]))
     assert at.last == "distance 0.9 m"
-    assert at.texts[-1] == "distance 0.9 m" and len(at.texts) == 10
+    assert at.texts[-1] == "distance 0.9 m"
+    assert len(at.texts) == 10
     # New messages after the back-fill arrive once, in order.
     for i in range(40, 45):
         pub.publish(String(data=f"distance {i / 10:.1f} m"))
@@ -206,8 +213,10 @@ def test_timeline_over_the_engine_pauses_steps_and_resumes(engine: Engine, peer:
     timeline.seek(float(snap.times[4]))
     assert not timeline.live
     assert timeline.snapshot(binding).last == 4.0
-    assert timeline.step([binding], +1) and timeline.snapshot(binding).last == 5.0
-    assert timeline.step([binding], -1) and timeline.step([binding], -1)
+    assert timeline.step([binding], +1)
+    assert timeline.snapshot(binding).last == 5.0
+    assert timeline.step([binding], -1)
+    assert timeline.step([binding], -1)
     assert timeline.snapshot(binding).last == 3.0
     for i in range(10, 15):
         pub.publish(Float64(data=float(i)))
@@ -216,4 +225,6 @@ def test_timeline_over_the_engine_pauses_steps_and_resumes(engine: Engine, peer:
     timeline.resume()
     assert timeline.snapshot(binding).last == 14.0
     stats = timeline.stats()
-    assert stats is not None and stats.bytes_used > 0 and stats.samples >= 15
+    assert stats is not None
+    assert stats.bytes_used > 0
+    assert stats.samples >= 15

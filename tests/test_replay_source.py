@@ -59,14 +59,17 @@ def test_bindings_fields_regex_and_transforms_replay_as_live(tmp_path: Path) -> 
     assert source.samples_held(speed) == 300
     assert source.time_span() == (T0 * 1e-9, (T0 + 299 * STEP) * 1e-9)
     at = source.snapshot_at(lin, (T0 + 120 * STEP) * 1e-9 + 0.004)
-    assert at.last == 120.0 and at.status is Status.LIVE
+    assert at.last == 120.0
+    assert at.status is Status.LIVE
     assert source.snapshot_at(words, (T0 + 7 * STEP) * 1e-9).last == "distance 7 mm"
     early = source.snapshot_at(speed, T0 * 1e-9 - 1)
-    assert early.status is Status.WAITING and early.reason == NOT_YET
+    assert early.status is Status.WAITING
+    assert early.reason == NOT_YET
     # The same Timeline the live viewer uses steps through the file.
     timeline = Timeline(source)
     timeline.seek((T0 + 10 * STEP) * 1e-9)
-    assert timeline.step([speed], +1) and timeline.snapshot(speed).last == 5.5
+    assert timeline.step([speed], +1)
+    assert timeline.snapshot(speed).last == 5.5
     assert [t.name for t in source.topics()] == ["/cmd_vel", "/log/words", "/rosdashboard/speed"]
     assert any(f.path == "linear.x" for f in source.fields("/cmd_vel"))
 
@@ -82,19 +85,21 @@ def test_bad_bindings_say_what_is_wrong(tmp_path: Path) -> None:
         source.bind(b)
     snap = source.snapshot(typo)
     assert snap.status is Status.ERROR
-    assert "not in" in snap.reason and "/rosdashboard/speed" in snap.reason
+    assert "not in" in snap.reason
+    assert "/rosdashboard/speed" in snap.reason
     bad = source.snapshot(field)
-    assert bad.status is Status.ERROR and "field 'q' is not in geometry_msgs/msg/Vector3" in bad.reason
+    assert bad.status is Status.ERROR
+    assert "field 'q' is not in geometry_msgs/msg/Vector3" in bad.reason
     assert source.snapshot(regex).status is Status.ERROR
 
 
 def test_a_missing_or_foreign_file_is_refused_by_name(tmp_path: Path) -> None:
     """Opening something that is not a recording says which file and why."""
-    with pytest.raises(RecordingError, match="nope.mcap: no such file"):
+    with pytest.raises(RecordingError, match=r"nope\.mcap: no such file"):
         load_replay(tmp_path / "nope.mcap")
     junk = tmp_path / "junk.mcap"
     junk.write_bytes(b"hello, not mcap")
-    with pytest.raises(RecordingError, match="junk.mcap: not an MCAP file"):
+    with pytest.raises(RecordingError, match=r"junk\.mcap: not an MCAP file"):
         load_replay(junk)
 
 
