@@ -164,3 +164,53 @@ def test_a_real_sdk_recording_replays_every_sample_from_the_batch_topic(tmp_path
     assert source.snapshot(ramp).values.tolist() == [float(i) for i in range(500)]
     assert source.snapshot(state).last == "s499"
     assert source.samples_held(state) == 500
+
+
+class _Ticks:
+    """A monotonic clock the test moves by hand (playback is wall time x speed)."""
+
+    def __init__(self) -> None:
+        self.now = 100.0
+
+    def __call__(self) -> float:
+        return self.now
+
+
+def test_playback_speed_loop_and_the_end(tmp_path: Path) -> None:
+    """Space plays a recording from its start; the cursor moves with the clock times the speed."""
+    path = tmp_path / "run.mcap"
+    _file(path, 300)  # 2.99 s at 100 Hz
+    source = load_replay(path)
+    speed = Binding("/rosdashboard/speed")
+    source.bind(speed)
+    ticks = _Ticks()
+    timeline = Timeline(source, ticks=ticks, recording=True)
+    assert timeline.live  # opens at the end: everything shown
+    assert timeline.snapshot(speed).last == 149.5
+    timeline.toggle()  # at the end: play from the start
+    assert timeline.playing
+    assert timeline.snapshot(speed).last == 0.0
+    ticks.now += 1.0
+    timeline.tick()
+    assert timeline.snapshot(speed).last == 50.0  # 1 s in = sample 100
+    timeline.set_speed(2.0)
+    ticks.now += 0.5
+    timeline.tick()
+    assert timeline.snapshot(speed).last == 100.0  # + 0.5 s x 2
+    with pytest.raises(ValueError, match=r"from 0\.1 to 10"):
+        timeline.set_speed(50)
+    timeline.toggle()  # pause
+    ticks.now += 5
+    timeline.tick()
+    assert timeline.snapshot(speed).last == 100.0
+    timeline.toggle()
+    ticks.now += 10
+    timeline.tick()  # past the end: stops there
+    assert not timeline.playing
+    assert timeline.snapshot(speed).last == 149.5
+    timeline.loop = True
+    timeline.play(1.0)
+    ticks.now += 3.5
+    timeline.tick()  # past the end: back to the start, playing on
+    assert timeline.playing
+    assert timeline.snapshot(speed).last == 0.0

@@ -13,7 +13,7 @@ PyGui; the UI thread owns a `Timeline`.
 from __future__ import annotations
 
 import time
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import replace
 from typing import Protocol, runtime_checkable
 
@@ -139,20 +139,48 @@ def _rate(times: np.ndarray, t: float, window: float = 5.0) -> float:
 
 
 class Timeline:
-    """The viewer's time cursor over a data source: live, or paused at a source time.
+    """The viewer's time cursor over a data source: live, paused at a source time, or playing.
+
+    Live, widgets follow the newest data (for a recording: its end). Paused, they show the state at the
+    cursor. Playing, the cursor advances with the wall clock times `speed` from where it was, up to the
+    newest data (a recording loops back to its start with `loop`); playing a live history up to now
+    returns to live.
 
     Args:
         source: the data source (the engine, a replay, a `StaticSource`).
         stale_after: seconds without a sample that make a series STALE at the cursor time.
         clock: wall clock (epoch seconds); pausing with no history pauses at its time.
+        ticks: a monotonic clock (seconds) that drives playback.
+        recording: the source is a recording: nothing new arrives, Space plays and pauses, and
+            playback stops (or loops) at its end instead of going live.
     """
 
-    def __init__(self, source: DataSource, *, stale_after: float = 2.0, clock: object = time.time) -> None:
+    SPEEDS = (0.1, 0.25, 0.5, 1.0, 2.0, 5.0, 10.0)
+    """The playback speeds offered (any in [0.1, 10] is accepted)."""
+
+    def __init__(
+        self,
+        source: DataSource,
+        *,
+        stale_after: float = 2.0,
+        clock: Callable[[], float] = time.time,
+        ticks: Callable[[], float] = time.monotonic,
+        recording: bool = False,
+    ) -> None:
         self.source = source
+        self.recording = recording
         self.stale_after = stale_after
         self._clock = clock
+        self._ticks = ticks
         self.cursor: float | None = None
         """The source time shown (epoch seconds), or None while live."""
+        self.playing = False
+        """True while the cursor advances by itself."""
+        self.speed = 1.0
+        self.loop = False
+        """Playing past the end starts again at the start (recordings)."""
+        self._anchor = (0.0, 0.0)
+        """(ticks, cursor) when playback last started or was re-anchored."""
 
     # --- state --------------------------------------------------------------------------------------
 
@@ -174,29 +202,81 @@ class Timeline:
         return None
 
     def pause(self, at: float | None = None) -> None:
-        """Stop following the data: the cursor holds `at` (default: the newest sample, or now)."""
+        """Stop following the data and stop playing: the cursor holds `at` (default: where it is now)."""
+        self.playing = False
         if at is None:
+            if self.cursor is not None:
+                return
             span = self.span()
-            at = span[1] if span is not None else float(self._clock())  # type: ignore[operator]
+            at = span[1] if span is not None else float(self._clock())
         self.cursor = float(at)
 
     def resume(self) -> None:
         """Follow the newest data again."""
+        self.playing = False
         self.cursor = None
 
+    def play(self, speed: float | None = None) -> None:
+        """Advance the cursor by itself from where it is (from the start when it is at the end)."""
+        if speed is not None:
+            self.set_speed(speed)
+        span = self.span()
+        if self.cursor is None or (span is not None and self.cursor >= span[1]):
+            self.cursor = span[0] if span is not None else float(self._clock())
+        self.playing = True
+        self._anchor = (self._ticks(), self.cursor)
+
+    def set_speed(self, speed: float) -> None:
+        """Set the playback speed (0.1 to 10 times real time).
+
+        Raises:
+            ValueError: a speed outside [0.1, 10].
+        """
+        if not 0.1 <= speed <= 10.0:
+            raise ValueError(f"playback speed must be from 0.1 to 10 times real time, not {speed:g}")
+        if self.playing and self.cursor is not None:
+            self._anchor = (self._ticks(), self.cursor)
+        self.speed = float(speed)
+
+    def tick(self) -> None:
+        """Advance a playing cursor to now (once per frame)."""
+        if not self.playing or self.cursor is None:
+            return
+        started, at = self._anchor
+        t = at + (self._ticks() - started) * self.speed
+        span = self.span()
+        if span is not None and t >= span[1]:
+            if self.loop:
+                self.cursor = span[0]
+                self._anchor = (self._ticks(), span[0])
+                return
+            if not self.recording:
+                self.resume()  # caught up with the present
+                return
+            self.playing = False
+            t = span[1]
+        self.cursor = t
+
     def toggle(self) -> None:
-        """Pause at the newest sample, or resume."""
-        if self.live:
+        """Space: live, pause at the newest sample or resume; a recording, play or pause."""
+        if self.recording:
+            if self.playing:
+                self.pause()
+            else:
+                self.play()
+        elif self.live:
             self.pause()
         else:
             self.resume()
 
     def seek(self, t: float) -> None:
-        """Pause at `t`, clamped to the span held."""
+        """Move the cursor to `t`, clamped to the span held (a playing cursor plays on from there)."""
         span = self.span()
         if span is not None:
             t = min(max(t, span[0]), span[1])
         self.cursor = float(t)
+        if self.playing:
+            self._anchor = (self._ticks(), self.cursor)
 
     def shift(self, seconds: float) -> None:
         """Move the cursor by `seconds` (pausing first when live)."""
@@ -210,8 +290,7 @@ class Timeline:
 
         Returns False when there is none that way (the cursor stays).
         """
-        if self.cursor is None:
-            self.pause()
+        self.pause()
         assert self.cursor is not None
         found: list[float] = []
         for binding in bindings:
