@@ -5,6 +5,8 @@ from __future__ import annotations
 import hashlib
 import os
 import struct
+import subprocess
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -366,3 +368,34 @@ def test_a_time_range_reads_only_its_messages(tmp_path: Path) -> None:
     tail = read_recording(killed, start_ns=T0 + 290).topics["/rosdashboard/speed"]
     assert tail.values is not None
     assert tail.values.tolist() == [float(i) for i in range(290, 300)]
+
+
+def _cli(*argv: str) -> subprocess.CompletedProcess[str]:
+    """Run the real ``dbglog`` command."""
+    return subprocess.run(
+        [sys.executable, "-m", "dbglog", *argv], capture_output=True, text=True, timeout=60, check=False
+    )
+
+
+def test_cli_tags_file_and_echo_file(tmp_path: Path) -> None:
+    """`dbglog tags FILE` and `dbglog echo TARGET --file FILE` read a recording from the command line."""
+    path = tmp_path / "run.mcap"
+    _sample_file(path, 50).close()
+    tags = _cli("tags", str(path))
+    assert tags.returncode == 0, tags.stderr
+    rows = {line.split()[0]: line.split() for line in tags.stdout.splitlines()[2:]}
+    assert sorted(rows) == ["count", "ok", "speed", "state"]
+    assert rows["speed"][1:3] == ["std_msgs/msg/Float64", "50"]
+    assert "/cmd_vel" in _cli("tags", str(path), "--all").stdout
+    echo = _cli("echo", "speed", "--file", str(path), "--count", "3")
+    assert echo.returncode == 0, echo.stderr
+    assert echo.stdout.splitlines() == ["-3.0", "-2.9", "-2.8"]
+    stamped = _cli("echo", "/cmd_vel.linear.x", "--file", str(path), "--stamp")
+    assert stamped.stdout.splitlines()[1] == f"{(T0 + 10_000_000) / 1e9:.6f} 0.25"
+    missing = _cli("echo", "nope", "--file", str(path))
+    assert missing.returncode == 1
+    assert "no tag 'nope' in this recording" in missing.stderr
+    gone = _cli("tags", str(tmp_path / "gone.mcap"))
+    assert gone.returncode == 1
+    assert "gone.mcap: no such file" in gone.stderr
+    assert _cli("tags", str(path), "--watch").returncode == 2

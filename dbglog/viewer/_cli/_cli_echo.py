@@ -65,6 +65,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--regex", default="", help="extract a number from text values (first group)")
     parser.add_argument("--stamp", action="store_true", help="prefix each value with its source time")
+    parser.add_argument(
+        "--file",
+        metavar="FILE",
+        help="print the target's values from a recording (.mcap file or rosbag2 directory) and exit",
+    )
 
 
 def split_target(target: str, graph_topics: set[str]) -> tuple[str, str] | None:
@@ -157,8 +162,34 @@ def _backlog(snap: SeriesSnapshot, since: float, history: bool) -> int:
     return len(times) - int(kept[-1]) if len(kept) else len(times)
 
 
+def _of_file(args: argparse.Namespace) -> int:
+    """Print a target's values from a recording, oldest first (--count: the first N)."""
+    import itertools
+
+    from dbglog.record import RecordingError
+    from dbglog.record._inspect import echo_lines
+
+    if args.regex or args.history or args.timeout is not None or args.count < 0:
+        print("dbglog echo: with --file, only --stamp and --count apply", file=sys.stderr)
+        return 2
+    lines = echo_lines(
+        args.file, args.target, stamp=args.stamp, warn=lambda m: print(f"dbglog echo: {m}", file=sys.stderr)
+    )
+    try:
+        for line in itertools.islice(lines, args.count or None):
+            print(line)
+    except RecordingError as exc:
+        print(f"dbglog echo: {exc}", file=sys.stderr)
+        return 1
+    except BrokenPipeError:  # `| head`: the reader is gone
+        sys.stderr.close()
+    return 0
+
+
 def run(args: argparse.Namespace) -> int:
     """Bind the target and print its newest value, then the following ones, until --count or --timeout."""
+    if args.file is not None:
+        return _of_file(args)
     from dbglog.viewer._data._engine import Engine
     from dbglog.viewer._data._model import Binding, Status
 

@@ -48,6 +48,13 @@ _RATE_SAMPLES = 50
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Declare the ``tags`` options."""
+    parser.add_argument(
+        "file",
+        nargs="?",
+        metavar="FILE",
+        help="a recording (.mcap file or rosbag2 directory): list its tags (--all: topics) with type, "
+        "count, rate, first and last value, instead of the live ones",
+    )
     parser.add_argument("--watch", action="store_true", help="refresh the table until Ctrl-C")
     parser.add_argument("--all", action="store_true", help="list every topic, not only dbglog tags")
     parser.add_argument(
@@ -62,6 +69,25 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--interval", type=float, default=1.0, metavar="S", help="refresh period with --watch (default 1 s)"
     )
+
+
+def _of_file(args: argparse.Namespace) -> int:
+    """Print a recording's table (problems with the file on stderr, the readable part still listed)."""
+    from dbglog.record import RecordingError
+    from dbglog.record._inspect import tags_table
+
+    if args.watch:
+        print("dbglog tags: --watch is for live tags, not a recording", file=sys.stderr)
+        return 2
+    try:
+        table = tags_table(
+            args.file, all_topics=args.all, warn=lambda m: print(f"dbglog tags: {m}", file=sys.stderr)
+        )
+        print(table)
+    except RecordingError as exc:
+        print(f"dbglog tags: {exc}", file=sys.stderr)
+        return 1
+    return 0
 
 
 def format_value(value: object, width: int = 40) -> str:
@@ -269,7 +295,9 @@ def _empty_message(engine: Engine, show_all: bool, waited: float) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Print the table once (or keep refreshing it with --watch)."""
+    """Print the table once (or keep refreshing it with --watch); of a recording with FILE."""
+    if args.file is not None:
+        return _of_file(args)
     from dbglog.viewer._data._engine import Engine
 
     if args.wait < 0 or args.interval <= 0:
