@@ -145,6 +145,10 @@ class BatchIngest:
                 return True
         return False
 
+    def types(self) -> dict[str, str]:
+        """Return the std_msgs type of every tag seen in batches (its newest)."""
+        return dict(self._types)
+
     def past_type(self, name: str) -> str | None:
         """Return the type of a tag whose past the history holds from batches (None if it holds none)."""
         msg_type = self._types.get(name)

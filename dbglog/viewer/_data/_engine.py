@@ -30,6 +30,7 @@ from dbglog._ros._qos import LOG_DEPTH, subscription_qos
 from dbglog.viewer._data._batchsub import BatchIngest, BatchStats
 from dbglog.viewer._data._fields import (
     FieldPathError,
+    Scalar,
     fixed_size,
     list_fields,
     message_class,
@@ -176,6 +177,8 @@ class Engine:
         self._lock = threading.Lock()
         self.store = History(max_seconds=history_seconds, max_bytes=history_bytes)
         """The history: topics by name (raw: numbers or CDR payloads) and each series' values by its key."""
+        self._held_types: dict[str, str] = {}
+        """The ROS type of each topic the history holds from its own subscription."""
         self._dead_keys: list[str] = []
         """Store keys of unbound series, dropped by the ROS thread (the only writer)."""
         self._series: dict[Binding, Series] = {}
@@ -320,6 +323,16 @@ class Engine:
         """Return the time of the binding's previous (-1) or next (+1) sample strictly around `t`."""
         series = self._series.get(binding)
         return None if series is None else series.neighbour_time(t, direction)
+
+    def between(self, binding: Binding, t0: float, t1: float) -> tuple[npt.NDArray[np.float64], list[Scalar]]:
+        """Return the binding's samples with ``t0 <= time <= t1`` (times and values), for an export."""
+        series = self._series.get(binding)
+        return (np.empty(0), []) if series is None else series.between(t0, t1)
+
+    def held_types(self) -> dict[str, str]:
+        """Return the ROS type of every topic the history holds (to save it as a recording)."""
+        types = {**self._batches.types(), **self._held_types}
+        return {name: t for name, t in types.items() if self.store.kind(name) is not None}
 
     def history_stats(self) -> HistoryStats:
         """Return what the history holds (span, samples, bytes)."""
@@ -762,6 +775,7 @@ class Engine:
                 if not stamps:
                     return
         times = np.asarray(stamps, dtype=np.float64) * 1e-9
+        self._held_types[topic.name] = topic.msg_type
         try:
             if topic.scalar is None:
                 self.store.append_payloads(topic.name, times, buffers, msg_type=topic.msg_type)

@@ -15,6 +15,7 @@ import os
 import threading
 
 import numpy as np
+import numpy.typing as npt
 
 from dbglog._regex._compile import CompiledRegex, RegexError, compile_regex
 from dbglog._ros._batch import BATCH_TOPIC
@@ -22,7 +23,7 @@ from dbglog._ros._cdr import string_payload
 from dbglog._ros._tags import topic_for_tag
 from dbglog.record._inspect import tag_series
 from dbglog.record._reader import Recording, read_recording
-from dbglog.viewer._data._fields import FieldPathError, list_fields, message_class
+from dbglog.viewer._data._fields import FieldPathError, Scalar, list_fields, message_class
 from dbglog.viewer._data._history import History, HistoryStats
 from dbglog.viewer._data._model import Binding, FieldInfo, SeriesSnapshot, Status, TopicInfo
 from dbglog.viewer._data._series import Series
@@ -196,6 +197,15 @@ class ReplaySource:
         """Return the time of the binding's previous (-1) or next (+1) sample strictly around `t`."""
         series = self._series.get(binding)
         return None if series is None else series.neighbour_time(t, direction)
+
+    def between(self, binding: Binding, t0: float, t1: float) -> tuple[npt.NDArray[np.float64], list[Scalar]]:
+        """Return the binding's samples with ``t0 <= time <= t1`` (times and values), for an export."""
+        series = self._series.get(binding)
+        return (np.empty(0), []) if series is None else series.between(t0, t1)
+
+    def held_types(self) -> dict[str, str]:
+        """Return the ROS type of every topic of the recording."""
+        return dict(self.types)
 
     def history_stats(self) -> HistoryStats:
         """Return what the recording's history holds."""

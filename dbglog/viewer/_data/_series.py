@@ -272,6 +272,27 @@ class Series:
             count=sample.index + 1,
         )
 
+    def between(self, t0: float, t1: float) -> tuple[npt.NDArray[np.float64], list[Scalar]]:
+        """Return this series' samples with ``t0 <= time <= t1``: times and values (numbers or texts)."""
+        store = self.store
+        kind = self._kind
+        if store is None:
+            snap = self.snapshot(1e9)
+            keep = (snap.times >= t0) & (snap.times <= t1)
+            if kind == ValueKind.TEXT:
+                return snap.times[keep], [x for x, k in zip(snap.texts, keep.tolist(), strict=False) if k]
+            return snap.times[keep], list(snap.values[keep].tolist())
+        if kind == ValueKind.TEXT:
+            times, payloads = store.payloads(self.key, t0, t1)
+            return times, [p.decode("utf-8", "replace") for p in payloads]
+        if kind == ValueKind.ARRAY:
+            times, payloads = store.payloads(self.key, t0, t1)
+            return times, [tuple(np.frombuffer(p, dtype=np.float64).tolist()) for p in payloads]
+        times, values = store.range(self.key, t0, t1)
+        if kind == ValueKind.BOOL:
+            return times, [bool(v) for v in values.tolist()]
+        return times, list(values.tolist())
+
     def held(self) -> int:
         """Return how many of this series' samples its store holds (the ring's size without a store)."""
         if self.store is not None:

@@ -18,7 +18,9 @@ from dataclasses import replace
 from typing import Protocol, runtime_checkable
 
 import numpy as np
+import numpy.typing as npt
 
+from dbglog.viewer._data._fields import Scalar
 from dbglog.viewer._data._history import HistoryStats
 from dbglog.viewer._data._model import (
     Binding,
@@ -52,6 +54,9 @@ class TimeSource(Protocol):
 
     def history_stats(self) -> HistoryStats:
         """Return what the history holds (span, samples, bytes) for the status bar."""
+
+    def between(self, binding: Binding, t0: float, t1: float) -> tuple[npt.NDArray[np.float64], list[Scalar]]:
+        """Return the binding's samples with ``t0 <= time <= t1`` (times and values), for an export."""
 
 
 def cut_at(snapshot: SeriesSnapshot, t: float, stale_after: float) -> SeriesSnapshot:
@@ -301,6 +306,16 @@ class Timeline:
             return False
         self.cursor = max(found) if direction < 0 else min(found)
         return True
+
+    def between(self, binding: Binding, t0: float, t1: float) -> tuple[npt.NDArray[np.float64], list[Scalar]]:
+        """Return the binding's samples with ``t0 <= time <= t1`` (from the live series without a history)."""
+        if isinstance(self.source, TimeSource):
+            return self.source.between(binding, t0, t1)
+        snap = self.source.snapshot(binding)
+        keep = (snap.times >= t0) & (snap.times <= t1)
+        if snap.kind is ValueKind.TEXT:
+            return snap.times[keep], [x for x, k in zip(snap.texts, keep.tolist(), strict=False) if k]
+        return snap.times[keep], list(snap.values[keep].tolist())
 
     def _neighbour(self, binding: Binding, t: float, direction: int) -> float | None:
         if isinstance(self.source, TimeSource):

@@ -1,0 +1,196 @@
+"""What the viewer holds, written out: a time range of series as CSV, the history as an MCAP recording.
+
+`export_csv` writes chosen bindings between two source times as one table: a ``time`` column (source
+time, epoch seconds to the microsecond: a float64 second count holds no finer) and a column per
+binding, one row per distinct time, a cell empty where that series has no sample at that time (the
+layout PlotJuggler's CSV export and pandas' ``read_csv`` expect). `save_recording` writes every topic
+the history holds in a time range as an MCAP file in the ROS 2 profile (``dbglog record``'s writer): a
+dbglog tag as its std_msgs type with every sample, other topics as their received CDR bytes, so
+``dbglog view --replay`` and other tools open it. Both write to a temporary file beside the target and
+rename it into place: a failure never leaves a half-written file or harms an existing one. No ROS, no
+Dear PyGui.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import os
+import tempfile
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Protocol
+
+import numpy as np
+import numpy.typing as npt
+
+from dbglog._ros._cdr import SCALAR_FORMATS, scalar_encoder
+from dbglog.record._writer import McapWriter, RecordingError
+from dbglog.viewer._data._fields import Scalar
+from dbglog.viewer._data._history import History
+from dbglog.viewer._data._model import Binding
+
+__all__ = ["ExportError", "column_label", "export_csv", "save_recording"]
+
+
+class ExportError(Exception):
+    """An export could not be written; the message names the file and why."""
+
+
+class _Ranges(Protocol):
+    def between(self, binding: Binding, t0: float, t1: float) -> tuple[npt.NDArray[np.float64], list[Scalar]]:
+        """Return the binding's samples with ``t0 <= time <= t1``."""
+
+
+def column_label(binding: Binding) -> str:
+    """Name a binding's CSV column: ``topic``, ``topic.field`` and ``~regex`` when it has one."""
+    label = binding.topic
+    if binding.field.strip():
+        label += "." + binding.field.strip()
+    if binding.regex.strip():
+        label += f" ~{binding.regex.strip()}"
+    if binding.transforms:
+        label += " [" + ", ".join(t.describe() for t in binding.transforms) + "]"
+    return label
+
+
+def _cell(value: Scalar) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, float):
+        return "nan" if math.isnan(value) else repr(value)
+    if isinstance(value, tuple):
+        return " ".join(repr(float(v)) for v in value)
+    return str(value)
+
+
+def _atomic(path: Path, write: Callable[[Path], None], *, force: bool) -> None:
+    """Write through a temporary file in the target's folder, then rename it onto `path`."""
+    if path.exists() and not force:
+        raise ExportError(f"{path} already exists (choose another name, or allow replacing it)")
+    if path.is_dir():
+        raise ExportError(f"{path} is a folder")
+    folder = path.parent
+    if not folder.is_dir():
+        raise ExportError(f"cannot write {path}: the folder {folder} does not exist")
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".part", dir=folder)
+    os.close(fd)
+    tmp_path = Path(tmp)
+    try:
+        write(tmp_path)
+        os.replace(tmp_path, path)
+    except OSError as exc:
+        raise ExportError(f"cannot write {path}: {exc.strerror or exc}") from None
+    finally:
+        tmp_path.unlink(missing_ok=True)
+
+
+def export_csv(
+    source: _Ranges,
+    bindings: Sequence[Binding],
+    t0: float,
+    t1: float,
+    path: str | os.PathLike[str],
+    *,
+    force: bool = False,
+) -> int:
+    """Write the bindings' samples with ``t0 <= time <= t1`` to a CSV file; return the rows written.
+
+    Raises:
+        ExportError: nothing to export, or the file exists (without `force`) or cannot be written.
+    """
+    if not bindings:
+        raise ExportError("nothing to export: no series chosen")
+    if not t0 <= t1:
+        raise ExportError(f"the export range is empty: it starts at {t0} after it ends at {t1}")
+    columns = [source.between(b, t0, t1) for b in bindings]
+    times = np.unique(np.concatenate([c[0] for c in columns])) if columns else np.empty(0)
+    target = Path(path)
+
+    def write(tmp: Path) -> None:
+        with tmp.open("w", newline="", encoding="utf-8") as f:
+            out = csv.writer(f)
+            out.writerow(["time", *(column_label(b) for b in bindings)])
+            cells: list[dict[float, str]] = []
+            for col_times, values in columns:
+                cells.append({float(t): _cell(v) for t, v in zip(col_times.tolist(), values, strict=True)})
+            for t in times.tolist():
+                out.writerow([f"{t:.6f}", *(c.get(t, "") for c in cells)])
+
+    _atomic(target, write, force=force)
+    return len(times)
+
+
+def _numbers_encoder(msg_type: str) -> Callable[[float], bytes] | None:
+    """value -> CDR bytes of a one-field std_msgs type, with the value cast to the field's type."""
+    short = msg_type.rsplit("/", 1)[-1]
+    fmt = SCALAR_FORMATS.get(short)
+    if fmt is None or not msg_type.startswith("std_msgs/msg/"):
+        return None
+    encode = scalar_encoder(fmt)
+    if short == "Bool":
+        return lambda v: encode(bool(v))
+    if short.startswith(("Int", "UInt")):
+        return lambda v: encode(int(v))
+    return lambda v: encode(float(v))
+
+
+def save_recording(
+    store: History,
+    types: dict[str, str],
+    path: str | os.PathLike[str],
+    *,
+    t0: float = -math.inf,
+    t1: float = math.inf,
+    force: bool = False,
+) -> int:
+    """Write every topic `store` holds between `t0` and `t1` to an MCAP file; return the messages written.
+
+    Args:
+        store: the history (topics by name; series' own keys are skipped).
+        types: each topic's ROS type (a topic without one is skipped).
+        path: the ``.mcap`` file to write.
+        t0: the first source time written (epoch seconds).
+        t1: the last source time written.
+        force: replace an existing file.
+
+    Raises:
+        ExportError: nothing held in the range, or the file exists (without `force`) or cannot be written.
+    """
+    topics = [n for n in store.topics() if n.startswith("/") and n in types]
+    target = Path(path)
+    written = 0
+
+    def write(tmp: Path) -> None:
+        nonlocal written
+        writer = McapWriter(tmp, force=True)
+        try:
+            for name in topics:
+                msg_type = types[name]
+                if store.kind(name) == "numbers":
+                    encode = _numbers_encoder(msg_type)
+                    if encode is None:
+                        continue
+                    times, values = store.range(name, t0, t1)
+                    payloads = [encode(v) for v in values.tolist()]
+                else:
+                    times, payloads = store.payloads(name, t0, t1)
+                if not len(times):
+                    continue
+                channel = writer.add_channel(name, msg_type)
+                for t, data in zip(times.tolist(), payloads, strict=True):
+                    ns = round(t * 1e9)
+                    writer.write(channel, ns, data, ns)
+                written += len(times)
+            if not written:
+                raise ExportError("nothing to save: the history holds no message in that time range")
+            writer.close()
+        except RecordingError as exc:
+            writer.abandon()
+            raise ExportError(f"cannot write {target}: {exc}") from None
+        except BaseException:
+            writer.abandon()
+            raise
+
+    _atomic(target, write, force=force)
+    return written
