@@ -31,7 +31,7 @@ pytestmark = pytest.mark.gui
 ROOT = Path(__file__).resolve().parent.parent
 WAIT_S = 30.0
 """How long the viewer may take to show what the mouse asked for (generous for a loaded CI machine)."""
-SIZE = (1000, 640)
+SIZE = (1000, 700)  # the canvas: 700 less the menu, timeline and status bars
 
 
 # -- the child: a real viewer whose frame hook reports what is on screen ---------------------------------
@@ -227,7 +227,7 @@ def test_wheel_scrolls_canvas_background_not_over_a_plot(viewer: Callable[[str],
     v.ready()
     state = v.wait_for(lambda s: s["scroll_max"][1] > 300)  # the LED far below makes the canvas scroll
     cx, cy, cw, ch = state["canvas"]
-    v.move(cx + cw - 60, cy + ch / 2)  # background, right of the plot
+    v.move(cx + cw - 60, cy + ch - 40)  # background, below the plot
     v.wheel(3)
     state = v.wait_for(lambda s: s["scroll"][1] > 0)
     assert state["scroll"][1] == pytest.approx(180, abs=1)
@@ -250,7 +250,7 @@ def test_grid_covers_the_scrolled_area(viewer: Callable[[str], Viewer]) -> None:
     v = viewer("canvas")
     state = v.ready()
     cx, cy, cw, ch = state["canvas"]
-    v.move(cx + cw - 60, cy + ch / 2)
+    v.move(cx + cw - 60, cy + ch - 40)  # background, below the plot
     v.wheel(20)
     state = v.wait_for(lambda s: s["scroll"][1] >= s["scroll_max"][1] > 300)
     img = v.png("scrolled")

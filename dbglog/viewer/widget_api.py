@@ -274,6 +274,10 @@ class Widget(abc.ABC):
     """True for a control: its binding is where it publishes, so Topic setup offers no regex or transforms."""
     default_size: ClassVar[tuple[int, int]] = (220, 220)
     min_size: ClassVar[tuple[int, int]] = (120, 90)
+    paused_at: float | None = None
+    """The source time (epoch seconds) the dashboard is paused at, or None while live; set by the viewer
+    before each `update`. The snapshots are already as they stood then, so most widgets never look at it;
+    a time plot does, to end its window there and draw the cursor."""
 
     def __init__(self, props: Mapping[str, PropValue] | None = None) -> None:
         self.props: dict[str, PropValue] = self.default_properties()
@@ -344,7 +348,11 @@ class Widget(abc.ABC):
 
     @abc.abstractmethod
     def update(self, snapshots: Sequence[SeriesSnapshot], now: float) -> None:
-        """Show new data: one snapshot per binding, in binding order; `now` is the wall clock in seconds."""
+        """Show new data: one snapshot per binding, in binding order.
+
+        `now` is the moment the dashboard shows, in epoch seconds: the wall clock while live, the cursor's
+        time while paused (`paused_at`), so ``now - snapshot.last_time`` is the age of the value then.
+        """
 
     def status(self) -> tuple[Status, str] | None:
         """Return the widget's own status and reason for its pill, or None (the default) to show its series'.

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import collections
 import ctypes
+import math
 import os
 import sys
 import time
@@ -21,6 +22,7 @@ from typing import Any, Self
 import dearpygui.dearpygui as dpg
 
 from dbglog.viewer._data._model import Binding, DataSource
+from dbglog.viewer._data._timeline import Timeline, TimeSource
 from dbglog.viewer._document._canvas_doc import CanvasDoc, TopicSetup
 from dbglog.viewer._document._dashboard import Dashboard, LoadResult, WidgetConfig
 from dbglog.viewer._publishing._publish import PublishService
@@ -47,6 +49,8 @@ from dbglog.viewer._ui._pacing import (
 )
 from dbglog.viewer._ui._pointer import PointerInput
 from dbglog.viewer._ui._quit import QuitDialog
+from dbglog.viewer._ui._timebar import TIMEBAR_H, TimeBar
+from dbglog.viewer._ui._timescale import history_text
 from dbglog.viewer._widgets import WidgetRegistry
 from dbglog.viewer._widgets._geometry import (
     Rect,
@@ -59,6 +63,10 @@ __all__ = ["PAYLOAD_TYPE", "ViewerApp", "keep_freed_memory"]
 SETTLE_FRAMES = 3
 """Frames rendered before a screenshot is captured, so that the last update is fully on screen."""
 STATUS_H = 34
+BOTTOM_H = STATUS_H + TIMEBAR_H + 8
+"""The window's height below the canvas: the timeline bar and the status bar."""
+TEXT_ENTRY_TYPES = ("mvInputText", "mvInputInt", "mvInputFloat", "mvInputDouble")
+"""Dear PyGui item types that take typed text: while one is being edited, the time keys are its own."""
 CHORD_S = 0.15
 """How long after a rendered frame saw Ctrl or Shift down a shortcut's key still counts it as held."""
 
@@ -88,6 +96,9 @@ def keep_freed_memory() -> bool:
 class ViewerApp:
     """The whole viewer window; create, `start`, call `frame` (or `run`), then `close`.
 
+    Widgets read their series through `timeline`, the window's time cursor over `source`: live, or
+    paused at a moment of the past (the timeline bar, Space, the arrow keys, End).
+
     Args:
         source: where series come from (the engine, or any `DataSource`).
         registry: the widget types (default: built-ins plus installed plugins).
@@ -108,9 +119,11 @@ class ViewerApp:
         data_fps: float = DEFAULT_DATA_FPS,
     ) -> None:
         self.source = source
+        self.timeline = Timeline(source, stale_after=float(getattr(source, "stale_after", 2.0)))
+        """The time cursor: every widget's snapshots come through it (live, or as they stood at a time)."""
         self.registry = registry if registry is not None else WidgetRegistry.discover()
         self.width, self.height, self.title = width, height, title
-        self.doc: CanvasDoc[CanvasItem] = CanvasDoc(source, self._update_title)
+        self.doc: CanvasDoc[CanvasItem] = CanvasDoc(self.timeline, self._update_title)
         """What is on the canvas: widgets, their bindings, selection, the file and whether it is modified."""
         self.dialog: Dialog | None = None
         self.pointer_override: tuple[float, float] | None = None
@@ -143,7 +156,14 @@ class ViewerApp:
         self._started = False
         self._status_text = ""
         self._status_left = ""
+        self._history_text = ""
+        self._history_at = -1.0
+        self._history_next = ""
         self._quitting = False
+        self._time_commands: collections.deque[Callable[[], object]] = collections.deque()
+        """Time keys and the bar's button, queued by Dear PyGui's callback thread, run by `_work`."""
+        self._fallback_span: tuple[float, float] | None = None
+        self._span_checked = -1.0
 
     # -- the document, as the window shows it ------------------------------------------------------
 
@@ -263,7 +283,7 @@ class ViewerApp:
                     self.registry,
                     snap=self.doc.snap,
                     grid_size=self.doc.grid_size,
-                    height=-STATUS_H,
+                    height=-BOTTOM_H,
                     on_snap=self.set_snap,
                     on_grid_size=self.set_grid_size,
                 )
@@ -273,7 +293,7 @@ class ViewerApp:
                 # to plots.
                 self.canvas = dpg.add_child_window(
                     width=-1,
-                    height=-STATUS_H,
+                    height=-BOTTOM_H,
                     border=False,
                     horizontal_scrollbar=True,
                     no_scroll_with_mouse=True,
@@ -284,6 +304,9 @@ class ViewerApp:
                 # the scrolled area taller than the grid (a drawlist ignores `pos` itself).
                 self.grid_group = dpg.add_group(parent=self.canvas, pos=(0, 0))
                 self.grid_layer = dpg.add_drawlist(1, 1, parent=self.grid_group)
+            self.timebar = TimeBar(
+                self.timeline, self.time_span, self.seek, lambda: self.queue_time(self.toggle_live)
+            )
             with dpg.group(horizontal=True):
                 self.status_left = dpg.add_text("", color=theme.DIM)
                 self.status_msg = dpg.add_text("")
@@ -303,6 +326,12 @@ class ViewerApp:
             dpg.add_key_press_handler(dpg.mvKey_Down, callback=lambda *_: self.on_arrow_key(1))
             dpg.add_key_press_handler(dpg.mvKey_Up, callback=lambda *_: self.on_arrow_key(-1))
             dpg.add_key_press_handler(dpg.mvKey_Escape, callback=lambda *_: self.on_escape_key())
+            # Time keys run on the UI thread: queued here (Dear PyGui's callback thread), run by `_work`.
+            queue = self.queue_time
+            dpg.add_key_press_handler(dpg.mvKey_Spacebar, callback=lambda *_: queue(self.on_space_key))
+            dpg.add_key_press_handler(dpg.mvKey_Left, callback=lambda *_: queue(self.on_time_arrow, -1))
+            dpg.add_key_press_handler(dpg.mvKey_Right, callback=lambda *_: queue(self.on_time_arrow, 1))
+            dpg.add_key_press_handler(dpg.mvKey_End, callback=lambda *_: queue(self.on_end_key))
             dpg.add_mouse_wheel_handler(callback=lambda _s, delta: self.pointer_input.on_wheel(delta))
         self._update_title()
 
@@ -379,7 +408,9 @@ class ViewerApp:
         """Between frames: run the hooks and see whether anything on screen would change (no drawing)."""
         for hook in self.frame_hooks:
             hook()
-        if any(item.changed(self.source) for item in self.items):
+        at = self.timeline.cursor
+        changed = any(item.changed(self.timeline, paused_at=at) for item in self.items)
+        if changed or self._time_commands or self._bar_moved():
             self.pacer.request(time.monotonic())
         self._poke_if_view_changed()
 
@@ -387,9 +418,14 @@ class ViewerApp:
         """Everything of a frame but rendering: input, snapshots, widget updates, dialogs, chrome."""
         self.pointer_input.poll()
         self.pointer_input.apply_wheel()
-        now = time.time()
+        self._run_time_commands()
+        left = bool(dpg.is_mouse_button_down(dpg.mvMouseButton_Left))
+        busy = self._modal_open() or self.pointer_input.drag is not None
+        self.timebar.poll(self.pointer(), left, blocked=busy)
+        at = self.timeline.cursor
+        now = time.time() if at is None else at  # the moment the widgets show
         for item in self.items:
-            item.refresh(self.source, now)
+            item.refresh(self.timeline, now, paused_at=at)
             if item.edited:  # a control changed its own saved value (a toggle switched, a slider moved)
                 item.edited = False
                 self.doc.mark_dirty()
@@ -402,6 +438,8 @@ class ViewerApp:
                 self.set_status(f"dialog error: {exc!r}")
         # What this changes is drawn by the frame rendered right after (`_look` asked for it already).
         self._draw_chrome()
+        self.timebar.fit(self.paint.window_size[0])
+        self.timebar.draw()
         self._update_status()
         # With a dialog open a text cursor may blink: idle frames come more often then.
         dialog_open = self.dialog is not None or self.file_request is not None
@@ -427,6 +465,7 @@ class ViewerApp:
             self.dirty,
             self.path,
             self.paint.window_size,
+            self.timeline.cursor,
         )
 
     def _render(self, now: float) -> None:
@@ -800,6 +839,151 @@ class ViewerApp:
         if self._started and not self._quitting:
             self.request_quit()
 
+    # -- time travel --------------------------------------------------------------------------------
+
+    @property
+    def live(self) -> bool:
+        """Whether the widgets follow the newest data (not paused at a moment of the past)."""
+        return self.timeline.live
+
+    def time_span(self) -> tuple[float, float] | None:
+        """Return the (oldest, newest) source time the dashboard can show, None while nothing is held.
+
+        The source's history when it has one (`TimeSource`), else what the widgets' series hold.
+        """
+        if isinstance(self.source, TimeSource):
+            return self.timeline.span()
+        now = time.monotonic()
+        if now - self._span_checked >= 0.1:
+            self._span_checked = now
+            self._fallback_span = self._series_span()
+        return self._fallback_span
+
+    def _series_span(self) -> tuple[float, float] | None:
+        lo, hi = math.inf, -math.inf
+        for binding in self.step_bindings(all_widgets=True):
+            snap = self.source.snapshot(binding)
+            if len(snap.times):
+                lo, hi = min(lo, float(snap.times[0])), max(hi, float(snap.times[-1]))
+            elif snap.last_time is not None:
+                lo, hi = min(lo, snap.last_time), max(hi, snap.last_time)
+        return (lo, hi) if hi >= lo else None
+
+    def step_bindings(self, *, all_widgets: bool = False) -> list[Binding]:
+        """The series the arrow keys step through: the selected widget's, or every widget's."""
+        selected = self.selected
+        if not all_widgets and selected is not None and selected in self.items and selected.series:
+            return list(selected.series)
+        return list(dict.fromkeys(b for item in self.items for b in item.series))
+
+    def pause(self, at: float | None = None) -> None:
+        """Hold every widget at source time `at` (default: the newest sample held)."""
+        if at is None:
+            span = self.time_span()
+            at = span[1] if span is not None else time.time()
+        self.seek(at)
+
+    def seek(self, t: float) -> None:
+        """Move the time cursor to `t` (pausing), kept within the span held."""
+        span = self.time_span()
+        if span is not None:
+            t = min(max(t, span[0]), span[1])
+        self.timeline.seek(t)
+
+    def go_live(self) -> None:
+        """Follow the newest data again."""
+        self.timeline.resume()
+
+    def toggle_live(self) -> None:
+        """Pause at the newest sample, or go back to live."""
+        if self.live:
+            self.pause()
+        else:
+            self.go_live()
+
+    def shift_time(self, seconds: float) -> None:
+        """Move the cursor `seconds` later (negative: earlier), pausing first when live."""
+        if self.timeline.cursor is None:
+            self.pause()
+        assert self.timeline.cursor is not None
+        self.seek(self.timeline.cursor + seconds)
+
+    def step_time(self, direction: int) -> bool:
+        """Move the cursor to the previous (-1) or next (+1) message of `step_bindings`; False if none."""
+        bindings = self.step_bindings()
+        if self.timeline.cursor is None:
+            self.pause()
+        if not bindings or not self.timeline.step(bindings, direction):
+            whose = self.selected.name if self.selected is not None and self.selected.series else "any widget"
+            self.set_status(f"no {'earlier' if direction < 0 else 'later'} message of {whose}")
+            return False
+        return True
+
+    def queue_time(self, action: Callable[..., object], *args: object) -> None:
+        """Run `action(*args)` on the UI thread at the next frame (key and button callbacks run elsewhere)."""
+        self._time_commands.append(lambda: action(*args))
+
+    def _run_time_commands(self) -> None:
+        while self._time_commands:
+            self._time_commands.popleft()()
+
+    def on_space_key(self) -> None:
+        """Space: pause at the newest sample, or go back to live (not while typing or in a dialog)."""
+        if not self._keys_blocked():
+            self.toggle_live()
+
+    def on_time_arrow(self, direction: int) -> None:
+        """Left/Right: the previous/next message of the selected widget (or all); with Shift, 1 s."""
+        if self._keys_blocked():
+            return
+        if self.held(dpg.mvKey_ModShift):
+            self.shift_time(float(direction))
+        else:
+            self.step_time(direction)
+
+    def on_end_key(self) -> None:
+        """End: back to live."""
+        if not self._keys_blocked():
+            self.go_live()
+
+    def _modal_open(self) -> bool:
+        """Whether a dialog, the file dialog or the context menu has the input."""
+        return self.dialog is not None or self.file_request is not None or bool(dpg.is_item_shown(self.menu))
+
+    def _keys_blocked(self) -> bool:
+        """Whether the keys belong to something else: a dialog, the context menu, a field being typed in."""
+        return self._modal_open() or self.typing()
+
+    def typing(self) -> bool:
+        """Whether a text field on the canvas (a control's, say) is being edited and so has the keyboard."""
+        stack: list[int | str] = [item.window for item in self.items]
+        while stack:
+            node = stack.pop()
+            children = dpg.get_item_children(node, 1) or []
+            stack.extend(children)
+            kind = dpg.get_item_type(node)
+            if kind.endswith(TEXT_ENTRY_TYPES) and dpg.is_item_active(node):
+                return not (kind.endswith("mvInputText") and dpg.get_item_configuration(node).get("readonly"))
+        return False
+
+    def _bar_moved(self) -> bool:
+        """Twice a second: whether the timeline bar or the history figures would show something new."""
+        now = time.monotonic()
+        if now - self._history_at < 0.5:
+            return False
+        return self.timebar.stale() or self._history_status(now) != self._history_text
+
+    def _history_status(self, now: float) -> str:
+        if now - self._history_at >= 0.5:
+            self._history_at = now
+            stats = self.timeline.stats()
+            if stats is None:
+                self._history_next = ""
+            else:
+                span = None if stats.oldest is None or stats.newest is None else (stats.oldest, stats.newest)
+                self._history_next = history_text(span, stats.bytes_used, stats.samples)
+        return self._history_next
+
     # -- chrome -------------------------------------------------------------------------------------
 
     def set_status(self, text: str) -> None:
@@ -825,6 +1009,9 @@ class ViewerApp:
             else:
                 self._fps_text = f"{min(recent, 999)} fps"
         parts = self.doc.summary()
+        self._history_text = self._history_status(now)
+        if self._history_text:
+            parts.append(self._history_text)
         if self._fps_text:
             parts.append(self._fps_text)
         text = "  " + "   \u00b7   ".join(parts) + "   "

@@ -207,6 +207,10 @@ class CanvasItem:
 
     # -- live updates -------------------------------------------------------------------------------
 
+    def snapshots(self, source: DataSource) -> list[SeriesSnapshot]:
+        """Return what the widget is given from `source`: its stale time applied, wrong kinds as errors."""
+        return self._snapshots(source)
+
     def _snapshots(self, source: DataSource) -> list[SeriesSnapshot]:
         snapshots = [source.snapshot(b) for b in self.series]
         stale_after = self.config.stale_after
@@ -216,18 +220,26 @@ class CanvasItem:
             snapshots = [shown_as(self.widget_cls, s) for s in snapshots]
         return snapshots
 
-    def changed(self, source: DataSource) -> bool:
-        """Whether `refresh` would redraw now (a count, status or reason changed), without redrawing."""
+    def changed(self, source: DataSource, *, paused_at: float | None = None) -> bool:
+        """Whether `refresh` would redraw now (a count, status or reason changed, the cursor moved)."""
         if self.widget is None or self.failed:
             return False
         try:
             own = self.widget.status()
         except Exception:  # `refresh` disables the widget and says why
             return True
-        return _state_key(self._snapshots(source), own) != self._key or self.widget.props_changed
+        key = _state_key(self._snapshots(source), own, paused_at)
+        return key != self._key or self.widget.props_changed
 
-    def refresh(self, source: DataSource, now: float) -> None:
-        """Read the snapshots; redraw only when a count, status or reason changed."""
+    def refresh(self, source: DataSource, now: float, *, paused_at: float | None = None) -> None:
+        """Read the snapshots; redraw only when a count, status or reason changed, or the cursor moved.
+
+        Args:
+            source: where the snapshots come from (the app's timeline: live, or as they stood at a time).
+            now: the moment shown, given to the widget: the wall clock live, the cursor time paused.
+            paused_at: the cursor's source time while paused (None live), set on the widget as
+                `Widget.paused_at` before it draws.
+        """
         if self.widget is None or self.failed:
             return
         snapshots = self._snapshots(source)
@@ -245,7 +257,7 @@ class CanvasItem:
             if props != dict(config.properties):
                 self.config = replace(config, properties=props)
                 self.edited = True
-        key = _state_key(snapshots, own)
+        key = _state_key(snapshots, own, paused_at)
         if key == self._key:
             return
         self._key = key
@@ -253,6 +265,7 @@ class CanvasItem:
         if (self.status, self.reason) != self._pill_state:
             self._draw_header(int(self.geometry()[2]))
         try:
+            self.widget.paused_at = paused_at
             self.widget.update(snapshots, now)
         except Exception as exc:  # one failing widget is disabled; the others keep running
             self._fail(f"widget failed while drawing: {exc!r}")
@@ -349,6 +362,8 @@ class CanvasItem:
             dpg.delete_item(self.window)
 
 
-def _state_key(snapshots: Sequence[SeriesSnapshot], own: object) -> tuple[object, ...]:
-    """What a widget's redraw depends on: each series' count, status and reason, and its own state."""
-    return (*((s.count, s.status, s.reason) for s in snapshots), own)
+def _state_key(
+    snapshots: Sequence[SeriesSnapshot], own: object, paused_at: float | None
+) -> tuple[object, ...]:
+    """What a widget's redraw depends on: each series' count, status and reason, its own state, the cursor."""
+    return (*((s.count, s.status, s.reason) for s in snapshots), own, paused_at)
