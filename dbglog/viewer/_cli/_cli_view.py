@@ -3,11 +3,27 @@
 from __future__ import annotations
 
 import argparse
+import math
+import re
 import sys
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-__all__ = ["HELP", "add_arguments", "fps_arg", "run", "seconds_arg", "size_arg"]
+if TYPE_CHECKING:
+    from dbglog.viewer._ui import ViewerApp
+
+__all__ = [
+    "HELP",
+    "add_arguments",
+    "cursor_arg",
+    "duration_arg",
+    "fps_arg",
+    "megabytes_arg",
+    "run",
+    "seconds_arg",
+    "size_arg",
+]
 
 HELP = "Open the live dashboard viewer (drag widgets onto a canvas, bind them to topics, save dashboards)."
 
@@ -31,6 +47,44 @@ def seconds_arg(text: str) -> float:
         raise argparse.ArgumentTypeError(f"not a number of seconds: {text!r}") from None
     if not 0 <= value <= 3600:
         raise argparse.ArgumentTypeError(f"seconds must be within 0..3600, not {text}")
+    return value
+
+
+_DURATION = re.compile(r"(?:(\d+(?:\.\d*)?)h)?(?:(\d+(?:\.\d*)?)m)?(?:(\d+(?:\.\d*)?)s?)?")
+MAX_HISTORY_S = 7 * 86400.0
+
+
+def duration_arg(text: str) -> float:
+    """Parse a history length for argparse: seconds (``1800``) or with units (``90s``, ``30m``, ``1h30m``)."""
+    match = _DURATION.fullmatch(text.strip().lower())
+    if not text.strip() or match is None or not any(match.groups()):
+        raise argparse.ArgumentTypeError(f"not a duration: {text!r} (e.g. 1800, 90s, 30m, 2h, 1h30m)")
+    h, m, s = (float(g) if g else 0.0 for g in match.groups())
+    value = h * 3600 + m * 60 + s
+    if not 1 <= value <= MAX_HISTORY_S:
+        raise argparse.ArgumentTypeError(f"a history of {text} is outside 1 s..7 days")
+    return value
+
+
+def megabytes_arg(text: str) -> float:
+    """Parse a memory cap in megabytes (MiB, 1..1,000,000) for argparse."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number of megabytes: {text!r}") from None
+    if not 1 <= value <= 1_000_000:
+        raise argparse.ArgumentTypeError(f"megabytes must be within 1..1000000, not {text}")
+    return value
+
+
+def cursor_arg(text: str) -> float:
+    """Parse a cursor time for argparse: negative seconds before the newest sample, or epoch seconds."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a time: {text!r} (-2: 2 s before the newest sample)") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"not a time: {text!r}")
     return value
 
 
@@ -84,10 +138,33 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="with --screenshot: after --after, keep rendering up to this long until every widget is live",
     )
     parser.add_argument(
+        "--cursor",
+        type=cursor_arg,
+        metavar="T",
+        help="with --screenshot: take it paused at time T: negative, seconds before the newest sample "
+        "(-2); otherwise epoch seconds",
+    )
+    parser.add_argument(
         "--report-json",
         type=Path,
         metavar="PATH",
-        help="on exit, write every widget's name, type, status and bindings (and the dashboard) as JSON",
+        help="on exit, write every widget's name, type, status and bindings (and the dashboard) as JSON, "
+        "with the cursor and each binding's value at it and samples held",
+    )
+    parser.add_argument(
+        "--history",
+        type=duration_arg,
+        default=1800.0,
+        metavar="DURATION",
+        help="how far back the viewer remembers every tag and bound topic, for the timeline: seconds "
+        "or 90s / 30m / 2h (default 30m)",
+    )
+    parser.add_argument(
+        "--history-mb",
+        type=megabytes_arg,
+        default=512.0,
+        metavar="N",
+        help="memory cap of that history in MiB; the oldest samples go first (default 512)",
     )
     parser.add_argument(
         "--size", type=size_arg, default=(1440, 900), metavar="WxH", help="window size (1440x900)"
@@ -122,6 +199,12 @@ def run(args: argparse.Namespace) -> int:
     from dbglog.viewer._document._dashboard import DashboardError, LoadResult, load_dashboard
     from dbglog.viewer._widgets import WidgetRegistry
 
+    if args.cursor is not None and args.screenshot is None:
+        print(
+            "dbglog view: error: --cursor needs --screenshot (it sets where the screenshot is taken)",
+            file=sys.stderr,
+        )
+        return 2
     registry = WidgetRegistry.discover()
     for problem in registry.problems:
         print(f"dbglog view: warning: {problem}", file=sys.stderr)
@@ -150,7 +233,11 @@ def run(args: argparse.Namespace) -> int:
     from dbglog.viewer._data._engine import Engine
     from dbglog.viewer._ui import ViewerApp
 
-    engine = Engine(stale_after=max(0.1, args.stale_after))
+    engine = Engine(
+        stale_after=max(0.1, args.stale_after),
+        history_seconds=args.history,
+        history_bytes=int(args.history_mb * 2**20),
+    )
     try:
         engine.start()
     except RuntimeError as exc:
@@ -180,6 +267,8 @@ def run(args: argparse.Namespace) -> int:
             # Wait for every widget to be live, and for new array tags still learning their length.
             while (not all_live(app) or (auto is not None and auto.pending)) and time.monotonic() < deadline:
                 app.frame()
+            if args.cursor is not None:
+                place_cursor(app, args.cursor)
             if args.report_json is not None:
                 write_report(app, args.report_json)
             try:
@@ -196,3 +285,16 @@ def run(args: argparse.Namespace) -> int:
     finally:
         app.close()
         engine.stop()
+
+
+def place_cursor(app: ViewerApp, t: float) -> float:
+    """Pause `app` at `t` (negative: seconds before the newest sample held), draw it; return the cursor."""
+    if t < 0:
+        span = app.time_span()
+        t = (span[1] if span is not None else time.time()) + t
+    app.seek(t)
+    for _ in range(3):  # every widget redraws at the cursor, the bar shows it
+        app.frame()
+    cursor = app.timeline.cursor
+    assert cursor is not None
+    return cursor

@@ -19,9 +19,10 @@ import dearpygui.dearpygui as dpg
 from dbglog.viewer._data._model import Binding, Status, TopicInfo
 from dbglog.viewer._document._autodash import AutoLayout, is_array_type, suggest
 from dbglog.viewer._ui._app import ViewerApp
+from dbglog.viewer._ui._frame import CanvasItem
 from dbglog.viewer._widgets._geometry import Rect, overlaps
 
-__all__ = ["AutoDashboard", "all_live", "widget_report", "write_report"]
+__all__ = ["AutoDashboard", "all_live", "json_value", "widget_report", "write_report"]
 
 INFRASTRUCTURE = frozenset({"/rosout", "/parameter_events", "/clock"})
 """Topics `--all` leaves out: every ROS node has them and they are not values to watch."""
@@ -173,10 +174,18 @@ def all_live(app: ViewerApp) -> bool:
 
 
 def widget_report(app: ViewerApp) -> dict[str, Any]:
-    """Return every widget's name, type, status (and why) and bindings, with the dashboard as saved."""
+    """Return every widget's name, type, status (and why) and bindings, with the dashboard as saved.
+
+    Also the time cursor (epoch seconds, None while live), the span of source times held (oldest, newest)
+    and, per widget, `values`: the value each binding
+    shows at the cursor (live: the latest), and `samples`: how many samples of it the history holds (the
+    source's `samples_held`, else the live series' length); both None for a control's publish targets.
+    """
     return {
         "file": str(app.path) if app.path is not None else None,
         "modified": app.dirty,
+        "cursor": app.timeline.cursor,
+        "span": list(span) if (span := app.time_span()) is not None else None,
         "widgets": [
             {
                 "name": item.name,
@@ -184,11 +193,38 @@ def widget_report(app: ViewerApp) -> dict[str, Any]:
                 "status": item.status.value,
                 "reason": item.reason,
                 "bindings": [{"topic": b.topic, "field": b.field, "regex": b.regex} for b in item.bindings],
+                **_shown(app, item),
             }
             for item in app.items
         ],
         "dashboard": app.dashboard().to_dict(),
     }
+
+
+def _shown(app: ViewerApp, item: CanvasItem) -> dict[str, list[Any]]:
+    """The value each binding of `item` shows at the cursor, and the samples held of it."""
+    if not item.series:
+        return {"values": [None] * len(item.bindings), "samples": [None] * len(item.bindings)}
+    held = getattr(app.source, "samples_held", None)
+    return {
+        "values": [json_value(s.last) for s in item.snapshots(app.timeline)],
+        "samples": [
+            int(held(b)) if callable(held) else len(app.source.snapshot(b).times) for b in item.series
+        ],
+    }
+
+
+def json_value(value: object) -> Any:
+    """Return a shown value as JSON has it: a number, a string, a bool, a list (arrays) or None (NaN too)."""
+    if isinstance(value, bool | str) or value is None:
+        return value
+    if isinstance(value, int):
+        return value
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, tuple | list):
+        return [json_value(v) for v in value]
+    return str(value)
 
 
 def write_report(app: ViewerApp, path: str | os.PathLike[str]) -> Path:
