@@ -162,6 +162,8 @@ class ViewerApp:
         self._quitting = False
         self._time_commands: collections.deque[Callable[[], object]] = collections.deque()
         """Time keys and the bar's button, queued by Dear PyGui's callback thread, run by `_work`."""
+        self._held_keys: set[int] = set()
+        """Keys whose press was taken and that have not been seen up since (their repeats are ignored)."""
         self._fallback_span: tuple[float, float] | None = None
         self._span_checked = -1.0
 
@@ -478,6 +480,7 @@ class ViewerApp:
         for key in (dpg.mvKey_ModCtrl, dpg.mvKey_ModShift):
             if dpg.is_key_down(key):
                 self._mods_seen[key] = now
+        self._held_keys = {key for key in self._held_keys if dpg.is_key_down(key)}
 
     def held(self, modifier: int) -> bool:
         """Whether a modifier key (Ctrl, Shift) is down, or was until a moment ago, for a shortcut's key.
@@ -928,9 +931,14 @@ class ViewerApp:
             self._time_commands.popleft()()
 
     def on_space_key(self) -> None:
-        """Space: pause at the newest sample, or go back to live (not while typing or in a dialog)."""
-        if not self._keys_blocked():
-            self.toggle_live()
+        """Space: pause at the newest sample, or go back to live (not while typing or in a dialog).
+
+        Held down it toggles once (the key's repeats are ignored), unlike the arrows, which repeat to scrub.
+        """
+        if self._keys_blocked() or dpg.mvKey_Spacebar in self._held_keys:
+            return
+        self._held_keys.add(dpg.mvKey_Spacebar)
+        self.toggle_live()
 
     def on_time_arrow(self, direction: int) -> None:
         """Left/Right: the previous/next message of the selected widget (or all); with Shift, 1 s."""
