@@ -256,7 +256,7 @@ class Viewer(ViewerChild):
         state = self.state()
         x, y, _w, _h = state["track"]
         _oldest, _newest, x0, x1 = state["scale"]
-        return x + x0 + fraction * (x1 - x0), y + 24
+        return x + x0 + fraction * (x1 - x0), y + 11
 
     def time_at(self, x: float) -> float:
         """The time the track shows under window pixel `x` now."""

@@ -20,7 +20,7 @@ from dbglog.viewer.widget_api import Color
 
 __all__ = ["BUTTON_W", "PILL_W", "TIMEBAR_H", "TimeBar"]
 
-TIMEBAR_H = 50
+TIMEBAR_H = 36
 """Height of the bar in pixels."""
 PILL_W = 104
 """Width of the LIVE / PAUSED pill at the left."""
@@ -28,9 +28,12 @@ BUTTON_W = 76
 """Width of the Pause / Live button at the right."""
 PAD_X = 14
 """Pixels between the track's ends and its drawlist's edges (room for the knob and end labels)."""
-RAIL_Y = 24.0
-"""The rail's centre line in the track drawlist."""
+RAIL_Y = 11.0
+"""The rail's centre line in the track drawlist; the labels (ticks, ends, the cursor's time) go below."""
+LABEL_Y = 20.0
 LABEL_SIZE = 13.0
+MID_Y = TIMEBAR_H / 2
+"""The pill and the button are centred on the bar."""
 
 LIVE: Color = theme.STATUS_COLORS[Status.LIVE]
 PAUSED: Color = (240, 176, 64, 255)
@@ -70,7 +73,7 @@ class TimeBar:
             with dpg.group() as track_group:
                 self.track = dpg.add_drawlist(400, TIMEBAR_H)
             with dpg.group():
-                dpg.add_spacer(height=int(RAIL_Y - 14))
+                dpg.add_spacer(height=int(MID_Y - 14))
                 self.button = dpg.add_button(label="Pause", width=BUTTON_W, callback=lambda *_: on_toggle())
         with dpg.tooltip(track_group, delay=0.6, hide_on_activity=True):  # not over the cursor while dragging
             dpg.add_text("Click or drag to look back in time (pauses)")
@@ -161,22 +164,22 @@ class TimeBar:
         dl = self.pill
         dpg.delete_item(dl, children_only=True)
         color = LIVE if live else PAUSED
-        y0, y1 = RAIL_Y - 12, RAIL_Y + 12
+        y0, y1 = MID_Y - 12, MID_Y + 12
         x0, x1 = 10.0, PILL_W - 6.0
         fill = (color[0], color[1], color[2], 48)
         dpg.draw_rectangle((x0, y0), (x1, y1), color=color, fill=fill, rounding=12, parent=dl)
         if live:
-            dpg.draw_circle((x0 + 15, RAIL_Y), 4.5, color=color, fill=color, parent=dl)
+            dpg.draw_circle((x0 + 15, MID_Y), 4.5, color=color, fill=color, parent=dl)
             text = "LIVE"
         else:
             for dx in (-3.0, 3.0):  # a pause sign
                 bx = x0 + 15 + dx
-                corners = (bx - 1.6, RAIL_Y - 5), (bx + 1.6, RAIL_Y + 5)
+                corners = (bx - 1.6, MID_Y - 5), (bx + 1.6, MID_Y + 5)
                 dpg.draw_rectangle(*corners, color=NONE, fill=color, parent=dl)
             text = "PAUSED"
         tw = text_size(text, 14)[0]
         left = x0 + 26 + max(0.0, (x1 - x0 - 30 - tw) / 2)
-        dpg.draw_text((left, RAIL_Y - 8.5), text, size=14, color=theme.TEXT, parent=dl)
+        dpg.draw_text((left, MID_Y - 8.5), text, size=14, color=theme.TEXT, parent=dl)
 
     def _draw_track(self, scale: TimeScale | None, cursor: float | None, width: int) -> None:
         dl = self.track
@@ -184,37 +187,46 @@ class TimeBar:
         x0, x1 = float(PAD_X), float(width - PAD_X)
         top, bottom = RAIL_Y - 3, RAIL_Y + 3
         dpg.draw_rectangle((x0, top), (x1, bottom), color=NONE, fill=RAIL, rounding=3, parent=dl)
-        label_y = RAIL_Y + 10
+        label_y = LABEL_Y
         if scale is None:
             text = "no history yet: the timeline fills as data arrives"
             dpg.draw_text((x0, label_y), text, size=LABEL_SIZE, color=theme.DIM, parent=dl)
             return
         live = cursor is None
+        color = LIVE if live else PAUSED
         knob_x = scale.x_of(scale.newest if cursor is None else cursor)
         held = (86, 166, 240, 150) if not live else (LIVE[0], LIVE[1], LIVE[2], 110)
         dpg.draw_rectangle((x0, top), (knob_x, bottom), color=NONE, fill=held, rounding=3, parent=dl)
-        # The ends: the oldest moment held (its clock time), and the newest ("now").
-        oldest = format_clock(scale.oldest, millis=False)
-        ow = text_size(oldest, LABEL_SIZE)[0]
-        dpg.draw_text((x0 - 4, label_y), oldest, size=LABEL_SIZE, color=theme.DIM, parent=dl)
-        now_w = text_size("now", LABEL_SIZE)[0]
-        dpg.draw_text((x1 - now_w + 2, label_y), "now", size=LABEL_SIZE, color=theme.DIM, parent=dl)
-        for x, ago in scale.ticks():
-            dpg.draw_line((x, bottom + 1), (x, bottom + 5), color=theme.BORDER, parent=dl)
-            label = format_ago(ago)
-            lw = text_size(label, LABEL_SIZE)[0]
-            left = x - lw / 2
-            if left < x0 + ow + 10 or left + lw > x1 - now_w - 10:
-                continue  # it would cover an end's label
-            dpg.draw_text((left, label_y), label, size=LABEL_SIZE, color=theme.DIM, parent=dl)
-        color = LIVE if live else PAUSED
-        if not live:
-            assert cursor is not None
-            dpg.draw_line((knob_x, 4), (knob_x, bottom + 6), color=color, thickness=2, parent=dl)
+        # Paused: the cursor's time in the label row, under the knob; the labels it would cover give way.
+        taken: list[tuple[float, float]] = []
+        if cursor is not None:
             text = f"{format_clock(cursor)}   {format_ago(scale.newest - cursor, precise=True)}"
             tw = text_size(text, LABEL_SIZE)[0] + 12
             left = label_left(knob_x, tw, 0, width)
-            box = (30, 33, 40, 235)
-            dpg.draw_rectangle((left, 0), (left + tw, 15), color=color, fill=box, rounding=4, parent=dl)
-            dpg.draw_text((left + 6, 0.5), text, size=LABEL_SIZE, color=theme.TEXT, parent=dl)
-        dpg.draw_circle((knob_x, RAIL_Y), 7, color=(20, 22, 27, 255), fill=color, thickness=2, parent=dl)
+            taken.append((left - 8, left + tw + 8))
+            dpg.draw_line((knob_x, bottom), (knob_x, label_y - 1.5), color=color, thickness=2, parent=dl)
+            box = (30, 33, 40, 255)
+            dpg.draw_rectangle(
+                (left, label_y - 1.5), (left + tw, label_y + 14), color=color, fill=box, rounding=4, parent=dl
+            )
+            dpg.draw_text((left + 6, label_y - 0.5), text, size=LABEL_SIZE, color=theme.TEXT, parent=dl)
+
+        def free(a: float, b: float) -> bool:
+            return all(b <= lo or a >= hi for lo, hi in taken)
+
+        # The ends: the oldest moment held (its clock time), and the newest ("now").
+        for text, left in (
+            (format_clock(scale.oldest, millis=False), x0 - 4),
+            ("now", x1 + 2 - text_size("now", LABEL_SIZE)[0]),
+        ):
+            right = left + text_size(text, LABEL_SIZE)[0]
+            if free(left, right):
+                dpg.draw_text((left, label_y), text, size=LABEL_SIZE, color=theme.DIM, parent=dl)
+            taken.append((left - 10, right + 10))
+        for x, ago in scale.ticks():
+            dpg.draw_line((x, bottom + 1), (x, bottom + 4), color=theme.BORDER, parent=dl)
+            label = format_ago(ago)
+            lw = text_size(label, LABEL_SIZE)[0]
+            if free(x - lw / 2, x + lw / 2):
+                dpg.draw_text((x - lw / 2, label_y), label, size=LABEL_SIZE, color=theme.DIM, parent=dl)
+        dpg.draw_circle((knob_x, RAIL_Y), 6.5, color=(20, 22, 27, 255), fill=color, thickness=2, parent=dl)
