@@ -442,6 +442,103 @@ def test_time_keys_are_the_text_fields_while_typing(viewer: Callable[[], Viewer]
     v.wait_for(lambda s: not s["live"])
 
 
+# -- a plugin widget that knows nothing of time ------------------------------------------------------------
+
+
+def plugin_time_travel() -> None:
+    """Child-process body: a plugin-style widget, written as before the timeline, shown paused and stepped."""
+    warnings.simplefilter("error")
+    from collections.abc import Sequence
+
+    import dearpygui.dearpygui as dpg
+
+    from dbglog.viewer._data._model import Binding
+    from dbglog.viewer._document._dashboard import WidgetConfig
+    from dbglog.viewer._ui import StaticSource, ViewerApp
+    from dbglog.viewer._widgets import WidgetRegistry
+    from dbglog.viewer.widget_api import SeriesSnapshot, Status, ValueKind, Widget
+
+    class Readout(Widget):
+        """Shows the latest value and its age; no code about time travel at all."""
+
+        type_name = "readout"
+        label = "Readout"
+        accepts = frozenset({ValueKind.NUMBER})
+
+        def create(self, parent: int | str, width: int, height: int) -> None:
+            self.text = dpg.add_text("-", parent=parent)
+            self.seen: list[tuple[object, float | None, float, Status]] = []
+
+        def update(self, snapshots: Sequence[SeriesSnapshot], now: float) -> None:
+            snap = snapshots[0]
+            self.seen.append((snap.last, snap.last_time, now, snap.status))
+            age = "" if snap.last_time is None else f" ({now - snap.last_time:.1f} s old)"
+            dpg.set_value(self.text, f"{snap.last}{age}")
+
+    registry = WidgetRegistry.builtin()
+    assert registry.register(Readout, origin="a-plugin")
+    source = StaticSource()
+    t0 = 1_700_000_000.0
+    for k in range(100):  # 0..99 every 0.1 s, then a gap of 10 s, then 100
+        source.push("/p", "data", float(k), t0 + k * 0.1)
+    source.push("/p", "data", 100.0, t0 + 20.0)
+    app = ViewerApp(source, registry, width=800, height=500)
+    app.start()
+    try:
+        item = app.add_config(WidgetConfig("readout", "R", 20, 20, 300, 80, (Binding("/p", "data"),), {}))
+        widget = item.widget
+        assert isinstance(widget, Readout)
+        for _ in range(3):
+            app.frame()
+        assert widget.seen[-1][0] == 100.0
+        assert [widget.paused_at] == [None]  # live (a list: mypy would narrow the attribute for good)
+        app.seek(t0 + 4.25)
+        for _ in range(3):
+            app.frame()
+        last, last_time, now, status = widget.seen[-1]
+        assert (last, last_time, now, status) == (42.0, t0 + 4.2, t0 + 4.25, Status.LIVE), widget.seen[-1]
+        assert widget.paused_at == t0 + 4.25
+        assert dpg.get_value(widget.text) == "42.0 (0.0 s old)"
+        app.seek(t0 + 15.0)  # in the gap: the last value then, stale then (by its age at the cursor)
+        for _ in range(3):
+            app.frame()
+        assert widget.seen[-1] == (99.0, t0 + 9.9, t0 + 15.0, Status.STALE), widget.seen[-1]
+        assert item.status is Status.STALE
+        redraws = len(widget.seen)
+        source.push("/p", "data", 101.0, t0 + 20.5)  # new data while paused: nothing to redraw
+        for _ in range(3):
+            app.frame()
+        assert len(widget.seen) == redraws
+        assert app.step_time(+1)  # the next message: 100 at t0 + 20
+        for _ in range(3):
+            app.frame()
+        assert widget.seen[-1][:3] == (100.0, t0 + 20.0, t0 + 20.0)
+        app.go_live()
+        for _ in range(3):
+            app.frame()
+        assert widget.seen[-1][0] == 101.0
+        assert widget.paused_at is None
+    finally:
+        app.close()
+
+
+def test_a_plugin_widget_travels_in_time_without_code_for_it(display: str) -> None:
+    """A widget written with no notion of time gets the value, its age and its status as they were then."""
+    code = (
+        f"import sys; sys.path.insert(0, {str(ROOT)!r}); "
+        "from tests import test_ui_timeline; test_ui_timeline.plugin_time_travel()"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code],
+        env={**os.environ, "DISPLAY": display},
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+    )
+    assert done.returncode == 0, f"{done.stdout}\n{done.stderr}"
+
+
 # -- the command line: --cursor with --screenshot and --report-json -----------------------------------------
 
 
