@@ -1,0 +1,1124 @@
+"""The Log console's store: log lines decoded into columns, bounded, with fast filters cached per filter.
+
+Pure: numpy, google-re2 and the ground floor's CDR readers and pattern proposals; no ROS, no Dear PyGui.
+One owner thread (the viewer's UI thread) reads and writes a store; any thread may `push` raw CDR batches
+(the engine's ROS thread does), which the owner decodes at its next `sync`. Nothing from a line is ever
+evaluated; patterns are RE2 (linear time). Layout and measured figures: ``docs/logs.md``.
+"""
+
+from __future__ import annotations
+
+import collections
+import fnmatch
+import struct
+import threading
+import time
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+from typing import Final
+
+import numpy as np
+import numpy.typing as npt
+import re2
+
+from dbglog._regex._compile import MAX_LINE, RegexError, compile_regex, re2_options
+from dbglog._regex._propose import NumberSpan, Proposal, find_numbers, match_joined
+from dbglog._ros._cdr import read_log, read_string
+
+__all__ = [
+    "DEBUG",
+    "DEFAULT_CAPACITY",
+    "ERROR",
+    "FATAL",
+    "INFO",
+    "LEVEL_NAMES",
+    "LOG_TYPES",
+    "WARN",
+    "FilterError",
+    "LogFilter",
+    "LogLine",
+    "LogStore",
+    "Matches",
+    "level_name",
+    "level_of",
+]
+
+DEBUG: Final = 10
+INFO: Final = 20
+WARN: Final = 30
+ERROR: Final = 40
+FATAL: Final = 50
+LEVEL_NAMES: Final[dict[int, str]] = {
+    DEBUG: "DEBUG",
+    INFO: "INFO",
+    WARN: "WARN",
+    ERROR: "ERROR",
+    FATAL: "FATAL",
+}
+"""rcl_interfaces/msg/Log's level constants and their names."""
+LOG_TYPE: Final = "rcl_interfaces/msg/Log"
+STRING_TYPE: Final = "std_msgs/msg/String"
+LOG_TYPES: Final = (LOG_TYPE, STRING_TYPE)
+"""The message types a store reads lines from (a String line has no level, node or source location)."""
+DEFAULT_CAPACITY: Final = 100_000
+"""Lines kept by default; the oldest go first."""
+MAX_NODES: Final = 65_000
+"""Distinct logger names kept apart; later ones share the name `OTHER_NODE` (node ids are 16 bits)."""
+OTHER_NODE: Final = "\u2026"
+_RUN_AFTER: Final = 4
+"""Consecutive matching lines after which one DFA call takes the whole run of matching lines."""
+_MAX_SLICE: Final = 1 << 20
+_MAX_CACHED: Final = 12
+"""Filter results (masks) kept: switching back to a recent filter costs nothing."""
+_SLACK: Final = 8
+"""Columns hold ``capacity + capacity / _SLACK`` rows: the oldest rows are dropped in one move per slack."""
+_SANITIZE: Final = bytes.maketrans(b"\x00\x01\n", b"\x1a\x1a\x1f")
+"""Stored text: NUL and \\x01 (the preview's framing) become SUB, a line break becomes \\x1f (shown as ↵)."""
+_U32: Final = (struct.Struct("<I"), struct.Struct(">I"))
+_NAME_AT: Final = 16
+"""Payload offset of a Log's name length (after the header, the stamp and the level)."""
+_MATCH_OPTIONS = re2_options(32 << 20)
+_MATCH_OPTIONS.never_nl = True  # a pattern never matches a line break, so never spans two stored lines
+_UNANCHORED = re2._Anchor.UNANCHORED
+_ANCHOR_START = re2._Anchor.ANCHOR_START
+_LETTERS: Final = frozenset(range(ord("a"), ord("z") + 1))
+
+
+class FilterError(ValueError):
+    """An include or exclude pattern that RE2 refuses; the message says which one and why."""
+
+
+def level_of(name: str) -> int:
+    """Return the level number of a name (``warn``, ``WARNING``, any case); ``""`` is 0 (every line).
+
+    Raises:
+        ValueError: not a level name.
+    """
+    key = name.strip().upper()
+    if not key:
+        return 0
+    if key == "WARNING":
+        key = "WARN"
+    for number, text in LEVEL_NAMES.items():
+        if text == key:
+            return number
+    raise ValueError(f"unknown level {name!r} (one of: debug, info, warn, error, fatal)")
+
+
+def level_name(level: int) -> str:
+    """Return the name shown for a level number: ``WARN``; ``""`` for a line without one (a String)."""
+    if level <= 0:
+        return ""
+    return LEVEL_NAMES.get(level, str(level))
+
+
+@dataclass(frozen=True, slots=True)
+class LogFilter:
+    """Which lines the console shows: every condition must hold."""
+
+    min_level: int = 0
+    """Lines at this level or above (0: every line, String lines included)."""
+    hidden: frozenset[str] = frozenset()
+    """Logger names whose lines are hidden (the per-node toggles)."""
+    include: str = ""
+    """RE2: a line's message must contain a match (empty: any)."""
+    exclude: str = ""
+    """RE2: a line's message must not contain a match (empty: none excluded)."""
+    text: str = ""
+    """Plain text the message must contain, ignoring ASCII case (empty: any)."""
+
+
+@dataclass(frozen=True, slots=True)
+class LogLine:
+    """One stored line, decoded for display."""
+
+    id: int
+    """Its position since the store began (ids of evicted lines are never reused)."""
+    time: float
+    """Source time, seconds since the epoch."""
+    level: int
+    node: str
+    message: str
+    """The message text (at most `MAX_LINE` bytes of it are kept)."""
+    file: str = ""
+    function: str = ""
+    line: int = 0
+    cut: int = 0
+    """Bytes of the message that were not kept (0 for a line kept whole)."""
+
+    @property
+    def site(self) -> str:
+        """``file:function:line`` where the line was logged (``""`` when unknown)."""
+        if not (self.file or self.function or self.line):
+            return ""
+        return f"{self.file}:{self.function}:{self.line}"
+
+
+@dataclass(frozen=True, slots=True)
+class Matches:
+    """The stored lines a proposed pattern matches (`LogStore.preview`): ids, times and the values taken."""
+
+    ids: npt.NDArray[np.int64]
+    times: npt.NDArray[np.float64]
+    values: npt.NDArray[np.float64]
+
+    @property
+    def count(self) -> int:
+        """How many lines match."""
+        return len(self.ids)
+
+
+@dataclass(eq=False, slots=True)
+class _Mask:
+    """One pattern's answer for the rows ``[a, b)`` (grown at both ends as needed)."""
+
+    rows: npt.NDArray[np.bool_]
+    a: int
+    b: int
+
+
+class _Ids:
+    """Ascending line ids, grown at both ends (older ids before, newer ids after)."""
+
+    __slots__ = ("buf", "start", "stop")
+
+    def __init__(self) -> None:
+        self.buf = np.zeros(256, dtype=np.int64)
+        self.start = self.stop = 128
+
+    def values(self) -> npt.NDArray[np.int64]:
+        return self.buf[self.start : self.stop]
+
+    def _room(self, before: int, after: int) -> None:
+        if self.start >= before and len(self.buf) - self.stop >= after:
+            return
+        n = self.stop - self.start
+        size = max(2 * len(self.buf), n + 2 * (before + after) + 256)
+        buf = np.zeros(size, dtype=np.int64)
+        start = before + (size - n - before - after) // 2
+        buf[start : start + n] = self.values()
+        self.buf, self.start, self.stop = buf, start, start + n
+
+    def append(self, new: npt.NDArray[np.int64]) -> None:
+        self._room(0, len(new))
+        self.buf[self.stop : self.stop + len(new)] = new
+        self.stop += len(new)
+
+    def prepend(self, new: npt.NDArray[np.int64]) -> None:
+        self._room(len(new), 0)
+        self.buf[self.start - len(new) : self.start] = new
+        self.start -= len(new)
+
+    def drop_below(self, first_id: int) -> None:
+        self.start += int(np.searchsorted(self.values(), first_id, side="left"))
+
+    def cut_at(self, first_id: int) -> None:
+        self.stop = self.start + int(np.searchsorted(self.values(), first_id, side="left"))
+
+
+@dataclass(eq=False, slots=True)
+class _Selection:
+    """The ids a filter shows among rows ``[a, b)``: grown upwards as lines arrive, downwards on demand."""
+
+    key: tuple[object, ...]
+    a: int
+    b: int
+    ids: _Ids = field(default_factory=_Ids)
+
+
+class LogStore:
+    """Log lines in columns: time, level, node (interned), message, source location; bounded.
+
+    Example:
+        >>> store = LogStore(capacity=1000)
+        >>> store.append([1.0, 2.0], [20, 40], ["planner", "driver"], ["speed 1.5", "stalled"])
+        >>> store.select(LogFilter(min_level=40)).tolist()
+        [1]
+
+    Args:
+        capacity: the most lines kept (the oldest are dropped first); settable later.
+    """
+
+    first_slice = 4096
+    """`select_within` answers this many of the newest lines first, then slices sized to its time budget."""
+
+    def __init__(self, capacity: int = DEFAULT_CAPACITY) -> None:
+        if capacity < 1:
+            raise ValueError(f"a log store keeps at least one line, not {capacity}")
+        self._capacity = int(capacity)
+        self._alloc = 0
+        self._lo = 0
+        """First live row."""
+        self._n = 0
+        """End of the rows (exclusive)."""
+        self._base = 0
+        """Id of row 0."""
+        self._times = np.zeros(0, dtype=np.float64)
+        self._levels = np.zeros(0, dtype=np.uint8)
+        self._nodes = np.zeros(0, dtype=np.uint16)
+        self._sites = np.zeros(0, dtype=np.uint32)
+        self._starts = np.zeros(1, dtype=np.int64)
+        """Offset in `_text` of each row's message; ``_starts[_n]`` is the end. Each message ends with \\n."""
+        self._text = bytearray()
+        self._node_names: list[str] = []
+        self._node_ids: dict[bytes, int] = {}
+        self._site_list: list[tuple[str, str, int]] = [("", "", 0)]
+        self._site_ids: dict[bytes, int] = {}
+        self._cut: dict[int, int] = {}
+        """Line id -> bytes of its message not kept (only for lines longer than `MAX_LINE`)."""
+        self._masks: collections.OrderedDict[tuple[str, str], _Mask] = collections.OrderedDict()
+        self._selection: _Selection | None = None
+        self._marks = _Selection(("marks",), 0, 0)
+        self._pending: collections.deque[tuple[str, npt.NDArray[np.float64], list[bytes]]] = (
+            collections.deque()
+        )
+        self._pending_lines = 0
+        self._push_lock = threading.Lock()
+        self.version = 0
+        """Changes whenever lines are added or dropped (a reader redraws when it changes)."""
+        self.added = 0
+        """Lines stored so far (dropped ones included)."""
+        self.evicted = 0
+        """Lines dropped because the store was full."""
+        self.undecodable = 0
+        """Payloads that were not a readable Log or String (skipped)."""
+        self.msg_type = ""
+        """The type of the lines pushed so far (``rcl_interfaces/msg/Log`` or ``std_msgs/msg/String``)."""
+        self._grow(min(self._capacity, 4096))
+
+    # --- size ---------------------------------------------------------------------------------------
+
+    @property
+    def capacity(self) -> int:
+        """The most lines kept; lowering it drops the oldest lines now."""
+        return self._capacity
+
+    @capacity.setter
+    def capacity(self, value: int) -> None:
+        if value < 1:
+            raise ValueError(f"a log store keeps at least one line, not {value}")
+        self._capacity = int(value)
+        self._evict()
+
+    def __len__(self) -> int:
+        return self._n - self._lo
+
+    @property
+    def first_id(self) -> int:
+        """The id of the oldest line held (== `end_id` when empty)."""
+        return self._base + self._lo
+
+    @property
+    def end_id(self) -> int:
+        """One past the id of the newest line."""
+        return self._base + self._n
+
+    @property
+    def pending(self) -> int:
+        """Lines pushed and not yet decoded (`sync` takes them)."""
+        return self._pending_lines
+
+    def bytes_used(self) -> int:
+        """Bytes the store holds: its columns, its text, cached filter results and interned names."""
+        columns = sum(a.nbytes for a in (self._times, self._levels, self._nodes, self._sites, self._starts))
+        masks = sum(m.rows.nbytes for m in self._masks.values())
+        selections = self._marks.ids.buf.nbytes + (self._selection.ids.buf.nbytes if self._selection else 0)
+        names = sum(len(n) + 60 for n in self._node_names) + sum(
+            len(f) + len(g) + 120 for f, g, _ in self._site_list
+        )
+        text = self._text.__sizeof__()
+        return columns + masks + selections + names + text + 90 * len(self._cut)
+
+    # --- writing ------------------------------------------------------------------------------------
+
+    def push(
+        self, msg_type: str, times: Sequence[float] | npt.NDArray[np.float64], payloads: list[bytes]
+    ) -> None:
+        """Queue serialized Log or String messages with their source times (any thread; never blocks long).
+
+        The owner decodes them at its next `sync`. While more than `capacity` lines wait, the oldest waiting
+        batches are dropped (they would be evicted anyway).
+        """
+        if not payloads:
+            return
+        batch = (msg_type, np.asarray(times, dtype=np.float64), payloads)
+        with self._push_lock:
+            self._pending.append(batch)
+            self._pending_lines += len(payloads)
+            while self._pending_lines - len(self._pending[0][2]) >= self._capacity:
+                dropped = self._pending.popleft()
+                self._pending_lines -= len(dropped[2])
+                self.added += len(dropped[2])
+                self.evicted += len(dropped[2])
+
+    def sync(self, max_lines: int | None = None) -> int:
+        """Decode waiting batches into the store (owner thread); return how many lines were added.
+
+        Args:
+            max_lines: stop after about this many lines (the rest wait for the next call).
+        """
+        added = 0
+        while max_lines is None or added < max_lines:
+            with self._push_lock:
+                if not self._pending:
+                    break
+                msg_type, times, payloads = self._pending.popleft()
+                self._pending_lines -= len(payloads)
+            added += self._append_cdr(msg_type, times, payloads)
+        return added
+
+    def _append_cdr(self, msg_type: str, times: npt.NDArray[np.float64], payloads: list[bytes]) -> int:
+        if msg_type not in LOG_TYPES:
+            self.undecodable += len(payloads)
+            return 0
+        if self.msg_type and msg_type != self.msg_type:
+            self.clear()  # the topic changed its type: its lines start again
+        self.msg_type = msg_type
+        n = len(payloads)
+        levels = np.zeros(n, dtype=np.uint8)
+        nodes = np.zeros(n, dtype=np.uint16)
+        sites = np.zeros(n, dtype=np.uint32)
+        texts: list[bytes] = []
+        keep = np.ones(n, dtype=bool)
+        cuts: list[tuple[int, int]] = []
+        append = texts.append
+        if msg_type == LOG_TYPE:
+            node_ids, site_ids = self._node_ids, self._site_ids
+            for i, raw in enumerate(payloads):
+                read = read_log(raw)
+                if read is None:
+                    keep[i] = False
+                    self.undecodable += 1
+                    continue
+                level, name, msg = read
+                levels[i] = level
+                node = node_ids.get(name)
+                if node is None:
+                    node = self._intern_node(name)
+                nodes[i] = node
+                name_end = _NAME_AT + 4 + len(name) + 1
+                msg_at = 4 + ((name_end - 4 + 3) & ~3)
+                tail_at = 4 + ((msg_at + 4 + len(msg) + 1 - 4 + 3) & ~3)
+                tail = raw[tail_at:]
+                site = site_ids.get(tail)
+                if site is None:
+                    site = self._intern_site(raw, tail_at, tail)
+                sites[i] = site
+                if len(msg) > MAX_LINE:
+                    cuts.append((len(texts), len(msg) - MAX_LINE))
+                    msg = _cut_utf8(msg)
+                append(msg.translate(_SANITIZE))
+        else:
+            for i, raw in enumerate(payloads):
+                data = read_string(raw)
+                if data is None:
+                    keep[i] = False
+                    self.undecodable += 1
+                    continue
+                if len(data) > MAX_LINE:
+                    cuts.append((len(texts), len(data) - MAX_LINE))
+                    data = _cut_utf8(data)
+                append(data.translate(_SANITIZE))
+        if not keep.all():
+            times, levels, nodes, sites = times[keep], levels[keep], nodes[keep], sites[keep]
+        cut = np.zeros(len(texts), dtype=np.int64)
+        for index, extra in cuts:
+            cut[index] = extra
+        self._add(times, levels, nodes, sites, texts, cut)
+        return len(texts)
+
+    def append(
+        self,
+        times: Sequence[float] | npt.NDArray[np.float64],
+        levels: Sequence[int] | npt.NDArray[np.integer],
+        nodes: Sequence[str],
+        messages: Sequence[str],
+        *,
+        sites: Sequence[tuple[str, str, int]] | None = None,
+    ) -> None:
+        """Add decoded lines (owner thread): times, levels, logger names, messages, and optionally
+        each line's (file, function, line)."""
+        n = len(messages)
+        if not (len(times) == len(levels) == len(nodes) == n) or (sites is not None and len(sites) != n):
+            raise ValueError("append needs one time, level, node (and site) per message")
+        node_ids = np.zeros(n, dtype=np.uint16)
+        for i, name in enumerate(nodes):
+            key = name.encode("utf-8", "replace")
+            found = self._node_ids.get(key)
+            node_ids[i] = self._intern_node(key) if found is None else found
+        site_ids = np.zeros(n, dtype=np.uint32)
+        if sites is not None:
+            for i, (file, function, line) in enumerate(sites):
+                key = f"{file}\x00{function}\x00{line}".encode("utf-8", "replace")
+                found = self._site_ids.get(key)
+                if found is None:
+                    found = len(self._site_list)
+                    self._site_list.append((file, function, int(line)))
+                    self._site_ids[key] = found
+                site_ids[i] = found
+        texts: list[bytes] = []
+        cut = np.zeros(n, dtype=np.int64)
+        for i, message in enumerate(messages):
+            data = message.encode("utf-8", "replace")
+            if len(data) > MAX_LINE:
+                cut[i] = len(data) - MAX_LINE
+                data = _cut_utf8(data)
+            texts.append(data.translate(_SANITIZE))
+        self._add(
+            np.asarray(times, dtype=np.float64),
+            np.clip(np.asarray(levels, dtype=np.int64), 0, 255).astype(np.uint8),
+            node_ids,
+            site_ids,
+            texts,
+            cut,
+        )
+
+    def _intern_node(self, name: bytes) -> int:
+        if len(self._node_names) >= MAX_NODES:
+            text = OTHER_NODE
+            found = self._node_ids.get(text.encode())
+            if found is not None:
+                self._node_ids[name] = found
+                return found
+            name = text.encode()
+        else:
+            text = name.decode("utf-8", "replace")
+        node = len(self._node_names)
+        self._node_names.append(text)
+        self._node_ids[name] = node
+        return node
+
+    def _intern_site(self, raw: bytes, at: int, tail: bytes) -> int:
+        site = _read_site(raw, at)
+        found = len(self._site_list)
+        self._site_list.append(site)
+        self._site_ids[tail] = found
+        return found
+
+    def _add(
+        self,
+        times: npt.NDArray[np.float64],
+        levels: npt.NDArray[np.uint8],
+        nodes: npt.NDArray[np.uint16],
+        sites: npt.NDArray[np.uint32],
+        texts: list[bytes],
+        cut: npt.NDArray[np.int64],
+    ) -> None:
+        """Append a batch in time order (a batch older than the newest line is merged into the tail)."""
+        k = len(texts)
+        if k == 0:
+            return
+        self.added += k
+        if k > 1 and np.any(times[1:] < times[:-1]):
+            order = np.argsort(times, kind="stable")
+            times, levels, nodes, sites, cut = (
+                times[order],
+                levels[order],
+                nodes[order],
+                sites[order],
+                cut[order],
+            )
+            texts = [texts[i] for i in order.tolist()]
+        if self._n > self._lo and times[0] < self._times[self._n - 1]:
+            times, levels, nodes, sites, texts, cut = self._take_tail(times, levels, nodes, sites, texts, cut)
+        if len(texts) > self._capacity:  # only the newest fit; everything held is older still
+            drop = len(texts) - self._capacity
+            self.evicted += drop
+            times, levels, nodes, sites = times[drop:], levels[drop:], nodes[drop:], sites[drop:]
+            texts, cut = texts[drop:], cut[drop:]
+            self._drop_front(self._n - self._lo)
+        k = len(texts)
+        self._reserve(k)
+        n = self._n
+        self._times[n : n + k] = times
+        self._levels[n : n + k] = levels
+        self._nodes[n : n + k] = nodes
+        self._sites[n : n + k] = sites
+        lengths = np.fromiter(map(len, texts), dtype=np.int64, count=k) + 1
+        self._starts[n + 1 : n + k + 1] = self._starts[n] + np.cumsum(lengths)
+        self._text += b"\n".join(texts)
+        self._text += b"\n"
+        for i in np.flatnonzero(cut).tolist():
+            self._cut[self._base + n + i] = int(cut[i])
+        self._n = n + k
+        self._evict()
+        self.version += 1
+
+    def _take_tail(
+        self,
+        times: npt.NDArray[np.float64],
+        levels: npt.NDArray[np.uint8],
+        nodes: npt.NDArray[np.uint16],
+        sites: npt.NDArray[np.uint32],
+        texts: list[bytes],
+        cut: npt.NDArray[np.int64],
+    ) -> tuple[
+        npt.NDArray[np.float64],
+        npt.NDArray[np.uint8],
+        npt.NDArray[np.uint16],
+        npt.NDArray[np.uint32],
+        list[bytes],
+        npt.NDArray[np.int64],
+    ]:
+        """Remove the held lines newer than the batch's oldest and return them merged with the batch."""
+        lo, n = self._lo, self._n
+        k0 = lo + int(np.searchsorted(self._times[lo:n], times[0], side="right"))
+        starts = self._starts
+        text = self._text
+        tail_texts = [bytes(text[starts[r] : starts[r + 1] - 1]) for r in range(k0, n)]
+        tail_cut = np.array([self._cut.pop(self._base + r, 0) for r in range(k0, n)], dtype=np.int64)
+        all_times = np.concatenate((self._times[k0:n], times))
+        order = np.argsort(all_times, kind="stable")
+        merged = (
+            all_times[order],
+            np.concatenate((self._levels[k0:n], levels))[order],
+            np.concatenate((self._nodes[k0:n], nodes))[order],
+            np.concatenate((self._sites[k0:n], sites))[order],
+        )
+        joined = tail_texts + texts
+        merged_texts = [joined[i] for i in order.tolist()]
+        merged_cut = np.concatenate((tail_cut, cut))[order]
+        # Rows from k0 on are rewritten: forget what was computed about them.
+        del text[int(starts[k0]) :]
+        self._n = k0
+        for ranged in (*self._masks.values(), self._selection, self._marks):
+            if ranged is not None and ranged.b > k0:
+                ranged.b = max(k0, ranged.a) if ranged.a < k0 else k0
+                ranged.a = min(ranged.a, ranged.b)
+        for sel in (self._selection, self._marks):
+            if sel is not None:
+                sel.ids.cut_at(self._base + k0)
+                if sel.a >= k0:  # nothing below the rewritten rows was computed: start again there
+                    sel.ids.drop_below(self._base + sel.a)
+        return (*merged, merged_texts, merged_cut)
+
+    def _reserve(self, k: int) -> None:
+        """Make room for `k` more rows after `_n` (dropping evicted rows from the front, or growing)."""
+        if self._n + k <= self._alloc:
+            return
+        self._compact()
+        if self._n + k > self._alloc:
+            need = self._n + k
+            self._grow(max(need, min(2 * self._alloc, self._capacity + self._capacity // _SLACK)))
+
+    def _compact(self) -> None:
+        """Move the live rows to row 0 (ids do not change)."""
+        lo, n = self._lo, self._n
+        if lo == 0:
+            return
+        live = n - lo
+        for column in (self._times, self._levels, self._nodes, self._sites):
+            column[:live] = column[lo:n]
+        shift = int(self._starts[lo])
+        self._starts[: live + 1] = self._starts[lo : n + 1] - shift
+        del self._text[:shift]
+        for mask in self._masks.values():
+            mask.rows[:live] = mask.rows[lo:n]
+        for ranged in (*self._masks.values(), self._selection, self._marks):
+            if ranged is not None:
+                ranged.a, ranged.b = max(0, ranged.a - lo), max(0, ranged.b - lo)
+        self._base += lo
+        self._lo, self._n = 0, live
+
+    def _grow(self, alloc: int) -> None:
+        alloc = max(alloc, self._n + 1)
+        live = self._n
+        for name in ("_times", "_levels", "_nodes", "_sites"):
+            old = getattr(self, name)
+            new = np.zeros(alloc, dtype=old.dtype)
+            new[:live] = old[:live]
+            setattr(self, name, new)
+        starts = np.zeros(alloc + 1, dtype=np.int64)
+        starts[: live + 1] = self._starts[: live + 1]
+        self._starts = starts
+        for mask in self._masks.values():
+            rows = np.zeros(alloc, dtype=bool)
+            rows[:live] = mask.rows[:live]
+            mask.rows = rows
+        self._alloc = alloc
+
+    def _evict(self) -> None:
+        """Drop the oldest lines beyond the capacity."""
+        over = (self._n - self._lo) - self._capacity
+        if over <= 0:
+            return
+        self._drop_front(over)
+        if self._capacity + self._capacity // _SLACK < self._alloc // 2:
+            self._compact()
+            self._grow(self._capacity + self._capacity // _SLACK)
+        self.version += 1
+
+    def _drop_front(self, count: int) -> None:
+        """Drop the `count` oldest lines."""
+        if count <= 0:
+            return
+        self._lo += count
+        self.evicted += count
+        if self._cut:
+            first = self._base + self._lo
+            for line_id in [i for i in self._cut if i < first]:
+                del self._cut[line_id]
+
+    def clear(self) -> None:
+        """Forget every line (ids go on from where they were)."""
+        self._base += self._n
+        self._lo = self._n = 0
+        self._starts[0] = 0
+        self._text = bytearray()
+        self._cut.clear()
+        self._masks.clear()
+        self._selection = None
+        self._marks = _Selection(("marks",), 0, 0)
+        self.version += 1
+
+    # --- reading ------------------------------------------------------------------------------------
+
+    def _row(self, line_id: int) -> int:
+        row = line_id - self._base
+        if not self._lo <= row < self._n:
+            raise IndexError(f"line {line_id} is not held (held: {self.first_id}..{self.end_id - 1})")
+        return row
+
+    def has(self, line_id: int) -> bool:
+        """Whether line `line_id` is still held."""
+        return self._lo <= line_id - self._base < self._n
+
+    def line(self, line_id: int) -> LogLine:
+        """Return one line, decoded (its message with its line breaks back).
+
+        Raises:
+            IndexError: the line is not held (evicted, or not yet added).
+        """
+        row = self._row(line_id)
+        file, function, lineno = self._site_list[int(self._sites[row])]
+        return LogLine(
+            line_id,
+            float(self._times[row]),
+            int(self._levels[row]),
+            self._node_name(int(self._nodes[row])),
+            self._message(row).replace("\x1f", "\n"),
+            file,
+            function,
+            lineno,
+            self._cut.get(line_id, 0),
+        )
+
+    def _message(self, row: int, limit: int | None = None) -> str:
+        start, end = int(self._starts[row]), int(self._starts[row + 1]) - 1
+        if limit is not None:
+            end = min(end, start + limit)
+        return bytes(self._text[start:end]).decode("utf-8", "replace")
+
+    def rows(
+        self, ids: Sequence[int] | npt.NDArray[np.int64], limit: int = 400
+    ) -> list[tuple[float, int, str, str]]:
+        """Return (time, level, node, message) of each id for drawing: at most `limit` bytes of a message,
+        its line breaks as ``↵``."""
+        out = []
+        for line_id in ids:
+            row = self._row(int(line_id))
+            text = self._message(row, limit).replace("\x1f", " \u21b5 ")
+            out.append(
+                (
+                    float(self._times[row]),
+                    int(self._levels[row]),
+                    self._node_name(int(self._nodes[row])),
+                    text,
+                )
+            )
+        return out
+
+    def _node_name(self, node: int) -> str:
+        names = self._node_names
+        return names[node] if node < len(names) else ""
+
+    def times(self, ids: Sequence[int] | npt.NDArray[np.int64]) -> npt.NDArray[np.float64]:
+        """Return the source time of each id."""
+        rows = np.asarray(ids, dtype=np.int64) - self._base
+        return self._times[rows].copy()
+
+    def numbers(self, line_id: int) -> list[NumberSpan]:
+        """Return the numbers of a line's message (what "plot this number" can capture), in order."""
+        return find_numbers(self.line(line_id).message)
+
+    def nodes(self) -> list[str]:
+        """Return every logger name seen so far, in the order they first logged."""
+        return list(self._node_names)
+
+    def node_counts(self) -> dict[str, int]:
+        """Return how many held lines each logger wrote."""
+        lo, n = self._lo, self._n
+        counts = np.bincount(self._nodes[lo:n], minlength=len(self._node_names))
+        out: dict[str, int] = {}
+        for name, count in zip(self._node_names, counts.tolist(), strict=False):
+            out[name] = out.get(name, 0) + int(count)
+        return out
+
+    def index_at(self, t: float) -> int | None:
+        """Return the id of the last line at or before source time `t`, None when every line is later."""
+        lo, n = self._lo, self._n
+        k = int(np.searchsorted(self._times[lo:n], t, side="right"))
+        return None if k == 0 else self._base + lo + k - 1
+
+    def span(self) -> tuple[float, float] | None:
+        """Return (oldest, newest) source time held, None when empty."""
+        if self._n == self._lo:
+            return None
+        return float(self._times[self._lo]), float(self._times[self._n - 1])
+
+    def marks(self, min_level: int = WARN) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.uint8]]:
+        """Return the times and levels of held lines at `min_level` or above (timeline marks), in order."""
+        marks = self._marks
+        if marks.b < self._n:
+            start = max(marks.b, self._lo)
+            new = np.flatnonzero(self._levels[start : self._n] >= WARN) + start + self._base
+            marks.ids.append(new.astype(np.int64))
+            marks.b = self._n
+        marks.ids.drop_below(self.first_id)
+        ids = marks.ids.values()
+        rows = ids - self._base
+        levels = self._levels[rows]
+        if min_level > WARN:
+            keep = levels >= min_level
+            rows, levels = rows[keep], levels[keep]
+        return self._times[rows].copy(), levels.copy()
+
+    # --- filtering ------------------------------------------------------------------------------------
+
+    def select(self, filt: LogFilter, *, until: float | None = None) -> npt.NDArray[np.int64]:
+        """Return the ids of the lines `filt` shows, oldest first (only those at or before `until`).
+
+        Results are cached per filter and grown as lines arrive, so asking again costs only the new lines.
+
+        Raises:
+            FilterError: the include or exclude pattern does not compile with RE2.
+        """
+        return self.select_within(filt, until=until, budget=None)[0]
+
+    def select_within(
+        self, filt: LogFilter, *, until: float | None = None, budget: float | None = 0.03
+    ) -> tuple[npt.NDArray[np.int64], bool]:
+        """Like `select`, newest lines first, within about `budget` seconds; also say whether it is complete.
+
+        A new filter over many lines is answered for the newest lines at once and for the older ones over the
+        next calls (a console redraws at once and fills in the count and scrollbar as it goes). Lines that
+        arrive meanwhile are always answered.
+
+        Returns:
+            ``(ids, complete)``: ids as in `select`, of the lines answered so far; and whether every held line
+            has been answered (when False, ask again).
+        """
+        key = (filt.min_level, filt.hidden, filt.include, filt.exclude, filt.text)
+        sel = self._selection
+        lo, n = self._lo, self._n
+        if sel is None or sel.key != key:
+            for kind, pattern in (("include", filt.include), ("exclude", filt.exclude)):
+                if pattern:
+                    _compiled(kind, pattern)  # raises FilterError before anything is kept
+            sel = self._selection = _Selection(key, n, n)
+        sel.ids.drop_below(self._base + lo)  # evicted lines
+        if sel.b < lo:
+            sel.a = sel.b = lo
+        sel.a = max(sel.a, lo)
+        if sel.b < n:  # new lines: always answered
+            sel.ids.append(self._evaluate(filt, sel.b, n))
+            sel.b = n
+        deadline = None if budget is None else time.perf_counter() + budget
+        step = self.first_slice
+        while sel.a > lo:
+            r0 = max(lo, sel.a - step)
+            started = time.perf_counter()
+            sel.ids.prepend(self._evaluate(filt, r0, sel.a))
+            sel.a = r0
+            if deadline is not None:
+                now = time.perf_counter()
+                if now >= deadline:
+                    break
+                per_row = (now - started) / max(1, step)
+                step = int(min(_MAX_SLICE, max(self.first_slice, (deadline - now) / max(per_row, 1e-9) / 2)))
+            else:
+                step = _MAX_SLICE
+        ids = sel.ids.values()
+        if until is not None:
+            last = self.index_at(until)
+            ids = ids[: int(np.searchsorted(ids, -1 if last is None else last, side="right"))]
+        return ids.copy(), sel.a <= lo
+
+    def _evaluate(self, filt: LogFilter, r0: int, r1: int) -> npt.NDArray[np.int64]:
+        """The ids of the rows of ``[r0, r1)`` that pass `filt`."""
+        keep = np.ones(r1 - r0, dtype=bool)
+        if filt.min_level > 0:
+            keep &= self._levels[r0:r1] >= filt.min_level
+        if filt.hidden:
+            shown = np.ones(max(1, len(self._node_names)), dtype=bool)
+            for k, name in enumerate(self._node_names):
+                if name in filt.hidden:
+                    shown[k] = False
+            keep &= shown[self._nodes[r0:r1]]
+        for kind, pattern, want in (
+            ("text", filt.text, True),
+            ("include", filt.include, True),
+            ("exclude", filt.exclude, False),
+        ):
+            if pattern and keep.any():
+                rows = self._mask(kind, pattern, r0, r1)
+                keep &= rows if want else ~rows
+        return (np.flatnonzero(keep) + (r0 + self._base)).astype(np.int64)
+
+    def _mask(self, kind: str, pattern: str, r0: int, r1: int) -> npt.NDArray[np.bool_]:
+        """Whether each row of ``[r0, r1)`` matches (cached per pattern, grown to cover what is asked)."""
+        key = (kind, pattern)
+        mask = self._masks.get(key)
+        if mask is None:
+            mask = _Mask(np.zeros(self._alloc, dtype=bool), r1, r1)
+            self._masks[key] = mask
+            while len(self._masks) > _MAX_CACHED:
+                self._masks.popitem(last=False)
+        else:
+            self._masks.move_to_end(key)
+        if mask.b <= self._lo or mask.a == mask.b:
+            mask.a = mask.b = max(r1, self._lo)
+        mask.a = max(mask.a, self._lo)
+        if mask.b < r1:
+            mask.rows[mask.b : r1] = self._find(kind, pattern, mask.b, r1)
+            mask.b = r1
+        if mask.a > r0:
+            mask.rows[r0 : mask.a] = self._find(kind, pattern, r0, mask.a)
+            mask.a = r0
+        return mask.rows[r0:r1]
+
+    def _find(self, kind: str, pattern: str, r0: int, r1: int) -> npt.NDArray[np.bool_]:
+        """Whether each row of ``[r0, r1)`` matches the text search or the include/exclude pattern."""
+        if kind == "text":
+            return self._find_text(pattern.encode("utf-8", "replace"), r0, r1, fold=True)
+        literals = _literals(pattern)
+        if literals is None:
+            return self._find_regex(_compiled(kind, pattern), r0, r1)
+        found = np.zeros(r1 - r0, dtype=bool)
+        words, fold = literals
+        for word in words:
+            found |= self._find_text(word, r0, r1, fold=fold)
+        return found
+
+    def _find_text(self, needle: bytes, r0: int, r1: int, *, fold: bool) -> npt.NDArray[np.bool_]:
+        """Rows of ``[r0, r1)`` holding `needle` (ASCII case ignored with `fold`): numpy, not line by line."""
+        want = needle.translate(_SANITIZE)
+        if fold:
+            want = want.lower()
+        out = np.zeros(r1 - r0, dtype=bool)
+        if r1 <= r0 or not want:
+            out[:] = bool(r1 > r0)
+            return out
+        b0, b1 = int(self._starts[r0]), int(self._starts[r1])
+        if len(want) > b1 - b0:
+            return out
+        buf = np.frombuffer(self._text, dtype=np.uint8, count=b1 - b0, offset=b0)
+        try:
+            folded = [fold and c in _LETTERS for c in want]
+            order = sorted(range(len(want)), key=lambda k: _FREQUENCY.get(want[k] | 0x20, 0))
+            first = order[0]
+            c = want[first]
+            window = buf[first : len(buf) - len(want) + 1 + first]
+            candidates = np.flatnonzero(((window | 0x20) if folded[first] else window) == c)
+            del window
+            for k in order[1:]:
+                if not len(candidates):
+                    break
+                c = want[k]
+                got = buf[candidates + k]
+                candidates = candidates[((got | 0x20) if folded[k] else got) == c]
+            starts = self._starts[r0 : r1 + 1] - b0
+            if len(candidates) > r1 - r0:  # many hits: mark bytes, then one "any" per line
+                hit = np.zeros(b1 - b0, dtype=bool)
+                hit[candidates] = True
+                out = np.logical_or.reduceat(hit, starts[:-1])
+                out &= starts[1:] > starts[:-1]
+            elif len(candidates):
+                out[np.searchsorted(starts, candidates, side="right") - 1] = True
+        finally:
+            del buf  # release the export of the bytearray before it may grow again
+        return out
+
+    def _find_regex(
+        self, compiled: tuple[re2._Regexp, re2._Regexp], r0: int, r1: int
+    ) -> npt.NDArray[np.bool_]:
+        """Rows of ``[r0, r1)`` whose message contains a match: one RE2 call per matching line, or one for a
+        whole run of consecutive matching lines while matches come in runs."""
+        out = np.zeros(r1 - r0, dtype=bool)
+        if r1 <= r0:
+            return out
+        lines, runs = compiled
+        match, run = lines._regexp.Match, runs._regexp.Match
+        data = self._text
+        find, count = data.find, data.count
+        pos, end = int(self._starts[r0]), int(self._starts[r1])
+        hits: list[int] = []
+        spans: list[tuple[int, int]] = []
+        use_runs = True
+        while pos < end:
+            found = match(_UNANCHORED, data, pos, end)[0]
+            start = found[0]
+            if start < 0:
+                break
+            if use_runs or start == pos:  # a run is likely: one call takes all of it
+                stop = run(_ANCHOR_START, data, start, end)[0][1]
+                spans.append((start, stop))
+                use_runs = count(b"\n", start, stop) > 1
+                pos = stop
+            else:
+                hits.append(start)
+                pos = find(b"\n", found[1], end) + 1
+                if pos <= 0:
+                    break
+        starts = self._starts[r0 : r1 + 1]
+        if hits:
+            out[np.searchsorted(starts, np.asarray(hits, dtype=np.int64))] = True
+        for a, b in spans:
+            i, j = np.searchsorted(starts, (a, b))
+            out[int(i) : int(j)] = True
+        return out
+
+    # --- plot this number ------------------------------------------------------------------------------
+
+    def preview(self, proposal: Proposal, *, node: str | None = None, min_level: int = 0) -> Matches:
+        """Return every held line the proposed pattern matches and the value it takes from each.
+
+        Args:
+            proposal: from ``propose`` (its pattern; its node filter unless `node` is given).
+            node: only lines of this logger (exact name or fnmatch glob); default: the proposal's node.
+            min_level: only lines at this level or above.
+        """
+        lo, n = self._lo, self._n
+        empty = Matches(np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0))
+        if n == lo:
+            return empty
+        b0, b1 = int(self._starts[lo]), int(self._starts[n])
+        # The matcher's framing, b"\x00" + text + b"\x01" per line, with each line's own breaks back.
+        framed = b"\x00" + bytes(self._text[b0:b1]).replace(b"\n", b"\x01\x00").replace(b"\x1f", b"\n")
+        starts = (self._starts[lo:n] - b0) + np.arange(n - lo, dtype=np.int64)
+        rows, values = match_joined(proposal, framed[:-1], starts)
+        del framed
+        rows = rows + lo
+        want = proposal.node if node is None else node
+        if want:
+            ids = [k for k, name in enumerate(self._node_names) if fnmatch.fnmatchcase(name, want)]
+            keep = np.isin(self._nodes[rows], np.asarray(ids, dtype=np.uint16))
+            rows, values = rows[keep], values[keep]
+        if min_level > 0:
+            keep = self._levels[rows] >= min_level
+            rows, values = rows[keep], values[keep]
+        return Matches(rows + self._base, self._times[rows].copy(), values)
+
+    def messages(self, ids: Iterable[int]) -> list[str]:
+        """Return the message of each id (its line breaks back)."""
+        return [self._message(self._row(int(i))).replace("\x1f", "\n") for i in ids]
+
+
+# --- helpers -------------------------------------------------------------------------------------------
+
+_FREQUENCY: Final[dict[int, int]] = {c: 100 - k for k, c in enumerate(b" etaoinsrhldcumfpgwybvkxjqz")}
+"""Common bytes first: the text search filters on the rarest byte of the needle first."""
+
+
+def _cut_utf8(data: bytes) -> bytes:
+    """The first `MAX_LINE` bytes of `data`, without the part of a UTF-8 character the cut splits."""
+    if len(data) <= MAX_LINE or (data[MAX_LINE] & 0xC0) != 0x80:
+        return data[:MAX_LINE]
+    end = MAX_LINE
+    while end > MAX_LINE - 4 and (data[end - 1] & 0xC0) == 0x80:
+        end -= 1
+    return data[: end - 1] if data[end - 1] >= 0xC0 else data[:end]
+
+
+def _read_site(raw: bytes, at: int) -> tuple[str, str, int]:
+    """Read a Log's file, function and line from payload offset `at` (None-safe: unknown parts empty)."""
+    u32 = _U32[0] if raw[:2] == b"\x00\x01" else _U32[1]
+    try:
+        (n,) = u32.unpack_from(raw, at)
+        file = raw[at + 4 : at + 4 + n - 1].decode("utf-8", "replace")
+        at = 4 + ((at + 4 + n - 4 + 3) & ~3)
+        (m,) = u32.unpack_from(raw, at)
+        function = raw[at + 4 : at + 4 + m - 1].decode("utf-8", "replace")
+        at = 4 + ((at + 4 + m - 4 + 3) & ~3)
+        (line,) = u32.unpack_from(raw, at)
+    except struct.error:
+        return ("", "", 0)
+    return file, function, int(line)
+
+
+_COMPILED: dict[tuple[str, str], tuple[re2._Regexp, re2._Regexp]] = {}
+
+
+def _compiled(kind: str, pattern: str) -> tuple[re2._Regexp, re2._Regexp]:
+    """The line and run regexes of an include or exclude `pattern` (cached)."""
+    key = (kind, pattern)
+    found = _COMPILED.get(key)
+    if found is not None:
+        return found
+    try:
+        compile_regex(pattern)  # the bridge's checks and messages (RE2 syntax, program size)
+    except RegexError as exc:
+        raise FilterError(f"{kind}: {exc}") from None
+    body = _line_anchors(pattern)
+    try:
+        # Each stored message is one line of the text; with never_nl a match never spans two of them.
+        lines = re2.compile(rf"(?m)^[^\n]*?(?:{body})", options=_MATCH_OPTIONS)
+        runs = re2.compile(rf"(?m)(?:^[^\n]*?(?:{body})[^\n]*$\C)+", options=_MATCH_OPTIONS)
+    except re2.error as exc:
+        raise FilterError(f"{kind}: {exc}") from None
+    if len(_COMPILED) > 256:
+        _COMPILED.clear()
+    _COMPILED[key] = (lines, runs)
+    return lines, runs
+
+
+_META: Final = frozenset(".^$*+?()[]{}|\\")
+_FOLDS_BEYOND_ASCII: Final = frozenset("ksKS")
+"""ASCII letters RE2's case folding also matches outside ASCII (K: the Kelvin sign, S: the long s)."""
+
+
+def _literals(pattern: str) -> tuple[list[bytes], bool] | None:
+    """The alternatives of a pattern made only of literal text (``wall``, ``a\\.b|timeout``, ``(?i)error``)
+    and whether it ignores case; None for anything else (those patterns go to RE2)."""
+    fold = pattern.startswith("(?i)")
+    body = pattern[4:] if fold else pattern
+    words: list[str] = []
+    word: list[str] = []
+    i = 0
+    while i < len(body):
+        ch = body[i]
+        if ch == "\\":
+            if i + 1 >= len(body) or body[i + 1].isalnum() or not body[i + 1].isascii():
+                return None  # \d, \b, \x41 ...: a class or an escape, not literal text
+            word.append(body[i + 1])
+            i += 2
+            continue
+        if ch == "|":
+            words.append("".join(word))
+            word = []
+        elif ch in _META or ch in "\n\x00\x01" or (fold and (not ch.isascii() or ch in _FOLDS_BEYOND_ASCII)):
+            return None
+        else:
+            word.append(ch)
+        i += 1
+    words.append("".join(word))
+    if any(not w for w in words):
+        return None  # an empty alternative matches everywhere
+    return [w.encode("utf-8") for w in words], fold
+
+
+def _line_anchors(pattern: str) -> str:
+    r"""`pattern` with ``\A`` and ``\z`` written ``^`` and ``$``: in multi-line mode both then mean the start
+    and the end of each stored line, as they do for one message on its own."""
+    out: list[str] = []
+    i = 0
+    while i < len(pattern):
+        ch = pattern[i]
+        if ch == "\\" and i + 1 < len(pattern):
+            nxt = pattern[i + 1]
+            out.append({"A": "^", "z": "$"}.get(nxt, ch + nxt))
+            i += 2
+            continue
+        out.append(ch)
+        i += 1
+    return "".join(out)
