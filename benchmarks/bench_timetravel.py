@@ -62,6 +62,9 @@ class _SeriesSource:
     def history_stats(self) -> object:
         return self.store.stats()
 
+    def between(self, binding: Binding, t0: float, t1: float) -> object:
+        return self.series[binding].between(t0, t1)
+
     def snapshot(self, binding: Binding) -> object:
         return self.series[binding].snapshot(2.0)
 
@@ -147,6 +150,7 @@ for i in range({n}):
     if i % 500 == 499:
         time.sleep(0.002)
 assert dbglog.flush(10.0)
+time.sleep(3.0)  # the batch writer stays: a viewer that discovers it late gets them all
 """
 
 

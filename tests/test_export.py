@@ -91,6 +91,7 @@ def test_the_live_history_saved_as_a_recording_reads_back_everywhere(tmp_path: P
                 dbglog.logint({tag!r}, i)
                 time.sleep(0.001)
             assert dbglog.flush(5.0)
+            time.sleep(3.0)  # the batch writer stays: a viewer that discovers it late gets them all
         """
         done = subprocess.run(
             [sys.executable, "-c", textwrap.dedent(code)], env=env, capture_output=True, text=True, timeout=90
@@ -100,7 +101,10 @@ def test_the_live_history_saved_as_a_recording_reads_back_everywhere(tmp_path: P
             pub.publish(String(data=f"w{i}"))
             time.sleep(0.005)
         topic = topic_for_tag(tag)
-        assert wait_until(lambda: engine.store.count(topic) >= 300 and engine.store.count(words) >= 20, 30)
+        assert wait_until(lambda: engine.store.count(topic) >= 300 and engine.store.count(words) >= 20, 30), (
+            engine.store.count(topic),
+            engine.store.count(words),
+        )
         types = engine.held_types()
         assert types[topic] == "std_msgs/msg/Int64"
         assert types[words] == "std_msgs/msg/String"

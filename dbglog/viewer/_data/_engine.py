@@ -35,12 +35,20 @@ from dbglog.viewer._data._fields import (
     list_fields,
     message_class,
     parse_path,
-    resolve,
 )
 from dbglog.viewer._data._history import DEFAULT_MAX_BYTES, DEFAULT_MAX_SECONDS, History, HistoryStats
-from dbglog.viewer._data._model import Binding, FieldInfo, SeriesSnapshot, Status, TopicInfo, ValueKind
+from dbglog.viewer._data._model import Binding, FieldInfo, SeriesSnapshot, Status, TopicInfo
 from dbglog.viewer._data._series import Series
-from dbglog.viewer._data._sinks import Sink, backfill, break_sink, feed, feed_numbers, make_sink
+from dbglog.viewer._data._sinks import (
+    Sink,
+    backfill,
+    break_sink,
+    feed,
+    feed_numbers,
+    make_sink,
+    same_values,
+    scalar_plan,
+)
 from dbglog.viewer._data._suggest import close_matches, sub_topics, unpublished_reason
 from dbglog.viewer._values._transforms import TransformChain, TransformError
 
@@ -290,7 +298,7 @@ class Engine:
             series = self._series.pop(binding, None)
             if series is not None:
                 series.store = None  # its values leave the history (the ROS thread drops them)
-                self._dead_keys.append(series.key)
+                self._dead_keys.append(series.own_key)
             self._regexes.pop(binding, None)
             self._chains.pop(binding, None)
             self._static_errors.pop(binding, None)
@@ -520,9 +528,10 @@ class Engine:
 
     def _make_sink(self, binding: Binding, series: Series, cls: Any, msg_type: str) -> Sink:
         """Resolve one binding against the topic's type (its regex and transforms as bound)."""
-        return make_sink(
-            binding, series, cls, msg_type, self._regexes.get(binding), self._chains.get(binding)
-        )
+        regex, chain = self._regexes.get(binding), self._chains.get(binding)
+        sink = make_sink(binding, series, cls, msg_type, regex, chain)
+        series.share(_normalize(binding.topic) if same_values(sink, cls, msg_type) else None)
+        return sink
 
     @staticmethod
     def _fast_plan(topic: _TopicSub) -> list[tuple[Sink, int, str]] | None:
@@ -672,7 +681,7 @@ class Engine:
         qos = subscription_qos(depth, reliable=reliable, transient=transient)
         sub = node.create_subscription(cls, name, no_callback, qos, raw=True)
         topic = _TopicSub(name, msg_type, cls, sub, reliable, transient)
-        topic.scalar = _scalar_plan(cls, msg_type)
+        topic.scalar = scalar_plan(cls, msg_type)
         if self.store.kind(name) == ("numbers" if topic.scalar else "payloads"):
             # A latched publisher re-sends what the history may already hold: skip that much.
             span = self.store.span(name)
@@ -717,15 +726,19 @@ class Engine:
         if not stamps:
             return
         self._count(topic, stamps)
-        self._remember(topic, buffers, stamps)
         if topic.fast is not None:
-            columns = decode_fixed(buffers, [(offset, dtype) for _, offset, dtype in topic.fast])
+            fields = [(offset, dtype) for _, offset, dtype in topic.fast]
+            if topic.scalar is not None and topic.scalar not in fields:
+                fields.append(topic.scalar)
+            columns = decode_fixed(buffers, fields)
+            scalar = None if columns is None or topic.scalar is None else columns[fields.index(topic.scalar)]
+            self._remember(topic, buffers, stamps, scalar)
             if columns is not None:
                 times = np.asarray(stamps, dtype=np.float64) * 1e-9
                 now = time.monotonic()
                 skipping = now < topic.skip_deadline
                 broken = False
-                for (sink, _, _), values in zip(topic.fast, columns, strict=True):
+                for (sink, _, _), values in zip(topic.fast, columns[: len(topic.fast)], strict=True):
                     if sink.resolved is None:
                         continue
                     t = times
@@ -741,6 +754,8 @@ class Engine:
                     topic.fast = self._fast_plan(topic)
                 self._record_latency(times)
                 return
+        else:
+            self._remember(topic, buffers, stamps)
         from rclpy.serialization import deserialize_message
 
         messages = [deserialize_message(b, cls) for b in buffers]
@@ -765,12 +780,23 @@ class Engine:
                 break_sink(sink, exc)
         self._record_latency(np.asarray(times_list))
 
-    def _remember(self, topic: _TopicSub, buffers: list[bytes], stamps: list[int]) -> None:
-        """Keep a batch of the topic's messages in the history (numbers for std_msgs scalars)."""
+    def _remember(
+        self,
+        topic: _TopicSub,
+        buffers: list[bytes],
+        stamps: list[int],
+        column: npt.NDArray[np.float64] | None = None,
+    ) -> None:
+        """Keep a batch of the topic's messages in the history (numbers for std_msgs scalars).
+
+        `column`: the scalar's values already decoded from `buffers` (the live decode's), if any.
+        """
         if topic.held_until_ns and time.monotonic() < topic.skip_deadline:
             fresh = [s > topic.held_until_ns for s in stamps]
             if not all(fresh):  # a latched publisher re-sent what the history holds
                 buffers = [b for b, k in zip(buffers, fresh, strict=True) if k]
+                if column is not None:
+                    column = column[np.asarray(fresh, dtype=bool)]
                 stamps = [s for s, k in zip(stamps, fresh, strict=True) if k]
                 if not stamps:
                     return
@@ -780,12 +806,14 @@ class Engine:
             if topic.scalar is None:
                 self.store.append_payloads(topic.name, times, buffers, msg_type=topic.msg_type)
                 return
-            columns = decode_fixed(buffers, [topic.scalar])
-            if columns is None:  # not plain little-endian CDR: read them the slow way
-                from rclpy.serialization import deserialize_message
+            if column is None:
+                columns = decode_fixed(buffers, [topic.scalar])
+                if columns is None:  # not plain little-endian CDR: read them the slow way
+                    from rclpy.serialization import deserialize_message
 
-                columns = [np.array([float(deserialize_message(b, topic.cls).data) for b in buffers])]
-            self.store.append_numbers(topic.name, times, columns[0])
+                    columns = [np.array([float(deserialize_message(b, topic.cls).data) for b in buffers])]
+                column = columns[0]
+            self.store.append_numbers(topic.name, times, column)
         except ValueError:  # e.g. the other kind held from before: that history is over
             self.store.drop(topic.name)
 
@@ -802,16 +830,3 @@ class Engine:
         n = min(len(lat), _LATENCY_SAMPLES - start)
         self._latency[start : start + n] = lat[:n]
         self._latency_n += n
-
-
-def _scalar_plan(cls: Any, msg_type: str) -> tuple[int, str] | None:
-    """Return ``data``'s (offset, dtype) when `msg_type` is a one-field std_msgs number or bool."""
-    if not msg_type.startswith("std_msgs/msg/"):
-        return None
-    try:
-        resolved = resolve(cls, "")
-    except FieldPathError:
-        return None
-    if resolved.kind not in (ValueKind.NUMBER, ValueKind.BOOL):
-        return None
-    return resolved.cdr

@@ -27,7 +27,7 @@ from dbglog.viewer._data._fields import FieldPathError, Scalar, list_fields, mes
 from dbglog.viewer._data._history import History, HistoryStats
 from dbglog.viewer._data._model import Binding, FieldInfo, SeriesSnapshot, Status, TopicInfo
 from dbglog.viewer._data._series import Series
-from dbglog.viewer._data._sinks import backfill, make_sink
+from dbglog.viewer._data._sinks import backfill, make_sink, same_values
 from dbglog.viewer._data._suggest import close_matches
 from dbglog.viewer._values._transforms import TransformChain, TransformError
 
@@ -143,6 +143,8 @@ class ReplaySource:
             series.set_error(str(exc), msg_type=msg_type)
             return
         sink = make_sink(binding, series, cls, msg_type, regex, chain)
+        if same_values(sink, cls, msg_type) and self.store.kind(name) == "numbers":
+            series.share(name)
         if sink.kind is None:
             return
         series.set_type(msg_type, sink.kind)
@@ -155,7 +157,7 @@ class ReplaySource:
             series = self._series.pop(binding, None)
         if series is not None:
             series.store = None
-            self.store.drop(series.key)
+            self.store.drop(series.own_key)
 
     def snapshot(self, binding: Binding) -> SeriesSnapshot:
         """Return the series at the end of the recording."""

@@ -43,8 +43,10 @@ class Series:
         self.binding = binding
         self.store = store
         """Where every value is also kept by time (None: the ring is all there is)."""
-        self.key = f"\x00series:{id(self):x}"
-        """This series' name in the store (never a topic name: those start with '/')."""
+        self.own_key = f"\x00series:{id(self):x}"
+        """This series' own name in the store (never a topic name: those start with '/')."""
+        self.key = self.own_key
+        """Where its past is read: its own key, or its topic's when its values are the topic's own."""
         self._lock = threading.Lock()
         self._capacity = capacity
         self._times = np.full(capacity, np.nan)  # touch the pages now: RSS stays flat later
@@ -76,11 +78,21 @@ class Series:
             if self._kind is not None and kind != self._kind:
                 self._clear()
                 if self.store is not None:
-                    self.store.drop(self.key)
+                    self.store.drop(self.own_key)
             self._kind = kind
             self._msg_type = msg_type
             self._error = error
             self._fresh = 0
+
+    def share(self, topic: str | None) -> None:
+        """Read the past from `topic`'s history (its values are the topic's own); None: from its own key."""
+        key = self.own_key if topic is None else topic
+        if key == self.key:
+            return
+        with self._lock:
+            if self.store is not None and topic is not None:
+                self.store.drop(self.own_key)
+            self.key = key
 
     def set_error(self, reason: str, *, msg_type: str | None = None) -> None:
         """Put the series in ERROR with `reason` until the next good value."""
@@ -121,8 +133,9 @@ class Series:
                 self._pos = end % self._capacity
                 self._filled = min(self._filled + n, self._capacity)
             self._landed(n, last, float(times[-1]), now)
-        if self.store is not None:
-            self.store.append_numbers(self.key, times, values)
+        store = self.store
+        if store is not None and self.key is self.own_key:
+            store.append_numbers(self.key, times, values)
 
     def push_texts(self, times: Sequence[float], texts: Sequence[str], now: float) -> None:
         """Append a batch of text values."""
@@ -132,17 +145,19 @@ class Series:
             self._texts.extend(texts)
             self._text_times.extend(times)
             self._landed(len(texts), texts[-1], times[-1], now)
-        if self.store is not None:
-            self.store.append_payloads(self.key, times, [t.encode("utf-8", "replace") for t in texts])
+        store = self.store
+        if store is not None and self.key is self.own_key:
+            store.append_payloads(self.key, times, [t.encode("utf-8", "replace") for t in texts])
 
     def push_array(self, count: int, last: tuple[float, ...], last_time: float, now: float) -> None:
         """Record `count` array messages; only the latest array is kept."""
         if count:
             with self._lock:
                 self._landed(count, last, last_time, now)
-            if self.store is not None:
+            store = self.store
+            if store is not None and self.key is self.own_key:
                 blob = np.asarray(last, dtype=np.float64).tobytes()  # only the latest array is kept
-                self.store.append_payloads(self.key, [last_time], [blob])
+                store.append_payloads(self.key, [last_time], [blob])
 
     def _landed(self, n: int, last: Scalar, last_time: float, now: float) -> None:
         if self._first_rx is None:

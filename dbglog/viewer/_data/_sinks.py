@@ -26,7 +26,17 @@ from dbglog.viewer._data._model import Binding, ValueKind
 from dbglog.viewer._data._series import Series
 from dbglog.viewer._values._transforms import TransformChain
 
-__all__ = ["Sink", "as_received", "backfill", "break_sink", "feed", "feed_numbers", "make_sink"]
+__all__ = [
+    "Sink",
+    "as_received",
+    "backfill",
+    "break_sink",
+    "feed",
+    "feed_numbers",
+    "make_sink",
+    "same_values",
+    "scalar_plan",
+]
 
 _log = logging.getLogger("dbglog.viewer.engine")
 _FAIL_STREAK = 5
@@ -116,6 +126,30 @@ def _build_sink(
     sink.resolved = resolved
     sink.kind = kind
     return sink
+
+
+def scalar_plan(cls: Any, msg_type: str) -> tuple[int, str] | None:
+    """Return ``data``'s (offset, dtype) when `msg_type` is a one-field std_msgs number or bool."""
+    if not msg_type.startswith("std_msgs/msg/"):
+        return None
+    try:
+        resolved = resolve(cls, "")
+    except FieldPathError:
+        return None
+    if resolved.kind not in (ValueKind.NUMBER, ValueKind.BOOL):
+        return None
+    return resolved.cdr
+
+
+def same_values(sink: Sink, cls: Any, msg_type: str) -> bool:
+    """True when a binding's values are its topic's own (a one-field std_msgs number, untouched).
+
+    Such a series reads its past from the topic's history instead of keeping it twice.
+    """
+    if sink.resolved is None or sink.regex is not None or sink.chain is not None or sink.extra:
+        return False
+    plan = scalar_plan(cls, msg_type)
+    return plan is not None and sink.resolved.cdr == plan
 
 
 def backfill(store: History, name: str, cls: Any, sink: Sink) -> bool:
