@@ -232,3 +232,32 @@ def test_timeline_over_the_engine_pauses_steps_and_resumes(engine: Engine, peer:
     assert stats is not None
     assert stats.bytes_used > 0
     assert stats.samples >= 15
+
+
+def test_a_tag_bound_while_it_is_being_logged_gets_its_past_and_every_new_sample_once(engine: Engine) -> None:
+    """Bound mid-stream: back-fill and live samples join without a gap or a duplicate, in time order."""
+    tag = f"{_RUN}/midstream"
+    topic = topic_for_tag(tag)
+    env = {k: v for k, v in os.environ.items() if k not in ("DBGLOG", "DBGLOG_STRICT")}
+    env["PYTHONPATH"] = str(ROOT)
+    code = f"""
+        import time, dbglog
+        dbglog.init()
+        time.sleep(2.0)
+        for i in range(400):
+            dbglog.logfloat({tag!r}, float(i))
+            time.sleep(0.01)
+        assert dbglog.flush(5.0)
+        time.sleep(3.0)
+    """
+    child = subprocess.Popen([sys.executable, "-c", textwrap.dedent(code)], env=env, cwd=ROOT)
+    try:
+        assert wait_until(lambda: engine.store.count(topic) >= 100, TIMEOUT)
+        binding = Binding(topic)
+        engine.bind(binding)  # about a quarter of the way through
+        snap = _wait_snap(engine, binding, lambda s: s.count >= 400)
+    finally:
+        child.wait(timeout=60)
+    assert snap.values.tolist() == [float(i) for i in range(400)]
+    assert np.all(np.diff(snap.times) > 0)
+    assert snap.count == 400
