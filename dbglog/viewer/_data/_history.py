@@ -82,6 +82,10 @@ class HistoryStats:
     """Samples dropped by the budget so far (duration and memory)."""
     late_dropped: int
     """Samples that arrived already older than the duration budget, never stored."""
+    max_bytes: int = DEFAULT_MAX_BYTES
+    """The memory cap."""
+    max_seconds: float = DEFAULT_MAX_SECONDS
+    """The duration budget."""
 
 
 class _Chunk:
@@ -791,6 +795,8 @@ class History:
                 newest=None if span is None else span[1],
                 evicted=self._evicted,
                 late_dropped=self._late,
+                max_bytes=self.max_bytes,
+                max_seconds=self.max_seconds,
             )
 
     def at(self, topic: str, t: float) -> Sample | None:
