@@ -14,6 +14,7 @@ import functools
 import logging
 import threading
 import time
+import weakref
 from collections import defaultdict
 from dataclasses import dataclass, field
 from types import TracebackType
@@ -37,6 +38,7 @@ from dbglog.viewer._data._fields import (
     parse_path,
 )
 from dbglog.viewer._data._history import DEFAULT_MAX_BYTES, DEFAULT_MAX_SECONDS, History, HistoryStats
+from dbglog.viewer._data._logstore import LogStore
 from dbglog.viewer._data._model import Binding, FieldInfo, SeriesSnapshot, Status, TopicInfo
 from dbglog.viewer._data._series import Series
 from dbglog.viewer._data._sinks import (
@@ -227,6 +229,9 @@ class Engine:
             np.full(_LATENCY_SAMPLES, np.nan) if measure_latency else None  # pages touched now
         )
         self._latency_n = 0
+        self._logs: weakref.WeakValueDictionary[str, LogStore] = weakref.WeakValueDictionary()
+        """Log stores by topic (`log_store`), each fed every batch of its topic while someone holds it."""
+        self._logs_lock = threading.Lock()
 
     # --- lifecycle ----------------------------------------------------------------------------------
 
@@ -540,7 +545,7 @@ class Engine:
         for sink in topic.sinks.values():
             if sink.resolved is None:
                 continue
-            if sink.resolved.cdr is None or sink.regex is not None or sink.extra:
+            if sink.resolved.cdr is None or sink.regex is not None or sink.extra or sink.lines is not None:
                 return None
             plan.append((sink, *sink.resolved.cdr))
         return plan
@@ -804,7 +809,7 @@ class Engine:
         self._held_types[topic.name] = topic.msg_type
         try:
             if topic.scalar is None:
-                self.store.append_payloads(topic.name, times, buffers, msg_type=topic.msg_type)
+                self._keep_payloads(topic, times, buffers)
                 return
             if column is None:
                 columns = decode_fixed(buffers, [topic.scalar])
@@ -816,6 +821,34 @@ class Engine:
             self.store.append_numbers(topic.name, times, column)
         except ValueError:  # e.g. the other kind held from before: that history is over
             self.store.drop(topic.name)
+
+    # --- log stores: the Log console's lines (issue 18) ---------------------------------------------
+
+    def log_store(self, topic: str) -> LogStore:
+        """Return the store of every line of `topic` (an ``rcl_interfaces/msg/Log`` or String topic).
+
+        Made on the first call holding the topic's past from the history, then given each batch the engine
+        takes; held weakly (it goes when its last user drops it). A binding on the topic subscribes it.
+        The caller's thread owns the store (`LogStore.sync`); this engine only pushes raw batches to it.
+        """
+        name = _normalize(topic)
+        with self._logs_lock:
+            logs = self._logs.get(name)
+            if logs is None:
+                logs = LogStore()
+                if self.store.kind(name) == "payloads":
+                    times, payloads = self.store.payloads(name, -np.inf, np.inf)
+                    logs.push(self.store.msg_type(name), times, payloads)
+                self._logs[name] = logs
+        return logs
+
+    def _keep_payloads(self, topic: _TopicSub, times: npt.NDArray[np.float64], buffers: list[bytes]) -> None:
+        """Keep a batch of messages in the history, and give it to the topic's log store, if it has one."""
+        with self._logs_lock:  # a log store being made reads the history: each batch reaches it once
+            self.store.append_payloads(topic.name, times, buffers, msg_type=topic.msg_type)
+            logs = self._logs.get(topic.name)
+        if logs is not None:
+            logs.push(topic.msg_type, times, buffers)
 
     def _count(self, topic: _TopicSub, stamps: list[int]) -> None:
         topic.taken += len(stamps)

@@ -59,6 +59,12 @@ class Binding:
     transforms: tuple[Transform, ...] = ()
     """The binding's transforms, in order (frozen values, so a binding stays hashable); applied by the engine
     at ingest (docs/transforms.md). A rejected list from a file is one `Invalid`, shown as the error."""
+    node: str = ""
+    """Log topics (``rcl_interfaces/msg/Log``): only lines of this logger, exact name or fnmatch glob
+    (``planner*``), as a bridge rule's ``node``; empty: every node."""
+    level: str = ""
+    """Log topics: only lines at this level or above (``debug``, ``info``, ``warn``, ``error``, ``fatal``),
+    as a bridge rule's ``level``; empty: every level."""
 
 
 def judge_age(age_s: float, stale_after: float) -> tuple[Status, str]:

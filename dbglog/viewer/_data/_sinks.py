@@ -8,6 +8,7 @@ the past its topic has in a `History`. No Dear PyGui; rclpy only to deserialize 
 
 from __future__ import annotations
 
+import fnmatch
 import logging
 import math
 import time
@@ -22,11 +23,13 @@ from dbglog._regex._compile import CompiledRegex, parse_number
 from dbglog._ros._cdr import decode_fixed
 from dbglog.viewer._data._fields import FieldPathError, Resolved, resolve
 from dbglog.viewer._data._history import History
+from dbglog.viewer._data._logstore import LOG_TYPE, level_of
 from dbglog.viewer._data._model import Binding, ValueKind
 from dbglog.viewer._data._series import Series
 from dbglog.viewer._values._transforms import TransformChain
 
 __all__ = [
+    "LineFilter",
     "Sink",
     "as_received",
     "backfill",
@@ -59,6 +62,31 @@ class Sink:
     extra: dict[str, Resolved] = field(default_factory=dict)
     """Other fields of the same message that the formulas read, by path."""
     fail_streak: int = 0
+    lines: LineFilter | None = None
+    """A log binding's node and minimum level: only those lines give values."""
+
+
+@dataclass(eq=False, slots=True)
+class LineFilter:
+    """Which Log lines a binding reads (`Binding.node`, `Binding.level`), as a bridge rule's filters."""
+
+    node: str
+    """Logger name, exact or an fnmatch glob; empty: every node."""
+    min_level: int
+    seen: dict[str, bool] = field(default_factory=dict)
+    """Logger name -> whether it passes (a glob is matched once per name)."""
+
+    def keeps(self, msg: Any) -> bool:
+        """Whether a Log message passes (its level, then its logger's name)."""
+        if msg.level < self.min_level:
+            return False
+        if not self.node:
+            return True
+        name = msg.name
+        passes = self.seen.get(name)
+        if passes is None:
+            passes = self.seen[name] = fnmatch.fnmatchcase(name, self.node)
+        return passes
 
 
 def make_sink(
@@ -87,6 +115,13 @@ def _build_sink(
     chain: TransformChain | None,
 ) -> Sink:
     sink = Sink(binding, series, regex)
+    if binding.node or binding.level:
+        if msg_type != LOG_TYPE:
+            series.set_error(
+                f"a node or level filter applies to {LOG_TYPE} topics, not {msg_type}", msg_type=msg_type
+            )
+            return sink
+        sink.lines = LineFilter(binding.node, level_of(binding.level))
     try:
         resolved = resolve(cls, binding.field)
     except FieldPathError as exc:
@@ -146,7 +181,7 @@ def same_values(sink: Sink, cls: Any, msg_type: str) -> bool:
 
     Such a series reads its past from the topic's history instead of keeping it twice.
     """
-    if sink.resolved is None or sink.regex is not None or sink.chain is not None or sink.extra:
+    if sink.resolved is None or sink.regex is not None or sink.chain is not None or sink.extra or sink.lines:
         return False
     plan = scalar_plan(cls, msg_type)
     return plan is not None and sink.resolved.cdr == plan
@@ -167,7 +202,7 @@ def backfill(store: History, name: str, cls: Any, sink: Sink) -> bool:
         times, payloads = store.payloads(name, -np.inf, np.inf)
         if not len(times):
             return False
-        if sink.resolved.cdr is not None and sink.regex is None and not sink.extra:
+        if sink.resolved.cdr is not None and sink.regex is None and not sink.extra and sink.lines is None:
             columns = decode_fixed(payloads, [sink.resolved.cdr])
             if columns is not None:
                 feed_numbers(sink, times, columns[0], as_received(times))
@@ -279,7 +314,10 @@ def feed(sink: Sink, messages: Iterable[Any], times: list[float], now: float) ->
     columns: dict[str, list[float]] = {path: [] for path, _ in extra}
     error = ""
     unmatched = 0
+    lines = sink.lines
     for msg, t in zip(messages, times, strict=True):
+        if lines is not None and not lines.keeps(msg):
+            continue
         try:
             value: Any = get(msg)
         except (IndexError, AttributeError, TypeError, ValueError) as exc:

@@ -152,6 +152,10 @@ def _binding_dict(b: Binding) -> dict[str, Any]:
     if b.transforms:
         # Rejected transforms are kept as the user wrote them (any JSON), valid ones with sorted keys.
         out["transforms"] = written_transforms(b.transforms)
+    if b.node:  # a log binding's filters, only when set: other files stay as they were
+        out["node"] = b.node
+    if b.level:
+        out["level"] = b.level
     return out
 
 
@@ -708,12 +712,40 @@ def _parse_bindings(raw: object, cls: type[Widget], where: str, msgs: list[str])
         binding = _binding(item.get("topic"), item.get("field", ""), item.get("regex", ""), at, msgs)
         if binding is not None and item.get("transforms") is not None:
             binding = _with_transforms(binding, item["transforms"], at, msgs)
+        if binding is not None and ("node" in item or "level" in item):
+            binding = _with_log_filter(binding, item.get("node"), item.get("level"), at, msgs)
         if binding is not None:
             out.append(binding)
         for key in item:
-            if key not in {"topic", "field", "regex", "transforms"}:
+            if key not in {"topic", "field", "regex", "transforms", "node", "level"}:
                 msgs.append(f"{at}: unknown field {_q(key)} ignored")
     return tuple(out)
+
+
+LOG_LEVELS = ("debug", "info", "warn", "error", "fatal")
+"""The minimum levels a log binding may ask for (``"level"``), as in bridge rules."""
+
+
+def _with_log_filter(binding: Binding, node: object, level: object, at: str, msgs: list[str]) -> Binding:
+    """A log binding's node (exact or glob) and minimum level; a bad one is dropped with a message."""
+    if node is None:
+        node = ""
+    if not isinstance(node, str):
+        msgs.append(f"{at}: field 'node' must be a logger name, got {_short(node)}; every node is used")
+        node = ""
+    elif problem := text_problem(node):
+        msgs.append(f"{at}: field 'node' {problem}; every node is used")
+        node = ""
+    elif len(node) > MAX_TOPIC:
+        msgs.append(f"{at}: field 'node' is longer than {MAX_TOPIC} characters; every node is used")
+        node = ""
+    if level is None:
+        level = ""
+    if not isinstance(level, str) or level.strip().lower() not in ("", *LOG_LEVELS):
+        names = ", ".join(LOG_LEVELS)
+        msgs.append(f"{at}: field 'level' must be one of {names}, got {_short(level)}; every level is used")
+        level = ""
+    return replace(binding, node=node.strip(), level=level.strip().lower())
 
 
 def _with_transforms(binding: Binding, raw: object, at: str, msgs: list[str]) -> Binding | None:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 from typing import Protocol
 
@@ -572,8 +573,9 @@ class TopicDialog(Dialog):
         topic = str(dpg.get_value(self.topic_input)).strip()
         field = self._selected_field()
         regex = str(dpg.get_value(self.regex_input))
-        transforms = self.bindings[self.index].transforms
-        self.bindings[self.index] = Binding(topic, field, regex, transforms)
+        # replace, not a new Binding: what this dialog does not edit (transforms, a log binding's node and
+        # level) stays as it was
+        self.bindings[self.index] = replace(self.bindings[self.index], topic=topic, field=field, regex=regex)
         if self.max_bindings > 1:
             labels = self._series_labels()
             dpg.configure_item(self.series_combo, items=labels)
@@ -776,7 +778,7 @@ class TopicDialog(Dialog):
 
     def _set_transforms(self, items: list[dict[str, object]]) -> None:
         b = self.bindings[self.index]
-        self.bindings[self.index] = Binding(b.topic, b.field, b.regex, transforms_or_invalid(items))
+        self.bindings[self.index] = replace(b, transforms=transforms_or_invalid(items))
         self._show_transforms()
 
     def _show_transforms(self) -> None:
@@ -842,8 +844,7 @@ class TopicDialog(Dialog):
                     dpg.configure_item(self.preview, color=ERROR_COLOR)
                     return False
         bindings = tuple(
-            Binding(b.topic if b.topic.startswith("/") else "/" + b.topic, b.field, b.regex, b.transforms)
-            for b in bindings
+            replace(b, topic=b.topic if b.topic.startswith("/") else "/" + b.topic) for b in bindings
         )
         self.setup.apply(bindings)
         self.close()
