@@ -53,14 +53,28 @@ from dbglog.viewer._data._interfaces import (
     installed_types,
     message_type,
 )
+from dbglog.viewer._data._logstore import (
+    LEVEL_NAMES,
+    FilterError,
+    LogFilter,
+    LogLine,
+    LogStore,
+    level_name,
+    level_of,
+)
 from dbglog.viewer._data._model import Binding, SeriesSnapshot, Status, ValueKind
 from dbglog.viewer._publishing._requests import DEFAULT_RATE_LIMIT_HZ, PublishRequest, PublishState, Value
 
 __all__ = [
     "DEFAULT_RATE_LIMIT_HZ",
+    "LEVEL_NAMES",
     "Binding",
     "Color",
+    "FilterError",
     "InterfaceError",
+    "LogFilter",
+    "LogLine",
+    "LogStore",
     "PropKind",
     "PropValue",
     "Property",
@@ -74,11 +88,14 @@ __all__ = [
     "ValueKind",
     "Widget",
     "WidgetContext",
+    "WidgetHost",
     "fill_message",
     "form_fields",
     "format_color",
     "installed_types",
     "kind_problem",
+    "level_name",
+    "level_of",
     "message_type",
     "parse_color",
     "shown_as",
@@ -231,6 +248,26 @@ class PublishService(Protocol):
         """Forget control `key`."""
 
 
+class WidgetHost(Protocol):
+    """What the viewer offers a widget besides its series: log lines, the time cursor, "plot this number".
+
+    Widgets reach it as ``self.context.host`` (None outside a viewer); every method is for the UI thread.
+    """
+
+    def log_store(self, topic: str) -> LogStore | None:
+        """Return the store of every line of a log topic (``rcl_interfaces/msg/Log`` or a String topic), fed
+        live and already holding what the viewer's history has; None when the data source keeps none.
+
+        The owner (the UI thread) calls `LogStore.sync` to take in the lines that arrived.
+        """
+
+    def seek(self, t: float) -> None:
+        """Move the dashboard's time cursor to source time `t` (pausing), as a click on the timeline does."""
+
+    def plot_number(self, topic: str, line_id: int, number: int) -> None:
+        """Open "Plot this number" for number `number` (0-based) of stored line `line_id` of `topic`."""
+
+
 @dataclass(frozen=True, slots=True)
 class WidgetContext:
     """What the viewer hands a widget at mount (and again when its bindings change); the app owns it.
@@ -239,10 +276,12 @@ class WidgetContext:
         targets: where a control publishes: its bindings (topic, and the field a single value sets); empty
             for a display widget, whose bindings are series the data engine fills instead.
         publisher: the app's publishing service (None for a widget mounted outside a viewer).
+        host: the viewer's other services (`WidgetHost`); None for a widget mounted outside a viewer.
     """
 
     targets: tuple[Binding, ...] = ()
     publisher: PublishService | None = None
+    host: WidgetHost | None = None
 
 
 class Widget(abc.ABC):
@@ -360,6 +399,23 @@ class Widget(abc.ABC):
         Control widgets report their publishing state here; the viewer asks once per frame, so keep it cheap.
         """
         return None
+
+    def redraw_key(self) -> object:
+        """Return a value that, when it changes, makes the viewer call `update` though no series changed.
+
+        For a widget with input or data of its own (a console's filters, its scrolling, the mouse over it);
+        the default None means "only when a series changes". The viewer asks on the UI thread at every turn
+        of its render loop, so keep it cheap (it may read the mouse).
+        """
+        return None
+
+    def owns_pointer(self, x: float, y: float) -> bool:
+        """Whether the mouse at window pixel (x, y) is the widget's own (default: never).
+
+        There the mouse wheel is the widget's (the canvas does not scroll) and a right click is the widget's
+        (the viewer's widget menu does not open; the title strip always has it).
+        """
+        return False
 
     def publisher(self) -> PublishService:
         """Return the publishing service the app gave this widget at mount (its thread starts on first use).

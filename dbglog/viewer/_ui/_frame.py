@@ -13,7 +13,7 @@ from dbglog.viewer._document._dashboard import RawWidget, WidgetConfig
 from dbglog.viewer._ui._theme import DIM, HEADER, STATUS_COLORS, TEXT
 from dbglog.viewer._widgets._common import text_size
 from dbglog.viewer._widgets._geometry import Rect
-from dbglog.viewer.widget_api import PropValue, PublishService, Widget, WidgetContext, shown_as
+from dbglog.viewer.widget_api import PropValue, PublishService, Widget, WidgetContext, WidgetHost, shown_as
 
 __all__ = ["TITLE_H", "CanvasItem", "combined_status"]
 
@@ -48,11 +48,14 @@ class CanvasItem:
         theme: int | str,
         *,
         publisher: PublishService | None = None,
+        host: WidgetHost | None = None,
     ) -> None:
         self.config = config
         self.widget_cls = widget_cls
         self.publisher = publisher
         """The app's publishing service, handed to the widget in its `WidgetContext`."""
+        self.host = host
+        """The app's other services for widgets (log stores, the time cursor), in the `WidgetContext` too."""
         self.widget: Widget | None = None
         self.failed = ""
         """Why the widget was disabled after raising, or empty."""
@@ -107,7 +110,7 @@ class CanvasItem:
     def context(self) -> WidgetContext:
         """What the widget is given at mount: a control's publish targets, and the app's publisher."""
         publishes = self.widget_cls is not None and self.widget_cls.publishes
-        return WidgetContext(self.bindings if publishes else (), self.publisher)
+        return WidgetContext(self.bindings if publishes else (), self.publisher, self.host)
 
     @property
     def label(self) -> str | None:
@@ -226,9 +229,10 @@ class CanvasItem:
             return False
         try:
             own = self.widget.status()
+            drawn = self.widget.redraw_key()
         except Exception:  # `refresh` disables the widget and says why
             return True
-        key = _state_key(self._snapshots(source), own, paused_at)
+        key = _state_key(self._snapshots(source), own, paused_at, drawn)
         return key != self._key or self.widget.props_changed
 
     def refresh(self, source: DataSource, now: float, *, paused_at: float | None = None) -> None:
@@ -245,6 +249,7 @@ class CanvasItem:
         snapshots = self._snapshots(source)
         try:
             own = self.widget.status()  # control widgets report their own state (publishing)
+            drawn = self.widget.redraw_key()  # a widget's own input or data (a console's)
         except Exception as exc:
             self._fail(f"widget failed to report its status: {exc!r}")
             return
@@ -257,7 +262,7 @@ class CanvasItem:
             if props != dict(config.properties):
                 self.config = replace(config, properties=props)
                 self.edited = True
-        key = _state_key(snapshots, own, paused_at)
+        key = _state_key(snapshots, own, paused_at, drawn)
         if key == self._key:
             return
         self._key = key
@@ -363,7 +368,8 @@ class CanvasItem:
 
 
 def _state_key(
-    snapshots: Sequence[SeriesSnapshot], own: object, paused_at: float | None
+    snapshots: Sequence[SeriesSnapshot], own: object, paused_at: float | None, drawn: object = None
 ) -> tuple[object, ...]:
-    """What a widget's redraw depends on: each series' count, status and reason, its own state, the cursor."""
-    return (*((s.count, s.status, s.reason) for s in snapshots), own, paused_at)
+    """What a widget's redraw depends on: each series' count, status and reason, its own state, the cursor,
+    and its own redraw key."""
+    return (*((s.count, s.status, s.reason) for s in snapshots), own, paused_at, drawn)

@@ -131,7 +131,9 @@ class PointerInput:
                 self.drag_to(pos)
             elif not left and self._left_down and self.drag is not None:
                 self.release(pos)
-            if right and not self._right_down and app.dialog is None and self.over_canvas(pos):
+            pressed = right and not self._right_down and app.dialog is None
+            # A widget may keep its right clicks (a console's line menu); its title strip always opens this.
+            if pressed and self.over_canvas(pos) and not self.widget_owns(pos):
                 self.context_menu(pos)
         self._left_down, self._right_down = left, right
         self._menu_shown = bool(dpg.is_item_shown(app.menu))
@@ -207,6 +209,20 @@ class PointerInput:
         else:
             drag.item.place(drag.rect, rebuild=drag.part is Part.CORNER)
 
+    def widget_owns(self, pos: tuple[float, float]) -> bool:
+        """Whether the widget body under `pos` (window pixels) keeps the mouse (`Widget.owns_pointer`)."""
+        app = self.app
+        hit = app.doc.hit(*app.to_canvas(pos), title_h=TITLE_H, corner=0)
+        if hit is None or hit[1] is not Part.BODY:
+            return False
+        widget = hit[0].widget
+        if widget is None or hit[0].failed:
+            return False
+        try:
+            return bool(widget.owns_pointer(*pos))
+        except Exception:  # a widget's bug never takes the canvas's mouse away
+            return False
+
     def context_menu(self, pos: tuple[float, float]) -> CanvasItem | None:
         """Open the widget's context menu at `pos` (right click)."""
         app = self.app
@@ -248,6 +264,8 @@ class PointerInput:
             return
         hit = app.doc.hit(*app.to_canvas(pos), title_h=TITLE_H, corner=0)
         if hit is not None and hit[1] is Part.BODY and hit[0].config.type == "plot":
+            return
+        if self.widget_owns(pos):
             return
         axis = 0 if app.held(dpg.mvKey_ModShift) else 1
         get, top, put = (
