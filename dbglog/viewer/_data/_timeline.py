@@ -172,7 +172,9 @@ class Timeline:
         ticks: Callable[[], float] = time.monotonic,
         recording: bool = False,
     ) -> None:
-        self.source = source
+        self._source = source
+        self._timed: TimeSource | None = source if isinstance(source, TimeSource) else None
+        """The source when it has a history (a protocol check is slow: made once, not per snapshot)."""
         self.recording = recording
         self.stale_after = stale_after
         self._clock = clock
@@ -187,6 +189,16 @@ class Timeline:
         self._anchor = (0.0, 0.0)
         """(ticks, cursor) when playback last started or was re-anchored."""
 
+    @property
+    def source(self) -> DataSource:
+        """The data source the cursor travels through."""
+        return self._source
+
+    @source.setter
+    def source(self, source: DataSource) -> None:
+        self._source = source
+        self._timed = source if isinstance(source, TimeSource) else None
+
     # --- state --------------------------------------------------------------------------------------
 
     @property
@@ -196,14 +208,14 @@ class Timeline:
 
     def span(self) -> tuple[float, float] | None:
         """Return (oldest, newest) source time the source holds, None when it holds nothing."""
-        if isinstance(self.source, TimeSource):
-            return self.source.time_span()
+        if self._timed is not None:
+            return self._timed.time_span()
         return None
 
     def stats(self) -> HistoryStats | None:
         """Return what the source's history holds, None for a source without one."""
-        if isinstance(self.source, TimeSource):
-            return self.source.history_stats()
+        if self._timed is not None:
+            return self._timed.history_stats()
         return None
 
     def pause(self, at: float | None = None) -> None:
@@ -309,8 +321,8 @@ class Timeline:
 
     def between(self, binding: Binding, t0: float, t1: float) -> tuple[npt.NDArray[np.float64], list[Scalar]]:
         """Return the binding's samples with ``t0 <= time <= t1`` (from the live series without a history)."""
-        if isinstance(self.source, TimeSource):
-            return self.source.between(binding, t0, t1)
+        if self._timed is not None:
+            return self._timed.between(binding, t0, t1)
         snap = self.source.snapshot(binding)
         keep = (snap.times >= t0) & (snap.times <= t1)
         if snap.kind is ValueKind.TEXT:
@@ -318,8 +330,8 @@ class Timeline:
         return snap.times[keep], list(snap.values[keep].tolist())
 
     def _neighbour(self, binding: Binding, t: float, direction: int) -> float | None:
-        if isinstance(self.source, TimeSource):
-            return self.source.neighbour_time(binding, t, direction)
+        if self._timed is not None:
+            return self._timed.neighbour_time(binding, t, direction)
         times = self.source.snapshot(binding).times
         if direction < 0:
             i = int(np.searchsorted(times, t, side="left")) - 1
@@ -334,8 +346,8 @@ class Timeline:
         t = self.cursor
         if t is None:
             return self.source.snapshot(binding)
-        if isinstance(self.source, TimeSource):
-            return self.source.snapshot_at(binding, t)
+        if self._timed is not None:
+            return self._timed.snapshot_at(binding, t)
         return cut_at(self.source.snapshot(binding), t, self.stale_after)
 
     def bind(self, binding: Binding) -> None:
