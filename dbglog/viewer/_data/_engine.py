@@ -31,16 +31,15 @@ from dbglog._ros._qos import LOG_DEPTH, subscription_qos
 from dbglog.viewer._data._batchsub import BatchIngest, BatchStats
 from dbglog.viewer._data._fields import (
     FieldPathError,
-    Scalar,
     fixed_size,
     list_fields,
     message_class,
     parse_path,
 )
-from dbglog.viewer._data._history import DEFAULT_MAX_BYTES, DEFAULT_MAX_SECONDS, History, HistoryStats
+from dbglog.viewer._data._history import DEFAULT_MAX_BYTES, DEFAULT_MAX_SECONDS, History
 from dbglog.viewer._data._logstore import LogStore
 from dbglog.viewer._data._model import Binding, FieldInfo, SeriesSnapshot, Status, TopicInfo
-from dbglog.viewer._data._series import Series
+from dbglog.viewer._data._series import Series, SeriesTimes
 from dbglog.viewer._data._sinks import (
     Sink,
     backfill,
@@ -129,7 +128,7 @@ def _normalize(topic: str) -> str:
     return topic if topic.startswith("/") else "/" + topic
 
 
-class Engine:
+class Engine(SeriesTimes):
     """Turn (topic, field, regex) bindings into live series; implements ``DataSource``.
 
     Example:
@@ -316,45 +315,12 @@ class Engine:
             return SeriesSnapshot(binding, Status.ERROR, reason="not bound (call bind() first)")
         return series.snapshot(self.stale_after)
 
-    # --- TimeSource: the state at any time the history holds -------------------------------------
-
-    def snapshot_at(self, binding: Binding, t: float) -> SeriesSnapshot:
-        """Return the series for `binding` as it stood at source time `t` (epoch seconds)."""
-        series = self._series.get(binding)
-        if series is None:
-            return SeriesSnapshot(binding, Status.ERROR, reason="not bound (call bind() first)")
-        return series.snapshot_at(t, self.stale_after)
-
-    def time_span(self) -> tuple[float, float] | None:
-        """Return (oldest, newest) source time the history holds, None while it is empty."""
-        stats = self.store.stats()
-        if stats.oldest is None or stats.newest is None:
-            return None
-        return stats.oldest, stats.newest
-
-    def neighbour_time(self, binding: Binding, t: float, direction: int) -> float | None:
-        """Return the time of the binding's previous (-1) or next (+1) sample strictly around `t`."""
-        series = self._series.get(binding)
-        return None if series is None else series.neighbour_time(t, direction)
-
-    def between(self, binding: Binding, t0: float, t1: float) -> tuple[npt.NDArray[np.float64], list[Scalar]]:
-        """Return the binding's samples with ``t0 <= time <= t1`` (times and values), for an export."""
-        series = self._series.get(binding)
-        return (np.empty(0), []) if series is None else series.between(t0, t1)
+    # --- history (the TimeSource methods come from SeriesTimes) ----------------------------------
 
     def held_types(self) -> dict[str, str]:
         """Return the ROS type of every topic the history holds (to save it as a recording)."""
         types = {**self._batches.types(), **self._held_types}
         return {name: t for name, t in types.items() if self.store.kind(name) is not None}
-
-    def history_stats(self) -> HistoryStats:
-        """Return what the history holds (span, samples, bytes)."""
-        return self.store.stats()
-
-    def samples_held(self, binding: Binding) -> int:
-        """Return how many samples of `binding`'s series the history holds."""
-        series = self._series.get(binding)
-        return 0 if series is None else series.held()
 
     def topics(self) -> list[TopicInfo]:
         """Return every topic on the graph (with a publisher or a foreign subscriber), by name."""

@@ -15,7 +15,6 @@ import os
 import threading
 
 import numpy as np
-import numpy.typing as npt
 
 from dbglog._regex._compile import CompiledRegex, RegexError, compile_regex
 from dbglog._ros._batch import BATCH_TOPIC
@@ -23,10 +22,10 @@ from dbglog._ros._cdr import string_payload
 from dbglog._ros._tags import topic_for_tag
 from dbglog.record._inspect import tag_series
 from dbglog.record._reader import Recording, read_recording
-from dbglog.viewer._data._fields import FieldPathError, Scalar, list_fields, message_class
-from dbglog.viewer._data._history import History, HistoryStats
-from dbglog.viewer._data._model import Binding, FieldInfo, SeriesSnapshot, Status, TopicInfo
-from dbglog.viewer._data._series import Series
+from dbglog.viewer._data._fields import FieldPathError, list_fields, message_class
+from dbglog.viewer._data._history import History
+from dbglog.viewer._data._model import Binding, FieldInfo, SeriesSnapshot, TopicInfo
+from dbglog.viewer._data._series import Series, SeriesTimes
 from dbglog.viewer._data._sinks import backfill, make_sink, same_values
 from dbglog.viewer._data._suggest import close_matches
 from dbglog.viewer._values._transforms import TransformChain, TransformError
@@ -78,7 +77,7 @@ def load_replay(
     return ReplaySource(store, types, stale_after=stale_after, name=recording.path, problems=problems)
 
 
-class ReplaySource:
+class ReplaySource(SeriesTimes):
     """A `DataSource` and `TimeSource` over a history nothing feeds live (a recording).
 
     Live (no cursor), a series shows the end of the recording.
@@ -177,46 +176,11 @@ class ReplaySource:
         except FieldPathError:
             return []
 
-    # --- TimeSource ---------------------------------------------------------------------------------
-
-    def snapshot_at(self, binding: Binding, t: float) -> SeriesSnapshot:
-        """Return the series for `binding` as it stood at source time `t`."""
-        series = self._series.get(binding)
-        if series is None:
-            return SeriesSnapshot(binding, Status.ERROR, reason="not bound (call bind() first)")
-        if series.count == 0:  # nothing to travel through: why (not in the file, a bad field ...)
-            return series.snapshot(self.stale_after)
-        return series.snapshot_at(t, self.stale_after)
-
-    def time_span(self) -> tuple[float, float] | None:
-        """Return (first, last) source time of the recording."""
-        stats = self.store.stats()
-        if stats.oldest is None or stats.newest is None:
-            return None
-        return stats.oldest, stats.newest
-
-    def neighbour_time(self, binding: Binding, t: float, direction: int) -> float | None:
-        """Return the time of the binding's previous (-1) or next (+1) sample strictly around `t`."""
-        series = self._series.get(binding)
-        return None if series is None else series.neighbour_time(t, direction)
-
-    def between(self, binding: Binding, t0: float, t1: float) -> tuple[npt.NDArray[np.float64], list[Scalar]]:
-        """Return the binding's samples with ``t0 <= time <= t1`` (times and values), for an export."""
-        series = self._series.get(binding)
-        return (np.empty(0), []) if series is None else series.between(t0, t1)
+    # --- history (the TimeSource methods come from SeriesTimes) ----------------------------------
 
     def held_types(self) -> dict[str, str]:
         """Return the ROS type of every topic of the recording."""
         return dict(self.types)
-
-    def history_stats(self) -> HistoryStats:
-        """Return what the recording's history holds."""
-        return self.store.stats()
-
-    def samples_held(self, binding: Binding) -> int:
-        """Return how many samples of `binding`'s series are held."""
-        series = self._series.get(binding)
-        return 0 if series is None else series.held()
 
     @property
     def duration(self) -> float:

@@ -18,11 +18,11 @@ import numpy as np
 import numpy.typing as npt
 
 from dbglog.viewer._data._fields import Scalar
-from dbglog.viewer._data._history import History
+from dbglog.viewer._data._history import History, HistoryStats
 from dbglog.viewer._data._model import Binding, SeriesSnapshot, Status, ValueKind, judge_age
 from dbglog.viewer._data._timeline import NOT_YET, cut_at, typed_like
 
-__all__ = ["RATE_WINDOW_S", "Series"]
+__all__ = ["RATE_WINDOW_S", "Series", "SeriesTimes"]
 
 RATE_WINDOW_S = 5.0
 """The message rate is measured over at most this many recent seconds."""
@@ -338,3 +338,50 @@ class Series:
         if now - self._last_rx > span / n:  # quieter than usual: count the silence too
             span = now - t0
         return n / span
+
+
+class SeriesTimes:
+    """The `TimeSource` half of a data source whose bindings are `Series` over one `History`.
+
+    The engine (live) and a replay (a recording) answer "the state at time t" the same way: from each
+    binding's series and the store they share. Subclasses set ``store``, ``stale_after`` and ``_series``.
+    """
+
+    store: History
+    stale_after: float
+    _series: dict[Binding, Series]
+
+    def snapshot_at(self, binding: Binding, t: float) -> SeriesSnapshot:
+        """Return the series for `binding` as it stood at source time `t` (epoch seconds)."""
+        series = self._series.get(binding)
+        if series is None:
+            return SeriesSnapshot(binding, Status.ERROR, reason="not bound (call bind() first)")
+        if series.count == 0:  # nothing to travel through yet: say why (not published, a bad field ...)
+            return series.snapshot(self.stale_after)
+        return series.snapshot_at(t, self.stale_after)
+
+    def time_span(self) -> tuple[float, float] | None:
+        """Return (oldest, newest) source time the history holds, None while it is empty."""
+        stats = self.store.stats()
+        if stats.oldest is None or stats.newest is None:
+            return None
+        return stats.oldest, stats.newest
+
+    def neighbour_time(self, binding: Binding, t: float, direction: int) -> float | None:
+        """Return the time of the binding's previous (-1) or next (+1) sample strictly around `t`."""
+        series = self._series.get(binding)
+        return None if series is None else series.neighbour_time(t, direction)
+
+    def between(self, binding: Binding, t0: float, t1: float) -> tuple[npt.NDArray[np.float64], list[Scalar]]:
+        """Return the binding's samples with ``t0 <= time <= t1`` (times and values), for an export."""
+        series = self._series.get(binding)
+        return (np.empty(0), []) if series is None else series.between(t0, t1)
+
+    def history_stats(self) -> HistoryStats:
+        """Return what the history holds (span, samples, bytes)."""
+        return self.store.stats()
+
+    def samples_held(self, binding: Binding) -> int:
+        """Return how many samples of `binding`'s series the history holds."""
+        series = self._series.get(binding)
+        return 0 if series is None else series.held()
