@@ -11,6 +11,9 @@ Run from the repository root: ``.venv/bin/python -m benchmarks.bench_timetravel`
   ``bench_ui``'s 20 widgets (8 plots of 5 series, 12 gauges) over a 50 topics x 100 Hz history of
   ``--minutes`` served by a `ReplaySource`; one cursor move = seek to a random time + one frame (every
   widget redrawn at that time); a drag = the cursor moved by 0.1 s per frame, frames per second.
+* **open**: a recording of 50 topics x 100 Hz for ``--minutes`` (written by ``bench_record``'s writer),
+  opened for replay: the time until the first frame can be drawn (the end of the file, 20 bindings
+  filled) and until the whole file is seekable, against loading it whole first.
 * **backfill**: a real viewer engine and a real dbglog SDK child that logs ``--backfill-samples`` values of
   a tag (10 minutes of a 100 Hz tag = 60,000) before anything binds it; then a binding is made and timed
   until its series holds every one of them (repeats, each on a new tag).
@@ -281,10 +284,69 @@ def _redraw(args: argparse.Namespace) -> None:
     )
 
 
+def _open(args: argparse.Namespace) -> None:
+    import tempfile
+
+    from benchmarks.bench_record import _write_large
+    from dbglog.viewer._data._replay import load_replay
+
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "hour.mcap"
+        n = _write_large(path, args.topics, float(args.rate), args.minutes * 60.0)
+        size = path.stat().st_size
+        names = [f"/rosdashboard/big/t{i}" for i in range(args.widgets)]
+        firsts: list[float] = []
+        wholes: list[float] = []
+        plains: list[float] = []
+        for _ in range(args.repeats):
+            begin = time.perf_counter()
+            source = load_replay(path, progressive=True)
+            for name in names:
+                source.bind(Binding(name))
+            assert all(source.snapshot(Binding(name)).last is not None for name in names)
+            firsts.append(time.perf_counter() - begin)
+            while source.loading:
+                time.sleep(0.005)
+            wholes.append(time.perf_counter() - begin)
+            assert source.samples_held(Binding(names[0])) == n // args.topics
+            del source
+            begin = time.perf_counter()
+            plain = load_replay(path, progressive=False)
+            for name in names:
+                plain.bind(Binding(name))
+            plains.append(time.perf_counter() - begin)
+            del plain
+    print_table(
+        f"Open for replay: {args.topics} topics × {args.rate} Hz × {args.minutes} min = {n:,} messages "
+        f"({size / 1e6:,.0f} MB), {args.widgets} bindings, {args.repeats} repeats",
+        ["", "p50 s", "max s", "target"],
+        [
+            [
+                "first frame (the last 10 s, bindings filled)",
+                f"{statistics.median(firsts):.2f}",
+                f"{max(firsts):.2f}",
+                "≤ 2 s",
+            ],
+            [
+                "whole file seekable (progressive)",
+                f"{statistics.median(wholes):.1f}",
+                f"{max(wholes):.1f}",
+                "≤ 20 s",
+            ],
+            [
+                "whole file, loaded before anything is shown",
+                f"{statistics.median(plains):.1f}",
+                f"{max(plains):.1f}",
+                "",
+            ],
+        ],
+    )
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the benchmark and print Markdown tables."""
     parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("--only", choices=["cursor", "backfill", "redraw"], default=None)
+    parser.add_argument("--only", choices=["cursor", "backfill", "redraw", "open"], default=None)
     parser.add_argument("--shot", default="", help="(redraw) a PNG of the dashboard at the end")
     parser.add_argument("--topics", type=int, default=50)
     parser.add_argument("--rate", type=int, default=100)
@@ -300,6 +362,8 @@ def main(argv: list[str] | None = None) -> int:
         _backfill(args)
     if args.only in (None, "cursor"):
         _cursor(args)
+    if args.only in (None, "open"):
+        _open(args)
     if args.only in (None, "redraw"):
         if os.environ.get("DISPLAY"):
             _redraw(args)

@@ -214,3 +214,32 @@ def test_playback_speed_loop_and_the_end(tmp_path: Path) -> None:
     timeline.tick()  # past the end: back to the start, playing on
     assert timeline.playing
     assert timeline.snapshot(speed).last == 0.0
+
+
+def test_a_long_recording_opens_with_its_end_and_loads_the_rest_behind(tmp_path: Path) -> None:
+    """Progressive opening: the last seconds at once, then every binding refilled from the whole file."""
+    path = tmp_path / "long.mcap"
+    w = McapWriter(path)
+    chan = w.add_channel("/rosdashboard/slow", "std_msgs/msg/Float64")
+    for i in range(600):  # 60 s at 10 Hz
+        t = T0 + i * 100_000_000
+        w.write(chan, t, serialize_message(Float64(data=float(i))), t)
+    w.close()
+    source = load_replay(path, progressive=True)
+    b = Binding("/rosdashboard/slow")
+    source.bind(b)
+    first = source.snapshot(b)
+    assert first.last == 599.0
+    span = source.time_span()
+    assert span is not None
+    if source.loading:  # the end only, for now
+        assert span[1] - span[0] <= 10.0 + 1e-6
+        assert first.values[0] >= 499.0
+    deadline = time.monotonic() + 30
+    while source.loading and time.monotonic() < deadline:
+        time.sleep(0.01)
+    assert not source.loading
+    assert source.time_span() == (T0 * 1e-9, (T0 + 599 * 100_000_000) * 1e-9)
+    assert source.samples_held(b) == 600
+    assert source.snapshot_at(b, (T0 + 42 * 100_000_000) * 1e-9).last == 42.0
+    assert source.problems == []

@@ -24,7 +24,7 @@ import numpy.typing as npt
 
 from dbglog.record._writer import MAGIC, RecordingError
 
-__all__ = ["SCALAR_DTYPES", "Recording", "TopicData", "read_recording"]
+__all__ = ["SCALAR_DTYPES", "Recording", "TopicData", "read_recording", "recording_span"]
 
 SCALAR_DTYPES: dict[str, str] = {
     "std_msgs/msg/Float64": "<f8",
@@ -483,6 +483,32 @@ def _scalars(
     if name.endswith("/Bool"):
         values = (values != 0).astype(np.float64)
     return values
+
+
+def recording_span(path: str | os.PathLike[str]) -> tuple[int, int] | None:
+    """Return (first, last) log time in ns from a file's summary statistics; None without a summary.
+
+    Reads the footer and summary only (milliseconds, whatever the file's size), for a viewer that
+    opens the end of a long recording first. A rosbag2 directory: its first ``.mcap`` file.
+    """
+    from mcap.exceptions import McapError
+    from mcap.reader import SeekingReader
+
+    path = os.fspath(path)
+    if os.path.isdir(path):
+        files = sorted(f for f in os.listdir(path) if f.endswith(".mcap"))
+        if len(files) != 1:
+            return None
+        path = os.path.join(path, files[0])
+    try:
+        with open(path, "rb") as f:
+            summary = SeekingReader(f, validate_crcs=False).get_summary()
+    except (OSError, McapError, struct.error, ValueError, EOFError, IndexError):
+        return None
+    stats = None if summary is None else summary.statistics
+    if stats is None or not stats.message_count:
+        return None
+    return int(stats.message_start_time), int(stats.message_end_time)
 
 
 def read_recording(

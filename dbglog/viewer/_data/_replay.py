@@ -21,7 +21,7 @@ from dbglog._ros._batch import BATCH_TOPIC
 from dbglog._ros._cdr import string_payload
 from dbglog._ros._tags import topic_for_tag
 from dbglog.record._inspect import tag_series
-from dbglog.record._reader import Recording, read_recording
+from dbglog.record._reader import Recording, read_recording, recording_span
 from dbglog.viewer._data._fields import FieldPathError, list_fields, message_class
 from dbglog.viewer._data._history import History
 from dbglog.viewer._data._model import Binding, FieldInfo, SeriesSnapshot, TopicInfo
@@ -61,20 +61,60 @@ def history_of(recording: Recording, *, max_bytes: int) -> tuple[History, dict[s
     return store, types
 
 
+_FIRST_SECONDS = 10.0
+"""A long recording opens with its last this many seconds, the rest loading behind."""
+_LONG_FILE_BYTES = 32 << 20
+"""Files at least this big open progressively (a smaller one loads whole in well under a second)."""
+
+
+def _problems(recording: Recording) -> list[str]:
+    unreadable = recording.unreadable.items()
+    return [*recording.problems, *(f"{recording.path}: {t} is unreadable: {why}" for t, why in unreadable)]
+
+
 def load_replay(
-    path: str | os.PathLike[str], *, max_bytes: int = 4 << 30, stale_after: float = 2.0
+    path: str | os.PathLike[str],
+    *,
+    max_bytes: int = 4 << 30,
+    stale_after: float = 2.0,
+    progressive: bool | None = None,
 ) -> ReplaySource:
     """Open a recording for the viewer (read-only).
+
+    A long file (``progressive`` None: 32 MB or more; True: always, when it has an index) opens with
+    its last seconds at once and loads the rest on a background thread: the source's `loading` is
+    True until the whole file is held, then every binding is filled again from all of it.
 
     Raises:
         RecordingError: the file cannot be read at all (the message names it and says why).
     """
-    recording = read_recording(path)
-    store, types = history_of(recording, max_bytes=max_bytes)
-    problems = list(recording.problems)
-    unreadable = recording.unreadable.items()
-    problems += [f"{recording.path}: {topic} is unreadable: {why}" for topic, why in unreadable]
-    return ReplaySource(store, types, stale_after=stale_after, name=recording.path, problems=problems)
+    path = os.fspath(path)
+    if progressive is None:
+        progressive = os.path.isfile(path) and os.path.getsize(path) >= _LONG_FILE_BYTES
+    span = recording_span(path) if progressive else None
+    if span is None:
+        recording = read_recording(path)
+        store, types = history_of(recording, max_bytes=max_bytes)
+        return ReplaySource(
+            store, types, stale_after=stale_after, name=recording.path, problems=_problems(recording)
+        )
+    first = read_recording(path, start_ns=max(span[0], span[1] - round(_FIRST_SECONDS * 1e9)))
+    store, types = history_of(first, max_bytes=max_bytes)
+    source = ReplaySource(store, types, stale_after=stale_after, name=first.path, problems=_problems(first))
+    source.loading = True
+
+    def load_all() -> None:
+        try:
+            whole = read_recording(path)
+            full, full_types = history_of(whole, max_bytes=max_bytes)
+        except Exception as exc:  # the first seconds stay shown; say why the rest is missing
+            source.problems.append(f"{path}: only the last {_FIRST_SECONDS:g} s could be read: {exc}")
+            source.loading = False
+            return
+        source.replace(full, full_types, _problems(whole))
+
+    threading.Thread(target=load_all, name="dbglog-replay-load", daemon=True).start()
+    return source
 
 
 class ReplaySource(SeriesTimes):
@@ -111,6 +151,24 @@ class ReplaySource(SeriesTimes):
         self._series: dict[Binding, Series] = {}
         span = store.stats()
         self._end = span.newest if span.newest is not None else 0.0
+        self.loading = False
+        """True while the rest of a long recording loads behind its first seconds."""
+
+    def replace(self, store: History, types: dict[str, str], problems: list[str]) -> None:
+        """Serve a fuller history of the same recording: every binding is filled again from it."""
+        fresh: dict[Binding, Series] = {}
+        for binding in list(self._series):
+            series = fresh[binding] = Series(binding, self.capacity, store)
+            self._fill(binding, series, store, types)
+        with self._lock:
+            for binding in [b for b in self._series if b not in fresh]:  # bound meanwhile
+                series = fresh[binding] = Series(binding, self.capacity, store)
+                self._fill(binding, series, store, types)
+            self.store, self.types, self.problems = store, dict(types), list(problems)
+            self._series = fresh
+            stats = store.stats()
+            self._end = stats.newest if stats.newest is not None else self._end
+            self.loading = False
 
     # --- DataSource ---------------------------------------------------------------------------------
 
@@ -119,12 +177,17 @@ class ReplaySource(SeriesTimes):
         with self._lock:
             if binding in self._series:
                 return
-            series = self._series[binding] = Series(binding, self.capacity, self.store)
+            store, types = self.store, self.types
+            series = self._series[binding] = Series(binding, self.capacity, store)
+        self._fill(binding, series, store, types)
+
+    def _fill(self, binding: Binding, series: Series, store: History, types: dict[str, str]) -> None:
+        """Resolve a binding against its topic's type and fill its series from `store`."""
         name = binding.topic.strip()
         name = name if name.startswith("/") else "/" + name
-        msg_type = self.types.get(name)
+        msg_type = types.get(name)
         if msg_type is None:
-            near = close_matches(name, set(self.types))
+            near = close_matches(name, set(types))
             hint = f" (did you mean {', '.join(near)}?)" if near else ""
             series.set_error(f"{name} is not in {self.name}{hint}")
             return
@@ -142,21 +205,22 @@ class ReplaySource(SeriesTimes):
             series.set_error(str(exc), msg_type=msg_type)
             return
         sink = make_sink(binding, series, cls, msg_type, regex, chain)
-        if same_values(sink, cls, msg_type) and self.store.kind(name) == "numbers":
+        if same_values(sink, cls, msg_type) and store.kind(name) == "numbers":
             series.share(name)
         if sink.kind is None:
             return
         series.set_type(msg_type, sink.kind)
-        if not backfill(self.store, name, cls, sink):
+        if not backfill(store, name, cls, sink):
             series.set_waiting(f"{name} has no message in {self.name}")
 
     def unbind(self, binding: Binding) -> None:
         """Forget the series of `binding` (its values leave the history)."""
         with self._lock:
             series = self._series.pop(binding, None)
+            store = self.store
         if series is not None:
             series.store = None
-            self.store.drop(series.own_key)
+            store.drop(series.own_key)
 
     def snapshot(self, binding: Binding) -> SeriesSnapshot:
         """Return the series at the end of the recording."""
