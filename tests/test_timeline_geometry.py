@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import itertools
+import math
 import time
 
 import pytest
@@ -17,6 +18,7 @@ from dbglog.viewer._ui._timescale import (
     format_bytes,
     format_clock,
     format_duration,
+    format_offset,
     history_text,
     label_left,
     tick_step,
@@ -106,6 +108,26 @@ def test_ticks_count_back_from_the_newest_sample() -> None:
     assert xs == sorted(xs, reverse=True)
 
 
+def test_a_recordings_ticks_count_from_its_start() -> None:
+    """A recording's ticks sit at whole steps after its first moment, oldest first, labelled m:ss."""
+    scale = TimeScale.of((T0, T0 + 300), 0, 1000)
+    ticks = scale.ticks_from_start(min_px=100)
+    assert [after for _x, after in ticks] == [30 * k for k in range(1, 11)]
+    assert ticks[0][0] == pytest.approx(100)
+    assert ticks[-1][0] == pytest.approx(1000)
+    assert [format_offset(after) for _x, after in ticks[:3]] == ["0:30", "1:00", "1:30"]
+
+
+def test_offsets_read_as_a_media_player() -> None:
+    """Times into a recording: m:ss (h:mm:ss past an hour); the cursor's with tenths, never 0:60."""
+    assert format_offset(0) == "0:00"
+    assert format_offset(7.4) == "0:07"
+    assert format_offset(7.44, precise=True) == "0:07.4"
+    assert format_offset(59.96, precise=True) == "1:00.0"
+    assert format_offset(3723.24, precise=True) == "1:02:03.2"
+    assert format_offset(-1) == "0:00"
+
+
 def test_durations_read_as_a_clock() -> None:
     """Under a minute in seconds, then m:ss, then h:mm:ss."""
     assert format_duration(0) == "0 s"
@@ -177,3 +199,20 @@ def test_spread_never_leaves_two_tags_closer_than_the_gap(positions: list[float]
     assert all(b - a >= gap - 1e-6 for a, b in itertools.pairwise(ys))
     # Nothing moves further than the crowd it is part of needs.
     assert all(abs(o - p) <= gap * len(positions) for o, p in zip(out, positions, strict=True))
+
+
+def test_export_ranges_read_plainly() -> None:
+    """A plot's window ends at the cursor (live: its newest sample); file names say what and when."""
+    from dbglog.viewer._ui._recordings import ExportRange, default_name, plot_window
+
+    assert plot_window(10.0, T0 + 50, T0 + 60) == (T0 + 40, T0 + 50)
+    assert plot_window(10.0, None, T0 + 60) == (T0 + 50, T0 + 60)
+    assert plot_window(10.0, None, None) is None
+    whole = ExportRange(T0, T0 + 312, "Everything held", whole=True)
+    assert whole.bounds == (-math.inf, math.inf)  # what arrives until the file is written too
+    part = ExportRange(T0, T0 + 2, "What the plots show")
+    assert part.bounds == (T0, T0 + 2)
+    assert part.label.startswith("What the plots show: 2 s, ")
+    assert whole.label.startswith("Everything held: 5:12, ")
+    name = default_name("history", ".mcap", T0)
+    assert name == time.strftime("history-%Y%m%d-%H%M%S.mcap", time.localtime(T0))

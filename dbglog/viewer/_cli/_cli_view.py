@@ -1,4 +1,4 @@
-"""``dbglog view``: open the live dashboard viewer, optionally render a screenshot and exit."""
+"""``dbglog view``: open the live dashboard viewer (or replay a recording), optionally render a screenshot."""
 
 from __future__ import annotations
 
@@ -11,6 +11,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
+    from dbglog.viewer._data._model import DataSource
+    from dbglog.viewer._data._replay import ReplaySource
     from dbglog.viewer._ui import ViewerApp
 
 __all__ = [
@@ -25,7 +27,10 @@ __all__ = [
     "size_arg",
 ]
 
-HELP = "Open the live dashboard viewer (drag widgets onto a canvas, bind them to topics, save dashboards)."
+HELP = (
+    "Open the live dashboard viewer (drag widgets onto a canvas, bind them to topics, save dashboards), "
+    "or replay a recording in it (--replay)."
+)
 
 
 def size_arg(text: str) -> tuple[int, int]:
@@ -107,7 +112,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         type=Path,
         help="dashboard JSON file (current or ROSDashboard); a file that does not exist yet starts an "
         "empty dashboard that Save writes there; without one, an automatic dashboard of the live "
-        "/rosdashboard/ tags",
+        "/rosdashboard/ tags (with --replay: of the recording's tags and topics)",
+    )
+    parser.add_argument(
+        "--replay",
+        type=Path,
+        metavar="FILE",
+        help="replay a recording (an MCAP file: dbglog record's, ros2 bag's; or a rosbag2 folder) instead of "
+        "the live graph: no ROS node is started; it opens paused at its end, Space or the play button plays "
+        "it (speed 0.1-10x, loop), the time bar seeks",
     )
     parser.add_argument(
         "--template",
@@ -142,7 +155,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         type=cursor_arg,
         metavar="T",
         help="with --screenshot: take it paused at time T: negative, seconds before the newest sample "
-        "(-2); otherwise epoch seconds",
+        "(-2; with --replay, before the end of the recording); otherwise epoch seconds; with --replay "
+        "and no --screenshot, where the replay starts",
     )
     parser.add_argument(
         "--report-json",
@@ -199,7 +213,7 @@ def run(args: argparse.Namespace) -> int:
     from dbglog.viewer._document._dashboard import DashboardError, LoadResult, load_dashboard
     from dbglog.viewer._widgets import WidgetRegistry
 
-    if args.cursor is not None and args.screenshot is None:
+    if args.cursor is not None and args.screenshot is None and args.replay is None:
         print(
             "dbglog view: error: --cursor needs --screenshot (it sets where the screenshot is taken)",
             file=sys.stderr,
@@ -230,21 +244,38 @@ def run(args: argparse.Namespace) -> int:
         for message in result.messages:
             print(f"dbglog view: {args.dashboard}: {message}", file=sys.stderr)
 
-    from dbglog.viewer._data._engine import Engine
     from dbglog.viewer._ui import ViewerApp
 
-    engine = Engine(
-        stale_after=max(0.1, args.stale_after),
-        history_seconds=args.history,
-        history_bytes=int(args.history_mb * 2**20),
-    )
-    try:
-        engine.start()
-    except RuntimeError as exc:
-        print(f"dbglog view: error: {exc}", file=sys.stderr)
-        return 1
+    source: DataSource
+    if args.replay is not None:
+        replay = open_replay(args.replay, stale_after=max(0.1, args.stale_after))
+        if replay is None:
+            return 1
+        source, engine = replay, None
+    else:
+        from dbglog.viewer._data._engine import Engine
+
+        engine = Engine(
+            stale_after=max(0.1, args.stale_after),
+            history_seconds=args.history,
+            history_bytes=int(args.history_mb * 2**20),
+        )
+        try:
+            engine.start()
+        except RuntimeError as exc:
+            print(f"dbglog view: error: {exc}", file=sys.stderr)
+            return 1
+        source = engine
     width, height = args.size
-    app = ViewerApp(engine, registry, width=width, height=height, fps=args.fps, data_fps=args.data_fps)
+    app = ViewerApp(
+        source,
+        registry,
+        width=width,
+        height=height,
+        fps=args.fps,
+        data_fps=args.data_fps,
+        recording=args.replay is not None,
+    )
     try:
         app.start()
         from dbglog.viewer._ui._auto import AutoDashboard, all_live, write_report
@@ -259,13 +290,24 @@ def run(args: argparse.Namespace) -> int:
         elif result is not None:
             app.load(result, args.dashboard)
         else:
-            auto = AutoDashboard(app, all_topics=args.all)
+            # A recording's topics all have their messages at hand: every one gets a widget.
+            auto = AutoDashboard(app, all_topics=args.all or args.replay is not None)
             auto.install()
+        if args.replay is not None:
+            replay_status(app, args.replay, auto is not None)
+        if args.replay is not None and (args.screenshot is not None or args.cursor is not None):
+            whole_recording(app)  # a cursor and a picture are of the whole file, not its first seconds
+        if args.screenshot is None and args.replay is not None and args.cursor is not None:
+            app.frame()
+            place_cursor(app, args.cursor)
         if args.screenshot is not None:
             app.run(seconds=args.after)
             deadline = time.monotonic() + args.wait_live
-            # Wait for every widget to be live, and for new array tags still learning their length.
-            while (not all_live(app) or (auto is not None and auto.pending)) and time.monotonic() < deadline:
+            # Wait for every widget to be live, and for new array tags still learning their length (a
+            # recording's widgets show its end: live or stale then, as it was).
+            while (
+                (not all_live(app) and args.replay is None) or (auto is not None and auto.pending)
+            ) and time.monotonic() < deadline:
                 app.frame()
             if args.cursor is not None:
                 place_cursor(app, args.cursor)
@@ -284,7 +326,45 @@ def run(args: argparse.Namespace) -> int:
         return 0
     finally:
         app.close()
-        engine.stop()
+        if engine is not None:
+            engine.stop()
+
+
+def open_replay(path: Path, *, stale_after: float) -> ReplaySource | None:
+    """Load a recording for ``--replay``; its problems are warnings on stderr; None if it cannot be read."""
+    from dbglog.record import RecordingError
+    from dbglog.viewer._data._replay import load_replay
+
+    try:
+        replay = load_replay(path, stale_after=stale_after)
+    except RecordingError as exc:
+        print(f"dbglog view: error: {exc}", file=sys.stderr)
+        return None
+    for problem in replay.problems:
+        print(f"dbglog view: warning: {problem} (the readable part plays)", file=sys.stderr)
+    if replay.time_span() is None:
+        print(f"dbglog view: warning: {path} holds no readable message", file=sys.stderr)
+    return replay
+
+
+def whole_recording(app: ViewerApp, timeout: float = 600.0) -> None:
+    """Render until a long recording has loaded whole (it opens with its last seconds, the rest behind)."""
+    deadline = time.monotonic() + timeout
+    while getattr(app.source, "loading", False) and time.monotonic() < deadline:
+        app.frame()
+        time.sleep(0.02)
+    if not app.timeline.playing:
+        app.go_live()  # the end of the whole file (the cursor was at the end of its first part)
+
+
+def replay_status(app: ViewerApp, path: Path, auto: bool) -> None:
+    """Say in the status bar what is replayed and how to play it."""
+    from dbglog.viewer._ui._timescale import format_duration
+
+    span = app.time_span()
+    length = format_duration(span[1] - span[0]) if span is not None else "empty"
+    how = "automatic dashboard of its topics; " if auto else ""
+    app.set_status(f"replay of {path.name} ({length}): {how}Space or the play button plays, the bar seeks")
 
 
 def place_cursor(app: ViewerApp, t: float) -> float:

@@ -49,6 +49,7 @@ from dbglog.viewer._ui._pacing import (
 )
 from dbglog.viewer._ui._pointer import PointerInput
 from dbglog.viewer._ui._quit import QuitDialog
+from dbglog.viewer._ui._recordings import RecordingCommands
 from dbglog.viewer._ui._timebar import TIMEBAR_H, TimeBar
 from dbglog.viewer._ui._timescale import history_text
 from dbglog.viewer._widgets import WidgetRegistry
@@ -97,7 +98,7 @@ class ViewerApp:
     """The whole viewer window; create, `start`, call `frame` (or `run`), then `close`.
 
     Widgets read their series through `timeline`, the window's time cursor over `source`: live, or
-    paused at a moment of the past (the timeline bar, Space, the arrow keys, End).
+    paused at a moment of the past, or playing (the timeline bar, Space, the arrow keys, End).
 
     Args:
         source: where series come from (the engine, or any `DataSource`).
@@ -105,6 +106,7 @@ class ViewerApp:
         width / height: the window size in pixels.
         fps: the frame cap of `run` (which also skips frames while nothing changes).
         data_fps: how often `run` draws new data at most while the user does nothing.
+        recording: `source` is a recording (a `ReplaySource`): it opens paused at its end, Space plays.
     """
 
     def __init__(
@@ -117,9 +119,12 @@ class ViewerApp:
         title: str = "dbglog viewer",
         fps: float = DEFAULT_FPS,
         data_fps: float = DEFAULT_DATA_FPS,
+        recording: bool = False,
     ) -> None:
         self.source = source
-        self.timeline = Timeline(source, stale_after=float(getattr(source, "stale_after", 2.0)))
+        self.timeline = Timeline(
+            source, stale_after=float(getattr(source, "stale_after", 2.0)), recording=recording
+        )
         """The time cursor: every widget's snapshots come through it (live, or as they stood at a time)."""
         self.registry = registry if registry is not None else WidgetRegistry.discover()
         self.width, self.height, self.title = width, height, title
@@ -153,6 +158,8 @@ class ViewerApp:
         """The controls' publishing service: this app's own, handed to every widget at mount."""
         self.pointer_input = PointerInput(self)
         self.files = FileCommands(self)
+        self.recordings = RecordingCommands(self)
+        """File › Open recording, Save history as recording, Export CSV, Back to live."""
         self._started = False
         self._status_text = ""
         self._status_left = ""
@@ -229,6 +236,8 @@ class ViewerApp:
         dpg.set_exit_callback(lambda *_: self._on_close_request())
         dpg.setup_dearpygui()
         self._build()
+        if self.timeline.recording:
+            self.timeline.pause()  # at the recording's end, what it showed last; Space plays from the start
         if visible:
             dpg.show_viewport()
             self._x_input = XInput.of_glfw(dpg.internal_dpg.__file__)
@@ -307,7 +316,13 @@ class ViewerApp:
                 self.grid_group = dpg.add_group(parent=self.canvas, pos=(0, 0))
                 self.grid_layer = dpg.add_drawlist(1, 1, parent=self.grid_group)
             self.timebar = TimeBar(
-                self.timeline, self.time_span, self.seek, lambda: self.queue_time(self.toggle_live)
+                self.timeline,
+                self.time_span,
+                self.seek,
+                lambda: self.queue_time(self.toggle_live),
+                on_play=self.toggle_play,
+                on_speed=lambda speed: self.queue_time(self.set_speed, speed),
+                on_loop=self.toggle_loop,
             )
             with dpg.group(horizontal=True):
                 self.status_left = dpg.add_text("", color=theme.DIM)
@@ -334,6 +349,7 @@ class ViewerApp:
             dpg.add_key_press_handler(dpg.mvKey_Left, callback=lambda *_: queue(self.on_time_arrow, -1))
             dpg.add_key_press_handler(dpg.mvKey_Right, callback=lambda *_: queue(self.on_time_arrow, 1))
             dpg.add_key_press_handler(dpg.mvKey_End, callback=lambda *_: queue(self.on_end_key))
+            dpg.add_key_press_handler(dpg.mvKey_Home, callback=lambda *_: queue(self.on_home_key))
             dpg.add_mouse_wheel_handler(callback=lambda _s, delta: self.pointer_input.on_wheel(delta))
         self._update_title()
 
@@ -348,6 +364,8 @@ class ViewerApp:
                     shortcut="Ctrl+Shift+S",
                     callback=lambda *_: self.files.ask(save=True),
                 )
+                dpg.add_separator()
+                self.recordings.build_menu()
                 dpg.add_separator()
                 self.quit_menu = dpg.add_menu_item(
                     label="Quit", shortcut="Ctrl+Q", callback=lambda *_: self.request_quit()
@@ -410,9 +428,12 @@ class ViewerApp:
         """Between frames: run the hooks and see whether anything on screen would change (no drawing)."""
         for hook in self.frame_hooks:
             hook()
+        playing = self.timeline.playing
+        if playing:  # the cursor moves with the clock: every drawn frame shows a later moment
+            self.timeline.tick()
         at = self.timeline.cursor
         changed = any(item.changed(self.timeline, paused_at=at) for item in self.items)
-        if changed or self._time_commands or self._bar_moved():
+        if changed or playing or self._time_commands or self._bar_moved():
             self.pacer.request(time.monotonic())
         self._poke_if_view_changed()
 
@@ -467,7 +488,9 @@ class ViewerApp:
             self.dirty,
             self.path,
             self.paint.window_size,
-            self.timeline.cursor,
+            # Playback moves the cursor by itself: drawn at the data rate (`--data-fps`), not the input cap.
+            None if self.timeline.playing else self.timeline.cursor,
+            self.timeline.playing,
         )
 
     def _render(self, now: float) -> None:
@@ -894,15 +917,75 @@ class ViewerApp:
         self.timeline.seek(t)
 
     def go_live(self) -> None:
-        """Follow the newest data again."""
+        """Follow the newest data again (a recording: go to its end, paused)."""
+        if self.timeline.recording:
+            span = self.time_span()
+            self.timeline.pause()
+            if span is not None:
+                self.timeline.seek(span[1])
+            return
         self.timeline.resume()
 
     def toggle_live(self) -> None:
-        """Pause at the newest sample, or go back to live."""
-        if self.live:
+        """Pause at the newest sample, or go back to live; a recording, or playback: play or pause."""
+        if self.timeline.recording or self.timeline.playing:
+            self.toggle_play()
+        elif self.live:
             self.pause()
         else:
             self.go_live()
+
+    def toggle_play(self) -> None:
+        """Play from the cursor, or pause playback (live: from a paused cursor, until it catches up)."""
+        timeline = self.timeline
+        if timeline.playing:
+            timeline.pause()
+        elif timeline.recording or not timeline.live:
+            timeline.play()
+        else:
+            self.set_status("pause or click on the timeline first: playback starts from the cursor")
+
+    def set_speed(self, speed: float) -> None:
+        """Set the playback speed (`Timeline.SPEEDS`) and close the speed menu."""
+        self.timebar.close_speed_menu()
+        self.timeline.set_speed(speed)
+        self.set_status(f"playback speed {speed:g}\u00d7")
+
+    def toggle_loop(self) -> None:
+        """Switch looping (a recording plays again from its start at the end) on or off."""
+        self.timeline.loop = not self.timeline.loop
+        self.set_status("loop on: playback starts again at the end" if self.timeline.loop else "loop off")
+
+    def use_source(self, source: DataSource, *, recording: bool) -> None:
+        """Show `source` in place of the current data source: a recording opened, or live again.
+
+        Every binding moves to it (widgets keep their bindings, fields, regex and transforms); a recording
+        opens paused at its end, a live source live.
+        """
+        old, bound = self.source, list(self.doc.refs)
+        for binding in bound:
+            old.unbind(binding)
+        self.source = source
+        timeline = self.timeline
+        timeline.source = source
+        timeline.recording = recording
+        timeline.loop = False
+        timeline.stale_after = float(getattr(source, "stale_after", timeline.stale_after))
+        timeline.resume()
+        for binding in bound:
+            source.bind(binding)
+        if recording:
+            timeline.pause()
+        self._fallback_span, self._span_checked = None, -1.0
+        self._history_at = -1.0
+        self._update_title()
+
+    @property
+    def replay_name(self) -> str | None:
+        """The recording shown (its file name), or None for a live source."""
+        if not self.timeline.recording:
+            return None
+        return Path(str(getattr(self.source, "name", "recording"))).name
 
     def shift_time(self, seconds: float) -> None:
         """Move the cursor `seconds` later (negative: earlier), pausing first when live."""
@@ -950,9 +1033,16 @@ class ViewerApp:
             self.step_time(direction)
 
     def on_end_key(self) -> None:
-        """End: back to live."""
+        """End: back to live (a recording: to its end)."""
         if not self._keys_blocked():
             self.go_live()
+
+    def on_home_key(self) -> None:
+        """Home: to the oldest moment held (a recording's start), paused."""
+        span = self.time_span()
+        if not self._keys_blocked() and span is not None:
+            self.timeline.pause()
+            self.seek(span[0])
 
     def _modal_open(self) -> bool:
         """Whether a dialog, the file dialog or the context menu has the input."""
@@ -1002,7 +1092,9 @@ class ViewerApp:
 
     def _update_title(self) -> None:
         if self._started:
-            dpg.set_viewport_title(self.doc.title(self.title))
+            replay = self.replay_name
+            base = self.title if replay is None else f"{self.title} \u2014 replay of {replay}"
+            dpg.set_viewport_title(self.doc.title(base))
 
     def _update_status(self) -> None:
         """Refresh the status bar's left part (content at once, fps twice a second)."""
@@ -1017,6 +1109,10 @@ class ViewerApp:
             else:
                 self._fps_text = f"{min(recent, 999)} fps"
         parts = self.doc.summary()
+        replay = self.replay_name
+        if replay is not None:
+            loading = " (loading the rest\u2026)" if getattr(self.source, "loading", False) else ""
+            parts.insert(0, f"replay of {replay}{loading}")
         self._history_text = self._history_status(now)
         if self._history_text:
             parts.append(self._history_text)

@@ -176,7 +176,8 @@ def all_live(app: ViewerApp) -> bool:
 def widget_report(app: ViewerApp) -> dict[str, Any]:
     """Return every widget's name, type, status (and why) and bindings, with the dashboard as saved.
 
-    Also the time cursor (epoch seconds, None while live), the span of source times held (oldest, newest)
+    Also the recording replayed (its path, None for live data), the time cursor (epoch seconds, None while
+    live), the span of source times held (oldest, newest)
     and, per widget, `values`: the value each binding
     shows at the cursor (live: the latest), and `samples`: how many samples of it the history holds (the
     source's `samples_held`, else the live series' length); both None for a control's publish targets.
@@ -184,6 +185,7 @@ def widget_report(app: ViewerApp) -> dict[str, Any]:
     return {
         "file": str(app.path) if app.path is not None else None,
         "modified": app.dirty,
+        "replay": str(getattr(app.source, "name", "")) if app.timeline.recording else None,
         "cursor": app.timeline.cursor,
         "span": list(span) if (span := app.time_span()) is not None else None,
         "widgets": [

@@ -43,6 +43,7 @@ __all__ = [
     "TopicDialog",
     "TopicHost",
     "dashboard_file_name",
+    "file_name",
     "formula_check",
     "regex_preview",
     "topic_widget_name",
@@ -193,28 +194,44 @@ class RenameDialog(Dialog):
         return True
 
 
-def dashboard_file_name(text: str) -> str:
-    """Return the file name to save a dashboard as for what was typed: ``.json`` added once.
+def file_name(text: str, extension: str) -> str:
+    """Return the file name to save as for what was typed: `extension` (``.json``, ``.mcap``) added once.
 
     Raises:
         ValueError: the name is blank, or names a folder rather than a file.
     """
     name = text.strip()
     if not name:
-        raise ValueError("type a file name, e.g. dashboard.json")
+        raise ValueError(f"type a file name, e.g. name{extension}")
     if name.endswith(("/", os.sep)) or Path(name).name in (".", ".."):
         raise ValueError(f"{name!r} is a folder: add a file name")
-    return name if name.lower().endswith(".json") else name + ".json"
+    return name if name.lower().endswith(extension.lower()) else name + extension
+
+
+def dashboard_file_name(text: str) -> str:
+    """Return the file name to save a dashboard as for what was typed: ``.json`` added once.
+
+    Raises:
+        ValueError: the name is blank, or names a folder rather than a file.
+    """
+    return file_name(text, ".json")
 
 
 class SaveAsDialog(Dialog):
     """Save the dashboard under a new name: the name field has the keyboard, Enter saves, Esc cancels.
+
+    The same dialog saves other files (a recording, a CSV export) and opens one (`opening`): a name field
+    that starts filled in, the folder's entries of that kind, the extension added once.
 
     Args:
         folder: where the file goes unless the name says otherwise (the dashboard's folder).
         name: the name the field starts with (the dashboard's file name, or ``dashboard.json``).
         on_save: called with the chosen path; the caller saves and closes the dialog.
         on_close: called whenever the dialog closes, as for every `Dialog`.
+        title: the dialog's title.
+        extension: the files listed and the extension added to a typed name that lacks it.
+        action: the main button's label.
+        opening: open an existing file (or folder) instead: nothing is replaced, the path must exist.
     """
 
     def __init__(
@@ -223,13 +240,22 @@ class SaveAsDialog(Dialog):
         name: str,
         on_save: Callable[[Path], object],
         on_close: Callable[[Dialog], None],
+        *,
+        title: str = "Save dashboard as",
+        extension: str = ".json",
+        action: str = "Save",
+        opening: bool = False,
     ) -> None:
-        super().__init__("Save dashboard as", 560, on_close)
+        super().__init__(title, 560, on_close)
         self.folder = folder
+        self.extension = extension
+        self.action = action
+        self.opening = opening
         self._on_save = on_save
         self._replace: Path | None = None
         w = self.window
-        dpg.add_text("File name (.json is added if missing)", color=DIM, parent=w)
+        hint = "File name" if opening else f"File name ({extension} is added if missing)"
+        dpg.add_text(hint, color=DIM, parent=w)
         self.name_input = dpg.add_input_text(
             default_value=name,
             width=-1,
@@ -240,10 +266,12 @@ class SaveAsDialog(Dialog):
         )
         self.folder_text = dpg.add_text("", color=DIM, parent=w, wrap=530)
         self.entries = dpg.add_child_window(height=150, width=-1, parent=w)
+        self.options = dpg.add_group(parent=w, show=False)
+        """Where a caller adds its own choices (shown once it has some: `show_options`)."""
         self.error = dpg.add_text("", color=ERROR_COLOR, parent=w, wrap=530)
         dpg.add_spacer(height=4, parent=w)
         with dpg.group(horizontal=True, parent=w):
-            self.save_button = dpg.add_button(label="Save", width=100, callback=lambda *_: self.apply())
+            self.save_button = dpg.add_button(label=action, width=100, callback=lambda *_: self.apply())
             self.cancel_button = dpg.add_button(label="Cancel", width=100, callback=lambda *_: self.close())
         self._list_folder()
         self.focus_soon(self.name_input)
@@ -257,7 +285,7 @@ class SaveAsDialog(Dialog):
             dpg.set_value(self.error, f"cannot list {self.folder}: {exc.strerror or exc}")
             return
         dirs = [e.name + "/" for e in found if e.is_dir() and not e.name.startswith(".")]
-        files = [e.name for e in found if e.is_file() and e.name.lower().endswith(".json")]
+        files = [e.name for e in found if e.is_file() and e.name.lower().endswith(self.extension.lower())]
         up = ["../"] if self.folder.parent != self.folder else []
         for entry in up + dirs + files:
             dpg.add_selectable(
@@ -279,24 +307,43 @@ class SaveAsDialog(Dialog):
             ValueError: the name is blank or names a folder.
         """
         typed = str(dpg.get_value(self.name_input))
-        return (self.folder / Path(dashboard_file_name(typed)).expanduser()).absolute()
+        if self.opening and typed.strip() and (self.folder / Path(typed.strip()).expanduser()).exists():
+            return (self.folder / Path(typed.strip()).expanduser()).absolute()  # as typed: a file or folder
+        return (self.folder / Path(file_name(typed, self.extension)).expanduser()).absolute()
+
+    def show_options(self) -> int | str:
+        """Show the options group (between the folder's entries and the buttons) and return it."""
+        dpg.configure_item(self.options, show=True)
+        group: int | str = self.options
+        return group
+
+    def set_note(self, text: str, *, error: bool = True) -> None:
+        """Show `text` above the buttons: an error (red), or how the work goes (dim)."""
+        dpg.set_value(self.error, text)
+        dpg.configure_item(self.error, color=ERROR_COLOR if error else DIM)
 
     def apply(self) -> bool:
         """Save as the typed name; an existing file is replaced only when Save is pressed a second time."""
         try:
             path = self.target()
         except ValueError as exc:
-            dpg.set_value(self.error, str(exc))
+            self.set_note(str(exc))
             return False
+        if self.opening:
+            if not path.exists():
+                self.set_note(f"no such file: {path}")
+                return False
+            self._on_save(path)
+            return True
         if not path.parent.is_dir():
-            dpg.set_value(self.error, f"no such folder: {path.parent}")
+            self.set_note(f"no such folder: {path.parent}")
             return False
         if path.is_dir():
-            dpg.set_value(self.error, f"{path} is a folder: type a file name")
+            self.set_note(f"{path} is a folder: type a file name")
             return False
         if path.exists() and path != self._replace:
             self._replace = path
-            dpg.set_value(self.error, f"{path.name} already exists: Save (or Enter) again to replace it.")
+            self.set_note(f"{path.name} already exists: {self.action} (or Enter) again to replace it.")
             dpg.focus_item(self.name_input)
             return False
         self._on_save(path)

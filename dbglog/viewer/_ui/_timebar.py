@@ -1,11 +1,14 @@
-"""The timeline bar across the bottom of the window: the history's span, LIVE or PAUSED, the time cursor.
+"""The timeline bar across the bottom of the window: the history's span, LIVE, PAUSED or PLAYING, the cursor.
 
-A click or a drag on the track moves the cursor there (pausing); the button pauses, or returns to live.
-It reads the app's `Timeline` and draws only when what it shows changed; the maths is `_timescale`.
+A click or a drag on the track moves the cursor there (pausing); the round button plays and pauses, the
+speed button picks a playback speed, the loop toggle (recordings) plays again from the start at the end,
+and the Pause/Live button (live) pauses or returns to live. It reads the app's `Timeline` and draws only
+when what it shows changed; the maths is `_timescale`.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 
 import dearpygui.dearpygui as dpg
@@ -13,19 +16,29 @@ import dearpygui.dearpygui as dpg
 from dbglog.viewer._data._model import Status
 from dbglog.viewer._data._timeline import Timeline
 from dbglog.viewer._ui import _theme as theme
-from dbglog.viewer._ui._timescale import TimeScale, format_ago, format_clock, label_left
+from dbglog.viewer._ui._timescale import (
+    TimeScale,
+    format_ago,
+    format_clock,
+    format_offset,
+    label_left,
+)
 from dbglog.viewer._widgets._common import text_size
 from dbglog.viewer._widgets._geometry import Rect
 from dbglog.viewer.widget_api import Color
 
-__all__ = ["BUTTON_W", "PILL_W", "TIMEBAR_H", "TimeBar"]
+__all__ = ["BUTTON_W", "ICON_W", "PILL_W", "SPEED_W", "TIMEBAR_H", "TimeBar", "speed_text"]
 
 TIMEBAR_H = 36
 """Height of the bar in pixels."""
 PILL_W = 104
 """Width of the LIVE / PAUSED pill at the left."""
 BUTTON_W = 76
-"""Width of the Pause / Live button at the right."""
+"""Width of the Pause / Live button at the right (live only)."""
+ICON_W = 34
+"""Width of the play/pause and loop buttons (drawn icons)."""
+SPEED_W = 56
+"""Width of the speed button."""
 PAD_X = 14
 """Pixels between the track's ends and its drawlist's edges (room for the knob and end labels)."""
 RAIL_Y = 11.0
@@ -39,6 +52,14 @@ LIVE: Color = theme.STATUS_COLORS[Status.LIVE]
 PAUSED: Color = (240, 176, 64, 255)
 RAIL: Color = (52, 57, 68, 255)
 NONE: Color = (0, 0, 0, 0)
+PLAYING: Color = theme.ACCENT
+ICON_BG: Color = (48, 53, 64, 255)
+ICON_HOVER: Color = (62, 92, 130, 255)
+
+
+def speed_text(speed: float) -> str:
+    """Return a playback speed as the speed button shows it: 1, 0.25, 10 and a multiplication sign."""
+    return f"{speed:g}\u00d7"
 
 
 class TimeBar:
@@ -48,7 +69,10 @@ class TimeBar:
         timeline: the app's time cursor (read only: moves go through `on_seek`).
         span: returns the (oldest, newest) source time to show, None while nothing is held.
         on_seek: moves the cursor to a time (a click or drag on the track).
-        on_toggle: the button's action (queued by the app, run on the UI thread).
+        on_toggle: the Pause/Live button's action (queued by the app, run on the UI thread).
+        on_play: the play/pause button's action (a click on it, seen by `poll` on the UI thread).
+        on_speed: a speed chosen in the speed menu (called on Dear PyGui's callback thread: queue it).
+        on_loop: the loop toggle's action (seen by `poll` on the UI thread).
     """
 
     def __init__(
@@ -57,10 +81,20 @@ class TimeBar:
         span: Callable[[], tuple[float, float] | None],
         on_seek: Callable[[float], None],
         on_toggle: Callable[[], None],
+        *,
+        on_play: Callable[[], None] = lambda: None,
+        on_speed: Callable[[float], None] = lambda _speed: None,
+        on_loop: Callable[[], None] = lambda: None,
     ) -> None:
         self.timeline = timeline
         self._span = span
         self._on_seek = on_seek
+        self._on_play = on_play
+        self._on_loop = on_loop
+        self._hover: str | None = None
+        """The icon button under the mouse ("play", "loop"), drawn highlighted."""
+        self._pressed: str | None = None
+        """The icon button the left button went down on (it acts when let go over it)."""
         self.scale: TimeScale | None = None
         """The track's time <-> pixel mapping as last drawn (None: nothing held yet)."""
         self.dragging = False
@@ -70,9 +104,18 @@ class TimeBar:
         self._width = 0
         with dpg.group(horizontal=True) as self.group:
             self.pill = dpg.add_drawlist(PILL_W, TIMEBAR_H)
+            with dpg.group() as play_group:
+                self.play = dpg.add_drawlist(ICON_W, TIMEBAR_H)
             with dpg.group() as track_group:
                 self.track = dpg.add_drawlist(400, TIMEBAR_H)
             with dpg.group():
+                dpg.add_spacer(height=int(MID_Y - 14))
+                self.speed = dpg.add_button(
+                    label=speed_text(timeline.speed), width=SPEED_W, callback=lambda *_: self._ask_speed()
+                )
+            with dpg.group(show=timeline.recording) as self.loop_group:
+                self.loop = dpg.add_drawlist(ICON_W, TIMEBAR_H)
+            with dpg.group(show=not timeline.recording) as self.button_group:
                 dpg.add_spacer(height=int(MID_Y - 14))
                 self.button = dpg.add_button(label="Pause", width=BUTTON_W, callback=lambda *_: on_toggle())
         with dpg.tooltip(track_group, delay=0.6, hide_on_activity=True):  # not over the cursor while dragging
@@ -84,6 +127,30 @@ class TimeBar:
             )
         with dpg.tooltip(self.button):
             self.button_tip = dpg.add_text("")
+        with dpg.tooltip(play_group, delay=0.4):
+            self.play_tip = dpg.add_text("")
+        with dpg.tooltip(self.speed, delay=0.4):
+            dpg.add_text("Playback speed")
+        with dpg.tooltip(self.loop_group, delay=0.4):
+            self.loop_tip = dpg.add_text("")
+        # The speed menu: a popup above the speed button (opened on the UI thread by `open_speed_menu`).
+        with dpg.window(
+            popup=True,
+            show=False,
+            no_title_bar=True,
+            no_move=True,
+            no_resize=True,
+            autosize=True,
+            no_saved_settings=True,
+            min_size=(SPEED_W + 20, 20),
+        ) as self.speed_menu:
+            self.speed_entries: dict[float, int | str] = {}
+            """Speed -> its entry in the speed menu."""
+            for speed in Timeline.SPEEDS:
+                self.speed_entries[speed] = dpg.add_selectable(
+                    label=speed_text(speed), callback=lambda *_, v=speed: on_speed(v)
+                )
+        self._speed_asked = False
 
     # -- geometry -----------------------------------------------------------------------------------
 
@@ -92,13 +159,47 @@ class TimeBar:
         (x, y), (w, h) = dpg.get_item_rect_min(self.track), dpg.get_item_rect_size(self.track)
         return Rect(float(x), float(y), float(w), float(h))
 
+    def icon_rect(self, which: str) -> Rect:
+        """The round button ``play`` or the ``loop`` toggle, in window pixels (its drawn face)."""
+        dl = self.play if which == "play" else self.loop
+        (x, y) = dpg.get_item_rect_min(dl)
+        return Rect(float(x) + 3, float(y) + MID_Y - 14, ICON_W - 6.0, 28.0)
+
     def fit(self, window_w: int) -> None:
-        """Make the track fill the window's width between the pill and the button."""
-        spacing = 8 * 2 + 10 * 2  # the group's item spacing, the window's padding
-        width = max(120, window_w - PILL_W - BUTTON_W - spacing)
+        """Make the track fill the window's width between the pill and play button and the controls."""
+        recording = self.timeline.recording
+        right = SPEED_W + (ICON_W if recording else BUTTON_W)
+        spacing = 8 * 4 + 10 * 2  # the group's item spacing, the window's padding
+        width = max(120, window_w - PILL_W - ICON_W - right - spacing)
         if width != self._width:
             self._width = width
             dpg.configure_item(self.track, width=width)
+        if bool(dpg.is_item_shown(self.loop_group)) != recording:
+            dpg.configure_item(self.loop_group, show=recording)
+            dpg.configure_item(self.button_group, show=not recording)
+
+    # -- the speed menu -----------------------------------------------------------------------------
+
+    def _ask_speed(self) -> None:
+        # Dear PyGui's callback thread: `open_speed_menu` opens it on the UI thread (at the next `poll`).
+        self._speed_asked = True
+
+    def open_speed_menu(self) -> None:
+        """Show the speed menu above the speed button, the current speed highlighted."""
+        for speed, entry in self.speed_entries.items():
+            dpg.set_value(entry, math.isclose(speed, self.timeline.speed))
+        (x, y) = dpg.get_item_rect_min(self.speed)
+        height = len(self.speed_entries) * 26 + 12
+        dpg.configure_item(self.speed_menu, pos=(int(x) - 10, max(0, int(y) - height - 4)), show=True)
+
+    def close_speed_menu(self) -> None:
+        """Hide the speed menu."""
+        dpg.hide_item(self.speed_menu)
+
+    @property
+    def speed_menu_open(self) -> bool:
+        """Whether the speed menu is shown."""
+        return bool(dpg.is_item_shown(self.speed_menu))
 
     # -- the mouse ----------------------------------------------------------------------------------
 
@@ -108,7 +209,22 @@ class TimeBar:
         Returns whether the cursor moved.
         """
         pressed = left and not self._left_down
+        released = self._left_down and not left
         self._left_down = left
+        if self._speed_asked:
+            self._speed_asked = False
+            self.open_speed_menu()
+        blocked = blocked or self.speed_menu_open
+        self._hover = None
+        for which in ("play", "loop") if not blocked else ():
+            if (which == "play" or self.timeline.recording) and self.icon_rect(which).contains(*pos):
+                self._hover = which
+        if pressed:
+            self._pressed = self._hover
+        elif released:
+            if self._pressed is not None and self._pressed == self._hover:
+                (self._on_play if self._pressed == "play" else self._on_loop)()
+            self._pressed = None
         if pressed and not blocked and self.scale is not None and self.track_rect().contains(*pos):
             self.dragging = True
         if not left:
@@ -127,16 +243,26 @@ class TimeBar:
     def _layout(self) -> tuple[TimeScale | None, tuple[object, ...]]:
         """The scale to draw and what the picture depends on (whole pixels and label texts, not times)."""
         span = self._span()
-        cursor = self.timeline.cursor
+        timeline = self.timeline
+        cursor = timeline.cursor
         width = self._width or 400
+        controls = (
+            timeline.playing,
+            timeline.speed,
+            timeline.loop,
+            timeline.recording,
+            self._hover,
+            self._pressed,
+        )
         if span is None:
-            return None, (width, cursor is None)
+            return None, (width, cursor is None, controls)
         scale = TimeScale.of(span, PAD_X, width - PAD_X)
         key: tuple[object, ...] = (
             width,
             format_clock(scale.oldest, millis=False),
             tuple(round(x) for x, _ in scale.ticks()),
             None if cursor is None else (round(scale.x_of(cursor)), cursor, round(scale.newest - cursor, 1)),
+            controls,
         )
         return scale, key
 
@@ -151,19 +277,93 @@ class TimeBar:
         if key == self._key:
             return
         self._key = key
-        cursor = self.timeline.cursor
+        timeline = self.timeline
+        cursor = timeline.cursor
         width = self._width or 400
-        self._draw_pill(cursor is None)
+        self._draw_pill(cursor is None and not timeline.recording, timeline.playing)
         self._draw_track(scale, cursor, width)
+        self._draw_play()
+        if timeline.recording:
+            self._draw_loop()
+        dpg.configure_item(self.speed, label=speed_text(timeline.speed))
         label = "Pause" if cursor is None else "Live"
         dpg.configure_item(self.button, label=label)
         tip = "Pause: hold the dashboard at this moment (Space)" if cursor is None else "Back to live (End)"
         dpg.set_value(self.button_tip, tip)
 
-    def _draw_pill(self, live: bool) -> None:
+    def _icon_face(self, dl: int | str, which: str, *, on: bool = False) -> tuple[float, float]:
+        """Draw an icon button's rounded face (hovered, pressed or switched on); return its centre."""
+        cx, cy = ICON_W / 2, MID_Y
+        fill = ICON_HOVER if self._hover == which else ICON_BG
+        if self._pressed == which and self._hover == which:
+            fill = (70, 120, 180, 255)
+        border = PLAYING if on else fill
+        dpg.draw_rectangle(
+            (cx - 14, cy - 13),
+            (cx + 14, cy + 13),
+            color=border,
+            fill=fill,
+            rounding=6,
+            thickness=1,
+            parent=dl,
+        )
+        return cx, cy
+
+    def _draw_play(self) -> None:
+        """The play/pause button: a triangle to play, two bars while playing."""
+        dl = self.play
+        dpg.delete_item(dl, children_only=True)
+        timeline = self.timeline
+        cx, cy = self._icon_face(dl, "play")
+        usable = timeline.recording or timeline.cursor is not None or timeline.playing
+        color = theme.TEXT if usable else theme.DIM
+        if timeline.playing:
+            for dx in (-3.5, 3.5):
+                dpg.draw_rectangle(
+                    (cx + dx - 2, cy - 6), (cx + dx + 2, cy + 6), color=NONE, fill=color, parent=dl
+                )
+            tip = "Pause playback (Space)"
+        else:
+            p1, p2, p3 = (cx - 4.5, cy - 7), (cx - 4.5, cy + 7), (cx + 7.5, cy)
+            dpg.draw_triangle(p1, p2, p3, color=color, fill=color, parent=dl)
+            if timeline.recording:
+                tip = "Play from the cursor (Space)" + (
+                    "; at the end: from the start" if timeline.loop else ""
+                )
+            elif usable:
+                tip = "Play from the cursor: the dashboard replays its history, then goes live"
+            else:
+                tip = "Play back the history: pause or click on the timeline first"
+        dpg.set_value(self.play_tip, tip)
+
+    def _draw_loop(self) -> None:
+        """The loop toggle: two arrows chasing each other round a circle; blue while on."""
+        dl = self.loop
+        dpg.delete_item(dl, children_only=True)
+        on = self.timeline.loop
+        cx, cy = self._icon_face(dl, "loop", on=on)
+        color = PLAYING if on else theme.DIM
+        r = 6.5
+        for start in (0.25, 1.25):  # two arcs of ~130 degrees, each ending in an arrowhead
+            angles = [math.pi * (start + 0.72 * k / 12) for k in range(13)]
+            points = [(cx + r * math.cos(a), cy + r * math.sin(a)) for a in angles]
+            dpg.draw_polyline(points, color=color, thickness=1.8, parent=dl)
+            a = angles[-1]
+            tip = (cx + r * math.cos(a), cy + r * math.sin(a))
+            tangent = (-math.sin(a), math.cos(a))
+            normal = (math.cos(a), math.sin(a))
+            head = (tip[0] + 3.5 * tangent[0], tip[1] + 3.5 * tangent[1])
+            wing1 = (tip[0] + 3 * normal[0], tip[1] + 3 * normal[1])
+            wing2 = (tip[0] - 3 * normal[0], tip[1] - 3 * normal[1])
+            dpg.draw_triangle(head, wing1, wing2, color=color, fill=color, parent=dl)
+        dpg.set_value(
+            self.loop_tip, "Loop: play again from the start at the end (on)" if on else "Loop (off)"
+        )
+
+    def _draw_pill(self, live: bool, playing: bool = False) -> None:
         dl = self.pill
         dpg.delete_item(dl, children_only=True)
-        color = LIVE if live else PAUSED
+        color = LIVE if live else PLAYING if playing else PAUSED
         y0, y1 = MID_Y - 12, MID_Y + 12
         x0, x1 = 10.0, PILL_W - 6.0
         fill = (color[0], color[1], color[2], 48)
@@ -171,6 +371,17 @@ class TimeBar:
         if live:
             dpg.draw_circle((x0 + 15, MID_Y), 4.5, color=color, fill=color, parent=dl)
             text = "LIVE"
+        elif playing:
+            bx = x0 + 15
+            dpg.draw_triangle(
+                (bx - 3.5, MID_Y - 5),
+                (bx - 3.5, MID_Y + 5),
+                (bx + 5, MID_Y),
+                color=color,
+                fill=color,
+                parent=dl,
+            )
+            text = "PLAYING"
         else:
             for dx in (-3.0, 3.0):  # a pause sign
                 bx = x0 + 15 + dx
@@ -193,14 +404,20 @@ class TimeBar:
             dpg.draw_text((x0, label_y), text, size=LABEL_SIZE, color=theme.DIM, parent=dl)
             return
         live = cursor is None
-        color = LIVE if live else PAUSED
+        recording = self.timeline.recording
+        color = LIVE if live and not recording else PLAYING if self.timeline.playing else PAUSED
         knob_x = scale.x_of(scale.newest if cursor is None else cursor)
         held = (86, 166, 240, 150) if not live else (LIVE[0], LIVE[1], LIVE[2], 110)
         dpg.draw_rectangle((x0, top), (knob_x, bottom), color=NONE, fill=held, rounding=3, parent=dl)
         # Paused: the cursor's time in the label row, under the knob; the labels it would cover give way.
         taken: list[tuple[float, float]] = []
         if cursor is not None:
-            text = f"{format_clock(cursor)}   {format_ago(scale.newest - cursor, precise=True)}"
+            into = (
+                format_offset(cursor - scale.oldest, precise=True)
+                if recording
+                else format_ago(scale.newest - cursor, precise=True)
+            )
+            text = f"{format_clock(cursor)}   {into}"
             tw = text_size(text, LABEL_SIZE)[0] + 12
             left = label_left(knob_x, tw, 0, width)
             taken.append((left - 8, left + tw + 8))
@@ -214,18 +431,20 @@ class TimeBar:
         def free(a: float, b: float) -> bool:
             return all(b <= lo or a >= hi for lo, hi in taken)
 
-        # The ends: the oldest moment held (its clock time), and the newest ("now").
+        # The ends: the oldest moment held (its clock time), and the newest ("now"; a recording's length).
+        end = format_offset(scale.seconds) if recording else "now"
         for text, left in (
             (format_clock(scale.oldest, millis=False), x0 - 4),
-            ("now", x1 + 2 - text_size("now", LABEL_SIZE)[0]),
+            (end, x1 + 2 - text_size(end, LABEL_SIZE)[0]),
         ):
             right = left + text_size(text, LABEL_SIZE)[0]
             if free(left, right):
                 dpg.draw_text((left, label_y), text, size=LABEL_SIZE, color=theme.DIM, parent=dl)
             taken.append((left - 10, right + 10))
-        for x, ago in scale.ticks():
+        ticks = scale.ticks_from_start() if recording else scale.ticks()
+        for x, ago in ticks:
             dpg.draw_line((x, bottom + 1), (x, bottom + 4), color=theme.BORDER, parent=dl)
-            label = format_ago(ago)
+            label = format_offset(ago) if recording else format_ago(ago)
             lw = text_size(label, LABEL_SIZE)[0]
             if free(x - lw / 2, x + lw / 2):
                 dpg.draw_text((x - lw / 2, label_y), label, size=LABEL_SIZE, color=theme.DIM, parent=dl)

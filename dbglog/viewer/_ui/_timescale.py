@@ -18,6 +18,7 @@ __all__ = [
     "format_bytes",
     "format_clock",
     "format_duration",
+    "format_offset",
     "history_text",
     "label_left",
     "tick_step",
@@ -77,6 +78,19 @@ class TimeScale:
             k += 1
         return out
 
+    def ticks_from_start(self, min_px: float = 70.0) -> list[tuple[float, float]]:
+        """Return (pixel, seconds after the oldest) of round ticks at least `min_px` apart, oldest first.
+
+        A recording's track counts from its start (``0:10``, ``0:20``, ...), as a media player's does.
+        """
+        step = tick_step(self.seconds, self.x1 - self.x0, min_px)
+        out = []
+        k = 1
+        while k * step <= self.seconds + 1e-9:
+            out.append((self.x_of(self.oldest + k * step), k * step))
+            k += 1
+        return out
+
 
 def tick_step(seconds: float, width_px: float, min_px: float = 70.0) -> float:
     """Return the smallest round step (`TICK_STEPS`) whose ticks on the track are `min_px` apart or more."""
@@ -110,6 +124,21 @@ def format_ago(seconds: float, *, precise: bool = False) -> str:
     if precise and seconds < 60:
         return f"\u2212{seconds:.1f} s"
     return "\u2212" + format_duration(seconds)
+
+
+def format_offset(seconds: float, *, precise: bool = False) -> str:
+    """Return a time into a recording as a media player shows it: ``0:07``, ``12:30``, ``1:02:03``.
+
+    Precise adds tenths of a second (``0:07.4``), for the cursor.
+    """
+    s = max(0.0, seconds)
+    whole = math.floor(s * 10 + 0.5) / 10 if precise else float(round(s))
+    h, rest = divmod(int(whole), 3600)
+    m, sec = divmod(rest, 60)
+    text = f"{h}:{m:02d}:{sec:02d}" if h else f"{m}:{sec:02d}"
+    if precise:
+        text += f".{round((whole - int(whole)) * 10) % 10}"
+    return text
 
 
 def format_clock(t: float, *, millis: bool = True) -> str:
