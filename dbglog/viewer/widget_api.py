@@ -313,6 +313,8 @@ class Widget(abc.ABC):
     """True for a control: its binding is where it publishes, so Topic setup offers no regex or transforms."""
     default_size: ClassVar[tuple[int, int]] = (220, 220)
     min_size: ClassVar[tuple[int, int]] = (120, 90)
+    default_topic: ClassVar[str] = ""
+    """The topic a new widget of this kind is bound to (its Topic setup starts there); empty: none."""
     paused_at: float | None = None
     """The source time (epoch seconds) the dashboard is paused at, or None while live; set by the viewer
     before each `update`. The snapshots are already as they stood then, so most widgets never look at it;

@@ -119,7 +119,9 @@ class FileCommands:
             if isinstance(config, RawWidget) and not result.legacy and config.type != "?":
                 # The placeholder says what is missing: a plugin that failed to load, or none installed.
                 config = RawWidget(config.data, app.registry.missing_reason(config.type))
-            doc.add(CanvasItem(config, cls, app.canvas, app.frame_theme, publisher=app.publisher))
+            doc.add(
+                CanvasItem(config, cls, app.canvas, app.frame_theme, publisher=app.publisher, host=app.host)
+            )
         # Widgets were left out (too many, too deep, unsafe text): saving over the file would lose them,
         # so it opens untitled and Save asks for a name (docs/viewer.md, Dashboard files).
         doc.opened(result.dashboard, path if result.complete else None, result.messages)
