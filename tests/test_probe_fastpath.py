@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Iterator
 
@@ -116,3 +117,31 @@ def test_an_unwatched_tag_keeps_only_the_newest_per_flush_and_a_watcher_gets_eve
 def _burst(tag: str, n: int) -> None:
     for k in range(n):
         dbglog.logfloat(tag, float(k))
+
+
+def test_throttle_on_the_hot_path_is_per_line_and_follows_each_calls_own_period() -> None:
+    """Two calls on one line share a throttle; another line has its own; a call's own period counts."""
+    log, tag = dbglog.logfloat, "fp/lines"
+    log(tag, -1.0)  # the tag's hot path exists from here on
+    for k in range(3):
+        _ = log(tag, float(k), throttle=3600.0), log(tag, 9.0, throttle=3600.0)  # one line, two calls
+        log(tag, float(k), throttle=3600.0)
+    s = dbglog.stats()
+    assert (s.published, s.rate_limited) == (3, 7)  # the first value, then each line's first call
+    dbglog.logint("fp/own", 0)
+    for period in (3600.0, 3600.0, 0.0, 3600.0):  # passes, held, passes (its own period is 0), held
+        dbglog.logint("fp/own", 1, throttle=period)
+    s = dbglog.stats()
+    assert (s.published, s.rate_limited) == (3 + 1 + 2, 7 + 2)
+
+
+def test_an_infinite_or_nan_throttle_on_a_known_site_is_still_a_bad_option() -> None:
+    """The hot path's shortcut never holds back a call whose throttle is not a finite period."""
+    dbglog.logbool("fp/inf", True)
+    for period in (3600.0, 3600.0):  # passes (a new site), held
+        dbglog.logbool("fp/inf", True, throttle=period)
+    with pytest.warns(DbglogWarning, match="throttle"):
+        dbglog.logbool("fp/inf", True, throttle=math.inf)
+    dbglog.logbool("fp/inf", True, throttle=math.nan)  # counted; warned once per tag and reason
+    s = dbglog.stats()
+    assert (s.published, s.rate_limited, s.dropped_by_reason) == (2, 1, {"bad_option": 2})

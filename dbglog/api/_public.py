@@ -9,9 +9,11 @@ from __future__ import annotations
 
 import contextlib
 import math
+import os
 import sys
 import time
 from collections.abc import Mapping
+from types import FrameType
 from typing import Any
 
 from dbglog.api._convert import (
@@ -53,6 +55,10 @@ __all__ = [
 REPORTER = Reporter(enabled=True, strict=False)
 RUNTIME = Runtime(REPORTER)
 _LIMITER = RateLimiter()
+os.register_at_fork(after_in_child=_LIMITER.after_fork)
+_known = _LIMITER.known
+_clock = _LIMITER.clock
+_getframe = sys._getframe
 _MAX_DEPTH = 8
 """How deep `log` follows nested dicts (a dict that contains itself stops here)."""
 
@@ -68,6 +74,7 @@ _fast_str = RUNTIME.fast_str
 _INF = math.inf
 _calls = REPORTER.calls.incr
 _published = REPORTER.published.incr
+_rate_limited = REPORTER.rate_limited.incr
 _PIPE = RUNTIME.pipe
 _queue = _PIPE.queue
 _append = _queue.append
@@ -116,21 +123,38 @@ class _Options:
         return False
 
 
-def _rate(ch: Channel, once: object, throttle: object, skip_first: object) -> bool | None:
-    """Rate control on the hot path: pass or hold back (counted), or None when an option needs checking."""
+def _rate(ch: Channel, once: object, throttle: object, skip_first: object, frame: FrameType) -> bool | None:
+    """Rate control on the hot path: pass or hold back (counted), or None when an option needs checking.
+
+    `frame` is the user's call. The hot functions hold back a throttled call from the instruction that
+    last rate-controlled the tag themselves, in the fewest steps (a loop's one throttled call per
+    iteration runs with cold caches); this finds any call's site by its instruction (the line number,
+    which decodes the code's line table, is looked up once per instruction).
+    """
     if (type(once) is not bool or type(skip_first) is not bool) or (
         throttle is not None
         and not ((type(throttle) is float or type(throttle) is int) and 0 <= throttle < _INF)
     ):
         return None
-    frame = sys._getframe(2)  # the user's call into logfloat & co.
-    site = (frame.f_code.co_filename, frame.f_lineno)
-    if throttle is not None and not once and not skip_first and _LIMITER.throttled(ch.tag, site, throttle):
-        REPORTER.rate_limited.incr()
-        return False
-    if _LIMITER.allow(ch.tag, site, once=once, skip_first=skip_first, throttle=throttle):
+    code = frame.f_code
+    known = _known.get((ch.tag, id(code), frame.f_lasti))
+    if known is None:  # this call instruction's first time
+        known = _LIMITER.remember(ch.tag, code, frame.f_lasti, frame.f_lineno)
+    else:
+        # Held back without the lock: an `once` site that passed before, or a throttle-only site within
+        # its period (False from here means "maybe passes": `allow` decides under the lock).
+        state = known[2]
+        if (once and state.calls) or (
+            throttle is not None and not skip_first and _clock() - state.last_pass < throttle
+        ):
+            state.calls += 1
+            _rate_limited()
+            ch.rate_site = known
+            return False
+    ch.rate_site = known
+    if _LIMITER.allow(ch.tag, known[3], once=once, skip_first=skip_first, throttle=throttle):
         return True
-    REPORTER.rate_limited.incr()
+    _rate_limited()
     return False
 
 
@@ -255,11 +279,28 @@ def logfloat(
         try:
             ch = _fast_float.get(tag)
             if ch is not None and len(_queue) < _PIPE.capacity:
-                verdict = (
-                    True
-                    if not (once or skip_first or throttle is not None)
-                    else _rate(ch, once, throttle, skip_first)
-                )
+                if not (once or skip_first or throttle is not None):
+                    _calls()
+                    _append((ch, value, _now()))
+                    if _PIPE.sleeping:
+                        _PIPE.wake()
+                    return
+                frame = _getframe(1)
+                known = ch.rate_site
+                if (
+                    known is not None
+                    and known[0] is frame.f_code
+                    and known[1] == frame.f_lasti
+                    and once is False
+                    and skip_first is False
+                    and type(throttle) is float
+                    and _clock() - known[2].last_pass < throttle < _INF
+                ):  # held back: throttled, from the instruction that last rate-controlled the tag
+                    known[2].calls += 1
+                    _calls()
+                    _rate_limited()
+                    return
+                verdict = _rate(ch, once, throttle, skip_first, frame)
                 if verdict is not None:
                     _calls()
                     if verdict:
@@ -295,11 +336,28 @@ def logint(
         try:
             ch = _fast_int.get(tag)
             if ch is not None and len(_queue) < _PIPE.capacity:
-                verdict = (
-                    True
-                    if not (once or skip_first or throttle is not None)
-                    else _rate(ch, once, throttle, skip_first)
-                )
+                if not (once or skip_first or throttle is not None):
+                    _calls()
+                    _append((ch, value, _now()))
+                    if _PIPE.sleeping:
+                        _PIPE.wake()
+                    return
+                frame = _getframe(1)
+                known = ch.rate_site
+                if (
+                    known is not None
+                    and known[0] is frame.f_code
+                    and known[1] == frame.f_lasti
+                    and once is False
+                    and skip_first is False
+                    and type(throttle) is float
+                    and _clock() - known[2].last_pass < throttle < _INF
+                ):  # held back: throttled, from the instruction that last rate-controlled the tag
+                    known[2].calls += 1
+                    _calls()
+                    _rate_limited()
+                    return
+                verdict = _rate(ch, once, throttle, skip_first, frame)
                 if verdict is not None:
                     _calls()
                     if verdict:
@@ -335,11 +393,28 @@ def logbool(
         try:
             ch = _fast_bool.get(tag)
             if ch is not None and len(_queue) < _PIPE.capacity:
-                verdict = (
-                    True
-                    if not (once or skip_first or throttle is not None)
-                    else _rate(ch, once, throttle, skip_first)
-                )
+                if not (once or skip_first or throttle is not None):
+                    _calls()
+                    _append((ch, value, _now()))
+                    if _PIPE.sleeping:
+                        _PIPE.wake()
+                    return
+                frame = _getframe(1)
+                known = ch.rate_site
+                if (
+                    known is not None
+                    and known[0] is frame.f_code
+                    and known[1] == frame.f_lasti
+                    and once is False
+                    and skip_first is False
+                    and type(throttle) is float
+                    and _clock() - known[2].last_pass < throttle < _INF
+                ):  # held back: throttled, from the instruction that last rate-controlled the tag
+                    known[2].calls += 1
+                    _calls()
+                    _rate_limited()
+                    return
+                verdict = _rate(ch, once, throttle, skip_first, frame)
                 if verdict is not None:
                     _calls()
                     if verdict:
@@ -375,11 +450,28 @@ def logstring(
         try:
             ch = _fast_str.get(tag)
             if ch is not None and len(_queue) < _PIPE.capacity and "\x00" not in value:
-                verdict = (
-                    True
-                    if not (once or skip_first or throttle is not None)
-                    else _rate(ch, once, throttle, skip_first)
-                )
+                if not (once or skip_first or throttle is not None):
+                    _calls()
+                    _append((ch, value, _now()))
+                    if _PIPE.sleeping:
+                        _PIPE.wake()
+                    return
+                frame = _getframe(1)
+                known = ch.rate_site
+                if (
+                    known is not None
+                    and known[0] is frame.f_code
+                    and known[1] == frame.f_lasti
+                    and once is False
+                    and skip_first is False
+                    and type(throttle) is float
+                    and _clock() - known[2].last_pass < throttle < _INF
+                ):  # held back: throttled, from the instruction that last rate-controlled the tag
+                    known[2].calls += 1
+                    _calls()
+                    _rate_limited()
+                    return
+                verdict = _rate(ch, once, throttle, skip_first, frame)
                 if verdict is not None:
                     _calls()
                     if verdict:

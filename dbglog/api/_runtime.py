@@ -30,6 +30,7 @@ from dbglog.api._convert import (
 )
 from dbglog.api._errors import Reporter, safe_repr
 from dbglog.api._pipe import Pipe, batch_converter
+from dbglog.api._rate import Known
 
 __all__ = ["MAX_TAGS", "Channel", "Runtime"]
 
@@ -68,6 +69,7 @@ class Channel:
         "publish_raw",
         "publisher",
         "queued",
+        "rate_site",
         "spec",
         "tag",
         "tag_bytes",
@@ -101,6 +103,8 @@ class Channel:
         self.convert = batch_converter(spec.name) if self.queued and spec is not None else None
         """Per-sample conversion of the value for the batch (Float32 rounding), if any."""
         self.text = spec is not None and spec.kind == "str"
+        self.rate_site: Known | None = None
+        """The call instruction that last used rate options on this tag (the hot path checks it first)."""
 
     def listened(self, now: float) -> bool:
         """True when the tag's topic has a subscriber (or the tag is new): then it gets every sample."""
