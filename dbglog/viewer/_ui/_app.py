@@ -24,7 +24,7 @@ import dearpygui.dearpygui as dpg
 from dbglog.viewer._data._model import Binding, DataSource
 from dbglog.viewer._data._timeline import Timeline, TimeSource
 from dbglog.viewer._document._canvas_doc import CanvasDoc, TopicSetup
-from dbglog.viewer._document._dashboard import Dashboard, LoadResult, WidgetConfig
+from dbglog.viewer._document._dashboard import Dashboard, LoadResult, RawWidget, WidgetConfig
 from dbglog.viewer._publishing._publish import PublishService
 from dbglog.viewer._ui import _theme as theme
 from dbglog.viewer._ui._chrome import PAYLOAD_TYPE, CanvasPaint, Toolbox
@@ -37,6 +37,7 @@ from dbglog.viewer._ui._dialogs import (
 )
 from dbglog.viewer._ui._files import FileCommands, FileRequest
 from dbglog.viewer._ui._frame import TITLE_H, CanvasItem
+from dbglog.viewer._ui._host import AppHost
 from dbglog.viewer._ui._pacing import (
     DEFAULT_DATA_FPS,
     DEFAULT_FPS,
@@ -58,6 +59,7 @@ from dbglog.viewer._widgets._geometry import (
     free_spot,
     snap_rect,
 )
+from dbglog.viewer.widget_api import Widget
 
 __all__ = ["PAYLOAD_TYPE", "ViewerApp", "keep_freed_memory"]
 
@@ -158,6 +160,8 @@ class ViewerApp:
         """The controls' publishing service: this app's own, handed to every widget at mount."""
         self.pointer_input = PointerInput(self)
         self.files = FileCommands(self)
+        self.host = AppHost(self)
+        """What widgets get besides their series: log stores, the time cursor, "plot this number"."""
         self.recordings = RecordingCommands(self)
         """File › Open recording, Save history as recording, Export CSV, Back to live."""
         self._started = False
@@ -378,6 +382,9 @@ class ViewerApp:
                     callback=lambda s, a: self.set_snap(bool(a)),
                 )
                 dpg.add_menu_item(label="Load messages\u2026", callback=lambda *_: self.show_load_messages())
+                self.log_menu = dpg.add_menu_item(
+                    label="Log console", callback=lambda *_: self.queue_time(self.open_log_console)
+                )
 
     # -- frame loop ---------------------------------------------------------------------------------
 
@@ -671,8 +678,10 @@ class ViewerApp:
             rect, [i.rect for i in doc.items], self.view_rect(), doc.grid_size if doc.snap else 0
         )
         name = doc.unique_name(cls.label) if name is None else name
-        config = WidgetConfig(type_name, name, rect.x, rect.y, rect.w, rect.h, (), cls.default_properties())
-        item = doc.add(CanvasItem(config, cls, self.canvas, self.frame_theme, publisher=self.publisher))
+        bindings = (Binding(cls.default_topic),) if cls.default_topic else ()  # a console starts on /rosout
+        props = cls.default_properties()
+        config = WidgetConfig(type_name, name, rect.x, rect.y, rect.w, rect.h, bindings, props)
+        item = doc.add(self._canvas_item(config, cls))
         self.select(item)
         doc.mark_dirty()
         return item
@@ -703,7 +712,7 @@ class ViewerApp:
     def add_config(self, config: WidgetConfig) -> CanvasItem:
         """Place a ready-made widget (bindings and properties set) on the canvas and bind its series."""
         cls = self.registry.get(config.type)
-        return self.doc.add(CanvasItem(config, cls, self.canvas, self.frame_theme, publisher=self.publisher))
+        return self.doc.add(self._canvas_item(config, cls))
 
     def change_type(self, item: CanvasItem, type_name: str) -> CanvasItem | None:
         """Swap `item` for a widget of another kind with the same name, place and bindings."""
@@ -716,7 +725,7 @@ class ViewerApp:
         if type_name == config.type:
             return item
         config = retype(config, cls, min_frame=(cls.min_size[0], cls.min_size[1] + TITLE_H))
-        new = CanvasItem(config, cls, self.canvas, self.frame_theme, publisher=self.publisher)
+        new = self._canvas_item(config, cls)
         self.doc.replace(item, new)
         self._close_dialog_of(item)
         item.destroy()
@@ -803,6 +812,20 @@ class ViewerApp:
         dialog = MessageDialog(title, message, self.dialog_closed)
         self.open_dialog(dialog)
         return dialog
+
+    def _canvas_item(self, config: WidgetConfig | RawWidget, cls: type[Widget] | None) -> CanvasItem:
+        """A widget's frame on the canvas, with the app's publisher and host."""
+        return CanvasItem(
+            config, cls, self.canvas, self.frame_theme, publisher=self.publisher, host=self.host
+        )
+
+    def open_log_console(self) -> CanvasItem | None:
+        """View \u203a Log console: a Log widget on /rosout, in view where there is room."""
+        view = self.view_rect()
+        item = self.add_widget("log", view.x + 40, view.y + 40)
+        if item is not None:
+            self.set_status("a Log console on /rosout: its title's menu \u203a Topic setup for another topic")
+        return item
 
     def show_load_messages(self) -> None:
         """Show what could not be loaded from the current dashboard as it was."""
