@@ -27,7 +27,8 @@ Example::
 
 Only the viewer's UI thread calls these methods; a widget must not start threads that call Dear PyGui.
 At mount the viewer hands each widget a `WidgetContext` (``self.context``): the publish targets of a
-control's bindings and the app's publishing service (``self.publisher()``); the app owns both.
+control's bindings, the app's publishing service (``self.publisher()``), its other services (`WidgetHost`)
+and the time range the time plots share (`TimeRange`); the app owns them.
 Everything a plugin needs is importable from this module (the data types `SeriesSnapshot`, `ValueKind`,
 `Status` and `Binding` are re-exported here); the ``_``-prefixed modules are private. The full reference
 and a step-by-step tutorial are in ``docs/plugins.md``.
@@ -84,6 +85,7 @@ __all__ = [
     "PublishState",
     "SeriesSnapshot",
     "Status",
+    "TimeRange",
     "Value",
     "ValueKind",
     "Widget",
@@ -268,6 +270,143 @@ class WidgetHost(Protocol):
         """Open "Plot this number" for number `number` (0-based) of stored line `line_id` of `topic`."""
 
 
+class TimeRange:
+    """The time range the dashboard's time plots share: following the newest data, or held by the user.
+
+    The viewer makes one and hands it to every widget (`WidgetContext.time_range`), and tells it each frame
+    the newest source time it holds and the time cursor (`sync`). A time plot draws `window(own_length,
+    end)`; the user's wheel, drag and box change it (`follow`, `hold`, `reset`), so every plot sharing the
+    object shows the same range. A plot the user unlinks keeps a private copy (`copy`). Pure state, no Dear
+    PyGui, used on the UI thread only.
+
+    **Following** (`held` is None): the range ends at `end` (the newest sample live, the cursor paused) and
+    lasts `length` seconds, or each plot's own window while `length` is None. **Held**: the user zoomed or
+    panned into ``held = (start, end)``; it stays there while data arrives, until `reset` (a double click)
+    or back to live (`go_live`: End, the Live button). `version` changes with every change a plot must show.
+
+    Example::
+
+        shared = TimeRange()
+        shared.sync(newest=1000.0, cursor=None)
+        shared.window(10.0, shared.end(1000.0))   # (990.0, 1000.0): following, the plot's own 10 s
+        shared.follow(4.0)                        # a wheel zoom while live: 4 s, still at the newest
+        shared.hold(950.0, 960.0)                 # a drag: held, whatever arrives
+        shared.reset()                            # a double click: following again, each plot its window
+    """
+
+    MIN_LENGTH = 1e-3
+    """The shortest range a plot shows (seconds)."""
+    MAX_LENGTH = 8 * 86400.0
+    """The longest range a plot shows (seconds): more than the history can hold."""
+    KEEP_MARGIN = 0.06
+    """Held and paused, a cursor moved out of the range brings the range to it, this fraction inside."""
+
+    __slots__ = ("_hover_by", "cursor", "held", "hover", "length", "lives", "newest", "version")
+
+    def __init__(self) -> None:
+        self.newest: float | None = None
+        """The newest source time the viewer holds (epoch seconds; set by `sync`), None before any data."""
+        self.cursor: float | None = None
+        """The time cursor while the dashboard is paused (set by `sync`), None while live."""
+        self.length: float | None = None
+        """Following: the seconds shown (a zoom set it); None: each plot's own window."""
+        self.held: tuple[float, float] | None = None
+        """The (start, end) source times the user holds, None while following."""
+        self.version = 0
+        """Counts the changes of `length` and `held` (what a plot compares to know it must redraw)."""
+        self.lives = 0
+        """Counts `go_live` calls: plots holding a private range follow the newest data again too."""
+        self.hover: float | None = None
+        """The source time under the pointer over one of the plots sharing the range (`point`), else None:
+        the others show it too."""
+        self._hover_by: object = None
+
+    @property
+    def following(self) -> bool:
+        """Whether the range follows the newest data (the cursor, paused) rather than a range held."""
+        return self.held is None
+
+    def end(self, fallback: float) -> float:
+        """Return where a following range ends: the cursor (paused), else the newest held or `fallback`."""
+        if self.cursor is not None:
+            return self.cursor
+        return self.newest if self.newest is not None else fallback
+
+    def window(self, length: float, end: float) -> tuple[float, float]:
+        """Return the (start, end) source times to show: the range held, or `length` seconds (or the zoomed
+        `length`) up to `end` (see `end`)."""
+        if self.held is not None:
+            return self.held
+        span = self.length if self.length is not None else _clamp_length(length)
+        return (end - span, end)
+
+    def follow(self, length: float | None = None) -> None:
+        """Follow the newest data (the cursor, paused), showing `length` seconds (None: each plot's own)."""
+        length = None if length is None else _clamp_length(length)
+        if self.held is not None or length != self.length:
+            self.held, self.length = None, length
+            self.version += 1
+
+    def hold(self, start: float, end: float) -> None:
+        """Hold the range at [start, end] (source times) whatever arrives; a range too short or long is
+        widened or narrowed about its middle."""
+        if not (math.isfinite(start) and math.isfinite(end)):
+            return
+        start, end = min(start, end), max(start, end)
+        span = _clamp_length(end - start)
+        if span != end - start:
+            middle = (start + end) / 2
+            start, end = middle - span / 2, middle + span / 2
+        if self.held != (start, end):
+            self.held = (start, end)
+            self.version += 1
+
+    def reset(self) -> None:
+        """Follow the newest data again with each plot's own window (a double click on a plot)."""
+        self.follow(None)
+
+    def go_live(self) -> None:
+        """Back to live (End, the Live button): `reset`, and plots with a private range reset theirs too."""
+        self.reset()
+        self.lives += 1
+
+    def sync(self, newest: float | None, cursor: float | None) -> None:
+        """Take the newest source time held and the time cursor (None while live); the viewer calls it every
+        frame. Going live resets the range (`go_live`), and so does a newest time going back (another data
+        source: a recording opened); while paused and held, a cursor moved out of the range brings the range
+        to it (the length kept)."""
+        was, older = self.cursor, self.newest
+        self.newest, self.cursor = newest, cursor
+        went_back = newest is not None and older is not None and newest < older
+        if (was is not None and cursor is None) or went_back:
+            self.go_live()
+        elif self.held is not None and was is not None and cursor is not None and cursor != was:
+            start, end = self.held
+            margin = (end - start) * self.KEEP_MARGIN
+            if cursor > end - margin:
+                self.hold(start + cursor + margin - end, cursor + margin)
+            elif cursor < start + margin:
+                self.hold(cursor - margin, end + cursor - margin - start)
+
+    def point(self, t: float | None, by: object) -> None:
+        """Say that the pointer is over plot `by` at source time `t` (None: it left `by`)."""
+        if t is not None:
+            self.hover, self._hover_by = t, by
+        elif self._hover_by is by:
+            self.hover, self._hover_by = None, None
+
+    def copy(self) -> TimeRange:
+        """Return an independent range in the same state (a plot being unlinked keeps what it shows)."""
+        other = TimeRange()
+        other.newest, other.cursor, other.lives = self.newest, self.cursor, self.lives
+        other.length, other.held = self.length, self.held
+        return other
+
+
+def _clamp_length(seconds: float) -> float:
+    return min(max(float(seconds), TimeRange.MIN_LENGTH), TimeRange.MAX_LENGTH)
+
+
 @dataclass(frozen=True, slots=True)
 class WidgetContext:
     """What the viewer hands a widget at mount (and again when its bindings change); the app owns it.
@@ -277,11 +416,14 @@ class WidgetContext:
             for a display widget, whose bindings are series the data engine fills instead.
         publisher: the app's publishing service (None for a widget mounted outside a viewer).
         host: the viewer's other services (`WidgetHost`); None for a widget mounted outside a viewer.
+        time_range: the time range the dashboard's time plots share (`TimeRange`, one per viewer); None for
+            a widget mounted outside a viewer.
     """
 
     targets: tuple[Binding, ...] = ()
     publisher: PublishService | None = None
     host: WidgetHost | None = None
+    time_range: TimeRange | None = None
 
 
 class Widget(abc.ABC):

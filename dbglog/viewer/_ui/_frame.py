@@ -13,7 +13,15 @@ from dbglog.viewer._document._dashboard import RawWidget, WidgetConfig
 from dbglog.viewer._ui._theme import DIM, HEADER, STATUS_COLORS, TEXT
 from dbglog.viewer._widgets._common import text_size
 from dbglog.viewer._widgets._geometry import Rect
-from dbglog.viewer.widget_api import PropValue, PublishService, Widget, WidgetContext, WidgetHost, shown_as
+from dbglog.viewer.widget_api import (
+    PropValue,
+    PublishService,
+    TimeRange,
+    Widget,
+    WidgetContext,
+    WidgetHost,
+    shown_as,
+)
 
 __all__ = ["TITLE_H", "CanvasItem", "combined_status"]
 
@@ -49,6 +57,7 @@ class CanvasItem:
         *,
         publisher: PublishService | None = None,
         host: WidgetHost | None = None,
+        time_range: TimeRange | None = None,
     ) -> None:
         self.config = config
         self.widget_cls = widget_cls
@@ -56,6 +65,8 @@ class CanvasItem:
         """The app's publishing service, handed to the widget in its `WidgetContext`."""
         self.host = host
         """The app's other services for widgets (log stores, the time cursor), in the `WidgetContext` too."""
+        self.time_range = time_range
+        """The time range the app's time plots share, in the `WidgetContext` too."""
         self.widget: Widget | None = None
         self.failed = ""
         """Why the widget was disabled after raising, or empty."""
@@ -110,7 +121,7 @@ class CanvasItem:
     def context(self) -> WidgetContext:
         """What the widget is given at mount: a control's publish targets, and the app's publisher."""
         publishes = self.widget_cls is not None and self.widget_cls.publishes
-        return WidgetContext(self.bindings if publishes else (), self.publisher, self.host)
+        return WidgetContext(self.bindings if publishes else (), self.publisher, self.host, self.time_range)
 
     @property
     def label(self) -> str | None:
