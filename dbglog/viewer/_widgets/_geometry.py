@@ -28,6 +28,7 @@ __all__ = [
     "normalize_heading",
     "overlaps",
     "polar",
+    "range_slice",
     "rects_around",
     "rects_outside",
     "scroll_target",
@@ -319,6 +320,14 @@ def window_slice(times: FloatArray, now: float, window_s: float) -> slice:
     """Return the slice of sorted `times` that falls within the last `window_s` seconds before `now`."""
     start = int(np.searchsorted(times, now - window_s, side="left"))
     return slice(start, len(times))
+
+
+def range_slice(times: FloatArray, start: float, end: float) -> tuple[slice, slice]:
+    """Return the slices of sorted `times` within [start, end]: inside only, and with one sample more on each
+    side (drawn, so that the line runs on to the plot's edges)."""
+    lo = int(np.searchsorted(times, start, side="left"))
+    hi = int(np.searchsorted(times, end, side="right"))
+    return slice(lo, hi), slice(max(0, lo - 1), min(len(times), hi + 1))
 
 
 def minmax_decimate(x: FloatArray, y: FloatArray, max_points: int) -> tuple[FloatArray, FloatArray]:

@@ -1,8 +1,12 @@
-"""The Plot widget: several series over a sliding time window, auto or fixed scale, pause, decimation.
+"""The Plot widget: several series over a time range you can zoom, pan and hover, live or paused.
 
-Live, the window ends at the newest sample. Paused at a time (the viewer's timeline), it ends at the
-cursor: the snapshots hold the samples up to the cursor, so the plot shows what it showed live at that
-moment, with the cursor as a vertical line at its right edge and each series' value there.
+By default the range follows: it ends at the newest sample (paused at a time, the viewer's timeline: at the
+cursor, drawn as a vertical line with each series' value there) and lasts the plot's window. The wheel
+zooms (following on, with a new length), a drag pans and a right drag zooms to a box (both hold the range
+where the user put it while data arrive), a double click follows again; hovering shows a line and each
+series' value under the pointer. The range is the dashboard's shared `TimeRange`, so every linked plot
+shows the same one (the header's *Link* box, saved as the ``link`` property, unlinks a plot). ImPlot does
+the zoom and pan; `_timeaxis` reads them back and keeps the axis and the range in step.
 """
 
 from __future__ import annotations
@@ -13,10 +17,36 @@ import dearpygui.dearpygui as dpg
 import numpy as np
 
 from dbglog.viewer._widgets._common import SERIES_COLORS, clock_text, latest_number
-from dbglog.viewer._widgets._geometry import minmax_decimate, spread, window_slice
-from dbglog.viewer.widget_api import Binding, Property, PropKind, SeriesSnapshot, ValueKind, Widget, tag_of
+from dbglog.viewer._widgets._geometry import minmax_decimate, range_slice, spread
+from dbglog.viewer._widgets._timeaxis import (
+    AxisSync,
+    HoverTracker,
+    Limits,
+    remap,
+    time_ticks,
+    user_moved,
+    value_at,
+)
+from dbglog.viewer.widget_api import (
+    Binding,
+    Property,
+    PropKind,
+    SeriesSnapshot,
+    TimeRange,
+    ValueKind,
+    Widget,
+    tag_of,
+)
 
-__all__ = ["CURSOR_COLOR", "CURSOR_MARGIN", "PLOT_MARGIN", "PlotWidget", "reading", "series_label"]
+__all__ = [
+    "CURSOR_COLOR",
+    "CURSOR_MARGIN",
+    "HOVER_COLOR",
+    "PLOT_MARGIN",
+    "PlotWidget",
+    "reading",
+    "series_label",
+]
 
 PLOT_MARGIN = 48
 """Pixels of the plot widget's width outside the plot area (y tick labels, padding): an upper bound."""
@@ -24,8 +54,22 @@ CURSOR_MARGIN = 0.06
 """Paused, the time axis runs on past the cursor by this fraction of the window, so its line shows."""
 CURSOR_COLOR = (240, 176, 64, 255)
 """The cursor line: the timeline bar's PAUSED colour."""
+HOVER_COLOR = (220, 226, 236, 190)
+"""The hover line: a light, thin grey that reads over every series colour."""
+SELECT_COLOR = (86, 166, 240, 255)
+"""A box zoom being dragged (the viewer's accent blue)."""
 TAG_GAP = 18
 """Pixels between two value tags at the cursor (close values are spread apart to stay readable)."""
+HEADER_H = 28
+"""The row above the plot: Pause, Link and what the plot shows."""
+NO_BUTTON = 4
+"""A mouse button nobody presses (ImGui's last): ImPlot's double-click fit goes there; ours resets."""
+GESTURES_TIP = (
+    "Wheel: zoom the time axis (following the newest data while live)\n"
+    "Drag: pan \u00b7 right drag: zoom to a box (both hold the range)\n"
+    "Double click: follow the newest data again (End does it for every plot)\n"
+    "Hover: the value of each series under the pointer"
+)
 
 
 def reading(value: float | None) -> str:
@@ -41,6 +85,15 @@ def series_label(binding: Binding) -> str:
     return f"{topic}.{binding.field}" if binding.field and binding.field != "data" else topic
 
 
+def span_text(seconds: float) -> str:
+    """Return a time range's length for the header: ``10 s``, ``2.5 s``, ``120 ms``, ``5 min``."""
+    if seconds < 1:
+        return f"{seconds * 1000:.3g} ms"
+    if seconds >= 120:
+        return f"{seconds / 60:.3g} min"
+    return f"{seconds:.3g} s"
+
+
 def _plot_theme() -> int | str:
     """The plot's dark colours (bound per plot, not globally)."""
     with dpg.theme() as theme, dpg.theme_component(dpg.mvPlot):
@@ -50,7 +103,16 @@ def _plot_theme() -> int | str:
         dpg.add_theme_color(dpg.mvPlotCol_FrameBg, (0, 0, 0, 0), category=dpg.mvThemeCat_Plots)
         dpg.add_theme_color(dpg.mvPlotCol_PlotBorder, (58, 63, 76, 255), category=dpg.mvThemeCat_Plots)
         dpg.add_theme_color(dpg.mvPlotCol_LegendBg, (33, 36, 44, 200), category=dpg.mvThemeCat_Plots)
+        dpg.add_theme_color(dpg.mvPlotCol_Selection, SELECT_COLOR, category=dpg.mvThemeCat_Plots)
         dpg.add_theme_style(dpg.mvPlotStyleVar_PlotPadding, 4, 4, category=dpg.mvThemeCat_Plots)
+    result: int | str = theme
+    return result
+
+
+def _line_theme(color: tuple[int, int, int, int], weight: float) -> int | str:
+    with dpg.theme() as theme, dpg.theme_component(dpg.mvInfLineSeries):
+        dpg.add_theme_color(dpg.mvPlotCol_Line, color, category=dpg.mvThemeCat_Plots)
+        dpg.add_theme_style(dpg.mvPlotStyleVar_LineWeight, weight, category=dpg.mvThemeCat_Plots)
     result: int | str = theme
     return result
 
@@ -69,6 +131,13 @@ class PlotWidget(Widget):
         Property("y_min", PropKind.NUMBER, 0.0, minimum=-1e12, maximum=1e12, label="Fixed minimum"),
         Property("y_max", PropKind.NUMBER, 100.0, minimum=-1e12, maximum=1e12, label="Fixed maximum"),
         Property("legend", PropKind.BOOL, True, label="Show legend"),
+        Property(
+            "link",
+            PropKind.BOOL,
+            True,
+            label="Link time range",
+            help="Zoom and pan together with the other linked plots (one time range for all of them)",
+        ),
     )
     default_size = (420, 240)
     min_size = (200, 140)
@@ -76,160 +145,382 @@ class PlotWidget(Widget):
     def __init__(self, props: dict[str, float | str | bool] | None = None) -> None:
         super().__init__(props)
         self.paused = False
+        """The plot's own Pause: its picture (data and end) is frozen; zoom and pan still work on it."""
         self.points_drawn = 0
         """Points sent to the plot in the last update (for tests and the benchmark)."""
-        self._limits: tuple[float, float] | None = None
-        self._x_limits: tuple[float, float] | None = None
-        self._info_text = ""
         self.cursor_values: list[float | None] = []
         """Paused: each series' value at the cursor (what the legend and the value tags show); else empty."""
+        self.hover_time: float | None = None
+        """The source time under the pointer over this plot's area, or a linked plot's, else None."""
+        self.hover_values: list[float | None] = []
+        """Each series' value at `hover_time` (its last sample then), while hovering; else empty."""
+        self.pointer_over = False
+        """Whether the pointer is over this plot's area (else `hover_time` comes from a linked plot)."""
+        self.view: Limits | None = None
+        """The source times the time axis shows (after the last update), None before it."""
+        self.plot: int | str = 0
+        self._own: TimeRange | None = None
+        self._lives_seen: int | None = None
+
+    # -- building ------------------------------------------------------------------------------------
 
     def create(self, parent: int | str, width: int, height: int) -> None:
-        """Build the plot, its axes and a pause toggle."""
+        """Build the header (Pause, Link, what is shown), the plot, its axes, the cursor and hover lines."""
         self._series: list[int | str] = []
+        self._dots: list[int | str] = []
         self._notes: list[int | str] = []
         self._labels: list[str] = []
         self._shown_labels: list[str] = []
-        self._limits = None
-        self._x_limits = None
+        self._limits: Limits | None = None
+        self._ticks: tuple[tuple[str, float], ...] = ()
         self._info_text = ""
+        self._data_key: object = None
+        self._snaps: list[SeriesSnapshot] = []
+        self._at: float | None = None
+        self._now = 0.0
+        self._end: float | None = None
+        self._sync = AxisSync()
+        self._hover = HoverTracker()
+        self._frame = -1
+        self._visible = False
+        self._actual: Limits | None = None
+        self._doubles = 0
+        self._doubles_seen = 0
+        self._box_frame = -2
         with dpg.group(parent=parent, horizontal=True):
             self._pause = dpg.add_checkbox(label="Pause", default_value=self.paused, callback=self._on_pause)
+            self._link = dpg.add_checkbox(
+                label="Link", default_value=bool(self.prop("link")), callback=self._on_link
+            )
+            with dpg.tooltip(self._link):
+                dpg.add_text("Zoom and pan together with the other linked plots")
             self._info = dpg.add_text("", color=(138, 146, 158, 255))
+            with dpg.tooltip(self._info):
+                self._info_tip = dpg.add_text(GESTURES_TIP)
         self.plot = dpg.add_plot(
             width=width,
-            height=max(60, height - 28),
+            height=max(60, height - HEADER_H),
             parent=parent,
             no_menus=True,
-            no_box_select=True,
             no_mouse_pos=True,
+            fit_button=NO_BUTTON,
         )
         dpg.bind_item_theme(self.plot, _plot_theme())
         if self.prop("legend"):
             dpg.add_plot_legend(parent=self.plot, location=dpg.mvPlot_Location_NorthWest)
         self.x_axis = dpg.add_plot_axis(
-            dpg.mvXAxis, parent=self.plot, label="", no_menus=True, no_highlight=True
+            dpg.mvXAxis, parent=self.plot, label="", no_menus=True, no_highlight=True, no_initial_fit=True
         )
         self.y_axis = dpg.add_plot_axis(dpg.mvYAxis, parent=self.plot, no_menus=True, no_highlight=True)
         window = self.num("window")
-        self._set_x_limits((-window, 0.0))
+        self._sync.shown, self._sync.forcing = (-window, 0.0), True
+        self._sync.forced_at = int(dpg.get_frame_count())  # let go once a frame drew them
+        dpg.set_axis_limits(self.x_axis, -window, 0.0)
+        # The y axis is always set by the plot (auto: to what the range shows; fixed): ImPlot's zoom, pan
+        # and box then move the time axis only.
         if self.prop("scale") == "fixed":
-            dpg.set_axis_limits(self.y_axis, self.num("y_min"), self.num("y_max"))
-        # The time cursor while paused: a vertical line at x = 0 (the cursor time), out of the legend.
+            self._set_y_limits((self.num("y_min"), self.num("y_max")))
+        else:
+            self._set_y_limits((-1.0, 1.0))
+        # The time cursor while paused, and the hover line: vertical lines, out of the legend.
         self._cursor_line = dpg.add_inf_line_series([0.0], label="##cursor", parent=self.y_axis, show=False)
-        with dpg.theme() as cursor_theme, dpg.theme_component(dpg.mvInfLineSeries):
-            dpg.add_theme_color(dpg.mvPlotCol_Line, CURSOR_COLOR, category=dpg.mvThemeCat_Plots)
-            dpg.add_theme_style(dpg.mvPlotStyleVar_LineWeight, 1.5, category=dpg.mvThemeCat_Plots)
-        dpg.bind_item_theme(self._cursor_line, cursor_theme)
+        dpg.bind_item_theme(self._cursor_line, _line_theme(CURSOR_COLOR, 1.5))
+        self._hover_line = dpg.add_inf_line_series([0.0], label="##hover", parent=self.y_axis, show=False)
+        dpg.bind_item_theme(self._hover_line, _line_theme(HOVER_COLOR, 1.0))
 
-    def _set_x_limits(self, limits: tuple[float, float]) -> None:
-        if limits != self._x_limits:
-            dpg.set_axis_limits(self.x_axis, *limits)
-            self._x_limits = limits
+    def destroy(self) -> None:
+        """Delete the plot's items; the pointer is no longer over it for the plots sharing its range."""
+        if self.plot:
+            self.time_range().point(None, self)
+        super().destroy()
+
+    def _set_y_limits(self, limits: Limits) -> None:
+        if limits != self._limits:
+            dpg.set_axis_limits(self.y_axis, *limits)
+            self._limits = limits
 
     def _on_pause(self, sender: int | str, value: bool) -> None:
         self.paused = bool(value)
+
+    def _on_link(self, sender: int | str, value: bool) -> None:
+        self.save_property("link", bool(value))
 
     def set_paused(self, paused: bool) -> None:
         """Freeze or resume the plot (the checkbox does the same)."""
         self.paused = paused
         dpg.set_value(self._pause, paused)
 
+    def set_linked(self, linked: bool) -> None:
+        """Share the dashboard's time range, or keep one of this plot's own (the Link box does the same)."""
+        self.save_property("link", linked)
+        dpg.set_value(self._link, linked)
+
     def _ensure_series(self, snapshots: Sequence[SeriesSnapshot]) -> None:
         labels = [series_label(s.binding) for s in snapshots]
         if labels == self._labels:
             return
-        for tag in (*self._series, *self._notes):
+        for tag in (*self._series, *self._dots, *self._notes):
             dpg.delete_item(tag)
-        self._series, self._notes = [], []
+        self._series, self._dots, self._notes = [], [], []
         for i, label in enumerate(labels):
+            color = SERIES_COLORS[i % len(SERIES_COLORS)]
             tag = dpg.add_line_series([], [], label=label, parent=self.y_axis)
             with dpg.theme() as theme, dpg.theme_component(dpg.mvLineSeries):
-                dpg.add_theme_color(
-                    dpg.mvPlotCol_Line, SERIES_COLORS[i % len(SERIES_COLORS)], category=dpg.mvThemeCat_Plots
-                )
+                dpg.add_theme_color(dpg.mvPlotCol_Line, color, category=dpg.mvThemeCat_Plots)
                 dpg.add_theme_style(dpg.mvPlotStyleVar_LineWeight, 2.0, category=dpg.mvThemeCat_Plots)
             dpg.bind_item_theme(tag, theme)
             self._series.append(tag)
-            color = SERIES_COLORS[i % len(SERIES_COLORS)]
-            # Paused: the value at the cursor, tagged on the line's end in the series' colour.
+            # Hovering: a dot where the hover line crosses the series.
+            dot = dpg.add_scatter_series([0.0], [0.0], label=f"##dot{i}", parent=self.y_axis, show=False)
+            with dpg.theme() as theme, dpg.theme_component(dpg.mvScatterSeries):
+                dpg.add_theme_color(dpg.mvPlotCol_MarkerFill, color, category=dpg.mvThemeCat_Plots)
+                dpg.add_theme_color(
+                    dpg.mvPlotCol_MarkerOutline, (24, 26, 32, 255), category=dpg.mvThemeCat_Plots
+                )
+                dpg.add_theme_style(
+                    dpg.mvPlotStyleVar_Marker, dpg.mvPlotMarker_Circle, category=dpg.mvThemeCat_Plots
+                )
+                dpg.add_theme_style(dpg.mvPlotStyleVar_MarkerSize, 4.0, category=dpg.mvThemeCat_Plots)
+            dpg.bind_item_theme(dot, theme)
+            self._dots.append(dot)
+            # The value at the cursor (paused) or under the pointer, tagged on the line in the series' colour.
             note = dpg.add_plot_annotation(
                 parent=self.plot, label="", offset=(-6, 0), color=color, clamped=True, show=False
             )
             self._notes.append(note)
         self._labels = labels
         self._shown_labels = list(labels)
+        self._data_key = None
+
+    # -- the time range ------------------------------------------------------------------------------
+
+    def time_range(self) -> TimeRange:
+        """Return the range this plot shows: the dashboard's shared one while linked, else its own."""
+        shared = self.context.time_range
+        if shared is not None and self.prop("link"):
+            self._own = None
+            return shared
+        if self._own is None:  # unlinked: it goes on from what it showed, on its own
+            self._own = shared.copy() if shared is not None else TimeRange()
+            if shared is not None:
+                shared.point(None, self)
+        return self._own
+
+    def visible_range(self) -> Limits | None:
+        """Return the source times the plot shows (start, end), None before its first update."""
+        return self.view
+
+    def owns_pointer(self, x: float, y: float) -> bool:
+        """The plot area is the plot's: its wheel zooms, its right drag zooms to a box (no canvas menu)."""
+        if not self.plot or not dpg.does_item_exist(self.plot):
+            return False
+        (px, py), (pw, ph) = dpg.get_item_rect_min(self.plot), dpg.get_item_rect_size(self.plot)
+        return bool(px <= x < px + pw and py <= y < py + ph)
+
+    def _poll(self) -> None:
+        """Once a frame: what ImPlot did with the mouse (the x limits), the hover, a double click, a box."""
+        frame = int(dpg.get_frame_count())
+        if frame == self._frame:
+            return
+        self._frame = frame
+        self._visible = bool(dpg.is_item_visible(self.plot))
+        hovered = self._visible and bool(dpg.is_item_hovered(self.plot))
+        mx, my = dpg.get_mouse_pos(local=False)
+        ux, uy = dpg.get_plot_mouse_pos()
+        self._hover.see(frame, hovered, (float(mx), float(my)), (float(ux), float(uy)))
+        if hovered and dpg.is_mouse_button_double_clicked(dpg.mvMouseButton_Left):
+            self._doubles += 1
+        if dpg.is_mouse_button_released(dpg.mvMouseButton_Right):
+            self._box_frame = frame
+        if self._visible:
+            lo, hi = dpg.get_axis_limits(self.x_axis)
+            self._actual = (float(lo), float(hi))
+
+    def redraw_key(self) -> object:
+        """What, besides new data, redraws the plot: the range (zoom, pan, linked plots, the newest time while
+        following), the pointer over it, a double click, limits still being pushed to ImPlot."""
+        if not self.plot or not dpg.does_item_exist(self.plot):
+            return None
+        self._poll()
+        rng = self.time_range()
+        shared = self.context.time_range
+        return (
+            rng.version,
+            rng.newest if rng.following and not self.paused else None,
+            shared.lives if shared is not None else 0,
+            bool(self.prop("link")),
+            self._actual,
+            self._hover.x,
+            rng.hover,
+            self._doubles,
+            self._sync.forcing,
+            self._visible and self._sync.due(self._frame),
+            self.paused,
+        )
+
+    # -- drawing -------------------------------------------------------------------------------------
 
     def update(self, snapshots: Sequence[SeriesSnapshot], now: float) -> None:
-        """Redraw every series over the window ending at the newest sample (paused: at the cursor)."""
-        if self.paused:
+        """Take ImPlot's zoom and pan into the range, then draw every series over the range and the hover."""
+        self._poll()
+        if not self.paused or not self._snaps:
+            self._snaps, self._at, self._now = list(snapshots), self.paused_at, now
+        snaps, at = self._snaps, self._at
+        self._ensure_series(snaps)
+        latest = [float(s.times[-1]) for s in snaps if len(s.times)]
+        own_newest = max(latest) if latest else self._now
+        rng = self.time_range()
+        shared = self.context.time_range
+        if rng is not shared:  # the newest held (the viewer's; paused, the snapshots end at the cursor)
+            if shared is not None and shared.newest is not None:
+                rng.sync(shared.newest, at)
+            else:
+                rng.sync(own_newest if at is None else rng.newest, at)
+            if shared is not None and self._lives_seen is not None and shared.lives != self._lives_seen:
+                rng.go_live()  # End: every plot follows the newest data again, linked or not
+        if shared is not None:
+            self._lives_seen = shared.lives
+        newest = own_newest if rng.newest is None else max(own_newest, rng.newest)
+        end = at if at is not None else newest
+        if self.paused and self._end is not None:
+            end = self._end
+        self._end = end
+        extra = CURSOR_MARGIN if at is not None else 0.0
+        # What the user did with ImPlot since the last frame (a frame with limits pushed took no input).
+        sync = self._sync
+        if sync.forcing:  # ImPlot took no input while limits were pushed: let them go once drawn
+            if self._visible and sync.release(self._frame):
+                dpg.set_axis_limits_auto(self.x_axis)
+        elif self._visible and self._actual is not None:
+            before = sync.before()
+            moved = sync.observe(self._actual)
+            if moved is not None and before is not None:
+                user_moved(rng, before, moved, box=self._box_frame == self._frame, extra=extra)
+        if self._doubles != self._doubles_seen:
+            self._doubles_seen = self._doubles
+            rng.reset()
+        start, stop = rng.window(self.num("window"), end)
+        if rng.following:
+            stop += (stop - start) * extra
+        hover_x, hover_limits = self._hover.x, sync.shown
+        limits = sync.place((start, stop), end if rng.following else None, frame=self._frame)
+        if limits is not None:
+            dpg.set_axis_limits(self.x_axis, *limits)
+        origin = sync.origin if sync.origin is not None else end
+        self.view = (start, stop)
+        self._draw_series(snaps, start, stop, origin)
+        self._draw_ticks(start, stop, origin)
+        mine = None
+        if hover_x is not None and hover_limits is not None and sync.shown is not None:
+            mine = remap(hover_x, hover_limits, sync.shown) + origin
+        self.pointer_over = mine is not None
+        rng.point(mine, self)  # plots sharing the range show the time under the pointer too
+        hover = mine if mine is not None else rng.hover
+        self._show_marks(snaps, at, hover, origin)
+        self._show_info(rng, at, end, start, stop, hover)
+
+    def _draw_series(self, snaps: Sequence[SeriesSnapshot], start: float, stop: float, origin: float) -> None:
+        """Decimate each series over [start, stop] to the plot's width; fit the y axis to what shows."""
+        key = (tuple((s.count, s.last_time, len(s.times)) for s in snaps), start, stop, origin, self.width)
+        if key == self._data_key:
             return
-        self._ensure_series(snapshots)
-        window = self.num("window")
-        at = self.paused_at
-        if at is None:
-            latest = [float(s.times[-1]) for s in snapshots if len(s.times)]
-            ref = max(latest) if latest else now
-        else:
-            ref = at
-        # Min-max decimation to the plot area's width: never more points than pixel columns.
+        self._data_key = key
         max_points = max(2, self.width - PLOT_MARGIN)
         lo, hi = np.inf, -np.inf
         drawn = 0
-        for tag, snap in zip(self._series, snapshots, strict=True):
+        for tag, snap in zip(self._series, snaps, strict=True):
             n = min(len(snap.times), len(snap.values))
-            times, values = (
-                snap.times[-n:] if n else snap.times[:0],
-                snap.values[-n:] if n else snap.values[:0],
-            )
-            sl = window_slice(times, ref, window)
-            x, y = minmax_decimate(times[sl] - ref, values[sl], max_points)
+            times, values = snap.times[len(snap.times) - n :], snap.values[len(snap.values) - n :]
+            inside, drawn_part = range_slice(times, start, stop)
+            x, y = minmax_decimate(times[drawn_part] - origin, values[drawn_part], max_points)
             # Contiguous float64 arrays go to Dear PyGui through the buffer protocol, without lists.
             dpg.set_value(tag, [np.ascontiguousarray(x, np.float64), np.ascontiguousarray(y, np.float64)])
             drawn += len(x)
-            finite = y[np.isfinite(y)]
+            shown = values[inside]
+            finite = shown[np.isfinite(shown)]
             if len(finite):
                 lo, hi = min(lo, float(finite.min())), max(hi, float(finite.max()))
         self.points_drawn = drawn
-        limits: tuple[float, float] | None = None
         if self.prop("scale") == "fixed":
-            limits = (self.num("y_min"), self.num("y_max"))
+            self._set_y_limits((self.num("y_min"), self.num("y_max")))
         elif np.isfinite(lo):
             pad = (hi - lo) * 0.08 or max(abs(hi) * 0.1, 0.5)
-            limits = (lo - pad, hi + pad)
-        if limits is not None and limits != self._limits:
-            dpg.set_axis_limits(self.y_axis, *limits)
-            self._limits = limits
-        self._show_cursor(snapshots, at, window)
-        info = f"{window:g} s window" if at is None else f"{window:g} s to {clock_text(at)}"
-        if info != self._info_text:
-            dpg.set_value(self._info, info)
-            self._info_text = info
+            self._set_y_limits((lo - pad, hi + pad))
 
-    def _show_cursor(self, snapshots: Sequence[SeriesSnapshot], at: float | None, window: float) -> None:
-        """Paused: the cursor line, each series' value at it (legend and value tag); live: none of them."""
+    def _draw_ticks(self, start: float, stop: float, origin: float) -> None:
+        """Label the time axis with the local clock (ticks move with the data; linked plots read alike)."""
+        ticks = tuple(
+            (label, t - origin) for t, label in time_ticks(start, stop, max(40, self.width - PLOT_MARGIN))
+        )
+        if ticks != self._ticks:
+            dpg.set_axis_ticks(self.x_axis, ticks)
+            self._ticks = ticks
+
+    def _show_marks(
+        self, snaps: Sequence[SeriesSnapshot], at: float | None, hover: float | None, origin: float
+    ) -> None:
+        """The cursor line (paused), the hover line and dots, and the values there in tags and the legend."""
         paused = at is not None
-        self._set_x_limits((-window, window * CURSOR_MARGIN) if paused else (-window, 0.0))
         dpg.configure_item(self._cursor_line, show=paused)
-        self.cursor_values = [latest_number(s) for s in snapshots] if paused else []
+        if paused:
+            assert at is not None
+            dpg.set_value(self._cursor_line, [[at - origin]])
+        self.cursor_values = [latest_number(s) for s in snaps] if paused else []
+        self.hover_time = hover
+        self.hover_values = [value_at(s.times, s.values, hover) for s in snaps] if hover is not None else []
+        dpg.configure_item(self._hover_line, show=hover is not None)
+        if hover is not None:
+            dpg.set_value(self._hover_line, [[hover - origin]])
+        # Value tags: under the pointer while hovering, else at the cursor while paused.
+        where, values = (hover, self.hover_values) if hover is not None else (at, self.cursor_values)
         labels = list(self._labels)
-        shown = [i for i, v in enumerate(self.cursor_values) if v is not None and np.isfinite(v)]
-        shifts = self._tag_offsets([self.cursor_values[i] or 0.0 for i in shown])
+        shown = [i for i, v in enumerate(values) if v is not None and np.isfinite(v)]
+        shifts = self._tag_offsets([values[i] or 0.0 for i in shown])
         offsets = dict(zip(shown, shifts, strict=True))
+        side = -6
+        if hover is not None and self.view is not None:
+            start, stop = self.view
+            side = 6 if hover < start + (stop - start) * 0.5 else -6  # tags away from the nearer edge's side
         for i, note in enumerate(self._notes):
-            if i in offsets:
-                value = self.cursor_values[i] or 0.0
+            if where is not None and i in offsets:
+                value = float(values[i] or 0.0)
                 dpg.configure_item(
-                    note, show=True, label=reading(value), default_value=(0.0, value), offset=(-6, offsets[i])
+                    note,
+                    show=True,
+                    label=reading(value),
+                    default_value=(where - origin, value),
+                    offset=(side, offsets[i]),
                 )
             else:
                 dpg.configure_item(note, show=False)
-            if paused:
-                labels[i] = f"{labels[i]}  {reading(self.cursor_values[i])}"
+            if where is not None:
+                labels[i] = f"{labels[i]}  {reading(values[i] if i < len(values) else None)}"
+        for i, dot in enumerate(self._dots):
+            at_hover = self.hover_values[i] if i < len(self.hover_values) else None
+            visible = hover is not None and at_hover is not None and bool(np.isfinite(at_hover))
+            dpg.configure_item(dot, show=visible)
+            if visible and hover is not None and at_hover is not None:
+                dpg.set_value(dot, [[hover - origin], [at_hover]])
         if labels != self._shown_labels:
             for tag, label in zip(self._series, labels, strict=True):
                 dpg.configure_item(tag, label=label)
             self._shown_labels = labels
+
+    def _show_info(
+        self, rng: TimeRange, at: float | None, end: float, start: float, stop: float, hover: float | None
+    ) -> None:
+        """The header: the time under the pointer, else what the range is (following, or held)."""
+        if hover is not None:
+            info = f"{clock_text(hover)}  {hover - end:+.3g} s"
+        elif not rng.following:
+            info = f"held: {span_text(stop - start)} to {clock_text(stop)}"
+        elif at is None:
+            info = f"{span_text(stop - start)} window"
+        else:
+            info = f"{span_text(end - start)} to {clock_text(at)}"
+        if info != self._info_text:
+            dpg.set_value(self._info, info)
+            self._info_text = info
 
     def _tag_offsets(self, values: Sequence[float]) -> list[float]:
         """Vertical pixel offsets that keep the value tags of close values from covering each other."""
