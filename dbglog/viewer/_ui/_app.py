@@ -59,7 +59,7 @@ from dbglog.viewer._widgets._geometry import (
     free_spot,
     snap_rect,
 )
-from dbglog.viewer.widget_api import Widget
+from dbglog.viewer.widget_api import TimeRange, Widget
 
 __all__ = ["PAYLOAD_TYPE", "ViewerApp", "keep_freed_memory"]
 
@@ -162,6 +162,8 @@ class ViewerApp:
         self.files = FileCommands(self)
         self.host = AppHost(self)
         """What widgets get besides their series: log stores, the time cursor, "plot this number"."""
+        self.time_range = TimeRange()
+        """The time range the time plots share (zoomed, panned, following the newest data), one for all."""
         self.recordings = RecordingCommands(self)
         """File › Open recording, Save history as recording, Export CSV, Back to live."""
         self._started = False
@@ -439,6 +441,8 @@ class ViewerApp:
         if playing:  # the cursor moves with the clock: every drawn frame shows a later moment
             self.timeline.tick()
         at = self.timeline.cursor
+        span = self.time_span()
+        self.time_range.sync(span[1] if span is not None else None, at)
         changed = any(item.changed(self.timeline, paused_at=at) for item in self.items)
         if changed or playing or self._time_commands or self._bar_moved():
             self.pacer.request(time.monotonic())
@@ -816,7 +820,13 @@ class ViewerApp:
     def _canvas_item(self, config: WidgetConfig | RawWidget, cls: type[Widget] | None) -> CanvasItem:
         """A widget's frame on the canvas, with the app's publisher and host."""
         return CanvasItem(
-            config, cls, self.canvas, self.frame_theme, publisher=self.publisher, host=self.host
+            config,
+            cls,
+            self.canvas,
+            self.frame_theme,
+            publisher=self.publisher,
+            host=self.host,
+            time_range=self.time_range,
         )
 
     def open_log_console(self) -> CanvasItem | None:
@@ -1056,9 +1066,10 @@ class ViewerApp:
             self.step_time(direction)
 
     def on_end_key(self) -> None:
-        """End: back to live (a recording: to its end)."""
+        """End: back to live (a recording: to its end); plots follow the newest data again."""
         if not self._keys_blocked():
             self.go_live()
+            self.time_range.go_live()
 
     def on_home_key(self) -> None:
         """Home: to the oldest moment held (a recording's start), paused."""

@@ -120,7 +120,15 @@ class FileCommands:
                 # The placeholder says what is missing: a plugin that failed to load, or none installed.
                 config = RawWidget(config.data, app.registry.missing_reason(config.type))
             doc.add(
-                CanvasItem(config, cls, app.canvas, app.frame_theme, publisher=app.publisher, host=app.host)
+                CanvasItem(
+                    config,
+                    cls,
+                    app.canvas,
+                    app.frame_theme,
+                    publisher=app.publisher,
+                    host=app.host,
+                    time_range=app.time_range,
+                )
             )
         # Widgets were left out (too many, too deep, unsafe text): saving over the file would lose them,
         # so it opens untitled and Save asks for a name (docs/viewer.md, Dashboard files).
