@@ -201,6 +201,7 @@ class Probe:
             "clipboard": dpg.get_clipboard_text(),
             "scroll": [dpg.get_x_scroll(app.canvas), dpg.get_y_scroll(app.canvas)],
             "marks": len(app.host.marks(0.0, 1e12)[0]),
+            "bar_marks": [list(m) for m in app.timebar._marked],
             "status": app._status_text,
         }
 
@@ -507,10 +508,21 @@ def test_right_click_a_number_plots_it_filled_from_the_stored_lines(
 
 
 def test_warnings_and_errors_mark_the_timeline(viewer: Callable[[str], Viewer], loggers: Loggers) -> None:
-    """The console's WARN and ERROR lines are the timeline bar's marks."""
+    """The console's WARN and ERROR lines mark the timeline bar, in their colours (one mark per pixel column,
+    the worst level wins)."""
     v = viewer("console")
     wait_console(v, lambda c: c["held"] >= 3 * LINES)
-    warn = LINES // 10
-    errors = LINES // 7
-    state = v.wait_for(lambda s: s["marks"] >= warn + errors)
-    assert state["marks"] >= warn + errors
+
+    def marked(n: int) -> int:  # the power node's warnings and the driver's errors among the first n lines
+        return sum(1 for i in range(n) if i % 10 == 9) + sum(1 for i in range(n) if i % 7 == 6)
+
+    first, both = marked(LINES), marked(2 * LINES)
+    state = v.wait_for(lambda s: s["marks"] == first and s["bar_marks"])
+    levels = {level for _, level in state["bar_marks"]}
+    assert levels <= {30, 40}
+    assert 40 in levels
+    loggers.more(LINES)
+    time.sleep(2.0)  # a minute of lines later, the first batch is a few pixels left of the new one
+    state = v.wait_for(lambda s: s["marks"] == both and len(s["bar_marks"]) >= 2)
+    xs = [x for x, _ in state["bar_marks"]]
+    assert xs == sorted(set(xs))

@@ -329,6 +329,7 @@ class ViewerApp:
                 on_play=self.toggle_play,
                 on_speed=lambda speed: self.queue_time(self.set_speed, speed),
                 on_loop=self.toggle_loop,
+                marks=self.host.mark_columns,  # the Log console's warnings and errors
             )
             with dpg.group(horizontal=True):
                 self.status_left = dpg.add_text("", color=theme.DIM)

@@ -13,12 +13,13 @@ from dbglog.viewer._data._history import History
 from dbglog.viewer._data._logstore import LOG_TYPES, WARN, LogStore
 from dbglog.viewer._ui._frame import TITLE_H
 from dbglog.viewer._ui._plotnumber import NumberPlan, PlotNumberDialog
+from dbglog.viewer._ui._timescale import TimeScale
 from dbglog.viewer.widget_api import ValueKind
 
 if TYPE_CHECKING:
     from dbglog.viewer._ui._app import ViewerApp
 
-__all__ = ["AppHost"]
+__all__ = ["AppHost", "mark_columns"]
 
 
 class AppHost:
@@ -97,3 +98,24 @@ class AppHost:
         if not times:
             return np.zeros(0), np.zeros(0, dtype=np.uint8)
         return np.concatenate(times), np.concatenate(levels)
+
+    def mark_columns(self, scale: TimeScale) -> list[tuple[int, int]]:
+        """The timeline bar's marks for `scale`: the worst level held in each pixel column with one."""
+        return mark_columns(*self.marks(scale.oldest, scale.newest), scale)
+
+
+def mark_columns(
+    times: npt.NDArray[np.float64], levels: npt.NDArray[np.uint8], scale: TimeScale
+) -> list[tuple[int, int]]:
+    """(pixel, level) of the worst level among the lines in each pixel column of a timeline track, by pixel.
+
+    However many lines there are, the bar draws one mark per pixel column at most.
+    """
+    if not len(times) or scale.seconds <= 0:
+        return []
+    f = np.clip((times - scale.oldest) / scale.seconds, 0.0, 1.0)
+    x = np.round(scale.x0 + f * (scale.x1 - scale.x0)).astype(np.int64)
+    order = np.lexsort((levels, x))  # by column, then level: the last of a column is its worst
+    xs, lv = x[order], levels[order]
+    last = np.append(xs[1:] != xs[:-1], True)
+    return list(zip(xs[last].tolist(), lv[last].astype(int).tolist(), strict=True))

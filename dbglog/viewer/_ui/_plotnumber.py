@@ -43,7 +43,7 @@ def plot_window(times: Sequence[float] | np.ndarray, now: float) -> float:
     if not len(times):
         return 10.0
     span = now - float(np.min(times))
-    return float(min(3600.0, max(10.0, np.ceil(span * 1.1))))
+    return float(min(3600.0, max(10.0, np.ceil(round(span * 1.1, 6)))))
 
 
 @dataclass(frozen=True, slots=True)

@@ -9,7 +9,7 @@ when what it shows changed; the maths is `_timescale`.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 
 import dearpygui.dearpygui as dpg
 
@@ -52,6 +52,8 @@ LIVE: Color = theme.STATUS_COLORS[Status.LIVE]
 PAUSED: Color = (240, 176, 64, 255)
 RAIL: Color = (52, 57, 68, 255)
 NONE: Color = (0, 0, 0, 0)
+MARK_COLORS: dict[int, Color] = {30: (240, 190, 60, 255), 40: (240, 90, 90, 255), 50: (225, 110, 235, 255)}
+"""Timeline marks of log lines: WARN yellow, ERROR red, FATAL magenta (as the Log console colours them)."""
 PLAYING: Color = theme.ACCENT
 ICON_BG: Color = (48, 53, 64, 255)
 ICON_HOVER: Color = (62, 92, 130, 255)
@@ -73,6 +75,7 @@ class TimeBar:
         on_play: the play/pause button's action (a click on it, seen by `poll` on the UI thread).
         on_speed: a speed chosen in the speed menu (called on Dear PyGui's callback thread: queue it).
         on_loop: the loop toggle's action (seen by `poll` on the UI thread).
+        marks: the log lines to mark on the track for a scale (the Log console's warnings and errors).
     """
 
     def __init__(
@@ -85,8 +88,12 @@ class TimeBar:
         on_play: Callable[[], None] = lambda: None,
         on_speed: Callable[[float], None] = lambda _speed: None,
         on_loop: Callable[[], None] = lambda: None,
+        marks: Callable[[TimeScale], Sequence[tuple[int, int]]] | None = None,
     ) -> None:
         self.timeline = timeline
+        self._marks = marks
+        """Log lines to mark on the track: (pixel, level) of the worst WARN/ERROR/FATAL per pixel column."""
+        self._marked: tuple[tuple[int, int], ...] = ()
         self._span = span
         self._on_seek = on_seek
         self._on_play = on_play
@@ -263,8 +270,14 @@ class TimeBar:
             tuple(round(x) for x, _ in scale.ticks()),
             None if cursor is None else (round(scale.x_of(cursor)), cursor, round(scale.newest - cursor, 1)),
             controls,
+            self._marked_for(scale),
         )
         return scale, key
+
+    def _marked_for(self, scale: TimeScale) -> tuple[tuple[int, int], ...]:
+        """The marks for `scale` (kept for `_draw_track`; part of what the picture depends on)."""
+        self._marked = tuple(self._marks(scale)) if self._marks is not None else ()
+        return self._marked
 
     def stale(self) -> bool:
         """Whether the bar would look different if drawn now (the history grew, the cursor moved)."""
@@ -448,4 +461,7 @@ class TimeBar:
             lw = text_size(label, LABEL_SIZE)[0]
             if free(x - lw / 2, x + lw / 2):
                 dpg.draw_text((x - lw / 2, label_y), label, size=LABEL_SIZE, color=theme.DIM, parent=dl)
+        for x, level in self._marked:  # the Log console's warnings and errors, above the rail
+            mark = MARK_COLORS.get(level, MARK_COLORS[50] if level > 50 else MARK_COLORS[30])
+            dpg.draw_line((x, top - 9), (x, top - 1), color=mark, thickness=2, parent=dl)
         dpg.draw_circle((knob_x, RAIL_Y), 6.5, color=(20, 22, 27, 255), fill=color, thickness=2, parent=dl)
