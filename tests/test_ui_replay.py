@@ -78,12 +78,13 @@ def write_recording(path: Path, *, chunk_bytes: int = 1 << 20) -> Path:
 
 
 def replay_dashboard(tmp: Path, *, plot_window: float = 10.0) -> Path:
-    """A dial and a plot of the speed, a String of the mode, an LED, a plot of a Twist field."""
+    """A dial and a plot of the speed, a String of the mode, an LED, a plot of a Twist field, a toggle."""
     from dbglog.viewer._data._model import Binding
     from dbglog.viewer._document._dashboard import Dashboard, RawWidget, WidgetConfig, save_dashboard
 
     speed = Binding(SPEED, "data")
-    widgets = [
+    widgets = [  # the control first: its publishing service starts while the others are being filled
+        WidgetConfig("toggle", "Fan", 680, 300, 200, 80, (Binding("/rp_fan"),), {"state": True}),
         WidgetConfig("dial", "Speed", 20, 20, 240, 260, (speed,), {"minimum": 0, "maximum": 300}),
         WidgetConfig("plot", "Plot", 280, 20, 420, 260, (speed,), {"window": plot_window}),
         WidgetConfig("string", "Mode", 720, 20, 280, 260, (Binding(MODE, "data"),), {}),
@@ -137,6 +138,8 @@ def test_cli_replay_screenshot_at_a_cursor_reports_the_recorded_values(display: 
         assert widgets["Speed"]["samples"] == [N]
         assert widgets["Mode"]["samples"] == [N // 50]
         assert widgets["Speed"]["status"] == "live"
+        # A control in a replay still publishes (its service imports rclpy while the replay decodes).
+        assert [w["name"] for w in data["widgets"] if w["status"] == "error"] == []
 
 
 def test_cli_replay_without_a_dashboard_shows_every_topic_and_its_end(display: str, tmp_path: Path) -> None:

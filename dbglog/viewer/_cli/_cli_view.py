@@ -334,7 +334,9 @@ def open_replay(path: Path, *, stale_after: float) -> ReplaySource | None:
     """Load a recording for ``--replay``; its problems are warnings on stderr; None if it cannot be read."""
     from dbglog.record import RecordingError
     from dbglog.viewer._data._replay import load_replay
+    from dbglog.viewer._ui._recordings import import_ros
 
+    import_ros()  # on this thread, before the controls' publishing service may import it on its own
     try:
         replay = load_replay(path, stale_after=stale_after)
     except RecordingError as exc:

@@ -34,7 +34,7 @@ from dbglog.viewer._ui._timescale import format_clock, format_duration
 if TYPE_CHECKING:
     from dbglog.viewer._ui._app import ViewerApp
 
-__all__ = ["ExportRange", "RecordingCommands", "default_name", "plot_window"]
+__all__ = ["ExportRange", "RecordingCommands", "default_name", "import_ros", "plot_window"]
 
 T = TypeVar("T")
 
@@ -84,6 +84,20 @@ def _visible_range(widget: object) -> tuple[float, float] | None:
     if isinstance(shown, tuple) and len(shown) == 2 and all(isinstance(t, float | int) for t in shown):
         return float(shown[0]), float(shown[1])
     return None
+
+
+def import_ros() -> None:
+    """Import rclpy (what a replay deserializes with) on this thread now, if it is installed.
+
+    Without a live engine nothing has imported it yet, and two threads importing it at once (a replay
+    filling a binding, the controls' publishing service starting) can meet Python's import deadlock
+    check, which fails one of them.
+    """
+    try:
+        import rclpy
+        import rclpy.serialization  # noqa: F401
+    except ImportError:  # a viewer without ROS: a recording's std_msgs numbers still play
+        pass
 
 
 def default_name(stem: str, extension: str, at: float | None = None) -> str:
@@ -246,6 +260,7 @@ class RecordingCommands:
             dpg.set_value(dialog.name_input, str(target))
         stale = float(getattr(self.app.source, "stale_after", 2.0))
         self.folder = target.parent if target.is_file() else target
+        import_ros()
         self._run(
             dialog,
             f"loading {target.name}\u2026",
@@ -319,6 +334,8 @@ class RecordingCommands:
             return None
         if span is not None:
             lo, hi = max(lo, span[0]), min(hi, span[1])
+        if app.timeline.cursor is not None:  # paused, a plot draws what had arrived by the cursor, no later
+            hi = min(hi, app.timeline.cursor)
         return ExportRange(lo, hi, what) if hi >= lo else None
 
     def ask_save_recording(self) -> SaveAsDialog | None:
