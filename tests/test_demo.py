@@ -183,3 +183,37 @@ def test_demo_files_ship_as_package_data_and_examples_share_them() -> None:
         ("dial", "/rosdashboard/sound/azimuth"),
         ("thermo", "/rosdashboard/sound/confidence"),
     }
+
+
+FIT_CHECK = """
+import json, sys
+from dbglog._demo._cli import dashboard_path
+from dbglog.viewer._document._dashboard import load_dashboard
+from dbglog.viewer._ui import StaticSource, ViewerApp
+from dbglog.viewer._widgets import WidgetRegistry
+registry = WidgetRegistry.builtin()
+app = ViewerApp(StaticSource(), registry, width=1440, height=900)
+app.start()
+try:
+    app.load(load_dashboard(dashboard_path(), registry.get), None)
+    for _ in range(3):
+        app.frame()
+    view = app.view_rect()
+    right = max(i.rect.x + i.rect.w for i in app.items)
+    bottom = max(i.rect.y + i.rect.h for i in app.items)
+    print(json.dumps({"view": [view.w, view.h], "right": right, "bottom": bottom}))
+finally:
+    app.close()
+"""
+
+
+def test_demo_dashboard_fits_the_default_window(display: dict[str, str]) -> None:
+    """In the demo's 1440x900 window every widget is in view, above the timeline bar: nothing to scroll to."""
+    done = subprocess.run(
+        [sys.executable, "-c", FIT_CHECK], env=display, cwd=ROOT, capture_output=True, text=True, timeout=60
+    )
+    assert done.returncode == 0, done.stderr
+    fit = json.loads(done.stdout.strip().splitlines()[-1])
+    width, height = fit["view"]
+    assert fit["right"] <= width, fit
+    assert fit["bottom"] <= height, fit
