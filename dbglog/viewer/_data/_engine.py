@@ -70,6 +70,9 @@ _EVERY_NODE_TOPICS = frozenset({"/parameter_events"})
 """Topics every rclpy node publishes, the engine's own included: they don't make the graph non-empty."""
 LOG_TYPE = "rcl_interfaces/msg/Log"
 """The type of ``/rosout`` and other log topics."""
+LOG_QUEUE = 20_000
+"""Queue depth of a log topic's subscription: a second of lines at 20,000 lines/s may wait while this thread
+is busy or starved (the Log console keeps every line); DDS's memory grows only while lines wait."""
 
 
 def queue_depth_for(n_topics: int, message_size: int | None, *, max_depth: int, budget: int) -> int:
@@ -648,7 +651,7 @@ class Engine(SeriesTimes):
             budget=self.queue_budget,
         )
         if msg_type == LOG_TYPE:
-            depth = max(depth, LOG_DEPTH)  # room for every line a late-joining reader is re-sent
+            depth = max(depth, LOG_DEPTH, LOG_QUEUE)  # the history re-sent to a late reader, and bursts
         qos = subscription_qos(depth, reliable=reliable, transient=transient)
         sub = node.create_subscription(cls, name, no_callback, qos, raw=True)
         topic = _TopicSub(name, msg_type, cls, sub, reliable, transient)
