@@ -1,17 +1,27 @@
-"""Benchmark "logs as data": proposing a pattern, previewing it over 100,000 stored lines, memory per line.
+"""Benchmark "logs as data": the Log console's store, proposing a pattern, previewing it over 100,000 lines.
 
-Run: ``.venv/bin/python -m benchmarks.bench_logs`` (``--quick`` for fewer repeats). Times are medians of
-repeats (wall clock, the machine's load included). Two calibration figures come first so that runs on
-different machines compare: an empty CPython loop and one call into the google-re2 binding. The output is
-Markdown tables.
+Run: ``.venv/bin/python -m benchmarks.bench_logs`` (``--quick`` for fewer repeats and a 10 s flood;
+``--seconds 60`` is the issue's flood). Times are medians of repeats (wall clock, the machine's load
+included). Two calibration figures come first so that runs on different machines compare: an empty CPython
+loop and one call into the google-re2 binding. The output is Markdown tables.
+
+The flood: five child processes, one rclpy node each, log 20,000 lines/s in all through the real /rosout
+(rcutils' logging call, as a node's logger makes it); the viewer's engine takes them into a `LogStore` that a
+thread drains 20 times a second, as the console does; every sequence number must arrive.
 """
 
 from __future__ import annotations
 
 import argparse
 import gc
+import os
+import random
+import re
+import select
 import statistics
+import subprocess
 import sys
+import threading
 import time
 import tracemalloc
 from collections.abc import Callable
@@ -19,8 +29,9 @@ from collections.abc import Callable
 import numpy as np
 import re2
 
-from benchmarks._common import print_table
+from benchmarks._common import local_ros_env, print_table
 from dbglog._regex._propose import MAX_LINE, Proposal, match_joined, preview, propose
+from dbglog.viewer._data._logstore import LogFilter, LogStore
 
 N_LINES = 100_000
 _NODES = ("planner_local", "planner_global", "driver", "power_monitor", "camera")
@@ -153,11 +164,300 @@ def _memory_rows() -> list[list[object]]:
     return rows
 
 
+# --- the Log console's store -----------------------------------------------------------------------------
+
+
+def _store(lines: list[str]) -> LogStore:
+    """A store holding `lines` from five nodes, a millisecond apart, with a realistic mix of levels."""
+    store = LogStore(capacity=len(lines))
+    n = len(lines)
+    store.append(
+        1_795_000_000.0 + np.arange(n) * 1e-3,
+        [(10, 20, 20, 30, 40)[i % 5] for i in range(n)],
+        [_NODES[i % 5] for i in range(n)],
+        lines,
+    )
+    return store
+
+
+_FILTERS: tuple[tuple[str, LogFilter], ...] = (
+    ("minimum level warn", LogFilter(min_level=30)),
+    ("one node hidden", LogFilter(hidden=frozenset({"driver"}))),
+    ("text search 'wall' (10 % of lines)", LogFilter(text="wall")),
+    ("text search 'e' (every line)", LogFilter(text="e")),
+    ("include 'RUNNING' (plain text, 90 %)", LogFilter(include="RUNNING")),
+    ("include 'wall|queue=12' (plain alternatives)", LogFilter(include="wall|queue=12")),
+    ("include regex 'queue=1[02]$' (alternatives)", LogFilter(include=r"queue=1[02]$")),
+    ("include regex '^distance.*deg\\)$' (every 10th line)", LogFilter(include=r"^distance.*deg\)$")),
+    ("include regex 'queue=[0-5]$' (46 %, scattered)", LogFilter(include=r"queue=[0-5]$")),
+    ("include regex 'load [0-3]\\.' (51 %, scattered)", LogFilter(include=r"load [0-3]\.")),
+    ("exclude 'tick' (plain text)", LogFilter(exclude="tick")),
+)
+
+
+def _filter_rows(repeats: int) -> list[list[object]]:
+    """Changing the filter over 100,000 stored lines: the whole answer, and the console's first answer."""
+    store = _store(_lines(10))
+    rows: list[list[object]] = []
+    for name, filt in _FILTERS:
+
+        def whole(filt: LogFilter = filt) -> object:
+            store._selection = None  # a filter changed: nothing about it cached
+            store._masks.clear()
+            return store.select(filt)
+
+        def first(filt: LogFilter = filt) -> object:
+            store._selection = None
+            store._masks.clear()
+            return store.select_within(filt, budget=0.03)
+
+        shown = len(store.select(filt))
+        rows.append(
+            [name, f"{shown:,}", f"{_median_ms(whole, repeats):.1f}", f"{_median_ms(first, repeats):.1f}"]
+        )
+    return rows
+
+
+def _store_rows(repeats: int) -> list[list[object]]:
+    """Decoding Log messages into the store, a new line's cost per filter, and the store's preview."""
+    from rcl_interfaces.msg import Log
+    from rclpy.serialization import serialize_message
+
+    n = 20_000
+    payloads = []
+    for i in range(n):
+        msg = Log()
+        msg.level, msg.name = 20, _NODES[i % 5]
+        msg.msg = f"distance to wall: {i * 0.01:.2f} m (angle {-(i % 90)} deg)"
+        msg.file, msg.function, msg.line = "/ws/src/planner/planner.cpp", "on_timer", 120 + i % 3
+        payloads.append(serialize_message(msg))
+    times = 1_795_000_000.0 + np.arange(n) * 1e-3
+
+    def decode() -> object:
+        store = LogStore(capacity=n)
+        store.push("rcl_interfaces/msg/Log", times, payloads)
+        return store.sync()
+
+    rows: list[list[object]] = [
+        [
+            "decode serialized Log messages into the store (push + sync)",
+            f"{_median_ms(decode, repeats) / n * 1e3:.2f} µs/line",
+        ]
+    ]
+    store = _store(_lines(10))
+    filt = LogFilter(min_level=20, include=r"queue=[0-5]$", text="state")
+    store.select(filt)
+    batch = [f"tick {i}: state=RUNNING load {i % 7}.{i % 10} queue={i % 13}" for i in range(1000)]
+    start = [store.span() or (0.0, 0.0)][0][1]
+
+    def grow() -> object:
+        nonlocal start
+        start += 1.0
+        store.append(start + np.arange(1000) * 1e-4, [20] * 1000, ["driver"] * 1000, batch)
+        return store.select(filt)
+
+    rows.append(
+        [
+            "1,000 new lines with a level + regex + text filter cached (append + select)",
+            f"{_median_ms(grow, repeats * 3):.1f} ms",
+        ]
+    )
+    for label, every in (("1 %", 100), ("10 %", 10), ("100 %", 1)):
+        lines = _lines(every)
+        proposal = propose(lines[0], 0)
+        kept = _store(lines)
+
+        def run(proposal: Proposal = proposal, kept: LogStore = kept) -> object:
+            return kept.preview(proposal, node="*")
+
+        rows.append(
+            [
+                f"LogStore.preview over 100,000 lines, {label} of that kind",
+                f"{_median_ms(run, repeats):.0f} ms",
+            ]
+        )
+    return rows
+
+
+def _store_memory_rows() -> list[list[object]]:
+    """Bytes per stored line, all-in (tracemalloc), and what the store counts itself."""
+    lines = _lines(10)
+    gc.collect()
+    tracemalloc.start()
+    store = _store(lines)
+    store.select(LogFilter(text="wall"))  # one filter cached, as a console has
+    size, _peak = tracemalloc.get_traced_memory()
+    tracemalloc.stop()
+    text = sum(len(s) for s in lines) / len(lines)
+    return [
+        ["LogStore, 100,000 lines, one text filter cached (tracemalloc)", f"{size / len(lines):.0f}"],
+        ["the same, as the store counts it (bytes_used)", f"{store.bytes_used() / len(lines):.0f}"],
+        ["(the message text itself, average)", f"{text:.0f}"],
+    ]
+
+
+# --- the flood: real /rosout into the engine's store --------------------------------------------------------
+
+_SPAN = 10_000_000
+"""Each publisher's sequence numbers start at its index times this."""
+_SEQ = re.compile(r"seq=(\d+) ")
+
+
+def _publisher_main(rate: float, count: int, offset: int) -> int:
+    """Child process: one node logging `count` lines at `rate`/s through rcutils (its /rosout), when told."""
+    import rclpy
+    from rclpy.context import Context
+    from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
+    from rclpy.node import Node
+
+    context = Context()
+    rclpy.init(context=context)
+    node = Node(f"flood_{offset // _SPAN}", context=context, start_parameter_services=False)
+    name = node.get_logger().name
+    log = _rclpy.rclpy_logging_rcutils_log
+    while not select.select([sys.stdin], [], [], 0.1)[0]:
+        log(20, name, "flood probe", "flood", __file__, 1)
+    sys.stdin.readline()
+    start = time.perf_counter()
+    sent = 0
+    while sent < count:
+        due = min(count, int((time.perf_counter() - start) * rate) + 1)
+        while sent < due:
+            level = 40 if sent % 97 == 0 else 30 if sent % 31 == 0 else 20
+            log(
+                level,
+                name,
+                f"seq={offset + sent} planner: path cost {sent % 1000 * 0.01:.2f} ok",
+                "plan",
+                __file__,
+                7,
+            )
+            sent += 1
+        if sent < count:
+            time.sleep(0.0005)
+    print(f"sent {sent} {time.perf_counter() - start:.4f}", flush=True)
+    sys.stdin.readline()  # keep the rosout writer until the parent has counted
+    node.destroy_node()
+    rclpy.shutdown(context=context)
+    return 0
+
+
+def bench_flood(rate: float, seconds: float, publishers: int = 5) -> list[list[object]]:
+    """`publishers` nodes log `rate` lines/s in all for `seconds`; count what reaches the console's store."""
+    from dbglog.viewer._data._engine import Engine
+    from dbglog.viewer._data._model import Binding
+
+    per_pub = int(rate * seconds / publishers)
+    capacity = per_pub * publishers + 10_000
+    with Engine(node_name="bench_logs_engine") as engine:
+        engine.bind(Binding("/rosout"))
+        store = engine.log_store("/rosout")
+        store.capacity = capacity
+        stop = threading.Event()
+        syncs: list[float] = []
+
+        def console() -> None:  # the UI thread's part: take the new lines 20 times a second
+            while not stop.is_set():
+                t0 = time.perf_counter()
+                store.sync()
+                syncs.append(time.perf_counter() - t0)
+                stop.wait(0.05)
+
+        ui = threading.Thread(target=console, daemon=True)
+        ui.start()
+        pubs = [
+            subprocess.Popen(
+                [
+                    sys.executable,
+                    "-m",
+                    "benchmarks.bench_logs",
+                    "--publisher",
+                    "--rate",
+                    str(rate / publishers),
+                    "--count",
+                    str(per_pub),
+                    "--offset",
+                    str(i * _SPAN),
+                ],
+                stdin=subprocess.PIPE,
+                stdout=subprocess.PIPE,
+                stderr=subprocess.DEVNULL,
+                text=True,
+            )
+            for i in range(publishers)
+        ]
+        try:
+            deadline = time.monotonic() + 60
+            while (
+                len(store.select(LogFilter(text="flood probe", hidden=frozenset()))) == 0
+                or len(set(store.nodes()) & {f"flood_{i}" for i in range(publishers)}) < publishers
+            ):
+                if time.monotonic() > deadline:
+                    raise RuntimeError("the publishers never reached the engine")
+                time.sleep(0.1)
+            for p in pubs:
+                assert p.stdin is not None
+                p.stdin.write("go\n")
+                p.stdin.flush()
+            sent, elapsed = 0, 0.0
+            for p in pubs:
+                assert p.stdout is not None
+                _word, n, secs = p.stdout.readline().split()
+                sent, elapsed = sent + int(n), max(elapsed, float(secs))
+            last, quiet = -1, time.monotonic()
+            while time.monotonic() - quiet < 3.0:  # until nothing new arrived for 3 s
+                now = store.added + store.pending
+                if now != last:
+                    last, quiet = now, time.monotonic()
+                time.sleep(0.1)
+            stop.set()
+            ui.join(5)
+            store.sync()
+            ids = store.select(LogFilter(include="^seq="))
+            seen = {int(m.group(1)) for m in map(_SEQ.match, store.messages(ids)) if m is not None}
+        finally:
+            stop.set()
+            for p in pubs:
+                if p.stdin is not None and p.poll() is None:
+                    p.stdin.write("exit\n")
+                    p.stdin.close()
+            for p in pubs:
+                p.wait(timeout=30)
+                if p.stdout is not None:
+                    p.stdout.close()
+        taken = engine.stats().per_topic.get("/rosout", 0)
+    lost = sent - len(seen)
+    sync_ms = sorted(syncs)
+    p95 = sync_ms[int(0.95 * (len(sync_ms) - 1))] * 1e3 if sync_ms else 0.0
+    return [
+        [
+            str(publishers),
+            f"{rate:,.0f}",
+            f"{seconds:g}",
+            f"{sent / elapsed:,.0f}",
+            f"{sent:,}",
+            f"{len(seen):,}",
+            f"{lost:,} ({100 * lost / max(sent, 1):.3f} %)",
+            f"{taken:,}",
+            f"{p95:.1f}",
+            str(store.evicted),
+        ]
+    ]
+
+
 def main(argv: list[str] | None = None) -> int:
-    """Run the benchmark and print its tables."""
+    """Run the benchmark and print its tables (or, with --publisher, be one flooding child process)."""
     parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("--quick", action="store_true", help="fewer repeats")
+    parser.add_argument("--quick", action="store_true", help="fewer repeats, a 10 s flood")
+    parser.add_argument("--rate", type=float, default=20_000.0, help="flood: lines/s in all")
+    parser.add_argument("--seconds", type=float, default=60.0, help="flood: how long")
+    parser.add_argument("--skip-flood", action="store_true", help="no ROS: only the store and the proposals")
+    parser.add_argument("--publisher", action="store_true", help=argparse.SUPPRESS)
+    parser.add_argument("--count", type=int, default=0, help=argparse.SUPPRESS)
+    parser.add_argument("--offset", type=int, default=0, help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
+    if args.publisher:
+        return _publisher_main(args.rate, args.count, args.offset)
     repeats = 3 if args.quick else 7
     print(f"python {sys.version.split()[0]}, google-re2, numpy {np.__version__}")
     print_table("Calibration (this machine, this run)", ["what", "time"], _calibration(repeats))
@@ -172,6 +472,38 @@ def main(argv: list[str] | None = None) -> int:
         ["store", "bytes/line"],
         _memory_rows(),
     )
+    print_table(
+        f"The console's store: changing the filter over {N_LINES:,} lines (median; target 50 ms)",
+        ["filter", "lines shown", "whole answer, ms", "first answer (newest lines), ms"],
+        _filter_rows(repeats),
+    )
+    print_table(
+        "The console's store: decoding, growing, previews (median)", ["what", "time"], _store_rows(repeats)
+    )
+    print_table(
+        f"The console's store: memory per line ({N_LINES:,} lines, all-in)",
+        ["what", "bytes/line"],
+        _store_memory_rows(),
+    )
+    if not args.skip_flood:
+        local_ros_env(random.SystemRandom().randint(1, 100) if "ROS_DOMAIN_ID" not in os.environ else None)
+        seconds = 10.0 if args.quick else args.seconds
+        print_table(
+            "Flood: nodes logging through real /rosout into the engine's log store (a thread syncs at 20 Hz)",
+            [
+                "nodes",
+                "target lines/s",
+                "seconds",
+                "sent lines/s",
+                "sent",
+                "in the store",
+                "lost",
+                "engine took",
+                "sync p95 ms",
+                "evicted",
+            ],
+            bench_flood(args.rate, seconds),
+        )
     return 0
 
 

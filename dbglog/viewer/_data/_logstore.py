@@ -331,9 +331,7 @@ class LogStore:
 
     # --- writing ------------------------------------------------------------------------------------
 
-    def push(
-        self, msg_type: str, times: Sequence[float] | npt.NDArray[np.float64], payloads: list[bytes]
-    ) -> None:
+    def push(self, msg_type: str, times: npt.ArrayLike, payloads: list[bytes]) -> None:
         """Queue serialized Log or String messages with their source times (any thread; never blocks long).
 
         The owner decodes them at its next `sync`. While more than `capacity` lines wait, the oldest waiting
@@ -429,8 +427,8 @@ class LogStore:
 
     def append(
         self,
-        times: Sequence[float] | npt.NDArray[np.float64],
-        levels: Sequence[int] | npt.NDArray[np.integer],
+        times: npt.ArrayLike,
+        levels: npt.ArrayLike,
         nodes: Sequence[str],
         messages: Sequence[str],
         *,
@@ -439,7 +437,11 @@ class LogStore:
         """Add decoded lines (owner thread): times, levels, logger names, messages, and optionally
         each line's (file, function, line)."""
         n = len(messages)
-        if not (len(times) == len(levels) == len(nodes) == n) or (sites is not None and len(sites) != n):
+        time_array = np.asarray(times, dtype=np.float64)
+        level_array = np.asarray(levels, dtype=np.int64)
+        if not (len(time_array) == len(level_array) == len(nodes) == n) or (
+            sites is not None and len(sites) != n
+        ):
             raise ValueError("append needs one time, level, node (and site) per message")
         node_ids = np.zeros(n, dtype=np.uint16)
         for i, name in enumerate(nodes):
@@ -465,8 +467,8 @@ class LogStore:
                 data = _cut_utf8(data)
             texts.append(data.translate(_SANITIZE))
         self._add(
-            np.asarray(times, dtype=np.float64),
-            np.clip(np.asarray(levels, dtype=np.int64), 0, 255).astype(np.uint8),
+            time_array,
+            np.clip(level_array, 0, 255).astype(np.uint8),
             node_ids,
             site_ids,
             texts,
