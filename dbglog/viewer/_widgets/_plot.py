@@ -23,9 +23,9 @@ from dbglog.viewer._widgets._timeaxis import (
     HoverTracker,
     Limits,
     remap,
+    sample_at,
     time_ticks,
     user_moved,
-    value_at,
 )
 from dbglog.viewer.widget_api import (
     Binding,
@@ -459,48 +459,45 @@ class PlotWidget(Widget):
     def _show_marks(
         self, snaps: Sequence[SeriesSnapshot], at: float | None, hover: float | None, origin: float
     ) -> None:
-        """The cursor line (paused), the hover line and dots, and the values there in tags and the legend."""
+        """The cursor line (paused), the hover line, and the values in tags and the legend: under the pointer
+        each series' last sample then (a dot marks it), else at the cursor while paused."""
         paused = at is not None
         dpg.configure_item(self._cursor_line, show=paused)
-        if paused:
-            assert at is not None
+        if at is not None:
             dpg.set_value(self._cursor_line, [[at - origin]])
         self.cursor_values = [latest_number(s) for s in snaps] if paused else []
         self.hover_time = hover
-        self.hover_values = [value_at(s.times, s.values, hover) for s in snaps] if hover is not None else []
+        samples = [sample_at(s.times, s.values, hover) for s in snaps] if hover is not None else []
+        self.hover_values = [None if p is None else p[1] for p in samples]
         dpg.configure_item(self._hover_line, show=hover is not None)
         if hover is not None:
             dpg.set_value(self._hover_line, [[hover - origin]])
-        # Value tags: under the pointer while hovering, else at the cursor while paused.
-        where, values = (hover, self.hover_values) if hover is not None else (at, self.cursor_values)
-        labels = list(self._labels)
-        shown = [i for i, v in enumerate(values) if v is not None and np.isfinite(v)]
-        shifts = self._tag_offsets([values[i] or 0.0 for i in shown])
-        offsets = dict(zip(shown, shifts, strict=True))
+        if hover is not None:
+            marks = [None if p is None else (p[0] - origin, p[1]) for p in samples]
+        elif at is not None:
+            marks = [None if v is None else (at - origin, v) for v in self.cursor_values]
+        else:
+            marks = [None] * len(snaps)
+        shown = {i: m[1] for i, m in enumerate(marks) if m is not None and np.isfinite(m[1])}
+        offsets = dict(zip(shown, self._tag_offsets(list(shown.values())), strict=True))
         side = -6
         if hover is not None and self.view is not None:
             start, stop = self.view
-            side = 6 if hover < start + (stop - start) * 0.5 else -6  # tags away from the nearer edge's side
-        for i, note in enumerate(self._notes):
-            if where is not None and i in offsets:
-                value = float(values[i] or 0.0)
+            side = 6 if hover < (start + stop) / 2 else -6  # tags on the side with more room
+        labels = list(self._labels)
+        for i, (note, dot) in enumerate(zip(self._notes, self._dots, strict=True)):
+            mark = marks[i] if i in offsets else None
+            dpg.configure_item(note, show=mark is not None)
+            dpg.configure_item(dot, show=mark is not None and hover is not None)
+            if mark is not None:
                 dpg.configure_item(
-                    note,
-                    show=True,
-                    label=reading(value),
-                    default_value=(where - origin, value),
-                    offset=(side, offsets[i]),
+                    note, label=reading(mark[1]), default_value=mark, offset=(side, offsets[i])
                 )
-            else:
-                dpg.configure_item(note, show=False)
-            if where is not None:
-                labels[i] = f"{labels[i]}  {reading(values[i] if i < len(values) else None)}"
-        for i, dot in enumerate(self._dots):
-            at_hover = self.hover_values[i] if i < len(self.hover_values) else None
-            visible = hover is not None and at_hover is not None and bool(np.isfinite(at_hover))
-            dpg.configure_item(dot, show=visible)
-            if visible and hover is not None and at_hover is not None:
-                dpg.set_value(dot, [[hover - origin], [at_hover]])
+                if hover is not None:
+                    dpg.set_value(dot, [[mark[0]], [mark[1]]])
+            if hover is not None or at is not None:
+                value = self.hover_values[i] if hover is not None else self.cursor_values[i]
+                labels[i] = f"{labels[i]}  {reading(value)}"
         if labels != self._shown_labels:
             for tag, label in zip(self._series, labels, strict=True):
                 dpg.configure_item(tag, label=label)
@@ -510,7 +507,9 @@ class PlotWidget(Widget):
         self, rng: TimeRange, at: float | None, end: float, start: float, stop: float, hover: float | None
     ) -> None:
         """The header: the time under the pointer, else what the range is (following, or held)."""
-        if hover is not None:
+        if hover is not None and not rng.following:
+            info = f"{clock_text(hover)} \u00b7 held"
+        elif hover is not None:  # following, the time before the newest sample (the cursor) stays put
             info = f"{clock_text(hover)}  {hover - end:+.3g} s"
         elif not rng.following:
             info = f"held: {span_text(stop - start)} to {clock_text(stop)}"

@@ -29,10 +29,10 @@ __all__ = [
     "close",
     "is_zoom",
     "remap",
+    "sample_at",
     "tick_format",
     "time_ticks",
     "user_moved",
-    "value_at",
     "zoom_about",
 ]
 
@@ -51,9 +51,9 @@ TICK_STEPS = (
     *(3600.0, 7200.0, 10800.0, 21600.0, 43200.0, 86400.0),
 )
 """Round steps between clock ticks, in seconds."""
-CHAR_PX = 8.0
+CHAR_PX = 7.5
 """About how wide a tick label's character is (the viewer's 15 px font), for spacing the ticks."""
-TICK_GAP_PX = 28.0
+TICK_GAP_PX = 20.0
 """Free pixels at least between two tick labels."""
 
 
@@ -204,13 +204,16 @@ class HoverTracker:
         return self.x
 
 
-def value_at(times: npt.NDArray[np.float64], values: npt.NDArray[np.float64], t: float) -> float | None:
-    """Return a series' value at time `t`: its last sample at or before `t` (None before the first)."""
+def sample_at(
+    times: npt.NDArray[np.float64], values: npt.NDArray[np.float64], t: float
+) -> tuple[float, float] | None:
+    """Return a series' state at time `t`: its last sample at or before `t`, as (time, value); None before
+    the first. (A line between two sparse samples is not a value the robot sent: the last sample is.)"""
     n = min(len(times), len(values))
     i = int(np.searchsorted(times[:n], t, side="right")) - 1
     if i < 0:
         return None
-    return float(values[i])
+    return float(times[i]), float(values[i])
 
 
 def tick_format(step: float) -> tuple[str, int]:
@@ -230,15 +233,16 @@ def time_ticks(
     """Return clock-time ticks for the source times [start, end] on an axis `width_px` wide: (time, label).
 
     The step is the smallest round one (`TICK_STEPS`) whose labels fit side by side; labels say as much
-    of the local clock as the step needs (``12:03``, ``12:03:05``, ``03:05.25``). `offset` is the local
-    time's offset from UTC in seconds (default: the machine's, at `start`).
+    of the local clock as the step needs (``12:03``, ``12:03:05``, ``03:05.25``); a tick whose centred
+    label would stick out of the axis is left out. `offset` is the local time's offset from UTC in seconds
+    (default: the machine's, at `start`).
     """
     span = end - start
     if not (math.isfinite(span) and span > 0 and width_px > 0):
         return []
     if offset is None:
         offset = float(time.localtime(max(0.0, start)).tm_gmtoff)
-    step = TICK_STEPS[-1]
+    step, chars = TICK_STEPS[-1], 6
     for candidate in TICK_STEPS:
         fmt, decimals = tick_format(candidate)
         chars = len(time.strftime(fmt, time.gmtime(0))) + (decimals + 1 if decimals else 0)
@@ -246,10 +250,10 @@ def time_ticks(
             step = candidate
             break
     fmt, decimals = tick_format(step)
+    half = chars * CHAR_PX / 2 / width_px * span  # half a label, in seconds
     step_ms = round(step * 1000)
-    local_ms = (start + offset) * 1000
-    first = math.ceil(local_ms / step_ms)
-    last = math.floor((end + offset) * 1000 / step_ms)
+    first = math.ceil((start + half + offset) * 1000 / step_ms)
+    last = math.floor((end - half + offset) * 1000 / step_ms)
     ticks: list[tuple[float, str]] = []
     for k in range(first, min(last, first + 200) + 1):
         at_ms = k * step_ms
