@@ -132,6 +132,8 @@ class _Pending:
     dialog: SaveAsDialog
     finish: Callable[[object], None]
     """Called with the job's result (the dialog is closed first)."""
+    cancellable: bool = False
+    """The result is dropped when the dialog was closed meanwhile (a recording loading: Cancel means no)."""
 
 
 class RecordingCommands:
@@ -212,7 +214,13 @@ class RecordingCommands:
         return self._ranges[0]
 
     def _run(
-        self, dialog: SaveAsDialog, note: str, work: Callable[[], object], finish: Callable[[object], None]
+        self,
+        dialog: SaveAsDialog,
+        note: str,
+        work: Callable[[], object],
+        finish: Callable[[object], None],
+        *,
+        cancellable: bool = False,
     ) -> None:
         """Start `work` on a worker thread; `poll` calls `finish` with its result, or shows its error."""
         if self._pending is not None and not self._pending.job.done.is_set():
@@ -220,7 +228,7 @@ class RecordingCommands:
             return
         dialog.set_note(note, error=False)
         dpg.configure_item(dialog.save_button, enabled=False)
-        self._pending = _Pending(_Job(work), dialog, finish)
+        self._pending = _Pending(_Job(work), dialog, finish, cancellable)
         self.app.pacer.request()
 
     def poll(self) -> None:
@@ -241,6 +249,9 @@ class RecordingCommands:
                 dialog.set_note(message)
             else:
                 app.show_message("File error", message)
+            return
+        if dialog.closed and pending.cancellable:
+            app.set_status("not opened: cancelled")
             return
         dialog.close()
         pending.finish(job.result)
@@ -266,6 +277,7 @@ class RecordingCommands:
             f"loading {target.name}\u2026",
             lambda: load_replay(target, stale_after=stale),
             lambda replay: self._replay(replay),  # type: ignore[arg-type]
+            cancellable=True,
         )
 
     def _replay(self, replay: ReplaySource) -> None:
@@ -402,7 +414,3 @@ class RecordingCommands:
         dialog = self._dialog("Export CSV", default_name("export", ".csv"), ".csv", "Export", export)
         self._range_options(dialog, ranges)
         return dialog
-
-    def busy(self) -> bool:
-        """Whether a file is being read or written."""
-        return self._pending is not None
