@@ -166,6 +166,11 @@ def test_a_real_sdk_recording_replays_every_sample_from_the_batch_topic(tmp_path
     assert source.samples_held(state) == 500
 
 
+def _playing(timeline: Timeline) -> bool:
+    """Read the playing flag afresh (each tick may change it)."""
+    return timeline.playing
+
+
 class _Ticks:
     """A monotonic clock the test moves by hand (playback is wall time x speed)."""
 
@@ -188,7 +193,7 @@ def test_playback_speed_loop_and_the_end(tmp_path: Path) -> None:
     assert timeline.live  # opens at the end: everything shown
     assert timeline.snapshot(speed).last == 149.5
     timeline.toggle()  # at the end: play from the start
-    assert timeline.playing
+    assert _playing(timeline)
     assert timeline.snapshot(speed).last == 0.0
     ticks.now += 1.0
     timeline.tick()
@@ -206,13 +211,13 @@ def test_playback_speed_loop_and_the_end(tmp_path: Path) -> None:
     timeline.toggle()
     ticks.now += 10
     timeline.tick()  # past the end: stops there
-    assert not timeline.playing
+    assert not _playing(timeline)
     assert timeline.snapshot(speed).last == 149.5
     timeline.loop = True
     timeline.play(1.0)
     ticks.now += 3.5
     timeline.tick()  # past the end: back to the start, playing on
-    assert timeline.playing
+    assert _playing(timeline)
     assert timeline.snapshot(speed).last == 0.0
 
 
