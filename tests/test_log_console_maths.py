@@ -90,3 +90,37 @@ def test_a_number_plot_window_shows_every_matched_line() -> None:
     assert plot_window([995.0], 1000.0) == 10.0
     assert plot_window([900.0, 990.0], 1000.0) == 110.0
     assert plot_window([0.0], 1e6) == 3600.0
+
+
+def test_a_recording_gets_its_lines_from_its_history() -> None:
+    """A data source with a history and no engine (a recording) gets a store built from its Log payloads;
+    another source in the window gets its own."""
+    from types import SimpleNamespace
+
+    from rcl_interfaces.msg import Log
+    from rclpy.serialization import serialize_message
+
+    from dbglog.viewer._data._history import History
+    from dbglog.viewer._ui._host import AppHost
+
+    def payload(text: str, level: int) -> bytes:
+        msg = Log()
+        msg.name, msg.msg, msg.level = "recorded", text, level
+        data: bytes = serialize_message(msg)
+        return data
+
+    history = History(clock=None)
+    history.append_payloads(
+        "/rosout", [10.0, 11.0], [payload("a", 20), payload("b", 40)], msg_type="rcl_interfaces/msg/Log"
+    )
+    app = SimpleNamespace(source=SimpleNamespace(store=history))
+    host = AppHost(app)  # type: ignore[arg-type]
+    store = host.log_store("/rosout")
+    assert store is not None
+    store.sync()
+    assert [store.line(i).message for i in range(2)] == ["a", "b"]
+    assert host.log_store("rosout") is store
+    assert host.marks(0.0, 100.0)[0].tolist() == [11.0]
+    app.source = SimpleNamespace(store=History(clock=None))  # another recording opened
+    assert host.log_store("/rosout") is None
+    assert host.marks(0.0, 100.0)[0].tolist() == []

@@ -449,8 +449,10 @@ def test_wheel_scrolls_the_console_and_copy_takes_the_selection(
     x, y, w, h = console["rect"]
     v.move(x + w / 2, y + h / 2)
     top = console["top"]
-    v.xdo("click", "--repeat", "3", "4")  # wheel up, three notches
-    console = wait_console(v, lambda c: c["top"] < top)
+    v.xdo("click", "--repeat", "3", "4")  # wheel up, three notches of three lines
+    console = wait_console(v, lambda c: c["top"] == top - 9)
+    console = v.frames(5)["console"]  # and no more
+    assert console["top"] == top - 9
     assert not console["follow"]
     assert v.state()["scroll"] == [0, 0]
     rows = console["rows"]

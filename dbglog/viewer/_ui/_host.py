@@ -29,14 +29,16 @@ class AppHost:
     def __init__(self, app: ViewerApp) -> None:
         self.app = app
         self._stores: weakref.WeakValueDictionary[str, LogStore] = weakref.WeakValueDictionary()
+        """The current data source's stores by topic (a recording opened in the window has its own)."""
+        self._source: object = app.source
 
     def log_store(self, topic: str) -> LogStore | None:
         """The data source's store of `topic`'s lines; a source with only a history gets one built from it."""
         name = topic if topic.startswith("/") else "/" + topic
+        source = self._current()
         found = self._stores.get(name)
         if found is not None:
             return found
-        source = self.app.source
         make = getattr(source, "log_store", None)
         store: LogStore | None = None
         if callable(make):
@@ -51,6 +53,14 @@ class AppHost:
         if store is not None:
             self._stores[name] = store
         return store
+
+    def _current(self) -> object:
+        """The app's data source; when it changed (a recording opened, live again), its stores start over."""
+        source = self.app.source
+        if source is not self._source:
+            self._source = source
+            self._stores = weakref.WeakValueDictionary()
+        return source
 
     def seek(self, t: float) -> None:
         """Pause the dashboard at source time `t`."""
@@ -90,6 +100,7 @@ class AppHost:
         """Times and levels of the WARN, ERROR and FATAL lines held from `t0` to `t1` (timeline marks)."""
         times: list[npt.NDArray[np.float64]] = []
         levels: list[npt.NDArray[np.uint8]] = []
+        self._current()
         for store in list(self._stores.values()):
             t, lv = store.marks(WARN)
             keep = (t >= t0) & (t <= t1)

@@ -443,9 +443,9 @@ class LogWidget(Widget):
         self._snap = snapshots[0] if snapshots else None
         topic = snapshots[0].binding.topic if snapshots else ""
         host = self.context.host
-        if topic != self.topic:
-            self.topic = topic
-            self.store = host.log_store(topic) if host is not None and topic else None
+        store = host.log_store(topic) if host is not None and topic else None  # (a recording opened: its own)
+        if topic != self.topic or store is not self.store:
+            self.topic, self.store = topic, store
             self.selected.clear()
             self._anchor = None
         store = self.store
