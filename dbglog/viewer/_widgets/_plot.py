@@ -175,6 +175,7 @@ class PlotWidget(Widget):
         self._ticks: tuple[tuple[str, float], ...] = ()
         self._info_text = ""
         self._data_key: object = None
+        self._marks_drawn: object = ...  # (nothing drawn yet)
         self._snaps: list[SeriesSnapshot] = []
         self._at: float | None = None
         self._now = 0.0
@@ -290,7 +291,7 @@ class PlotWidget(Widget):
             self._notes.append(note)
         self._labels = labels
         self._shown_labels = list(labels)
-        self._data_key = None
+        self._data_key, self._marks_drawn = None, ...
 
     # -- the time range ------------------------------------------------------------------------------
 
@@ -462,13 +463,19 @@ class PlotWidget(Widget):
         """The cursor line (paused), the hover line, and the values in tags and the legend: under the pointer
         each series' last sample then (a dot marks it), else at the cursor while paused."""
         paused = at is not None
-        dpg.configure_item(self._cursor_line, show=paused)
-        if at is not None:
-            dpg.set_value(self._cursor_line, [[at - origin]])
         self.cursor_values = [latest_number(s) for s in snaps] if paused else []
         self.hover_time = hover
         samples = [sample_at(s.times, s.values, hover) for s in snaps] if hover is not None else []
         self.hover_values = [None if p is None else p[1] for p in samples]
+        drawn: object = None  # live and not hovered: all hidden, wherever the data are
+        if hover is not None or at is not None:
+            drawn = (at, hover, origin, tuple(self.cursor_values), tuple(samples), self.view, self._limits)
+        if drawn == self._marks_drawn and self._marks_drawn is not ...:
+            return  # unchanged (live and not hovered: no Dear PyGui calls at the data rate)
+        self._marks_drawn = drawn
+        dpg.configure_item(self._cursor_line, show=paused)
+        if at is not None:
+            dpg.set_value(self._cursor_line, [[at - origin]])
         dpg.configure_item(self._hover_line, show=hover is not None)
         if hover is not None:
             dpg.set_value(self._hover_line, [[hover - origin]])

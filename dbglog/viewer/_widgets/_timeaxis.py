@@ -11,6 +11,7 @@ maths, no Dear PyGui.
 
 from __future__ import annotations
 
+import functools
 import math
 import time
 from dataclasses import dataclass
@@ -227,6 +228,15 @@ def tick_format(step: float) -> tuple[str, int]:
     return "%M:%S", 3 if step < 0.01 else (2 if step < 0.1 else 1)
 
 
+def _label_chars(step: float) -> int:
+    fmt, decimals = tick_format(step)
+    return len(time.strftime(fmt, time.gmtime(0))) + (decimals + 1 if decimals else 0)
+
+
+_LABEL_CHARS = tuple(_label_chars(step) for step in TICK_STEPS)
+"""How long the labels of each step are (characters)."""
+
+
 def time_ticks(
     start: float, end: float, width_px: float, *, offset: float | None = None
 ) -> list[tuple[float, str]]:
@@ -241,13 +251,11 @@ def time_ticks(
     if not (math.isfinite(span) and span > 0 and width_px > 0):
         return []
     if offset is None:
-        offset = float(time.localtime(max(0.0, start)).tm_gmtoff)
-    step, chars = TICK_STEPS[-1], 6
-    for candidate in TICK_STEPS:
-        fmt, decimals = tick_format(candidate)
-        chars = len(time.strftime(fmt, time.gmtime(0))) + (decimals + 1 if decimals else 0)
-        if span / candidate * (chars * CHAR_PX + TICK_GAP_PX) <= width_px:
-            step = candidate
+        offset = _utc_offset(int(max(0.0, start)) // 900)
+    step, chars = TICK_STEPS[-1], _LABEL_CHARS[-1]
+    for candidate, n in zip(TICK_STEPS, _LABEL_CHARS, strict=True):
+        if span / candidate * (n * CHAR_PX + TICK_GAP_PX) <= width_px:
+            step, chars = candidate, n
             break
     fmt, decimals = tick_format(step)
     half = chars * CHAR_PX / 2 / width_px * span  # half a label, in seconds
@@ -257,9 +265,19 @@ def time_ticks(
     ticks: list[tuple[float, str]] = []
     for k in range(first, min(last, first + 200) + 1):
         at_ms = k * step_ms
-        whole, ms = divmod(at_ms, 1000)
-        label = time.strftime(fmt, time.gmtime(whole))
-        if decimals:
-            label += f".{ms:03d}"[: decimals + 1]
-        ticks.append((at_ms / 1000 - offset, label))
+        ticks.append((at_ms / 1000 - offset, _tick_label(at_ms, fmt, decimals)))
     return ticks
+
+
+@functools.lru_cache(maxsize=4096)
+def _tick_label(at_ms: int, fmt: str, decimals: int) -> str:
+    """A tick's label (kept: following, the same ticks are labelled at every frame as they scroll by)."""
+    whole, ms = divmod(at_ms, 1000)
+    label = time.strftime(fmt, time.gmtime(whole))
+    return label + f".{ms:03d}"[: decimals + 1] if decimals else label
+
+
+@functools.lru_cache(maxsize=64)
+def _utc_offset(quarter_hour: int) -> float:
+    """The local time's offset from UTC during a quarter of an hour (numbered since the epoch)."""
+    return float(time.localtime(quarter_hour * 900).tm_gmtoff)
