@@ -197,7 +197,7 @@ class PlotWidget(Widget):
                 dpg.add_text("Zoom and pan together with the other linked plots")
             self._info = dpg.add_text("", color=(138, 146, 158, 255))
             with dpg.tooltip(self._info):
-                self._info_tip = dpg.add_text(GESTURES_TIP)
+                dpg.add_text(GESTURES_TIP)
         self.plot = dpg.add_plot(
             width=width,
             height=max(60, height - HEADER_H),
