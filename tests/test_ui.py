@@ -160,7 +160,7 @@ def scenario_toolbox_lists_every_widget_with_drag_payload(
 ) -> None:
     """The toolbox has a draggable button per registered widget, and the canvas accepts that payload."""
     assert list(app.toolbox_buttons) == [
-        *("plot", "dial", "knob", "compass", "thermo", "string", "led"),
+        *("plot", "dial", "knob", "compass", "thermo", "string", "led", "log"),
         *("toggle", "slider", "button", "text_field", "publish"),
     ]
     for button in app.toolbox_buttons.values():
