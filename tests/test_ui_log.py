@@ -24,7 +24,7 @@ from typing import Any
 import pytest
 
 from tests._viewer_child import ViewerChild
-from tests.test_ui_menus import _menubar
+from tests.test_ui_menus import _labelled, _menubar
 
 pytestmark = pytest.mark.gui
 
@@ -156,9 +156,11 @@ class Probe:
         """The viewer's state now."""
         import dearpygui.dearpygui as dpg
 
+        from dbglog.viewer._ui._dialogs import TopicDialog
         from dbglog.viewer._ui._plotnumber import PlotNumberDialog
 
         app = self.app
+        shown: Any = app.dialog
         ox, oy = app.canvas_origin()
         items = []
         console = None
@@ -177,8 +179,8 @@ class Probe:
             if item.config.type == "log" and item.widget is not None and console is None:
                 console = self.console(item.widget)
         dialog = None
-        if isinstance(app.dialog, PlotNumberDialog):
-            d = app.dialog
+        if isinstance(shown, PlotNumberDialog):
+            d: Any = shown
             dialog = {
                 "count": d.matches.count if d.matches is not None else None,
                 "pattern": d.proposal.pattern if d.proposal is not None else None,
@@ -188,9 +190,19 @@ class Probe:
                 "copied": d.copied,
                 "ms": d.preview_ms,
             }
+        elif isinstance(shown, TopicDialog):
+            d = shown
+            dialog = {
+                "topic": True,
+                "log_group": bool(dpg.is_item_shown(d.log_group)),
+                "node": _rect(d.node_input),
+                "level": _rect(d.level_combo),
+                "ok": _rect(d.ok_button),
+            }
         return {
             "pid": os.getpid(),
             "frame": app.rendered,
+            "menu": _labelled(app.menu) if dpg.is_item_shown(app.menu) else None,
             "mouse": list(dpg.get_mouse_pos(local=False)),
             "live": app.live,
             "cursor": app.timeline.cursor,
@@ -244,10 +256,15 @@ def run_here(scenario: str, tmp_dir: str) -> None:
 
         dpg.set_clipboard_text("-")  # reading an empty X clipboard aborts Dear PyGui: the probe reads it
         try:
-            if scenario == "console":
+            if scenario in ("console", "console_plot"):
                 path = tmp / "console.json"
-                console = WidgetConfig("log", "Log", 20, 20, 960, 420, (Binding("/rosout"),), {})
-                save_dashboard(Dashboard(list[WidgetConfig | RawWidget]([console]), 20, True), path)
+                widgets = [WidgetConfig("log", "Log", 20, 20, 960, 420, (Binding("/rosout"),), {})]
+                if scenario == "console_plot":
+                    percent = Binding("/rosout", "msg", r"(\d+)%")
+                    widgets.append(
+                        WidgetConfig("plot", "Battery", 20, 460, 480, 240, (percent,), {"window": 300})
+                    )
+                save_dashboard(Dashboard(list[WidgetConfig | RawWidget](widgets), 20, True), path)
                 app.load(load_dashboard(path, registry.get), path)
             probe = Probe(app, tmp / "probe")
             app.frame_hooks.append(probe.hook)
@@ -528,3 +545,38 @@ def test_warnings_and_errors_mark_the_timeline(viewer: Callable[[str], Viewer], 
     state = v.wait_for(lambda s: s["marks"] == both and len(s["bar_marks"]) >= 2)
     xs = [x for x, _ in state["bar_marks"]]
     assert xs == sorted(set(xs))
+
+
+def test_topic_setup_sets_a_log_bindings_node_and_level(
+    viewer: Callable[[str], Viewer], loggers: Loggers
+) -> None:
+    """Topic setup of a widget on /rosout offers the node and minimum level of the lines it reads: typed and
+    picked there, the plot keeps only those lines' values (its past included) and the dashboard saves them."""
+    v = viewer("console_plot")
+    percents = LINES  # the power node's lines all hold a percentage: 54 "battery=" lines and 6 warnings
+    state = v.wait_for(
+        lambda s: next(i for i in s["items"] if i["name"] == "Battery")["values"] == [percents]
+    )
+    plot = next(i for i in state["items"] if i["name"] == "Battery")
+    x, y, w, _ = plot["rect"]
+    v.click(x + w / 3, y + 12, button=3)  # the title strip: the widget menu
+    state = v.wait_for(lambda s: s["menu"] is not None and s["menu"].get("Topic setup\u2026"))
+    mx, my, _, mh = state["menu"]["Topic setup\u2026"]
+    v.click(mx + 30, my + mh / 2)
+    v.wait_for(lambda s: s["dialog"] is not None and s["dialog"].get("topic") and s["dialog"]["log_group"])
+    state = v.frames(3)  # laid out with the log row shown
+    nx, ny, nw, nh = state["dialog"]["node"]
+    v.click(nx + nw / 2, ny + nh / 2)
+    v.type(POWER)
+    lx, ly, lw, lh = state["dialog"]["level"]
+    v.click(lx + lw / 2, ly + lh / 2)  # its list opens below it, 22 px an entry in a dialog: warn is the 4th
+    v.click(lx + lw / 2, ly + lh + 17 + 3 * 22)
+    v.frames(3)
+    ox, oy, ow, oh = v.state()["dialog"]["ok"]
+    v.click(ox + ow / 2, oy + oh / 2)
+    warnings = sum(1 for i in range(LINES) if i % 10 == 9)
+    state = v.wait_for(
+        lambda s: next(i for i in s["items"] if i["name"] == "Battery")["values"] == [warnings]
+    )
+    plot = next(i for i in state["items"] if i["name"] == "Battery")
+    assert plot["bindings"] == [["/rosout", "msg", r"(\d+)%", POWER, "warn"]]

@@ -70,6 +70,9 @@ _PARAM_DEFAULTS = {
     "period": 6.283185307179586,
 }
 
+LOG_MSG_TYPE = "rcl_interfaces/msg/Log"
+LOG_LEVEL_CHOICES = ("any", "debug", "info", "warn", "error", "fatal")
+"""A Log binding's minimum levels in Topic setup (`Binding.level`; "any" is none)."""
 ERROR_COLOR = STATUS_COLORS[Status.ERROR]
 OK_COLOR = STATUS_COLORS[Status.LIVE]
 
@@ -558,6 +561,16 @@ class TopicDialog(Dialog):
         self.field_note = dpg.add_text("", color=DIM, parent=w, wrap=590)
         self.data_only = dpg.add_group(parent=w, show=not self.control)
         """The regex and transform sections, which only apply to widgets that show data."""
+        with dpg.group(horizontal=True, parent=self.data_only, show=False) as self.log_group:
+            # A Log topic's lines, as a bridge rule filters them (Binding.node, Binding.level).
+            dpg.add_text("Log lines of node", color=DIM)
+            self.node_input = dpg.add_input_text(
+                width=220, hint="any, or a glob: planner*", callback=lambda *_: self._store()
+            )
+            dpg.add_text("minimum level", color=DIM)
+            self.level_combo = dpg.add_combo(
+                LOG_LEVEL_CHOICES, default_value="any", width=90, callback=lambda *_: self._store()
+            )
         dpg.add_text(
             "Regex (optional, RE2: the first group or the whole match is used)",
             color=DIM,
@@ -612,6 +625,8 @@ class TopicDialog(Dialog):
         dpg.set_value(self.topic_input, b.topic)
         self._typed = b.topic
         dpg.set_value(self.regex_input, b.regex)
+        dpg.set_value(self.node_input, b.node)
+        dpg.set_value(self.level_combo, b.level or "any")
         self._refresh_suggestions()
         self._refresh_fields(b.field)
         self._show_transforms()
@@ -620,9 +635,19 @@ class TopicDialog(Dialog):
         topic = str(dpg.get_value(self.topic_input)).strip()
         field = self._selected_field()
         regex = str(dpg.get_value(self.regex_input))
-        # replace, not a new Binding: what this dialog does not edit (transforms, a log binding's node and
-        # level) stays as it was
-        self.bindings[self.index] = replace(self.bindings[self.index], topic=topic, field=field, regex=regex)
+        # A log binding's node and level while the topic is a Log topic (none otherwise: they would be its
+        # error); replace, not a new Binding: what this dialog does not edit (transforms) stays as it was.
+        log = self._is_log_topic(topic)
+        node = str(dpg.get_value(self.node_input)).strip() if log else ""
+        level = str(dpg.get_value(self.level_combo)) if log else ""
+        self.bindings[self.index] = replace(
+            self.bindings[self.index],
+            topic=topic,
+            field=field,
+            regex=regex,
+            node=node,
+            level="" if level == "any" else level,
+        )
         if self.max_bindings > 1:
             labels = self._series_labels()
             dpg.configure_item(self.series_combo, items=labels)
@@ -689,8 +714,18 @@ class TopicDialog(Dialog):
         mark = "" if f.numeric or ValueKind.TEXT in self.accepts else "   (not numeric)"
         return f"{'    ' * depth}{f.path}   : {f.type_name}{mark}"
 
+    def _is_log_topic(self, topic: str) -> bool:
+        """Whether `topic` carries Log lines (says the graph; off the graph: the binding filters lines)."""
+        name = topic if topic.startswith("/") else "/" + topic
+        for info in self.setup.topics():
+            if info.name == name:
+                return LOG_MSG_TYPE in info.types
+        b = self.bindings[self.index]
+        return bool(b.node or b.level) and b.topic == topic
+
     def _refresh_fields(self, selected: str) -> None:
         topic = str(dpg.get_value(self.topic_input)).strip()
+        dpg.configure_item(self.log_group, show=self._is_log_topic(topic))
         self._fields = self.setup.fields(topic) if topic else []
         labels = ["(whole message)"] + [self._field_label(f) for f in self._fields]
         dpg.configure_item(self.field_combo, items=labels)
