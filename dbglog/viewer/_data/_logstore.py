@@ -996,9 +996,13 @@ class LogStore:
             return empty
         b0, b1 = int(self._starts[lo]), int(self._starts[n])
         # The matcher's framing, b"\x00" + text + b"\x01" per line, with each line's own breaks back.
-        framed = b"\x00" + bytes(self._text[b0:b1]).replace(b"\n", b"\x01\x00").replace(b"\x1f", b"\n")
+        framed = self._text[b0:b1].replace(b"\n", b"\x01\x00")  # two copies in all, the rest in place
+        if framed.find(b"\x1f") >= 0:
+            framed = framed.replace(b"\x1f", b"\n")
+        framed[:0] = b"\x00"
+        del framed[-1]
         starts = (self._starts[lo:n] - b0) + np.arange(n - lo, dtype=np.int64)
-        rows, values = match_joined(proposal, framed[:-1], starts)
+        rows, values = match_joined(proposal, framed, starts)
         del framed
         rows = rows + lo
         want = proposal.node if node is None else node
