@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import threading
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import dearpygui.dearpygui as dpg
 import numpy as np
@@ -464,13 +464,19 @@ class LogWidget(Widget):
             self.shown_ids = np.zeros(0, dtype=np.int64)
             self.error = "" if topic else "no topic: right-click the title \u203a Topic setup"
         else:
-            try:
-                self.shown_ids, self.complete = store.select_within(
-                    filt, until=self.paused_at, budget=FILTER_BUDGET_S
-                )
-                self.error = ""
-            except FilterError as exc:
-                self.shown_ids, self.complete, self.error = np.zeros(0, dtype=np.int64), True, str(exc)
+            self.error = ""
+            for _ in range(3):  # a pattern RE2 refuses is named, and left out; the other filters apply
+                try:
+                    self.shown_ids, self.complete = store.select_within(
+                        filt, until=self.paused_at, budget=FILTER_BUDGET_S
+                    )
+                    break
+                except FilterError as exc:
+                    self.error = "; ".join(x for x in (self.error, str(exc)) if x)
+                    if str(exc).startswith("include"):
+                        filt = replace(filt, include="")
+                    else:
+                        filt = replace(filt, exclude="")
             if store.pending or not self.complete:
                 self._busy += 1  # more to do: the next turn of the loop updates again
         total = len(self.shown_ids)
@@ -708,9 +714,7 @@ class LogWidget(Widget):
             dpg.configure_item(row.message, text=message, color=color if level not in (20, 0) else TEXT)
         empty = ""
         if not lines:
-            if self.error:
-                empty = ""
-            elif store is None or not len(store):
+            if store is None or not len(store):
                 empty = f"no line on {self.topic} yet" if self.topic else "no topic set"
             else:
                 empty = "no line matches the filters" + (
@@ -742,7 +746,7 @@ class LogWidget(Widget):
 
     def _draw_status(self, store: LogStore | None, total: int) -> None:
         if self.error:
-            text, color = self.error, LEVEL_COLORS[40]
+            text, color = f"{self.error} (left out)", LEVEL_COLORS[40]
         elif store is None:
             text, color = "", DIM
         else:
