@@ -412,8 +412,11 @@ def scenario_controls_get_their_own_seam(tmp: Path) -> None:
             dial = app.add_widget("dial", 400, 20)
             assert dial is not None
             app.apply_bindings(dial, (Binding("/ctl_ui/seam_b"),))
-            assert slider.widget.context == WidgetContext((Binding("/ctl_ui/seam_a"),), app.publisher)
-            assert dial.widget.context == WidgetContext((), app.publisher), "a display widget has no targets"
+            seam = slider.widget.context
+            assert (seam.targets, seam.publisher) == ((Binding("/ctl_ui/seam_a"),), app.publisher)
+            shown = dial.widget.context
+            assert (shown.targets, shown.publisher) == ((), app.publisher), "a display widget has no targets"
+            assert isinstance(seam, WidgetContext)
             _pump(app, lambda: slider.status is Status.LIVE, what="slider live")
             slider.widget.on_change(slider.widget.slider, 2.0)
             _pump(app, lambda: first.values() == [2.0], what="2.0 on seam_a")
