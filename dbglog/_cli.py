@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import signal
 import sys
 from collections.abc import Sequence
 from typing import Protocol, cast
@@ -57,6 +58,16 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def interruptible() -> None:
+    """Make SIGINT (Ctrl-C, or a supervisor's stop) interrupt even when it was inherited ignored.
+
+    A shell starts a background command (``cmd &`` in a script) with SIGINT ignored, and Python keeps
+    it so: ``dbglog demo`` could then not stop its viewer, nor Ctrl-C a ``record`` started that way.
+    """
+    if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the ``dbglog`` command line and return its exit code."""
     parser = build_parser()
@@ -64,6 +75,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.command is None:
         parser.print_help()
         return 0
+    interruptible()
     try:
         return _load(args._module).run(args)
     except KeyboardInterrupt:

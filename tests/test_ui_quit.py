@@ -340,6 +340,9 @@ def click(button: int | str) -> None:
 def run_here(scenario: str, tmp_dir: str) -> None:
     """Child-process entry: open the scenario's dashboard, change it, run the viewer until it closes."""
     warnings.simplefilter("error")
+    from dbglog._cli import interruptible
+
+    interruptible()  # as `dbglog view` does: SIGINT works even if the test runner ignores it
     import dearpygui.dearpygui as dpg
 
     from dbglog.viewer._document._dashboard import WidgetConfig, load_dashboard
