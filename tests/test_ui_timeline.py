@@ -573,7 +573,7 @@ def test_cli_screenshot_at_a_cursor_reports_the_values_then(display: str, tmp_pa
     assert widgets["Word"]["values"][0] in {feed.word_at(cursor - 0.25), feed.word_at(cursor + 0.25)}
     assert widgets["Note"]["values"] == [None]
     assert widgets["Note"]["samples"] == [None]
-    # The history holds every count received since the viewer subscribed (> 5 s at 5 Hz), not one.
-    assert widgets["Count"]["samples"][0] >= 20
+    # The history holds the counts received since the viewer subscribed (~5 s at 5 Hz), not one.
+    assert widgets["Count"]["samples"][0] >= 10
     assert widgets["Word"]["samples"][0] >= 4
     assert widgets["Count"]["status"] == "live"  # 2 s back the counter was arriving
