@@ -89,11 +89,12 @@ def test_an_int_beyond_int64_on_a_known_tag_is_dropped_out_of_range() -> None:
     assert wait_until(lambda: dbglog.flush(5.0))
 
 
-def test_an_unwatched_tag_keeps_only_the_newest_per_flush_and_a_watcher_gets_every_sample(
+def test_an_unwatched_tag_gets_its_newest_value_at_most_every_tenth_and_a_watcher_every_sample(
     peer: RosPeer,
 ) -> None:
-    """Nobody on a tag's topic (after its first seconds): its newest value per flush goes there, all
-    values go in the batch; once a subscriber is matched, every sample goes on the topic again."""
+    """Nobody on a tag's topic (after its first seconds): its newest value goes there at most every
+    0.1 s (and the last one when stats() publishes the queue), all values go in the batch; once a
+    subscriber is matched, every sample goes on the topic again."""
     dbglog.logfloat("fp/unwatched", -1.0)
     ch = RUNTIME.channels["fp/unwatched"]
     ch.created -= 60.0  # an old tag: past the first seconds in which every sample is sent anyway
@@ -105,7 +106,7 @@ def test_an_unwatched_tag_keeps_only_the_newest_per_flush_and_a_watcher_gets_eve
     assert got.wait_for(1)
     history = got.values()
     assert history[-1] == 999.0
-    assert len(history) < 1001  # only the newest of each flush was kept on the topic
+    assert len(history) < 50  # a 1000-sample burst left a few newest values on the topic
     assert wait_until(lambda: ch.listened(time.monotonic()))
     for k in range(300):  # 1 kHz: within the topic's keep-last 100 for a live reader
         dbglog.logfloat("fp/unwatched", float(k))
@@ -145,3 +146,16 @@ def test_an_infinite_or_nan_throttle_on_a_known_site_is_still_a_bad_option() -> 
     dbglog.logbool("fp/inf", True, throttle=math.nan)  # counted; warned once per tag and reason
     s = dbglog.stats()
     assert (s.published, s.rate_limited, s.dropped_by_reason) == (2, 1, {"bad_option": 2})
+
+
+def test_the_last_value_of_an_unwatched_tag_reaches_its_topic_without_a_flush(peer: RosPeer) -> None:
+    """After a burst on a tag nobody subscribes to, its last value goes on the topic by itself."""
+    dbglog.logfloat("fp/last", -1.0)
+    ch = RUNTIME.channels["fp/last"]
+    ch.created -= 60.0  # past the first seconds
+    ch.checked -= 60.0
+    _burst("fp/last", 1000)
+    assert wait_until(lambda: not RUNTIME.pipe.queue and not RUNTIME.pipe.pending)  # no flush(), no stats()
+    got = peer.subscribe("/rosdashboard/fp/last", Float64, LATCHED)
+    assert got.wait_for(1)
+    assert wait_until(lambda: got.values()[-1] == 999.0)

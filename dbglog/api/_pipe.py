@@ -22,12 +22,13 @@ from dbglog._ros._batch import encode_batch
 if TYPE_CHECKING:
     from dbglog.api._runtime import Channel, Runtime
 
-__all__ = ["FLUSH_PERIOD", "QUEUE_CAPACITY", "Pipe"]
+__all__ = ["FLUSH_PERIOD", "LISTEN_CHECK_S", "QUEUE_CAPACITY", "Pipe"]
 
 QUEUE_CAPACITY = 100_000
 """Queued samples at most (about 10 s at 10k samples/s, ~15 MB); more are dropped and counted."""
-FLUSH_PERIOD = 0.005
-"""Seconds between two drains while samples flow: the batch latency and the batch size."""
+FLUSH_PERIOD = 0.010
+"""Seconds between two drains while samples flow: the batch latency and the batch size. 10 ms rather
+than 5: per sample, the publisher thread and a viewer spend less CPU on bigger batches (docs/api.md)."""
 _IDLE_AFTER = 0.2
 """Seconds without samples after which the thread blocks until the next sample wakes it."""
 _MAX_BATCH = 4096
@@ -37,6 +38,10 @@ _YIELD_NS = 30_000
 wakes up meanwhile waits for the GIL for at most this long. (``sleep(0)`` is not enough: the GIL has
 no fairness, this thread would take it straight back before a woken thread is scheduled.)"""
 _YIELD_S = 1e-5
+LISTEN_CHECK_S = 0.1
+"""How often a tag's subscriber count is looked up (a C call)."""
+_NEWEST_EVERY = 0.1
+"""Seconds between two publishes of the newest value on the topic of a tag nobody subscribes to."""
 
 Item = tuple["Channel", object, int]
 
@@ -57,6 +62,8 @@ class Pipe:
         """Held while publishing: whoever destroys publishers takes it first (then the runtime's lock)."""
         self._thread: threading.Thread | None = None
         self._pid = os.getpid()
+        self.pending: dict[Channel, object] = {}
+        """The newest value of each unwatched tag not yet on its topic (published every `_NEWEST_EVERY`)."""
 
     # ----- calling threads ------------------------------------------------------------------------
 
@@ -91,6 +98,7 @@ class Pipe:
                 if time.monotonic() > deadline:
                     return False
                 todo -= self._flush_once(yield_gil=False)
+            self._publish_pending(time.monotonic(), force=True)
             return True
         finally:
             self.lock.release()
@@ -98,10 +106,12 @@ class Pipe:
     def clear(self) -> None:
         """Forget queued samples (after a fork, or a reset)."""
         self.queue.clear()
+        self.pending.clear()
 
     def after_fork_in_child(self) -> None:
         """The parent's thread does not exist here: start afresh (a new thread on first use)."""
         self.queue.clear()  # the same deque: the hot path holds it
+        self.pending.clear()
         self._event = threading.Event()
         self.lock = threading.RLock()
         self._thread = None
@@ -122,7 +132,11 @@ class Pipe:
                 with self.lock, contextlib.suppress(Exception):
                     self._flush_once(yield_gil=True)
                 idle_since = time.monotonic()
-            if time.monotonic() - idle_since > _IDLE_AFTER:
+            idle = time.monotonic() - idle_since > _IDLE_AFTER
+            if self.pending:  # all of them before going to sleep
+                with self.lock, contextlib.suppress(Exception):
+                    self._publish_pending(time.monotonic(), force=idle)
+            if idle:
                 self.sleeping = True
                 if not self.queue:
                     self._event.wait()
@@ -152,44 +166,65 @@ class Pipe:
         batched = self._publish_batch(order, chans, vals, times)
         if yield_gil:
             time.sleep(_YIELD_S)
-        published = runtime.reporter.published.incr
+        published = runtime.reporter.published
         now = time.monotonic()
-        watched = {c for c in order if not (batched and c.alive and not c.listened(now))}
+        watched: set[Channel] = set()
+        for c in order:
+            if now - c.checked > LISTEN_CHECK_S:
+                c.listened(now)
+            if not (batched and c.alive and not c.listening):
+                watched.add(c)
+        pending = self.pending
         if not watched:  # only the viewer listens (it reads the batch): each tag's newest on its topic
-            for _ in items:
-                published()
-            self._publish_newest(dict(zip(chans, vals, strict=True)))
+            published.add(len(items))
+            pending.update(zip(chans, vals, strict=True))
+            self._publish_pending(now)
             return len(items)
+        if not pending.keys().isdisjoint(watched):  # a subscriber came: its tag's older newest first
+            self._publish_pending(now, force=True, only=watched)
         send = runtime.send_queued
         clock = time.perf_counter_ns
         last = clock()
-        newest: dict[Channel, object] = {}
-        for ch, value, _ in items:
-            if ch not in watched:
-                newest[ch] = value  # in the batch; nobody reads the tag's topic: only its newest goes there
-                published()
-                continue
-            encode = ch.encode
-            if encode is not None and ch.alive:
-                try:
-                    ch.publish_raw(encode(value))
-                except Exception:  # the general path retries, recovers and reports
-                    if send(ch, value):
-                        published()
-                else:
-                    published()
-            elif send(ch, value):
-                published()
-            if yield_gil and clock() - last > _YIELD_NS:
-                time.sleep(_YIELD_S)
-                last = clock()
-        self._publish_newest(newest)
+        sent = 0
+        try:
+            for ch, value, _ in items:
+                if ch not in watched:
+                    pending[ch] = value  # in the batch; nobody reads the tag's topic: its newest goes there
+                    sent += 1
+                    continue
+                encode = ch.encode
+                if encode is not None and ch.alive:
+                    try:
+                        ch.publish_raw(encode(value))
+                    except Exception:  # the general path retries, recovers and reports
+                        if send(ch, value):
+                            sent += 1
+                    else:
+                        sent += 1
+                elif send(ch, value):
+                    sent += 1
+                if yield_gil and clock() - last > _YIELD_NS:
+                    time.sleep(_YIELD_S)
+                    last = clock()
+        finally:
+            published.add(sent)
+        self._publish_pending(now)
         return len(items)
 
-    @staticmethod
-    def _publish_newest(newest: dict[Channel, object]) -> None:
-        """Publish each unwatched tag's newest sample on its topic (the batch carried and counted all)."""
-        for ch, value in newest.items():
+    def _publish_pending(self, now: float, *, force: bool = False, only: set[Channel] | None = None) -> None:
+        """Publish the pending newest values whose tag's last one went out `_NEWEST_EVERY` ago (or all, if
+        `force`; or only those of `only`) on their topics (the batch carried and counted every sample)."""
+        pending = self.pending
+        due = [
+            ch
+            for ch in pending
+            if (only is None or ch in only) and (force or now - ch.newest_sent >= _NEWEST_EVERY)
+        ]
+        for ch in due:
+            value = pending.pop(ch)
+            ch.newest_sent = now
+            if not ch.alive:  # destroyed meanwhile (shutdown, init): the batch had it
+                continue
             with contextlib.suppress(Exception):
                 if ch.encode is not None:
                     ch.publish_raw(ch.encode(value))

@@ -10,6 +10,7 @@ from __future__ import annotations
 import atexit
 import contextlib
 import ctypes
+import math
 import os
 import sys
 import threading
@@ -29,7 +30,7 @@ from dbglog.api._convert import (
     type_name,
 )
 from dbglog.api._errors import Reporter, safe_repr
-from dbglog.api._pipe import Pipe, batch_converter
+from dbglog.api._pipe import LISTEN_CHECK_S, Pipe, batch_converter
 from dbglog.api._rate import Known
 
 __all__ = ["MAX_TAGS", "Channel", "Runtime"]
@@ -45,8 +46,6 @@ _FORKED_MESSAGE = (
     "survive a fork; dbglog drops values in the child (start workers with multiprocessing's "
     "'spawn' or 'forkserver' method to log from them)"
 )
-_LISTEN_CHECK_S = 0.1
-"""How often a tag's subscriber count is looked up (a C call)."""
 _NEW_TAG_S = 5.0
 """A tag sends every sample on its topic for this long after its publisher is created, so a subscriber
 that is still being matched (discovery takes a moment) misses nothing."""
@@ -65,6 +64,7 @@ class Channel:
         "encode",
         "listening",
         "msg_class",
+        "newest_sent",
         "publish",
         "publish_raw",
         "publisher",
@@ -91,7 +91,7 @@ class Channel:
         """False once the publisher was destroyed (samples still queued for it go to its successor)."""
         self.created = self.checked = time.monotonic()
         self.listening = True
-        """Someone subscribes to the tag's topic (looked up every `_LISTEN_CHECK_S`)."""
+        """Someone subscribes to the tag's topic (looked up every `LISTEN_CHECK_S`)."""
         self.encode: Callable[[object], bytes] | None = None
         if spec is not None and raw:
             self.encode = cdr_encoder(spec)
@@ -103,12 +103,14 @@ class Channel:
         self.convert = batch_converter(spec.name) if self.queued and spec is not None else None
         """Per-sample conversion of the value for the batch (Float32 rounding), if any."""
         self.text = spec is not None and spec.kind == "str"
+        self.newest_sent = -math.inf
+        """When the tag's newest value last went on its topic while nobody subscribed (publisher thread)."""
         self.rate_site: Known | None = None
         """The call instruction that last used rate options on this tag (the hot path checks it first)."""
 
     def listened(self, now: float) -> bool:
         """True when the tag's topic has a subscriber (or the tag is new): then it gets every sample."""
-        if now - self.checked > _LISTEN_CHECK_S:
+        if now - self.checked > LISTEN_CHECK_S:
             self.checked = now
             try:
                 self.listening = (
