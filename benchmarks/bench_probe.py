@@ -4,13 +4,17 @@ Run: ``.venv/bin/python benchmarks/bench_probe.py [--before /tmp/dbglog-before]`
 
 Each run is a fresh publisher process: a 1 kHz loop with ~25 µs of its own work that sleeps to the next
 deadline and, per iteration, makes 10 calls (6x ``logfloat``, 2x ``logint``, ``logbool``, ``logstring``
-throttled to 10 Hz) - or the same publishes with raw rclpy, or nothing. With ``sub``, a real viewer
-engine (``Engine`` of the same source tree) runs in another process, bound to the
-10 tags, and reports how many samples reached its series, in order, and the publish -> series latency.
+throttled to 10 Hz) - or the same publishes with raw rclpy, or calls to an empty function of the same
+signature (the floor of a Python call in this loop), or nothing. With ``sub``, a real viewer engine
+(``Engine`` of the same source tree) runs in another process, bound to the 10 tags, and reports how
+many samples reached its series, in order, the publish -> series latency and its own CPU.
 Per-call times are taken around each call (``perf_counter_ns``; the "no calls" row shows that
-clock's own cost). CPU is the publisher process's, all threads (``/proc/self/stat``), minus the loop's
-own (the "no calls" run), per 10k samples/s. ``--before DIR`` adds rows for another source tree (e.g.
-``git worktree add /tmp/dbglog-before HEAD``). Medians over ``--repeats`` runs, run in alternation.
+clock's own cost), also per position in the iteration. CPU is the publisher process's and its child
+processes', all threads (``/proc/*/stat``), minus the loop's own (the "no calls" run), per 10k
+samples/s. For each wake-up more than 0.5 ms late the loop also reads how long it was runnable but
+not running (``/proc/thread-self/schedstat``): waiting for a CPU, as opposed to waiting for the GIL.
+``--before DIR`` adds rows for another source tree (e.g. ``git worktree add /tmp/dbglog-before
+HEAD``). Medians over ``--repeats`` runs, run in alternation.
 """
 
 from __future__ import annotations
@@ -48,9 +52,31 @@ every sample on a tag's own topic during the tag's first 5 s (a subscriber may s
 
 
 def _cpu_s() -> float:
-    """CPU seconds of this process, all threads (utime + stime from /proc/self/stat)."""
-    fields = Path("/proc/self/stat").read_text().rsplit(")", 1)[1].split()
-    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+    """CPU seconds of this process and of its child processes, all threads (utime + stime)."""
+    me, total = os.getpid(), 0
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit():
+            continue
+        try:
+            fields = (entry / "stat").read_text().rsplit(")", 1)[1].split()
+        except OSError:  # ended meanwhile
+            continue
+        if int(entry.name) == me or int(fields[1]) == me:
+            total += int(fields[11]) + int(fields[12])
+    return total / os.sysconf("SC_CLK_TCK")
+
+
+class _RunQueue:
+    """This thread's time spent runnable but not running (``/proc/thread-self/schedstat``, ns)."""
+
+    def __init__(self) -> None:
+        try:
+            self._fd: int | None = os.open("/proc/thread-self/schedstat", os.O_RDONLY)
+        except OSError:
+            self._fd = None
+
+    def ns(self) -> int:
+        return int(os.pread(self._fd, 100, 0).split()[1]) if self._fd is not None else 0
 
 
 def _work() -> None:
@@ -133,14 +159,38 @@ def _make_calls(mode: str) -> Any:
             out.append(t2 - t)
 
         return raw
-    import dbglog
-
-    assert dbglog.enabled == (mode == "on"), (mode, dbglog.enabled)
-    if mode == "on":
-        dbglog.init()
     ftags, itags = _TAGS[:_FLOATS], _TAGS[_FLOATS : _FLOATS + _INTS]
     btag, stag = _TAGS[-2], _TAGS[-1]
-    logfloat, logint, logbool, logstring = dbglog.logfloat, dbglog.logint, dbglog.logbool, dbglog.logstring
+    logfloat: Any
+    logint: Any
+    logbool: Any
+    logstring: Any
+    if mode == "nop":  # the floor: an empty function of the same signature, called the same way
+
+        def nop(
+            tag: str,
+            value: object,
+            *,
+            msg_type: object = None,
+            once: bool = False,
+            throttle: float | None = None,
+            skip_first: bool = False,
+        ) -> None:
+            pass
+
+        logfloat = logint = logbool = logstring = nop
+    else:
+        import dbglog
+
+        assert dbglog.enabled == (mode == "on"), (mode, dbglog.enabled)
+        if mode == "on":
+            dbglog.init()
+        logfloat, logint, logbool, logstring = (
+            dbglog.logfloat,
+            dbglog.logint,
+            dbglog.logbool,
+            dbglog.logstring,
+        )
     for tag in ftags:
         logfloat(tag, -1.0)
     for tag in itags:
@@ -192,6 +242,10 @@ def publisher(mode: str, seconds: float) -> None:
         step(-2, clock, [])
         warmup += 1
         time.sleep(0.001)
+    print("measuring", flush=True)
+    runq = _RunQueue()
+    late: list[tuple[float, float]] = []
+    """(sleep overshoot, run-queue wait) in µs of each wake-up more than 0.5 ms late."""
     cpu0, wall0 = _cpu_s(), time.monotonic()
     deadline = time.monotonic()
     for k in range(n):
@@ -201,18 +255,27 @@ def publisher(mode: str, seconds: float) -> None:
         deadline += 0.001
         rest = deadline - time.monotonic()
         if rest > 0:
+            q0, t0 = runq.ns(), time.monotonic()
             time.sleep(rest)
+            over = (time.monotonic() - t0 - rest) * 1e6
+            if over > 500:
+                late.append((over, (runq.ns() - q0) / 1e3))
     wall = time.monotonic() - wall0
     cpu = _cpu_s() - cpu0
     periods = [(b - a) * 1e6 for a, b in itertools.pairwise(starts)]
     samples = n * (_FLOATS + _INTS + 1) + n // _STRING_EVERY
+    per_call = [float(c) for c in calls]
     print(
         json.dumps(
             {
-                "call_p50_ns": _pct([float(c) for c in calls], 0.5),
-                "call_p99_ns": _pct([float(c) for c in calls], 0.99),
+                "call_p50_ns": _pct(per_call, 0.5),
+                "call_p99_ns": _pct(per_call, 0.99),
+                "position_p50_ns": [_pct(per_call[i::10], 0.5) for i in range(10)],
+                "position_p90_ns": [_pct(per_call[i::10], 0.9) for i in range(10)],
                 "period_p50_us": _pct(periods, 0.5),
                 "period_p99_us": _pct(periods, 0.99),
+                "late_wakeups": len(late),
+                "late_runqueue_share": sum(q for _, q in late) / sum(o for o, _ in late) if late else None,
                 "cpu_s": cpu,
                 "wall_s": wall,
                 "samples": samples,
@@ -252,7 +315,10 @@ def subscriber(expect: int, history: int) -> None:
         while time.monotonic() < deadline and not all(engine.snapshot(b).count >= 1 for b in bindings):
             time.sleep(0.02)
         print("bound", flush=True)
+        sys.stdin.readline()  # "start": the publisher's measured loop begins
+        cpu0 = engine.stats().thread_cpu_s
         total = int(sys.stdin.readline().split()[1])  # initial value + warm-up + measured iterations
+        cpu = engine.stats().thread_cpu_s - cpu0
         wanted = dict.fromkeys(bindings[:-1], total)
         stable_since, last = time.monotonic(), -1
         end = time.monotonic() + 30
@@ -287,7 +353,7 @@ def subscriber(expect: int, history: int) -> None:
                     "latency_p50_ms": p50,
                     "latency_p90_ms": p90,
                     "expected": total,
-                    "engine_cpu_s": engine.stats().thread_cpu_s,
+                    "engine_cpu_s": cpu,
                 }
             ),
             flush=True,
@@ -385,6 +451,9 @@ def run_once(tree: Path, mode: str, sub: bool, seconds: float, echo: bool = Fals
                 echo_proc = _start_echo(tree, domain)
             time.sleep(0.5)
         _send(pub, "go")
+        assert _readline(pub, 60) == "measuring"
+        if engine is not None:
+            _send(engine, "start")
         result: dict[str, Any] = json.loads(_readline(pub, seconds + 60))
         if engine is not None:
             _send(engine, f"report {1 + result['warmup'] + result['n']}")
@@ -404,7 +473,7 @@ def main() -> None:
     """Run every configuration in alternation and print the tables."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--role", choices=["main", "publisher", "subscriber"], default="main")
-    parser.add_argument("--mode", choices=["none", "rclpy", "off", "on"], default="on")
+    parser.add_argument("--mode", choices=["none", "nop", "rclpy", "off", "on"], default="on")
     parser.add_argument("--seconds", type=float, default=10.0)
     parser.add_argument("--expect", type=int, default=0)
     parser.add_argument("--history", type=int, default=20_000)
@@ -426,6 +495,7 @@ def main() -> None:
         return
     configs: list[tuple[str, Path, str]] = [
         ("no calls", ROOT, "none"),
+        ("empty function", ROOT, "nop"),
         ("raw rclpy publish", ROOT, "rclpy"),
         ("dbglog off", ROOT, "off"),
         ("dbglog on (after)", ROOT, "on"),
@@ -439,7 +509,8 @@ def main() -> None:
     for rep in range(args.repeats):
         for sub in {"both": (False, True), "with": (True,), "without": (False,)}[args.viewer]:
             for name, tree, mode in configs:
-                res = run_once(tree, mode, sub, args.seconds, echo=args.echo and sub and mode != "none")
+                echo = args.echo and sub and mode in ("rclpy", "on")
+                res = run_once(tree, mode, sub, args.seconds, echo=echo)
                 results.setdefault((name, sub), []).append(res)
                 print(f"# repeat {rep} {name} sub={sub}: {json.dumps(res)}", file=sys.stderr, flush=True)
     _print(configs, results)
@@ -458,18 +529,17 @@ def _print(configs: list[tuple[str, Path, str]], results: Results) -> None:
     from benchmarks._common import print_table
 
     base_cpu = {sub: _med(results.get(("no calls", sub), []), "cpu_s") for sub in (False, True)}
-    rows = []
+    rows, positions = [], []
     for sub in (False, True):
-        for name, _, _ in configs:
+        for name, _, mode in configs:
             runs = results.get((name, sub), [])
             if not runs:
                 continue
             wall = _med(runs, "wall_s")
             rate = _med(runs, "samples") / wall / 10_000
             extra = (_med(runs, "cpu_s") - base_cpu[sub]) / wall / rate * 1e3 if name != "no calls" else 0.0
-            rng = [r["call_p99_ns"] / 1e3 for r in runs]
             delivered = ""
-            if sub and name != "no calls":
+            if sub and mode in ("rclpy", "on"):
                 delivered = f"{_med(runs, 'min_count'):.0f} / {_med(runs, 'expected'):.0f}"
                 if not all(r.get("ordered", True) for r in runs):
                     delivered += " (out of order!)"
@@ -477,32 +547,54 @@ def _print(configs: list[tuple[str, Path, str]], results: Results) -> None:
                     delivered += f"; echo {_med(runs, 'echo_count'):.0f} / {runs[0]['n']}"
                     if not all(r.get("echo_ordered", True) for r in runs):
                         delivered += " (out of order!)"
+            share = _med(runs, "late_runqueue_share")
+            viewer = _med(runs, "engine_cpu_s") / wall * 1e3 if sub else float("nan")
             rows.append(
                 [
                     name,
                     "1 viewer" if sub else "none",
                     f"{_med(runs, 'call_p50_ns') / 1e3:.2f}",
-                    f"{_med(runs, 'call_p99_ns') / 1e3:.2f} ({min(rng):.1f}-{max(rng):.1f})",
-                    f"{_med(runs, 'period_p99_us'):.0f}",
+                    f"{_med(runs, 'call_p99_ns') / 1e3:.1f} ({_range(runs, 'call_p99_ns', 1e3)})",
+                    f"{_med(runs, 'period_p99_us'):.0f} ({_range(runs, 'period_p99_us')})",
+                    f"{_med(runs, 'late_wakeups'):.0f} ({share:.0%})" if share == share else "0",
                     delivered,
-                    f"{_med(runs, 'latency_p99_ms'):.1f}" if sub and name != "no calls" else "",
+                    f"{_med(runs, 'latency_p99_ms'):.1f}" if sub and mode in ("rclpy", "on") else "",
                     f"{extra:.0f}" if name != "no calls" else "",
+                    f"{viewer:.0f}" if sub else "",
                 ]
             )
+            if mode != "none":
+                p50 = [statistics.median(r["position_p50_ns"][i] for r in runs) / 1e3 for i in range(10)]
+                p90 = [statistics.median(r["position_p90_ns"][i] for r in runs) / 1e3 for i in range(10)]
+                cells = [f"{a:.1f} / {b:.1f}" for a, b in zip(p50, p90, strict=True)]
+                positions.append([name, "1 viewer" if sub else "none", *cells])
     print_table(
-        f"1 kHz loop, 10 calls/iteration, {len(next(iter(results.values())))} repeats (medians)",
+        f"1 kHz loop, 10 calls/iteration, {len(next(iter(results.values())))} repeats (medians, ranges)",
         [
             "Calls",
             "Subscriber",
             "per call p50 µs",
-            "per call p99 µs (range)",
+            "per call p99 µs",
             "loop period p99 µs",
+            "wake-ups > 0.5 ms late (share waiting for a CPU)",
             "min samples/tag in viewer",
             "latency p99 ms",
             "CPU ms/s per 10k samples/s",
+            "viewer CPU ms/s",
         ],
         rows,
     )
+    print_table(
+        "Per call by position in the iteration, p50 / p90 µs (1-6 logfloat, 7-8 logint, 9 logbool, "
+        "10 logstring throttled; 1, 7, 9 and 10 are the first call of their function)",
+        ["Calls", "Subscriber", *(str(i) for i in range(1, 11))],
+        positions,
+    )
+
+
+def _range(runs: list[dict[str, Any]], key: str, scale: float = 1.0) -> str:
+    values = [r[key] / scale for r in runs if r.get(key) is not None]
+    return f"{min(values):.0f}-{max(values):.0f}" if values else ""
 
 
 if __name__ == "__main__":
