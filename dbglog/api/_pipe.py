@@ -104,9 +104,10 @@ class Pipe:
             self.lock.release()
 
     def clear(self) -> None:
-        """Forget queued samples (after a fork, or a reset)."""
+        """Forget queued samples (a reset)."""
         self.queue.clear()
-        self.pending.clear()
+        with self.lock:  # the publisher thread walks `pending` under it
+            self.pending.clear()
 
     def after_fork_in_child(self) -> None:
         """The parent's thread does not exist here: start afresh (a new thread on first use)."""
