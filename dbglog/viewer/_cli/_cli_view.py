@@ -44,15 +44,20 @@ def size_arg(text: str) -> tuple[int, int]:
     return w, h
 
 
-def seconds_arg(text: str) -> float:
-    """Parse a number of seconds (0..3600) for argparse."""
+def _number_within(text: str, noun: str, name: str, low: int, high: int) -> float:
+    """Parse a number for argparse, refused (naming `noun` or `name`) unless ``low <= it <= high``."""
     try:
         value = float(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number of seconds: {text!r}") from None
-    if not 0 <= value <= 3600:
-        raise argparse.ArgumentTypeError(f"seconds must be within 0..3600, not {text}")
+        raise argparse.ArgumentTypeError(f"not a number of {noun}: {text!r}") from None
+    if not low <= value <= high:
+        raise argparse.ArgumentTypeError(f"{name} must be within {low}..{high}, not {text}")
     return value
+
+
+def seconds_arg(text: str) -> float:
+    """Parse a number of seconds (0..3600) for argparse."""
+    return _number_within(text, "seconds", "seconds", 0, 3600)
 
 
 _DURATION = re.compile(r"(?:(\d+(?:\.\d*)?)h)?(?:(\d+(?:\.\d*)?)m)?(?:(\d+(?:\.\d*)?)s?)?")
@@ -73,13 +78,7 @@ def duration_arg(text: str) -> float:
 
 def megabytes_arg(text: str) -> float:
     """Parse a memory cap in megabytes (MiB, 1..1,000,000) for argparse."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number of megabytes: {text!r}") from None
-    if not 1 <= value <= 1_000_000:
-        raise argparse.ArgumentTypeError(f"megabytes must be within 1..1000000, not {text}")
-    return value
+    return _number_within(text, "megabytes", "megabytes", 1, 1_000_000)
 
 
 def cursor_arg(text: str) -> float:
@@ -95,13 +94,7 @@ def cursor_arg(text: str) -> float:
 
 def fps_arg(text: str) -> float:
     """Parse a frame cap in frames per second (1..240) for argparse."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number of frames per second: {text!r}") from None
-    if not 1 <= value <= 240:
-        raise argparse.ArgumentTypeError(f"fps must be within 1..240, not {text}")
-    return value
+    return _number_within(text, "frames per second", "fps", 1, 240)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
