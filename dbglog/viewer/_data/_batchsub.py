@@ -32,6 +32,7 @@ from dbglog._ros._tags import topic_for_tag
 from dbglog.viewer._data._history import History
 from dbglog.viewer._data._model import Binding, ValueKind
 from dbglog.viewer._data._series import Series
+from dbglog.viewer._data._sinks import as_received
 
 __all__ = ["BatchIngest", "BatchStats"]
 
@@ -181,7 +182,7 @@ class BatchIngest:
                 series.set_waiting("subscribed; no message yet")
             past = self._past(name, self._newest.get(binding))
             if past is not None:  # received "as long ago" as its newest sample is old: its age is true
-                self._push(sink, [past], time.monotonic() - max(0.0, time.time() - float(past[0][-1])))
+                self._push(sink, [past], as_received(past[0]))
 
     def _past(self, name: str, after: float | None) -> tuple[Any, Any] | None:
         """Return the tag's held samples newer than `after` (all with None) as one chunk, or None."""
