@@ -13,10 +13,28 @@ from typing import Any
 
 from tests._ros import wait_until
 
-__all__ = ["ROOT", "WAIT_S", "ViewerChild"]
+__all__ = ["ROOT", "WAIT_S", "ViewerChild", "report_frame"]
 
 ROOT = Path(__file__).resolve().parent.parent
 WAIT_S = 30.0
+
+
+def report_frame(app: Any, folder: Path, state: dict[str, Any]) -> None:
+    """Child side, from a frame hook: write the screenshots asked for and the state for the test to read.
+
+    A test asks for a screenshot by dropping ``shot-NAME.request`` in `folder`; the next rendered frame
+    writes ``NAME.png``. The state goes to ``state.json`` atomically (a reader never sees half of it).
+    """
+    import dearpygui.dearpygui as dpg
+
+    for request in sorted(folder.glob("shot-*.request")):
+        name = request.stem.removeprefix("shot-")
+        request.unlink()
+        dpg.output_frame_buffer(file=str(folder / f"{name}.png"))
+        app.pacer.request()  # the viewer renders only on change: render now
+    out = folder / "state.json.tmp"
+    out.write_text(json.dumps(state, indent=1))
+    out.replace(folder / "state.json")
 
 
 class ViewerChild:

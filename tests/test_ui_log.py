@@ -8,7 +8,6 @@ real mouse move, click, wheel turn or key press (xdotool's XTEST events); no han
 
 from __future__ import annotations
 
-import json
 import os
 import shutil
 import subprocess
@@ -23,7 +22,7 @@ from typing import Any
 
 import pytest
 
-from tests._viewer_child import ViewerChild
+from tests._viewer_child import ViewerChild, report_frame
 from tests.test_ui_menus import _labelled, _menubar
 
 pytestmark = pytest.mark.gui
@@ -219,16 +218,7 @@ class Probe:
 
     def hook(self) -> None:
         """Report; write screenshots asked for with ``shot-NAME.request`` files."""
-        import dearpygui.dearpygui as dpg
-
-        for request in sorted(self.tmp.glob("shot-*.request")):
-            name = request.stem.removeprefix("shot-")
-            request.unlink()
-            dpg.output_frame_buffer(file=str(self.tmp / f"{name}.png"))
-            self.app.pacer.request()
-        out = self.tmp / "state.json.tmp"
-        out.write_text(json.dumps(self.state(), indent=1))
-        out.replace(self.tmp / "state.json")
+        report_frame(self.app, self.tmp, self.state())
 
 
 def run_here(scenario: str, tmp_dir: str) -> None:

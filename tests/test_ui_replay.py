@@ -26,7 +26,7 @@ from typing import Any
 import pytest
 
 from tests._ros import RosPeer, wait_until
-from tests._viewer_child import ROOT, ViewerChild
+from tests._viewer_child import ROOT, ViewerChild, report_frame
 
 pytestmark = pytest.mark.gui
 
@@ -295,16 +295,7 @@ class Probe:
 
     def hook(self) -> None:
         """Report; write screenshots asked for with ``shot-NAME.request`` files."""
-        import dearpygui.dearpygui as dpg
-
-        for request in sorted(self.tmp.glob("shot-*.request")):
-            name = request.stem.removeprefix("shot-")
-            request.unlink()
-            dpg.output_frame_buffer(file=str(self.tmp / f"{name}.png"))
-            self.app.pacer.request()
-        out = self.tmp / "state.json.tmp"
-        out.write_text(json.dumps(self.state(), indent=1))
-        out.replace(self.tmp / "state.json")
+        report_frame(self.app, self.tmp, self.state())
 
 
 LIVE_TAG = "/rosdashboard/rp_live"
