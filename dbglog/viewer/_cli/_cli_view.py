@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import functools
 import math
 import re
 import sys
@@ -13,6 +14,7 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:
     from dbglog.viewer._data._model import DataSource
     from dbglog.viewer._data._replay import ReplaySource
+    from dbglog.viewer._publishing._republish import Republisher
     from dbglog.viewer._ui import ViewerApp
 
 __all__ = [
@@ -112,8 +114,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         type=Path,
         metavar="FILE",
         help="replay a recording (an MCAP file: dbglog record's, ros2 bag's; or a rosbag2 folder) instead of "
-        "the live graph: no ROS node is started; it opens paused at its end, Space or the play button plays "
-        "it (speed 0.1-10x, loop), the time bar seeks",
+        "the live graph: no ROS node is started (unless --republish); it opens paused at its end, Space "
+        "or the play button plays it (speed 0.1-10x, loop), the time bar seeks",
+    )
+    parser.add_argument(
+        "--republish",
+        action="store_true",
+        help="with --replay: publish the recording on ROS 2 at the time cursor, so RViz or ros2 topic echo "
+        "follow the replay: playing, every message the cursor passes (original topic, type and bytes, in "
+        "time order); after a seek or step, each topic's latest message at the cursor; and /clock. Topics "
+        "of types not installed here are skipped (a warning names them)",
     )
     parser.add_argument(
         "--template",
@@ -212,6 +222,12 @@ def run(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
         return 2
+    if args.republish and args.replay is None:
+        print(
+            "dbglog view: error: --republish needs --replay FILE (it publishes a recording's messages)",
+            file=sys.stderr,
+        )
+        return 2
     registry = WidgetRegistry.discover()
     for problem in registry.problems:
         print(f"dbglog view: warning: {problem}", file=sys.stderr)
@@ -240,11 +256,16 @@ def run(args: argparse.Namespace) -> int:
     from dbglog.viewer._ui import ViewerApp
 
     source: DataSource
+    republisher: Republisher | None = None
     if args.replay is not None:
         replay = open_replay(args.replay, stale_after=max(0.1, args.stale_after))
         if replay is None:
             return 1
         source, engine = replay, None
+        if args.republish:
+            republisher = start_republisher()
+            if republisher is None:
+                return 1
     else:
         from dbglog.viewer._data._engine import Engine
 
@@ -271,6 +292,8 @@ def run(args: argparse.Namespace) -> int:
     )
     try:
         app.start()
+        if republisher is not None:
+            app.frame_hooks.append(functools.partial(follow_cursor, app, republisher))
         from dbglog.viewer._ui._auto import AutoDashboard, all_live, write_report
 
         auto: AutoDashboard | None = None
@@ -287,7 +310,7 @@ def run(args: argparse.Namespace) -> int:
             auto = AutoDashboard(app, all_topics=args.all or args.replay is not None)
             auto.install()
         if args.replay is not None:
-            replay_status(app, args.replay, auto is not None)
+            replay_status(app, args.replay, auto is not None, republish=republisher is not None)
         if args.replay is not None and (args.screenshot is not None or args.cursor is not None):
             whole_recording(app)  # a cursor and a picture are of the whole file, not its first seconds
         if args.screenshot is None and args.replay is not None and args.cursor is not None:
@@ -321,6 +344,8 @@ def run(args: argparse.Namespace) -> int:
         app.close()
         if engine is not None:
             engine.stop()
+        if republisher is not None:
+            republisher.close()
 
 
 def open_replay(path: Path, *, stale_after: float) -> ReplaySource | None:
@@ -342,6 +367,28 @@ def open_replay(path: Path, *, stale_after: float) -> ReplaySource | None:
     return replay
 
 
+def start_republisher() -> Republisher | None:
+    """Start ``--republish``'s ROS node and thread; None (the error said on stderr) when ROS cannot start."""
+    from dbglog.viewer._publishing._republish import Republisher
+
+    republisher = Republisher()
+    try:
+        republisher.start()
+    except Exception as exc:  # rclpy missing or ROS refusing to start: say so in one line
+        print(f"dbglog view: error: --republish cannot start ROS 2: {exc}", file=sys.stderr)
+        return None
+    return republisher
+
+
+def follow_cursor(app: ViewerApp, republisher: Republisher) -> None:
+    """A frame hook: hand the time cursor to the republisher; show what it has to say (UI thread)."""
+    timeline = app.timeline
+    republisher.follow(app.source, timeline.cursor, playing=timeline.playing, speed=timeline.speed)
+    for note in republisher.take_notes():
+        print(f"dbglog view: warning: {note}", file=sys.stderr)
+        app.set_status(note)
+
+
 def whole_recording(app: ViewerApp, timeout: float = 600.0) -> None:
     """Render until a long recording has loaded whole (it opens with its last seconds, the rest behind)."""
     deadline = time.monotonic() + timeout
@@ -352,14 +399,17 @@ def whole_recording(app: ViewerApp, timeout: float = 600.0) -> None:
         app.go_live()  # the end of the whole file (the cursor was at the end of its first part)
 
 
-def replay_status(app: ViewerApp, path: Path, auto: bool) -> None:
+def replay_status(app: ViewerApp, path: Path, auto: bool, *, republish: bool = False) -> None:
     """Say in the status bar what is replayed and how to play it."""
     from dbglog.viewer._ui._timescale import format_duration
 
     span = app.time_span()
     length = format_duration(span[1] - span[0]) if span is not None else "empty"
     how = "automatic dashboard of its topics; " if auto else ""
-    app.set_status(f"replay of {path.name} ({length}): {how}Space or the play button plays, the bar seeks")
+    also = "; republished on ROS 2 at the cursor" if republish else ""
+    app.set_status(
+        f"replay of {path.name} ({length}): {how}Space or the play button plays, the bar seeks{also}"
+    )
 
 
 def place_cursor(app: ViewerApp, t: float) -> float:
