@@ -248,3 +248,52 @@ def test_a_long_recording_opens_with_its_end_and_loads_the_rest_behind(tmp_path:
     assert source.samples_held(b) == 600
     assert source.snapshot_at(b, (T0 + 42 * 100_000_000) * 1e-9).last == 42.0
     assert source.problems == []
+
+
+def test_a_plot_zoomed_out_past_the_snapshot_gets_the_history_as_an_envelope(tmp_path: Path) -> None:
+    """The timeline answers a min/max envelope of every held sample in a range (up to the cursor, paused)."""
+    path = tmp_path / "long.mcap"
+    n = 30_000  # 300 s at 100 Hz: three times what a snapshot (10,000 samples) carries
+    w = McapWriter(path)
+    speed = w.add_channel("/rosdashboard/speed", "std_msgs/msg/Float64")
+    twist = w.add_channel("/cmd_vel", "geometry_msgs/msg/Twist")
+    words = w.add_channel("/log/words", "std_msgs/msg/String")
+    for i in range(n):
+        t = T0 + i * STEP
+        w.write(speed, t, serialize_message(Float64(data=float(i % 1000))), t)
+        msg = Twist()
+        msg.linear.x = -float(i)
+        w.write(twist, t, serialize_message(msg), t)
+    w.write(words, T0, serialize_message(String(data="hello")), T0)
+    w.close()
+    source = load_replay(path)
+    plain, field = Binding("/rosdashboard/speed"), Binding("/cmd_vel", "linear.x")
+    text = Binding("/log/words")
+    for b in (plain, field, text):
+        source.bind(b)
+    timeline = Timeline(source)
+    start, end = T0 * 1e-9, (T0 + (n - 1) * STEP) * 1e-9
+    assert len(timeline.snapshot(plain).times) == 10_000
+    found = timeline.envelope(plain, start, end, 400)
+    assert found is not None
+    times, values = found
+    assert 400 <= len(times) <= 2 * 400 + 2
+    assert times[0] == pytest.approx(start)
+    assert times[-1] == pytest.approx(end)
+    assert bool((times[1:] >= times[:-1]).all())
+    assert values.min() == 0.0
+    assert values.max() == 999.0
+    found = timeline.envelope(field, start, end, 400)
+    assert found is not None
+    assert found[1].min() == -(n - 1)
+    assert found[1].max() == 0.0
+    assert timeline.envelope(text, start, end, 400) is None
+    # Paused in the middle: nothing after the cursor, not even the sample just past the range.
+    timeline.seek(start + 100.0)
+    found = timeline.envelope(field, start, end, 400)
+    assert found is not None
+    assert found[0][-1] <= start + 100.0
+    assert found[1].min() == -10_000.0
+    found = timeline.envelope(field, start + 150.0, end, 400)  # a range after the cursor: nothing yet
+    assert found is not None
+    assert len(found[0]) == 0

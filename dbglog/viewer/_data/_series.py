@@ -308,6 +308,19 @@ class Series:
             return times, [bool(v) for v in values.tolist()]
         return times, list(values.tolist())
 
+    def envelope(
+        self, t0: float, t1: float, pixels: int
+    ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]] | None:
+        """Return a min/max envelope of this series' numbers over ``[t0, t1]`` for a plot `pixels` wide.
+
+        From the store, far beyond the ring a snapshot holds (see `History.decimate`); None without a
+        store or for text and arrays.
+        """
+        store = self.store
+        if store is None or self._kind not in (ValueKind.NUMBER, ValueKind.BOOL) or not store.count(self.key):
+            return None
+        return store.decimate(self.key, t0, t1, pixels)
+
     def held(self) -> int:
         """Return how many of this series' samples its store holds (the ring's size without a store)."""
         if self.store is not None:
@@ -376,6 +389,13 @@ class SeriesTimes:
         """Return the binding's samples with ``t0 <= time <= t1`` (times and values), for an export."""
         series = self._series.get(binding)
         return (np.empty(0), []) if series is None else series.between(t0, t1)
+
+    def envelope(
+        self, binding: Binding, t0: float, t1: float, pixels: int
+    ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]] | None:
+        """Return a min/max envelope of the binding's numbers over ``[t0, t1]`` for a plot `pixels` wide."""
+        series = self._series.get(binding)
+        return None if series is None else series.envelope(t0, t1, pixels)
 
     def history_stats(self) -> HistoryStats:
         """Return what the history holds (span, samples, bytes)."""

@@ -329,6 +329,32 @@ class Timeline:
             return snap.times[keep], [x for x, k in zip(snap.texts, keep.tolist(), strict=False) if k]
         return snap.times[keep], list(snap.values[keep].tolist())
 
+    def envelope(
+        self, binding: Binding, t0: float, t1: float, pixels: int
+    ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]] | None:
+        """Return a min/max envelope of the binding's numbers over ``[t0, t1]`` (up to the cursor when paused)
+        for a plot `pixels` wide, from the source's history; None when the source keeps no history of it.
+
+        A plot zoomed out beyond the samples a snapshot carries draws this instead: every sample the
+        history holds in the range shows, at about two points per pixel column.
+        """
+        make = getattr(self._timed, "envelope", None)
+        if make is None:
+            return None
+        cursor = self.cursor
+        if cursor is not None:
+            t1 = min(t1, cursor)
+        if not t0 <= t1:
+            return np.empty(0), np.empty(0)
+        found = make(binding, t0, t1, max(1, pixels))
+        if found is None:
+            return None
+        times, values = found
+        if cursor is not None and len(times) and times[-1] > cursor:  # the sample after the range: not yet
+            keep = int(np.searchsorted(times, cursor, side="right"))
+            times, values = times[:keep], values[:keep]
+        return times, values
+
     def _neighbour(self, binding: Binding, t: float, direction: int) -> float | None:
         if self._timed is not None:
             return self._timed.neighbour_time(binding, t, direction)
