@@ -293,7 +293,7 @@ def run(args: argparse.Namespace) -> int:
     try:
         app.start()
         if republisher is not None:
-            app.frame_hooks.append(functools.partial(follow_cursor, app, republisher))
+            app.cursor_hooks.append(functools.partial(follow_cursor, app, republisher))
         from dbglog.viewer._ui._auto import AutoDashboard, all_live, write_report
 
         auto: AutoDashboard | None = None
@@ -381,7 +381,7 @@ def start_republisher() -> Republisher | None:
 
 
 def follow_cursor(app: ViewerApp, republisher: Republisher) -> None:
-    """A frame hook: hand the time cursor to the republisher; show what it has to say (UI thread)."""
+    """A cursor hook: hand the time cursor to the republisher; show what it has to say (UI thread)."""
     timeline = app.timeline
     republisher.follow(app.source, timeline.cursor, playing=timeline.playing, speed=timeline.speed)
     for note in republisher.take_notes():

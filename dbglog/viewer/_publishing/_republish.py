@@ -224,12 +224,20 @@ class Republisher:
 
     Args:
         node_name: the private node's name.
-        clock: publish ``/clock`` at the cursor time (a recording with its own ``/clock`` keeps that).
+        publish_clock: publish ``/clock`` at the cursor time (a recording with its own ``/clock`` keeps it).
+        ticks: the monotonic clock the timeline plays by (seconds).
     """
 
-    def __init__(self, *, node_name: str = "dbglog_replay", clock: bool = True) -> None:
+    def __init__(
+        self,
+        *,
+        node_name: str = "dbglog_replay",
+        publish_clock: bool = True,
+        ticks: Callable[[], float] = time.monotonic,
+    ) -> None:
         self.node_name = node_name
-        self.clock = clock
+        self.publish_clock = publish_clock
+        self._ticks = ticks
         self.published = 0
         """Messages published so far (``/clock`` not counted)."""
         self.seeks = 0
@@ -262,12 +270,19 @@ class Republisher:
         self._thread.start()
 
     def follow(self, source: object, cursor: float | None, *, playing: bool, speed: float = 1.0) -> None:
-        """Hand over the cursor (cheap: nothing happens on this thread when it did not move)."""
+        """Hand over the cursor right after the timeline moved it (cheap: nothing happens when it did not).
+
+        Args:
+            source: the data shown (only a `ReplaySource` is republished).
+            cursor: the timeline's cursor (None: live).
+            playing: whether the timeline plays.
+            speed: its playback speed.
+        """
         key = (id(source), cursor, playing, speed)
         if key == self._last_key:
             return
         self._last_key = key
-        state = CursorState(cursor, playing, time.monotonic(), speed)
+        state = CursorState(cursor, playing, self._ticks(), speed)
         with self._cond:
             self._latest = (source, state)
             self._idle.clear()
@@ -358,13 +373,13 @@ class Republisher:
                 continue
             prepared.publishers[topic] = pub
             created.append(pub)
-        if self.clock and self._clock_pub is None and CLOCK_TOPIC not in types:
+        if self.publish_clock and self._clock_pub is None and CLOCK_TOPIC not in types:
             try:
                 cls = message_class("rosgraph_msgs/msg/Clock")
                 self._clock_pub = node.create_publisher(cls, CLOCK_TOPIC, subscription_qos(1, reliable=True))
                 created.append(self._clock_pub)
             except Exception as exc:
-                self.clock = False
+                self.publish_clock = False
                 self._note(f"republish: no {CLOCK_TOPIC} ({exc})")
         new_skips = {t: why for t, why in prepared.skipped.items() if old is None or t not in old.skipped}
         if new_skips:

@@ -139,6 +139,9 @@ class ViewerApp:
         self.frame_hooks: list[Callable[[], None]] = []
         """Called on the UI thread at every turn of the loop, rendered or not, before the widgets refresh
         (the auto-dashboard, test probes)."""
+        self.cursor_hooks: list[Callable[[], None]] = []
+        """Called on the UI thread at every turn of the loop, right after playback moved the cursor to now
+        (``--republish`` hands the cursor over there)."""
         self.last_work_s = 0.0
         """Seconds the last frame spent before `render_dearpygui_frame` (input, snapshots, widget updates)."""
         self.pacer = Pacer(fps, min(fps, data_fps))
@@ -441,6 +444,8 @@ class ViewerApp:
         playing = self.timeline.playing
         if playing:  # the cursor moves with the clock: every drawn frame shows a later moment
             self.timeline.tick()
+        for hook in self.cursor_hooks:
+            hook()
         at = self.timeline.cursor
         span = self.time_span()
         self.time_range.sync(span[1] if span is not None else None, at)
