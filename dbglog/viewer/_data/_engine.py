@@ -23,7 +23,7 @@ from typing import Any, Self
 import numpy as np
 import numpy.typing as npt
 
-from dbglog._regex._compile import CompiledRegex, RegexError, compile_regex
+from dbglog._regex._compile import CompiledRegex
 from dbglog._ros._batch import BATCH_TOPIC
 from dbglog._ros._cdr import decode_fixed
 from dbglog._ros._node import NodeIdentity, PrivateNode, WaitSet, no_callback, take_batch
@@ -34,7 +34,6 @@ from dbglog.viewer._data._fields import (
     fixed_size,
     list_fields,
     message_class,
-    parse_path,
 )
 from dbglog.viewer._data._history import DEFAULT_MAX_BYTES, DEFAULT_MAX_SECONDS, History
 from dbglog.viewer._data._logstore import LogStore
@@ -47,11 +46,12 @@ from dbglog.viewer._data._sinks import (
     feed,
     feed_numbers,
     make_sink,
+    prepare,
     same_values,
     scalar_plan,
 )
 from dbglog.viewer._data._suggest import close_matches, sub_topics, unpublished_reason
-from dbglog.viewer._values._transforms import TransformChain, TransformError
+from dbglog.viewer._values._transforms import TransformChain
 
 __all__ = ["Engine", "EngineStats", "queue_depth_for"]
 
@@ -284,19 +284,13 @@ class Engine(SeriesTimes):
                 return
             series = Series(binding, self.history, self.store)
             self._series[binding] = series
-            problem = self._check(binding)
-            self._regexes[binding] = None
-            self._chains[binding] = None
-            if not isinstance(problem, str) and binding.transforms:
-                try:  # the binding's own values: a rejected list (`Invalid`) refuses with its reason
-                    self._chains[binding] = TransformChain(binding.transforms)
-                except TransformError as exc:
-                    problem = f"bad transforms: {exc}"
-            if isinstance(problem, str):
-                self._static_errors[binding] = problem
-                series.set_error(problem)
+            prepared = self._check(binding) or prepare(binding)
+            if isinstance(prepared, str):
+                self._regexes[binding] = self._chains[binding] = None
+                self._static_errors[binding] = prepared
+                series.set_error(prepared)
             else:
-                self._regexes[binding] = problem
+                self._regexes[binding], self._chains[binding] = prepared
         self._wake()
 
     def unbind(self, binding: Binding) -> None:
@@ -368,24 +362,15 @@ class Engine(SeriesTimes):
             return np.empty(0)
         return self._latency[: min(self._latency_n, _LATENCY_SAMPLES)].copy()
 
-    def _check(self, binding: Binding) -> CompiledRegex | str | None:
-        """Validate what can be checked without the graph; return the regex or the problem."""
+    def _check(self, binding: Binding) -> str | None:
+        """Return what is wrong with the binding's topic name, None when it is a valid ROS name."""
         from rclpy.validate_full_topic_name import validate_full_topic_name
 
         try:
             validate_full_topic_name(_normalize(binding.topic))
         except Exception as exc:  # rclpy raises its own InvalidTopicNameException
             return f"bad topic name {binding.topic!r}: {exc}"
-        try:
-            parse_path(binding.field)
-        except FieldPathError as exc:
-            return str(exc)
-        if not binding.regex:
-            return None
-        try:
-            return compile_regex(binding.regex)
-        except RegexError as exc:
-            return f"bad regex {binding.regex!r}: {exc}"
+        return None
 
     def _wake(self) -> None:
         self._dirty.set()

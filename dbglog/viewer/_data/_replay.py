@@ -16,7 +16,6 @@ import threading
 
 import numpy as np
 
-from dbglog._regex._compile import CompiledRegex, RegexError, compile_regex
 from dbglog._ros._batch import BATCH_TOPIC
 from dbglog._ros._cdr import string_payload
 from dbglog._ros._tags import topic_for_tag
@@ -26,9 +25,8 @@ from dbglog.viewer._data._fields import FieldPathError, list_fields, message_cla
 from dbglog.viewer._data._history import History
 from dbglog.viewer._data._model import Binding, FieldInfo, SeriesSnapshot, TopicInfo
 from dbglog.viewer._data._series import Series, SeriesTimes
-from dbglog.viewer._data._sinks import backfill, make_sink, same_values
+from dbglog.viewer._data._sinks import backfill, make_sink, prepare, same_values
 from dbglog.viewer._data._suggest import close_matches
-from dbglog.viewer._values._transforms import TransformChain, TransformError
 
 __all__ = ["ReplaySource", "history_of", "load_replay"]
 
@@ -196,15 +194,11 @@ class ReplaySource(SeriesTimes):
         except FieldPathError as exc:
             series.set_error(str(exc), msg_type=msg_type)
             return
-        regex: CompiledRegex | None = None
-        chain: TransformChain | None = None
-        try:
-            regex = compile_regex(binding.regex) if binding.regex.strip() else None
-            chain = TransformChain(binding.transforms) if binding.transforms else None
-        except (RegexError, TransformError) as exc:
-            series.set_error(str(exc), msg_type=msg_type)
+        prepared = prepare(binding)
+        if isinstance(prepared, str):
+            series.set_error(prepared, msg_type=msg_type)
             return
-        sink = make_sink(binding, series, cls, msg_type, regex, chain)
+        sink = make_sink(binding, series, cls, msg_type, *prepared)
         if same_values(sink, cls, msg_type) and store.kind(name) == "numbers":
             series.share(name)
         if sink.kind is None:

@@ -19,14 +19,14 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from dbglog._regex._compile import CompiledRegex, parse_number
+from dbglog._regex._compile import CompiledRegex, RegexError, compile_regex, parse_number
 from dbglog._ros._cdr import decode_fixed
-from dbglog.viewer._data._fields import FieldPathError, Resolved, resolve
+from dbglog.viewer._data._fields import FieldPathError, Resolved, parse_path, resolve
 from dbglog.viewer._data._history import History
 from dbglog.viewer._data._logstore import LOG_TYPE, level_of
 from dbglog.viewer._data._model import Binding, ValueKind
 from dbglog.viewer._data._series import Series
-from dbglog.viewer._values._transforms import TransformChain
+from dbglog.viewer._values._transforms import TransformChain, TransformError
 
 __all__ = [
     "LineFilter",
@@ -87,6 +87,31 @@ class LineFilter:
         if passes is None:
             passes = self.seen[name] = fnmatch.fnmatchcase(name, self.node)
         return passes
+
+
+def prepare(binding: Binding) -> tuple[CompiledRegex | None, TransformChain | None] | str:
+    """Check a binding's field path and compile its regex and transforms once (live and replay alike).
+
+    Returns the compiled regex and transform chain (None where the binding has none), or what is wrong
+    in words: the series' ERROR reason.
+    """
+    try:
+        parse_path(binding.field)
+    except FieldPathError as exc:
+        return str(exc)
+    regex: CompiledRegex | None = None
+    if binding.regex:
+        try:
+            regex = compile_regex(binding.regex)
+        except RegexError as exc:
+            return f"bad regex {binding.regex!r}: {exc}"
+    chain: TransformChain | None = None
+    if binding.transforms:
+        try:  # a rejected list (`Invalid`) refuses with its reason
+            chain = TransformChain(binding.transforms)
+        except TransformError as exc:
+            return f"bad transforms: {exc}"
+    return regex, chain
 
 
 def make_sink(
