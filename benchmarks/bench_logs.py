@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import gc
+import math
 import os
 import random
 import re
@@ -25,6 +26,7 @@ import threading
 import time
 import tracemalloc
 from collections.abc import Callable
+from pathlib import Path
 
 import numpy as np
 import re2
@@ -317,7 +319,8 @@ def _publisher_main(rate: float, count: int, offset: int) -> int:
     log = _rclpy.rclpy_logging_rcutils_log
     while not select.select([sys.stdin], [], [], 0.1)[0]:
         log(20, name, "flood probe", "flood", __file__, 1)
-    sys.stdin.readline()
+    if sys.stdin.readline().strip() == "quiet":  # no more probes: wait for the start
+        sys.stdin.readline()
     start = time.perf_counter()
     sent = 0
     while sent < count:
@@ -445,6 +448,324 @@ def bench_flood(rate: float, seconds: float, publishers: int = 5) -> list[list[o
     ]
 
 
+# --- the viewer: frame times with and without the console during the flood ---------------------------------
+
+_DATA_PREFIX = "/bench/ui/t"
+"""The topics of bench_ui's publisher (the dashboard's live plots and dials)."""
+_DATA_TOPICS = 10
+_DATA_RATE = 50.0
+
+
+def _dashboard(console: bool) -> dict[str, object]:
+    """The dashboard measured: 2 plots of 5 live series, 4 dials; with `console`, a Log widget on /rosout."""
+
+    def binding(topic: str, field: str = "data") -> dict[str, str]:
+        return {"topic": topic, "field": field, "regex": ""}
+
+    widgets: list[dict[str, object]] = [
+        {
+            "type": "plot",
+            "name": f"plot {k}",
+            "x": 20 + 560 * k,
+            "y": 380,
+            "width": 540,
+            "height": 300,
+            "bindings": [binding(f"{_DATA_PREFIX}{5 * k + i}") for i in range(5)],
+        }
+        for k in range(2)
+    ]
+    widgets += [
+        {
+            "type": "dial",
+            "name": f"dial {k}",
+            "x": 20 + 280 * k,
+            "y": 700,
+            "width": 260,
+            "height": 160,
+            "bindings": [binding(f"{_DATA_PREFIX}{k}")],
+        }
+        for k in range(4)
+    ]
+    if console:
+        widgets.append(
+            {
+                "type": "log",
+                "name": "/rosout",
+                "x": 20,
+                "y": 20,
+                "width": 1120,
+                "height": 340,
+                "bindings": [binding("/rosout", "")],
+            }
+        )
+    return {
+        "format": "dbglog-dashboard",
+        "version": 1,
+        "grid": {"size": 20, "snap": True},
+        "widgets": widgets,
+    }
+
+
+def _viewer_main(dashboard: str, seconds: float, warmup: float, nodes: int) -> int:
+    """Child process: the viewer as ``dbglog view DASHBOARD`` builds it; its frame times, as JSON.
+
+    Protocol on stdin/stdout: prints ``ready`` (warmed up; with a console, every flood node seen), waits for
+    ``go``, prints ``measuring``, runs the viewer's own loop for `seconds`, waits for ``done`` (running on),
+    lets the console take every waiting line, prints one JSON line.
+    """
+    import collections
+    import json
+
+    from dbglog.viewer._data._engine import Engine
+    from dbglog.viewer._document._dashboard import load_dashboard
+    from dbglog.viewer._ui import ViewerApp
+    from dbglog.viewer._widgets import WidgetRegistry
+
+    registry = WidgetRegistry.discover()
+    result = load_dashboard(dashboard, registry.get)
+    engine = Engine(stale_after=2.0, history_seconds=1800.0, history_bytes=512 * 2**20)  # dbglog view's
+    engine.start()
+    app = ViewerApp(engine, registry, width=1440, height=900, fps=60.0, data_fps=20.0)
+    console = any(w.get("type") == "log" for w in json.loads(Path(dashboard).read_text())["widgets"])
+
+    def run_until(done: Callable[[], bool], limit: float) -> None:
+        deadline = time.monotonic() + limit
+        while not done():
+            if time.monotonic() > deadline:
+                raise RuntimeError("the viewer child timed out")
+            app.run(seconds=0.1)
+
+    def line_ready() -> bool:
+        return bool(select.select([sys.stdin], [], [], 0)[0])
+
+    try:
+        app.start()
+        app.load(result, None)
+        store = engine.log_store("/rosout") if console else None
+        app.run(seconds=warmup)
+        if store is not None:
+            want = {f"flood_{i}" for i in range(nodes)}
+            run_until(lambda: want <= set(store.nodes()), 60.0)
+        print("ready", flush=True)
+        run_until(line_ready, 120.0)
+        sys.stdin.readline()
+        added0 = store.added if store is not None else 0
+        dropped0 = getattr(store, "dropped", 0)  # (a checkout from before the count: 0)
+        app.frame_times = collections.deque()
+        print("measuring", flush=True)
+        cpu0, t0 = time.process_time(), time.perf_counter()
+        app.run(seconds=seconds)
+        cpu, elapsed = time.process_time() - cpu0, time.perf_counter() - t0
+        totals = list(app.frame_times)
+        run_until(line_ready, seconds + 120.0)
+        sys.stdin.readline()
+        out: dict[str, object] = {"totals": totals, "elapsed": elapsed, "cpu": cpu}
+        if store is not None:
+            last, quiet = -1, time.monotonic()
+            while time.monotonic() - quiet < 2.0 or store.pending:  # every waiting line taken
+                now = store.added + store.pending
+                if now != last:
+                    last, quiet = now, time.monotonic()
+                app.run(seconds=0.1)
+            ids = store.select(LogFilter(include="^seq="))
+            held: dict[int, list[int]] = {}
+            for m in map(_SEQ.match, store.messages(ids)):
+                if m is not None:
+                    seq = int(m.group(1))
+                    held.setdefault(seq // _SPAN, []).append(seq)
+            out |= {
+                "reached": store.added - added0 - (getattr(store, "dropped", 0) - dropped0),
+                "evicted": store.evicted,
+                "held_gaps": sum(max(s) - min(s) + 1 - len(set(s)) for s in held.values()),
+                "held": sum(len(s) for s in held.values()),
+                "taken": engine.stats().per_topic.get("/rosout", 0),
+            }
+        print(json.dumps(out), flush=True)
+    finally:
+        app.close()
+        engine.stop()
+    return 0
+
+
+def _expect(proc: subprocess.Popen[str], word: str) -> str:
+    """Read the child's stdout up to a line starting with `word` (other lines are skipped)."""
+    assert proc.stdout is not None
+    while True:
+        line = proc.stdout.readline()
+        if not line:
+            raise RuntimeError(f"the viewer child ended before {word!r} (exit {proc.wait()})")
+        if line.startswith(word):
+            return line
+
+
+def _viewer_run(
+    dashboard: Path, console: bool, rate: float, seconds: float, warmup: float, publishers: int
+) -> dict[str, float]:
+    """One measured run: the data publisher, the flood's nodes and a viewer child on `dashboard`."""
+    import json
+
+    per_pub = int(rate * seconds / publishers)
+    me = [sys.executable, "-m", "benchmarks.bench_logs"]
+    data = subprocess.Popen(
+        [
+            *(sys.executable, "-m", "benchmarks.bench_ui", "--role", "publisher"),
+            *("--topics", str(_DATA_TOPICS), "--rate", str(_DATA_RATE)),
+            *("--duration", str(warmup + seconds + 240)),
+        ],
+        stdout=subprocess.DEVNULL,
+    )
+    pubs = [
+        subprocess.Popen(
+            [
+                *me,
+                *("--publisher", "--rate", str(rate / publishers)),
+                *("--count", str(per_pub), "--offset", str(i * _SPAN)),
+            ],
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.DEVNULL,
+            text=True,
+        )
+        for i in range(publishers)
+    ]
+    ui = subprocess.Popen(
+        [
+            *me,
+            *("--viewer-child", str(dashboard), "--seconds", str(seconds)),
+            *("--warmup", str(warmup), "--nodes", str(publishers)),
+        ],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        text=True,
+    )
+    assert ui.stdin is not None
+
+    def tell(proc: subprocess.Popen[str], word: str) -> None:
+        assert proc.stdin is not None
+        proc.stdin.write(word + "\n")
+        proc.stdin.flush()
+
+    try:
+        _expect(ui, "ready")
+        for p in pubs:
+            tell(p, "quiet")
+        time.sleep(1.0)  # the last probes arrive before the count starts
+        tell(ui, "go")
+        _expect(ui, "measuring")
+        load0 = os.getloadavg()[0]
+        for p in pubs:
+            tell(p, "go")
+        sent, elapsed = 0, 0.0
+        for p in pubs:
+            assert p.stdout is not None
+            _word, n, secs = p.stdout.readline().split()
+            sent, elapsed = sent + int(n), max(elapsed, float(secs))
+        load1 = os.getloadavg()[0]
+        tell(ui, "done")
+        out = json.loads(_expect(ui, "{"))
+    finally:
+        for p in pubs:
+            if p.stdin is not None and p.poll() is None:
+                p.stdin.write("exit\n")
+                p.stdin.close()
+        for p in pubs:
+            p.wait(timeout=30)
+            if p.stdout is not None:
+                p.stdout.close()
+        data.kill()
+        data.wait()
+        if ui.poll() is None:
+            ui.kill()
+        ui.wait()
+    totals = sorted(t * 1e3 for t in out["totals"])
+
+    def pct(q: float) -> float:
+        return totals[min(len(totals) - 1, int(q * len(totals)))] if totals else math.nan
+
+    res = {
+        "frames": float(len(totals)),
+        "p50": pct(0.50),
+        "p95": pct(0.95),
+        "p99": pct(0.99),
+        "cpu": 100 * out["cpu"] / out["elapsed"],
+        "rate": sent / max(elapsed, 1e-9),
+        "sent": float(sent),
+        "load0": load0,
+        "load1": load1,
+    }
+    if console:
+        res |= {k: float(out[k]) for k in ("reached", "held_gaps", "held", "taken", "evicted")}
+        res["lost"] = res["sent"] - res["reached"]
+    print(
+        f"  {'with' if console else 'without'} the console: p50 {res['p50']:.1f} ms, "
+        f"p95 {res['p95']:.1f} ms, {res['frames']:.0f} frames, load {load0:.1f}-{load1:.1f}"
+        + (f", lost {res['lost']:.0f}, gaps {res['held_gaps']:.0f}" if console else ""),
+        file=sys.stderr,
+        flush=True,
+    )
+    return res
+
+
+def bench_viewer(
+    rate: float, seconds: float, repeats: int, warmup: float = 5.0, publishers: int = 5
+) -> tuple[list[list[object]], list[list[object]]]:
+    """The viewer's frame times on one dashboard with and without a Log console on /rosout, during the
+    flood; the two run alternately, `repeats` times each. Returns the table's rows and each pair's rows."""
+    import json
+    import tempfile
+
+    runs: dict[bool, list[dict[str, float]]] = {False: [], True: []}
+    pairs: list[list[object]] = []
+    with tempfile.TemporaryDirectory() as tmp:
+        paths = {}
+        for console in (False, True):
+            paths[console] = Path(tmp) / f"{'with' if console else 'without'}.json"
+            paths[console].write_text(json.dumps(_dashboard(console)))
+        for r in range(repeats):
+            order = (False, True) if r % 2 == 0 else (True, False)
+            for console in order:
+                runs[console].append(_viewer_run(paths[console], console, rate, seconds, warmup, publishers))
+            without, with_ = runs[False][-1], runs[True][-1]
+            pairs.append(
+                [
+                    str(r + 1),
+                    f"{without['p50']:.1f} / {without['p95']:.1f}",
+                    f"{with_['p50']:.1f} / {with_['p95']:.1f}",
+                    f"{100 * (with_['p95'] / without['p95'] - 1):+.0f} %",
+                    f"{with_['lost']:,.0f}",
+                    f"{min(without['load0'], with_['load0']):.1f}-"
+                    f"{max(without['load1'], with_['load1']):.1f}",
+                ]
+            )
+    rows: list[list[object]] = []
+    for console in (False, True):
+        got = runs[console]
+
+        def med(key: str, got: list[dict[str, float]] = got) -> float:
+            return statistics.median(x[key] for x in got)
+
+        loads = [x[k] for x in got for k in ("load0", "load1")]
+        rows.append(
+            [
+                "with the Log console on /rosout" if console else "without (the same dashboard)",
+                f"{med('frames') / seconds:.1f}",
+                f"{med('p50'):.1f}",
+                f"{med('p95'):.1f}",
+                f"{med('p99'):.1f}",
+                f"{med('cpu'):.0f} %",
+                f"{med('rate'):,.0f}",
+                f"{sum(x['lost'] for x in got):,.0f} of {sum(x['sent'] for x in got):,.0f}"
+                if console
+                else "-",
+                f"{sum(x['held_gaps'] for x in got):,.0f}" if console else "-",
+                f"{min(loads):.1f}-{max(loads):.1f}",
+            ]
+        )
+    ratio = statistics.median(x["p95"] for x in runs[True]) / statistics.median(x["p95"] for x in runs[False])
+    rows.append(["p95 with / without", "", "", f"{100 * (ratio - 1):+.1f} %", "", "", "", "", "", ""])
+    return rows, pairs
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the benchmark and print its tables (or, with --publisher, be one flooding child process)."""
     parser = argparse.ArgumentParser(description=__doc__)
@@ -452,12 +773,53 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--rate", type=float, default=20_000.0, help="flood: lines/s in all")
     parser.add_argument("--seconds", type=float, default=60.0, help="flood: how long")
     parser.add_argument("--skip-flood", action="store_true", help="no ROS: only the store and the proposals")
+    parser.add_argument(
+        "--viewer",
+        action="store_true",
+        help="only the viewer's frame times with and without a Log console during the flood (needs a "
+        'display: xvfb-run -a -s "-screen 0 1600x1000x24")',
+    )
+    parser.add_argument("--repeats", type=int, default=3, help="--viewer: runs each way (alternating)")
+    parser.add_argument("--warmup", type=float, default=5.0, help=argparse.SUPPRESS)
+    parser.add_argument("--nodes", type=int, default=5, help=argparse.SUPPRESS)
+    parser.add_argument("--viewer-child", default="", help=argparse.SUPPRESS)
     parser.add_argument("--publisher", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--count", type=int, default=0, help=argparse.SUPPRESS)
     parser.add_argument("--offset", type=int, default=0, help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.publisher:
         return _publisher_main(args.rate, args.count, args.offset)
+    if args.viewer_child:
+        return _viewer_main(args.viewer_child, args.seconds, args.warmup, args.nodes)
+    if args.viewer:
+        local_ros_env(random.SystemRandom().randint(1, 100) if "ROS_DOMAIN_ID" not in os.environ else None)
+        seconds = 10.0 if args.quick else args.seconds
+        print(f"python {sys.version.split()[0]}; load average before: {os.getloadavg()}", flush=True)
+        rows, pairs = bench_viewer(args.rate, seconds, args.repeats, args.warmup, args.nodes)
+        print_table(
+            f"The viewer during the flood ({args.nodes} nodes, {args.rate:,.0f} lines/s, {seconds:g} s; "
+            f"as dbglog view runs: 60 fps cap, data 20 fps; medians of {args.repeats} runs each way, "
+            "alternating)",
+            [
+                "dashboard",
+                "frames/s",
+                "frame p50 ms",
+                "frame p95 ms",
+                "frame p99 ms",
+                "viewer CPU",
+                "sent lines/s",
+                "lost (not in the store)",
+                "gaps in the held lines",
+                "load average",
+            ],
+            rows,
+        )
+        print_table(
+            "Each pair of runs",
+            ["run", "without: p50 / p95 ms", "with: p50 / p95 ms", "p95 with vs without", "lost", "load"],
+            pairs,
+        )
+        return 0
     repeats = 3 if args.quick else 7
     print(f"python {sys.version.split()[0]}, google-re2, numpy {np.__version__}")
     print_table("Calibration (this machine, this run)", ["what", "time"], _calibration(repeats))
