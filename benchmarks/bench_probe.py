@@ -292,6 +292,78 @@ def publisher(mode: str, seconds: float) -> None:
         dbglog.flush(5.0)
 
 
+_MIX_MODES = ("none", "nop", "on")
+_MIX_BLOCK = 500
+"""Iterations per block of one mode in the interleaved run (0.5 s: the publisher thread's last flush of
+an "on" block, at most 10 ms later, spills into the next block's first 2 %)."""
+
+
+def publisher_mixed(seconds: float) -> None:
+    """The interleaved run: one process alternates blocks of no calls, the empty function and dbglog on.
+
+    Each block of `_MIX_BLOCK` iterations runs one mode, in a new random order every round, so the
+    machine's load (other processes, this VM's neighbours) falls on the three alike: the loop period's
+    p99 per mode compares dbglog with the same loop without calls *in the same minutes*, which
+    separate runs on a shared 2-core machine cannot (their p99 drifts ±50 % run to run).
+    """
+    steps = {mode: _make_calls(mode) for mode in _MIX_MODES}
+    created = time.monotonic()
+    print("ready", flush=True)
+    sys.stdin.readline()
+    clock = time.perf_counter_ns
+    warmup = 0
+    while warmup < 200 or time.monotonic() - created < _WARMUP_S:
+        steps["on"](-2, clock, [])
+        warmup += 1
+        time.sleep(0.001)
+    print("measuring", flush=True)
+    rounds = max(1, int(seconds * 1000) // (_MIX_BLOCK * len(_MIX_MODES)))
+    periods: dict[str, list[float]] = {m: [] for m in _MIX_MODES}
+    calls: dict[str, list[float]] = {m: [] for m in _MIX_MODES}
+    rng = random.Random(7)
+    k = 0
+    on_iterations = 0
+    deadline = time.monotonic()
+    previous: tuple[str, float] | None = None
+    for _ in range(rounds):
+        order = list(_MIX_MODES)
+        rng.shuffle(order)
+        for mode in order:
+            step, out = steps[mode], calls[mode]
+            timed: list[int] = []
+            for _ in range(_MIX_BLOCK):
+                start = time.monotonic()
+                if previous is not None:
+                    periods[previous[0]].append((start - previous[1]) * 1e6)
+                previous = (mode, start)
+                _work()
+                step(k, clock, timed)
+                k += 1
+                deadline += 0.001
+                rest = deadline - time.monotonic()
+                if rest > 0:
+                    time.sleep(rest)
+                elif rest < -0.001:  # a missed deadline is skipped, as a ROS 2 timer does: no burst
+                    deadline = time.monotonic()
+            out.extend(float(c) for c in timed)
+            on_iterations += _MIX_BLOCK if mode == "on" else 0
+    figures = {
+        mode: {
+            "period_p50_us": _pct(periods[mode], 0.5),
+            "period_p99_us": _pct(periods[mode], 0.99),
+            "call_p50_ns": _pct(calls[mode], 0.5),
+            "call_p99_ns": _pct(calls[mode], 0.99),
+            "iterations": len(periods[mode]),
+        }
+        for mode in _MIX_MODES
+    }
+    print(json.dumps({"modes": figures, "warmup": warmup, "n": on_iterations}), flush=True)
+    sys.stdin.readline()
+    import dbglog
+
+    dbglog.flush(5.0)
+
+
 # --- the subscriber process (a real viewer engine) --------------------------------------------------
 
 
@@ -434,6 +506,68 @@ def _echo_result(echo: subprocess.Popen[str], lines: list[str], n: int) -> dict[
     return {"echo_count": len(values), "echo_ordered": values == [float(k) for k in range(len(values))]}
 
 
+def run_interleaved(seconds: float) -> dict[str, Any]:
+    """One interleaved publisher (`publisher_mixed`) with a real viewer engine attached; its figures."""
+    domain = random.randint(101, 200)
+    pub = _spawn(
+        ["--role", "publisher", "--mode", "mix", "--seconds", str(seconds)], _env(ROOT, "on", domain)
+    )
+    engine = None
+    try:
+        assert _readline(pub, 60) == "ready"
+        n = int(seconds * 1000)
+        engine = _spawn(
+            ["--role", "subscriber", "--expect", str(n), "--history", str(n + 20_000)],
+            _env(ROOT, "on", domain),
+        )
+        assert _readline(engine, 90) == "bound"
+        time.sleep(0.5)
+        _send(pub, "go")
+        assert _readline(pub, 60) == "measuring"
+        _send(engine, "start")
+        result: dict[str, Any] = json.loads(_readline(pub, seconds * 1.5 + 60))
+        _send(engine, f"report {1 + result['warmup'] + result['n']}")
+        result.update(json.loads(_readline(engine, 60)))
+        _send(pub, "exit")
+        pub.wait(30)
+        return result
+    finally:
+        for proc in (pub, engine):
+            if proc is not None and proc.poll() is None:
+                proc.kill()
+
+
+def _print_interleaved(runs: list[dict[str, Any]], seconds: float) -> None:
+    sys.path.insert(0, str(ROOT))
+    from benchmarks._common import print_table
+
+    names = {"none": "no calls", "nop": "empty function", "on": "dbglog on"}
+    rows = []
+    for mode in _MIX_MODES:
+        p99 = [r["modes"][mode]["period_p99_us"] for r in runs]
+        ratio = [r["modes"][mode]["period_p99_us"] / r["modes"]["none"]["period_p99_us"] for r in runs]
+        rows.append(
+            [
+                names[mode],
+                f"{statistics.median(r['modes'][mode]['call_p50_ns'] for r in runs) / 1e3:.2f}",
+                f"{statistics.median(r['modes'][mode]['call_p99_ns'] for r in runs) / 1e3:.1f}",
+                f"{statistics.median(r['modes'][mode]['period_p50_us'] for r in runs):.0f}",
+                f"{statistics.median(p99):.0f} ({min(p99):.0f}-{max(p99):.0f})",
+                f"{statistics.median(ratio):.3f} ({min(ratio):.3f}-{max(ratio):.3f})",
+            ]
+        )
+    delivered = [
+        f"{r['min_count']}/{r['expected']}{'' if r['ordered'] else ' (out of order!)'}" for r in runs
+    ]
+    print_table(
+        f"Interleaved 1 kHz loop with a viewer attached: blocks of {_MIX_BLOCK} iterations per mode, random "
+        f"order, {seconds:.0f} s per run, {len(runs)} runs (medians, ranges); samples of the dbglog blocks "
+        f"in the viewer (min per tag / sent): {', '.join(delivered)}",
+        ["Calls", "per call p50 µs", "per call p99 µs", "period p50 µs", "period p99 µs", "p99 / no calls"],
+        rows,
+    )
+
+
 def run_once(tree: Path, mode: str, sub: bool, seconds: float, echo: bool = False) -> dict[str, Any]:
     """One publisher run (and a viewer engine process when `sub`); return its figures."""
     domain = random.randint(101, 200)
@@ -473,7 +607,7 @@ def main() -> None:
     """Run every configuration in alternation and print the tables."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--role", choices=["main", "publisher", "subscriber"], default="main")
-    parser.add_argument("--mode", choices=["none", "nop", "rclpy", "off", "on"], default="on")
+    parser.add_argument("--mode", choices=["none", "nop", "rclpy", "off", "on", "mix"], default="on")
     parser.add_argument("--seconds", type=float, default=10.0)
     parser.add_argument("--expect", type=int, default=0)
     parser.add_argument("--history", type=int, default=20_000)
@@ -486,9 +620,26 @@ def main() -> None:
     parser.add_argument(
         "--viewer", choices=["both", "with", "without"], default="both", help="runs with/without a viewer"
     )
+    parser.add_argument(
+        "--interleaved",
+        action="store_true",
+        help="only the interleaved run: no calls / empty function / dbglog on in alternating blocks of one "
+        "process, a viewer attached (the loop period's p99 compared under the same load)",
+    )
     args = parser.parse_args()
+    if args.role == "publisher" and args.mode == "mix":
+        publisher_mixed(args.seconds)
+        return
     if args.role == "publisher":
         publisher(args.mode, args.seconds)
+        return
+    if args.interleaved:
+        runs = []
+        for rep in range(args.repeats):
+            res = run_interleaved(args.seconds)
+            runs.append(res)
+            print(f"# interleaved repeat {rep}: {json.dumps(res)}", file=sys.stderr, flush=True)
+        _print_interleaved(runs, args.seconds)
         return
     if args.role == "subscriber":
         subscriber(args.expect, args.history)
