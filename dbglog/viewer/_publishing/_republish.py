@@ -25,7 +25,7 @@ import threading
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any, Final
+from typing import Any, Final, NamedTuple
 
 import numpy as np
 
@@ -116,8 +116,7 @@ def plan_move(prev: CursorState | None, cur: CursorState) -> Stream | Seek | Non
     return Seek(cur.t)
 
 
-@dataclass(frozen=True, slots=True)
-class Outgoing:
+class Outgoing(NamedTuple):
     """One message to publish: its recorded time, topic and CDR bytes."""
 
     time: float
