@@ -81,6 +81,17 @@ def test_plan_move_streams_playback_and_seeks_anything_else() -> None:
     assert plan_move(at(5.0, 0.0, False), at(4.0, 0.05, False)) == Seek(4.0)
 
 
+def test_moves_handed_over_while_the_thread_is_busy_merge() -> None:
+    """Contiguous stretches merge; a seek replaces what waits; a stretch after a waiting seek is a seek."""
+    from dbglog.viewer._publishing._republish import Seek, Stream, merge_moves
+
+    assert merge_moves(Stream(1.0, 2.0), Stream(2.0, 3.0)) == Stream(1.0, 3.0)
+    assert merge_moves(Stream(1.0, 2.0), Seek(0.5)) == Seek(0.5)
+    assert merge_moves(Seek(1.0), Seek(7.0)) == Seek(7.0)
+    assert merge_moves(Seek(1.0), Stream(1.0, 1.5)) == Seek(1.5)
+    assert merge_moves(Stream(1.0, 2.0), Stream(5.0, 6.0)) == Seek(6.0)
+
+
 def _history() -> Any:
     from dbglog.viewer._data._history import History
 

@@ -1,7 +1,8 @@
 """Republish a replayed recording on ROS 2 at the time cursor, so RViz and ``ros2 topic echo`` follow it.
 
-The UI thread hands over the cursor once per turn of its loop (`Republisher.follow`: a compare and, when
-it moved, a store under a lock); a background thread turns each move into messages (`plan_move`):
+The UI thread hands over the cursor right after each tick (`Republisher.follow`: when it moved, `plan_move`
+names the move in O(1) and it is stored under a lock, merged with one not sent yet by `merge_moves`); a
+background thread publishes it:
 
 * playing forward: every message whose recorded time the cursor passed, on its own topic and type, in
   time order, with its recorded CDR bytes (single-value std_msgs topics, held as numbers, are serialised
@@ -46,6 +47,7 @@ __all__ = [
     "Seek",
     "Stream",
     "clock_payload",
+    "merge_moves",
     "messages_between",
     "plan_move",
     "scalar_payload",
@@ -114,6 +116,19 @@ def plan_move(prev: CursorState | None, cur: CursorState) -> Stream | Seek | Non
         if cur.t - prev.t <= speed * (max(0.0, cur.wall - prev.wall) + SLACK_S):
             return Stream(prev.t, cur.t)
     return Seek(cur.t)
+
+
+def merge_moves(pending: Stream | Seek, move: Stream | Seek) -> Stream | Seek:
+    """Return the one move that does both, for a publishing thread behind the cursor.
+
+    Two contiguous stretches are one; anything followed by a seek is that seek; a stretch after a seek
+    not yet sent is the state at its end (the thread is behind: it catches up with the cursor's state).
+    """
+    if isinstance(move, Seek):
+        return move
+    if isinstance(pending, Stream) and pending.upto == move.after:
+        return Stream(pending.after, move.upto)
+    return Seek(move.upto)
 
 
 class Outgoing(NamedTuple):
@@ -246,8 +261,11 @@ class Republisher:
         self._ros: PrivateNode | None = None
         self._thread: threading.Thread | None = None
         self._cond = threading.Condition()
-        self._latest: tuple[object, CursorState] | None = None
+        self._pending: tuple[ReplaySource, Stream | Seek] | None = None
+        """The move the publishing thread is to send next (moves handed over meanwhile merge into it)."""
         self._last_key: tuple[object, ...] = ()
+        self._source: object = None
+        self._prev: CursorState | None = None
         self._stop = False
         self._notes: list[str] = []
         self._clock_pub: Any = None
@@ -282,8 +300,19 @@ class Republisher:
             return
         self._last_key = key
         state = CursorState(cursor, playing, self._ticks(), speed)
+        if source is not self._source:  # another recording opened, or back to live: start afresh
+            self._source, self._prev = source, None
+        prev, self._prev = self._prev, state
+        if not isinstance(source, ReplaySource):
+            return  # live data is not ours to republish
+        move = plan_move(prev, state)
+        if move is None:
+            return
         with self._cond:
-            self._latest = (source, state)
+            pending = self._pending
+            if pending is not None and pending[0] is source:
+                move = merge_moves(pending[1], move)
+            self._pending = (source, move)
             self._idle.clear()
             self._cond.notify()
 
@@ -318,30 +347,21 @@ class Republisher:
 
     def _run(self) -> None:
         prepared: _Prepared | None = None
-        source: object = None
-        prev: CursorState | None = None
         while True:
             with self._cond:
-                while self._latest is None and not self._stop:
+                while self._pending is None and not self._stop:
                     self._idle.set()
                     self._cond.wait()
                 if self._stop:
                     self._idle.set()
                     return
-                assert self._latest is not None
-                src, state = self._latest
-                self._latest = None
+                assert self._pending is not None
+                src, move = self._pending
+                self._pending = None
             try:
-                if src is not source:  # another recording opened, or back to live: start afresh
-                    source, prev, prepared = src, None, None
-                if not isinstance(src, ReplaySource):
-                    continue  # live data is not ours to republish
                 if prepared is None or src.types is not prepared.types:
                     prepared = self._prepare(src, prepared)
-                move = plan_move(prev, state)
-                prev = state
-                if move is not None:
-                    self._send(src, prepared, move)
+                self._send(src, prepared, move)
             except Exception as exc:  # never kill the thread: say it once and go on
                 _log.debug("republishing failed", exc_info=True)
                 self._note(f"republish: {exc}")
@@ -353,6 +373,10 @@ class Republisher:
         types = src.types
         prepared = _Prepared(types)
         created: list[Any] = []
+        if old is not None:  # a recording opened in place of another: its topics only
+            for topic, pub in old.publishers.items():
+                if types.get(topic) != old.types.get(topic):
+                    node.destroy_publisher(pub)
         qos = subscription_qos(REPUBLISH_DEPTH, reliable=True, transient=True)
         for topic, msg_type in sorted(types.items()):
             if old is not None and topic in old.publishers and old.types.get(topic) == msg_type:
