@@ -36,7 +36,7 @@ from dbglog.viewer._ui._dialogs import (
     TopicDialog,
 )
 from dbglog.viewer._ui._files import FileCommands, FileRequest
-from dbglog.viewer._ui._frame import TITLE_H, CanvasItem
+from dbglog.viewer._ui._frame import TITLE_H, CanvasItem, FrameSnapshots
 from dbglog.viewer._ui._host import AppHost
 from dbglog.viewer._ui._pacing import (
     DEFAULT_DATA_FPS,
@@ -128,6 +128,8 @@ class ViewerApp:
             source, stale_after=float(getattr(source, "stale_after", 2.0)), recording=recording
         )
         """The time cursor: every widget's snapshots come through it (live, or as they stood at a time)."""
+        self._snaps = FrameSnapshots(self.timeline)
+        """The frame's snapshots: each series read once per look, however many widgets and passes ask."""
         self.registry = registry if registry is not None else WidgetRegistry.discover()
         self.width, self.height, self.title = width, height, title
         self.doc: CanvasDoc[CanvasItem] = CanvasDoc(self.timeline, self._update_title)
@@ -449,7 +451,8 @@ class ViewerApp:
         at = self.timeline.cursor
         span = self.time_span()
         self.time_range.sync(span[1] if span is not None else None, at)
-        changed = any(item.changed(self.timeline, paused_at=at) for item in self.items)
+        self._snaps.begin()
+        changed = any(item.changed(self._snaps, paused_at=at) for item in self.items)
         if changed or playing or self._time_commands or self._bar_moved():
             self.pacer.request(time.monotonic())
         self._poke_if_view_changed()
@@ -465,7 +468,7 @@ class ViewerApp:
         at = self.timeline.cursor
         now = time.time() if at is None else at  # the moment the widgets show
         for item in self.items:
-            item.refresh(self.timeline, now, paused_at=at)
+            item.refresh(self._snaps, now, paused_at=at)
             if item.edited:  # a control changed its own saved value (a toggle switched, a slider moved)
                 item.edited = False
                 self.doc.mark_dirty()

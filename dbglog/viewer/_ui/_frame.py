@@ -5,10 +5,12 @@ from __future__ import annotations
 import logging
 from collections.abc import Sequence
 from dataclasses import replace
+from typing import Protocol
 
 import dearpygui.dearpygui as dpg
 
-from dbglog.viewer._data._model import Binding, DataSource, SeriesSnapshot, Status
+from dbglog.viewer._data._model import Binding, SeriesSnapshot, Status
+from dbglog.viewer._data._timeline import Timeline
 from dbglog.viewer._document._dashboard import RawWidget, WidgetConfig
 from dbglog.viewer._ui._theme import DIM, HEADER, STATUS_COLORS, TEXT
 from dbglog.viewer._widgets._common import text_size
@@ -23,7 +25,7 @@ from dbglog.viewer.widget_api import (
     shown_as,
 )
 
-__all__ = ["TITLE_H", "CanvasItem", "combined_status"]
+__all__ = ["TITLE_H", "CanvasItem", "FrameSnapshots", "SnapshotReader", "combined_status"]
 
 _log = logging.getLogger(__name__)
 
@@ -34,6 +36,48 @@ GRIP = 14
 PAD = 6
 
 _ORDER = {Status.ERROR: 0, Status.WAITING: 1, Status.STALE: 2, Status.LIVE: 3}
+
+
+class SnapshotReader(Protocol):
+    """Where a canvas item reads its series from: any `DataSource`, or the frame's `FrameSnapshots`."""
+
+    def snapshot(self, binding: Binding) -> SeriesSnapshot:
+        """Return the series of `binding` as the frame shows it."""
+
+
+class FrameSnapshots:
+    """The snapshots of one look at the data: each binding read from the timeline once per frame.
+
+    `ViewerApp._look` (is anything new?) and `_work` (redraw what is) ask for the same series, and
+    several widgets may share one: a paused snapshot costs a history search, so it is read once. What
+    was read is forgotten at `begin` (each look), and as soon as the cursor, the source or the stale
+    time differs from when it was read.
+    """
+
+    def __init__(self, timeline: Timeline) -> None:
+        self.timeline = timeline
+        self._memo: dict[Binding, SeriesSnapshot] = {}
+        self._state: tuple[object, ...] = ()
+
+    def _now(self) -> tuple[object, ...]:
+        timeline = self.timeline
+        return (timeline.cursor, id(timeline.source), timeline.stale_after)
+
+    def begin(self) -> None:
+        """Forget what was read: the next `snapshot` of each binding asks the timeline again."""
+        self._memo.clear()
+        self._state = self._now()
+
+    def snapshot(self, binding: Binding) -> SeriesSnapshot:
+        """Return the timeline's snapshot of `binding`, read once since `begin` at this cursor."""
+        state = self._now()
+        if state != self._state:
+            self._memo.clear()
+            self._state = state
+        snap = self._memo.get(binding)
+        if snap is None:
+            snap = self._memo[binding] = self.timeline.snapshot(binding)
+        return snap
 
 
 def combined_status(snapshots: Sequence[SeriesSnapshot]) -> tuple[Status, str]:
@@ -221,11 +265,11 @@ class CanvasItem:
 
     # -- live updates -------------------------------------------------------------------------------
 
-    def snapshots(self, source: DataSource) -> list[SeriesSnapshot]:
+    def snapshots(self, source: SnapshotReader) -> list[SeriesSnapshot]:
         """Return what the widget is given from `source`: its stale time applied, wrong kinds as errors."""
         return self._snapshots(source)
 
-    def _snapshots(self, source: DataSource) -> list[SeriesSnapshot]:
+    def _snapshots(self, source: SnapshotReader) -> list[SeriesSnapshot]:
         snapshots = [source.snapshot(b) for b in self.series]
         stale_after = self.config.stale_after
         if stale_after is not None:
@@ -234,7 +278,7 @@ class CanvasItem:
             snapshots = [shown_as(self.widget_cls, s) for s in snapshots]
         return snapshots
 
-    def changed(self, source: DataSource, *, paused_at: float | None = None) -> bool:
+    def changed(self, source: SnapshotReader, *, paused_at: float | None = None) -> bool:
         """Whether `refresh` would redraw now (a count, status or reason changed, the cursor moved)."""
         if self.widget is None or self.failed:
             return False
@@ -246,7 +290,7 @@ class CanvasItem:
         key = _state_key(self._snapshots(source), own, paused_at, drawn)
         return key != self._key or self.widget.props_changed
 
-    def refresh(self, source: DataSource, now: float, *, paused_at: float | None = None) -> None:
+    def refresh(self, source: SnapshotReader, now: float, *, paused_at: float | None = None) -> None:
         """Read the snapshots; redraw only when a count, status or reason changed, or the cursor moved.
 
         Args:
