@@ -344,9 +344,16 @@ def minmax_decimate(x: FloatArray, y: FloatArray, max_points: int) -> tuple[Floa
     buckets = -(-n // size)
     pad = buckets * size - n
     nan = np.isnan(y)
+    if nan.any():
+        low_src, high_src = np.where(nan, np.inf, y), np.where(nan, -np.inf, y)
+    else:  # the common case: no copies to hide NaNs
+        low_src = high_src = np.asarray(y, dtype=np.float64)
     # Pad the last bucket with values that never win; the last bucket still holds a real sample.
-    lows = np.concatenate((np.where(nan, np.inf, y), np.full(pad, np.inf))).reshape(buckets, size)
-    highs = np.concatenate((np.where(nan, -np.inf, y), np.full(pad, -np.inf))).reshape(buckets, size)
+    if pad:
+        lows = np.concatenate((low_src, np.full(pad, np.inf))).reshape(buckets, size)
+        highs = np.concatenate((high_src, np.full(pad, -np.inf))).reshape(buckets, size)
+    else:
+        lows, highs = low_src.reshape(buckets, size), high_src.reshape(buckets, size)
     base = np.arange(0, buckets * size, size)
     i_min = base + lows.argmin(axis=1)
     i_max = base + highs.argmax(axis=1)

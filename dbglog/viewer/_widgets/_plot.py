@@ -188,6 +188,9 @@ class PlotWidget(Widget):
         self._doubles = 0
         self._doubles_seen = 0
         self._box_frame = -2
+        self._configured: dict[int | str, dict[str, object]] = {}
+        """The configuration last given to each mark item (cursor and hover lines, tags, dots)."""
+        self._plot_h = max(60, height - HEADER_H)
         with dpg.group(parent=parent, horizontal=True):
             self._pause = dpg.add_checkbox(label="Pause", default_value=self.paused, callback=self._on_pause)
             self._link = dpg.add_checkbox(
@@ -200,7 +203,7 @@ class PlotWidget(Widget):
                 dpg.add_text(GESTURES_TIP)
         self.plot = dpg.add_plot(
             width=width,
-            height=max(60, height - HEADER_H),
+            height=self._plot_h,
             parent=parent,
             no_menus=True,
             no_mouse_pos=True,
@@ -292,6 +295,13 @@ class PlotWidget(Widget):
         self._labels = labels
         self._shown_labels = list(labels)
         self._data_key, self._marks_drawn = None, ...
+        self._configured.clear()
+
+    def _configure(self, tag: int | str, **config: object) -> None:
+        """Configure a mark item, unless its last configuration was exactly this (each call costs)."""
+        if self._configured.get(tag) != config:
+            self._configured[tag] = config
+            dpg.configure_item(tag, **config)
 
     # -- the time range ------------------------------------------------------------------------------
 
@@ -473,10 +483,10 @@ class PlotWidget(Widget):
         if drawn == self._marks_drawn and self._marks_drawn is not ...:
             return  # unchanged (live and not hovered: no Dear PyGui calls at the data rate)
         self._marks_drawn = drawn
-        dpg.configure_item(self._cursor_line, show=paused)
+        self._configure(self._cursor_line, show=paused)
         if at is not None:
             dpg.set_value(self._cursor_line, [[at - origin]])
-        dpg.configure_item(self._hover_line, show=hover is not None)
+        self._configure(self._hover_line, show=hover is not None)
         if hover is not None:
             dpg.set_value(self._hover_line, [[hover - origin]])
         if hover is not None:
@@ -494,11 +504,12 @@ class PlotWidget(Widget):
         labels = list(self._labels)
         for i, (note, dot) in enumerate(zip(self._notes, self._dots, strict=True)):
             mark = marks[i] if i in offsets else None
-            dpg.configure_item(note, show=mark is not None)
-            dpg.configure_item(dot, show=mark is not None and hover is not None)
-            if mark is not None:
-                dpg.configure_item(
-                    note, label=reading(mark[1]), default_value=mark, offset=(side, offsets[i])
+            self._configure(dot, show=mark is not None and hover is not None)
+            if mark is None:
+                self._configure(note, show=False)
+            else:
+                self._configure(
+                    note, show=True, label=reading(mark[1]), default_value=mark, offset=(side, offsets[i])
                 )
                 if hover is not None:
                     dpg.set_value(dot, [[mark[0]], [mark[1]]])
@@ -533,6 +544,6 @@ class PlotWidget(Widget):
         if self._limits is None or len(values) < 2:
             return [0.0] * len(values)
         lo, hi = self._limits
-        area_h = max(20.0, dpg.get_item_height(self.plot) or 100) - 34  # less the paddings and time labels
+        area_h = max(20.0, self._plot_h) - 34  # less the paddings and time labels
         ys = [(hi - v) / ((hi - lo) or 1.0) * area_h for v in values]
         return [new - old for new, old in zip(spread(ys, TAG_GAP), ys, strict=True)]
