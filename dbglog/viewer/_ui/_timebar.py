@@ -108,6 +108,9 @@ class TimeBar:
         """Whether the left button went down on the track and is still held."""
         self._left_down = False
         self._key: tuple[object, ...] | None = None
+        self._controls_key: tuple[object, ...] | None = None
+        """What the pill, the play and loop buttons, the speed and the Live button were drawn for."""
+        self._loop_shown: bool | None = None
         self._width = 0
         with dpg.group(horizontal=True) as self.group:
             self.pill = dpg.add_drawlist(PILL_W, TIMEBAR_H)
@@ -181,7 +184,10 @@ class TimeBar:
         if width != self._width:
             self._width = width
             dpg.configure_item(self.track, width=width)
-        if bool(dpg.is_item_shown(self.loop_group)) != recording:
+        if self._loop_shown is None:
+            self._loop_shown = bool(dpg.is_item_shown(self.loop_group))
+        if self._loop_shown != recording:
+            self._loop_shown = recording
             dpg.configure_item(self.loop_group, show=recording)
             dpg.configure_item(self.button_group, show=not recording)
 
@@ -293,8 +299,20 @@ class TimeBar:
         timeline = self.timeline
         cursor = timeline.cursor
         width = self._width or 400
-        self._draw_pill(cursor is None and not timeline.recording, timeline.playing)
         self._draw_track(scale, cursor, width)
+        controls = (
+            cursor is None,
+            timeline.recording,
+            timeline.playing,
+            timeline.loop,
+            timeline.speed,
+            self._hover,
+            self._pressed,
+        )
+        if controls == self._controls_key:
+            return  # the cursor moved: the track alone changed
+        self._controls_key = controls
+        self._draw_pill(cursor is None and not timeline.recording, timeline.playing)
         self._draw_play()
         if timeline.recording:
             self._draw_loop()
