@@ -367,7 +367,7 @@ def _xdo(display: str, *args: str) -> str:
 @pytest.mark.gui
 def test_cli_republish_follows_the_keyboard(display: str, peer: RosPeer, tmp_path: Path) -> None:
     """`dbglog view --replay FILE --republish`: the end state at start, Home the start state, Space plays
-    every speed in order, Space pauses; the topic of an unknown type is a warning on stderr."""
+    every speed in order, Space pauses, Right steps to the next state; an unknown type is a warning."""
     from rosgraph_msgs.msg import Clock
     from std_msgs.msg import Float64
 
@@ -409,6 +409,10 @@ def test_cli_republish_follows_the_keyboard(display: str, peer: RosPeer, tmp_pat
         assert paused_at >= T0 + (len(played) - 1) * 0.1 - 1e-6
         time.sleep(0.5)
         assert speed.values()[1:] == played  # paused: nothing more
+        key("Right")  # a step to the next message: the state there, once
+        assert wait_until(lambda: len(speed.values()) > 1 + len(played), 10), speed.values()
+        time.sleep(0.3)
+        assert speed.values()[1 + len(played) :] == [played[-1] + 0.5]
         proc.send_signal(signal.SIGINT)
         assert proc.wait(30) == 130  # as dbglog commands end on SIGINT
     finally:
