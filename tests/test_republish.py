@@ -333,6 +333,41 @@ def test_republisher_sends_the_end_state_of_a_stretch_too_long_to_stream(
         republisher.close()
 
 
+def test_another_recording_opened_is_republished_and_live_data_never(peer: RosPeer, tmp_path: Path) -> None:
+    """A recording opened in place of another gets its state sent (the old one's own topics go); a source
+    that is not a recording (live data) is not republished."""
+    from std_msgs.msg import Float64
+
+    from dbglog.record import McapWriter
+    from dbglog.viewer._data._replay import load_replay
+    from dbglog.viewer._publishing._republish import Republisher
+
+    first = load_replay(write_recording(tmp_path / "run.mcap"))
+    w = McapWriter(tmp_path / "other.mcap")
+    other_topic = w.add_channel("/rr_other", "std_msgs/msg/Float64")
+    w.write(other_topic, T0_NS, b"\x00\x01\x00\x00" + np.float64(4.25).tobytes(), T0_NS)
+    w.close()
+    second = load_replay(tmp_path / "other.mcap")
+    other = peer.subscribe("/rr_other", Float64, _latched())
+    republisher = Republisher(publish_clock=False)
+    republisher.start()
+    try:
+        republisher.follow(first, T0 + 3.05, playing=False)
+        assert republisher.wait_idle(10.0)
+        assert wait_until(lambda: peer.node.count_publishers(CMD) == 1), "the first recording's publisher"
+        republisher.follow(second, T0, playing=False)
+        assert republisher.wait_idle(10.0)
+        assert _settled(other.values, 1) == [4.25]
+        assert wait_until(lambda: peer.node.count_publishers(CMD) == 0), "its publisher is gone"
+        sent = republisher.published
+        republisher.follow(object(), None, playing=False)  # back to live
+        republisher.follow(object(), T0 + 1.0, playing=False)
+        assert republisher.wait_idle(10.0)
+        assert republisher.published == sent
+    finally:
+        republisher.close()
+
+
 # -- the command line -----------------------------------------------------------------------------------
 
 
