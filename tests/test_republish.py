@@ -106,8 +106,7 @@ TYPES = {"/a": "std_msgs/msg/Int32", "/b": "x_msgs/msg/B", "/tf_static": "t/msg/
 
 
 def test_messages_between_is_time_ordered_after_exclusive_upto_inclusive_and_bounded() -> None:
-    """The stretch ``(after, upto]`` of every topic comes in time order (ties in topic order); over the
-    limit it is None."""
+    """All messages of ``(after, upto]`` in time order (ties by topic); None when over the limit."""
     from dbglog._ros._cdr import encode_scalar
     from dbglog.viewer._publishing._republish import Outgoing, messages_between
 
@@ -235,8 +234,7 @@ def _settled(values: Callable[[], list[Any]], n: int, timeout: float = 15.0) -> 
 def test_republisher_streams_what_plays_and_sends_the_state_after_a_seek(
     peer: RosPeer, tmp_path: Path
 ) -> None:
-    """Playing sends every message passed, in order; a seek or a jump the state at t; /clock follows; the
-    topic of a type not installed here is named once and skipped."""
+    """Playing sends each message passed in order; a seek or jump the state at t; /clock; unknowns named."""
     from geometry_msgs.msg import Twist
     from rosgraph_msgs.msg import Clock
     from std_msgs.msg import Float64, String
@@ -334,8 +332,7 @@ def test_republisher_sends_the_end_state_of_a_stretch_too_long_to_stream(
 
 
 def test_another_recording_opened_is_republished_and_live_data_never(peer: RosPeer, tmp_path: Path) -> None:
-    """A recording opened in place of another gets its state sent (the old one's own topics go); a source
-    that is not a recording (live data) is not republished."""
+    """A recording opened in place of another is republished (the old one's topics go); live data never."""
     from std_msgs.msg import Float64
 
     from dbglog.record import McapWriter
@@ -401,8 +398,7 @@ def _xdo(display: str, *args: str) -> str:
 
 @pytest.mark.gui
 def test_cli_republish_follows_the_keyboard(display: str, peer: RosPeer, tmp_path: Path) -> None:
-    """`dbglog view --replay FILE --republish`: the end state at start, Home the start state, Space plays
-    every speed in order, Space pauses, Right steps to the next state; an unknown type is a warning."""
+    """The real viewer's Home, Space, Space, Right: start state, every message in order, pause, next state."""
     from rosgraph_msgs.msg import Clock
     from std_msgs.msg import Float64
 

@@ -1,20 +1,9 @@
 """Republish a replayed recording on ROS 2 at the time cursor, so RViz and ``ros2 topic echo`` follow it.
 
-The UI thread hands over the cursor right after each tick (`Republisher.follow`: when it moved, `plan_move`
-names the move in O(1) and it is stored under a lock, merged with one not sent yet by `merge_moves`); a
-background thread publishes it:
-
-* playing forward: every message whose recorded time the cursor passed, on its own topic and type, in
-  time order, with its recorded CDR bytes (single-value std_msgs topics, held as numbers, are serialised
-  again: the same bytes up to padding);
-* a seek, a step, a loop wrap, a jump too big for the playback speed: once, each topic's latest message
-  at or before the cursor (the state at t); ``/tf_static`` gets every one, as its publishers latch them;
-* ``/clock`` (rosgraph_msgs/Clock) at the cursor after each move, unless the recording has its own.
-
-Work per move is bounded: a stretch of more than `MAX_STREAM` messages is sent as its end state instead.
-Publishers are reliable and transient-local with depth `REPUBLISH_DEPTH`, as dbglog's own tags: every
-subscriber QoS matches, and one started late still gets the state. Topics whose type is not installed
-here are skipped and named once in a note. No Dear PyGui; rclpy only through `PrivateNode`.
+Playing, every message the cursor passes goes out in time order with its recorded bytes; a seek, step or
+loop sends each topic's latest message at the cursor once; then ``/clock``. The UI thread only hands the
+cursor over (`Republisher.follow`, O(1)); a background thread with its own node publishes, bounded per
+move. Pure planning (`plan_move`, `merge_moves`, `messages_between`, `state_at`); docs/recordings.md.
 """
 
 from __future__ import annotations
