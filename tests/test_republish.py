@@ -8,6 +8,7 @@ rclpy subscriber in this process; and the real ``dbglog view`` process, driven b
 
 from __future__ import annotations
 
+import functools
 import math
 import os
 import signal
@@ -22,6 +23,7 @@ import numpy as np
 import pytest
 
 from tests._ros import RosPeer, wait_until
+from tests._viewer_child import ViewerChild, report_frame
 
 ROOT = Path(__file__).resolve().parent.parent
 T0_NS = 1_700_000_000_000_000_000
@@ -454,3 +456,79 @@ def test_cli_republish_follows_the_keyboard(display: str, peer: RosPeer, tmp_pat
     stderr = (tmp_path / "stderr.txt").read_text()
     assert f"dbglog view: warning: republish: 1 topic(s) not republished: {ODD}" in stderr, stderr
     assert "Traceback" not in stderr
+
+
+def run_here(scenario: str, tmp_dir: str) -> None:
+    """Child-process entry: the window of ``dbglog view --replay run.mcap --republish``, reporting it."""
+    import warnings
+
+    warnings.simplefilter("error")
+    warnings.filterwarnings("ignore", "module 'sre_", DeprecationWarning)  # rclpy's import of sre_parse
+    import dearpygui.dearpygui as dpg
+
+    from dbglog.viewer._cli._cli_view import follow_cursor, open_replay, start_republisher
+    from dbglog.viewer._ui import ViewerApp
+    from dbglog.viewer._widgets import WidgetRegistry
+    from tests.test_ui_menus import _menubar
+
+    tmp = Path(tmp_dir)
+    replay = open_replay(tmp / "run.mcap", stale_after=2.0)
+    republisher = start_republisher()
+    assert replay is not None
+    assert republisher is not None
+    assert scenario == "republish"
+    app = ViewerApp(replay, WidgetRegistry.builtin(), width=1000, height=700, recording=True)
+    app.republisher = republisher
+    app.start()
+    app.cursor_hooks.append(functools.partial(follow_cursor, app, republisher))
+
+    def report() -> None:
+        state = {
+            "frame": app.rendered,
+            "mouse": list(dpg.get_mouse_pos(local=False)),
+            "cursor": app.timeline.cursor,
+            "menubar": _menubar(app.main),
+            "republishing": republisher.enabled,
+        }
+        report_frame(app, tmp / "probe", state)
+
+    app.frame_hooks.append(report)
+    try:
+        app.run()
+    finally:
+        app.close()
+        republisher.close()
+
+
+@pytest.mark.gui
+def test_view_menu_switches_republishing_off_and_on(display: str, peer: RosPeer, tmp_path: Path) -> None:
+    """View \u203a Republish on ROS 2 clicked off: a seek sends nothing; on again: the state at the cursor."""
+    from std_msgs.msg import Float64
+
+    write_recording(tmp_path / "run.mcap")
+    speed = peer.subscribe(SPEED, Float64, _latched())
+    v = ViewerChild("republish", tmp_path, display, "test_republish")
+
+    def click_republish() -> None:
+        view = v.state()["menubar"]["View"]
+        (fx, fy), (tw, th) = view["pos"], view["size"]
+        v.click(fx + tw / 2, fy + th / 2 + 3)
+        entry = "Republish on ROS 2"
+        state = v.wait_for(lambda s: s["menubar"]["View"]["entries"].get(entry, [0, 0])[1] > 0)
+        ex, ey = state["menubar"]["View"]["entries"][entry]
+        v.click(fx + ex + 20, th + 2 * 5 + ey + th / 2)
+
+    try:
+        v.ready()
+        assert wait_until(lambda: speed.values() == [(N - 1) * 0.5], 30), speed.values()
+        click_republish()
+        v.wait_for(lambda s: not s["republishing"])
+        v.key("Home")
+        v.wait_for(lambda s: s["cursor"] == pytest.approx(T0))
+        time.sleep(0.5)
+        assert speed.values() == [(N - 1) * 0.5]  # switched off: the seek went nowhere
+        click_republish()
+        v.wait_for(lambda s: s["republishing"])
+        assert wait_until(lambda: speed.values()[1:] == [0.0], 10), speed.values()
+    finally:
+        v.stop()

@@ -290,6 +290,7 @@ def run(args: argparse.Namespace) -> int:
         data_fps=args.data_fps,
         recording=args.replay is not None,
     )
+    app.republisher = republisher  # View › Republish on ROS 2 shows for it
     try:
         app.start()
         if republisher is not None:

@@ -241,6 +241,8 @@ class Republisher:
         self.node_name = node_name
         self.publish_clock = publish_clock
         self._ticks = ticks
+        self.enabled = True
+        """False: cursor moves are ignored (`set_enabled`)."""
         self.published = 0
         """Messages published so far (``/clock`` not counted)."""
         self.seeks = 0
@@ -285,7 +287,7 @@ class Republisher:
             speed: its playback speed.
         """
         key = (id(source), cursor, playing, speed)
-        if key == self._last_key:
+        if key == self._last_key or not self.enabled:
             return
         self._last_key = key
         state = CursorState(cursor, playing, self._ticks(), speed)
@@ -304,6 +306,14 @@ class Republisher:
             self._pending = (source, move)
             self._idle.clear()
             self._cond.notify()
+
+    def set_enabled(self, on: bool) -> None:
+        """Stop republishing (what waits is dropped), or start again with the state at the cursor."""
+        self.enabled = on
+        self._last_key, self._prev = (), None
+        if not on:
+            with self._cond:
+                self._pending = None
 
     def take_notes(self) -> list[str]:
         """Return (and forget) what the user should be told: topics skipped, moves cut short."""

@@ -26,6 +26,7 @@ from dbglog.viewer._data._timeline import Timeline, TimeSource
 from dbglog.viewer._document._canvas_doc import CanvasDoc, TopicSetup
 from dbglog.viewer._document._dashboard import Dashboard, LoadResult, RawWidget, WidgetConfig
 from dbglog.viewer._publishing._publish import PublishService
+from dbglog.viewer._publishing._republish import Republisher
 from dbglog.viewer._ui import _theme as theme
 from dbglog.viewer._ui._chrome import PAYLOAD_TYPE, CanvasPaint, Toolbox
 from dbglog.viewer._ui._dialogs import (
@@ -144,6 +145,8 @@ class ViewerApp:
         self.cursor_hooks: list[Callable[[], None]] = []
         """Called on the UI thread at every turn of the loop, right after playback moved the cursor to now
         (``--republish`` hands the cursor over there)."""
+        self.republisher: Republisher | None = None
+        """``--republish``'s, set before `start`: View \u203a Republish on ROS 2 switches it off and on."""
         self.last_work_s = 0.0
         """Seconds the last frame spent before `render_dearpygui_frame` (input, snapshots, widget updates)."""
         self.pacer = Pacer(fps, min(fps, data_fps))
@@ -392,6 +395,13 @@ class ViewerApp:
                 dpg.add_menu_item(label="Load messages\u2026", callback=lambda *_: self.show_load_messages())
                 self.log_menu = dpg.add_menu_item(
                     label="Log console", callback=lambda *_: self.queue_time(self.open_log_console)
+                )
+                self.republish_menu = dpg.add_menu_item(
+                    label="Republish on ROS 2",
+                    check=True,
+                    default_value=True,
+                    show=self.republisher is not None,
+                    callback=lambda _s, on: self.queue_time(self.set_republish, bool(on)),
                 )
 
     # -- frame loop ---------------------------------------------------------------------------------
@@ -837,6 +847,12 @@ class ViewerApp:
             host=self.host,
             time_range=self.time_range,
         )
+
+    def set_republish(self, on: bool) -> None:
+        """View \u203a Republish on ROS 2: the replay follows the cursor on the graph again, or stops."""
+        if self.republisher is not None:
+            self.republisher.set_enabled(on)
+            self.set_status("republishing on ROS 2 at the cursor" if on else "republishing on ROS 2 stopped")
 
     def open_log_console(self) -> CanvasItem | None:
         """View \u203a Log console: a Log widget on /rosout, in view where there is room."""
