@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import logging
+import math
+import time
 from collections.abc import Sequence
 from dataclasses import replace
 from typing import Protocol
@@ -51,22 +53,38 @@ class FrameSnapshots:
     `ViewerApp._look` (is anything new?) and `_work` (redraw what is) ask for the same series, and
     several widgets may share one: a paused snapshot costs a history search, so it is read once. What
     was read is forgotten at `begin` (each look), and as soon as the cursor, the source or the stale
-    time differs from when it was read.
+    time differs from when it was read. Paused over a history that did not change (its sample count,
+    span, evictions), a look keeps what was read, for at most `keep_s` (a series' state that comes with
+    no sample, such as a type error, still shows within that time).
     """
 
-    def __init__(self, timeline: Timeline) -> None:
+    def __init__(self, timeline: Timeline, *, keep_s: float = 1.0) -> None:
         self.timeline = timeline
+        self.keep_s = keep_s
+        self.reads = 0
+        """Snapshots read from the timeline so far (the tests and the benchmark read this)."""
         self._memo: dict[Binding, SeriesSnapshot] = {}
         self._state: tuple[object, ...] = ()
+        self._history: object = None
+        self._read_at = -math.inf
 
     def _now(self) -> tuple[object, ...]:
         timeline = self.timeline
         return (timeline.cursor, id(timeline.source), timeline.stale_after)
 
     def begin(self) -> None:
-        """Forget what was read: the next `snapshot` of each binding asks the timeline again."""
+        """A new look: forget what was read, unless paused over a history that did not change."""
+        state = self._now()
+        history = self.timeline.stats() if state[0] is not None else None
+        now = time.monotonic()
+        if (
+            history is not None
+            and (state, history) == (self._state, self._history)
+            and now < self._read_at + self.keep_s
+        ):
+            return
         self._memo.clear()
-        self._state = self._now()
+        self._state, self._history, self._read_at = state, history, now
 
     def snapshot(self, binding: Binding) -> SeriesSnapshot:
         """Return the timeline's snapshot of `binding`, read once since `begin` at this cursor."""
@@ -77,6 +95,7 @@ class FrameSnapshots:
         snap = self._memo.get(binding)
         if snap is None:
             snap = self._memo[binding] = self.timeline.snapshot(binding)
+            self.reads += 1
         return snap
 
 

@@ -1,0 +1,98 @@
+"""`FrameSnapshots`: each series read once per look, kept while paused over an unchanged history (pure)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from dbglog.viewer._data._history import History
+from dbglog.viewer._data._model import Binding
+from dbglog.viewer._data._replay import ReplaySource
+from dbglog.viewer._data._timeline import Timeline
+from dbglog.viewer._ui import StaticSource
+from dbglog.viewer._ui._frame import FrameSnapshots
+
+A, B = Binding("/a", "data"), Binding("/b", "data")
+
+
+def _replay() -> tuple[History, ReplaySource]:
+    store = History(clock=None, max_seconds=3600, max_bytes=2**30)
+    t = 1000.0 + np.arange(100) / 10
+    for name in ("/a", "/b"):
+        store.append_numbers(name, t, np.sin(t))
+    source = ReplaySource(store, {"/a": "std_msgs/msg/Float64", "/b": "std_msgs/msg/Float64"})
+    source.bind(A)
+    source.bind(B)
+    return store, source
+
+
+def test_a_look_reads_each_series_once_however_often_it_is_asked() -> None:
+    """Two passes over three widgets' bindings (one shared) read two snapshots, the same objects."""
+    _, source = _replay()
+    timeline = Timeline(source)
+    timeline.pause(1005.0)
+    snaps = FrameSnapshots(timeline)
+    snaps.begin()
+    first = [snaps.snapshot(b) for b in (A, B, A)]
+    second = [snaps.snapshot(b) for b in (A, B, A)]
+    assert snaps.reads == 2
+    assert all(x is y for x, y in zip(first, second, strict=True))
+    assert first[0].last_time == timeline.snapshot(A).last_time
+
+
+def test_a_cursor_move_reads_again_even_within_a_look() -> None:
+    """A seek between the change check and the redraw: the redraw reads the series at the new time."""
+    _, source = _replay()
+    timeline = Timeline(source)
+    timeline.pause(1005.0)
+    snaps = FrameSnapshots(timeline)
+    snaps.begin()
+    before = snaps.snapshot(A)
+    timeline.seek(1002.0)
+    after = snaps.snapshot(A)
+    assert snaps.reads == 2
+    assert before.last_time is not None
+    assert after.last_time is not None
+    assert after.last_time < before.last_time
+
+
+def test_paused_over_an_unchanged_history_a_look_keeps_what_was_read_until_it_grows() -> None:
+    """Paused, nothing new: the next look reads nothing; a sample more in the history: it reads again."""
+    store, source = _replay()
+    timeline = Timeline(source)
+    timeline.pause(1005.0)
+    snaps = FrameSnapshots(timeline)
+    snaps.begin()
+    snaps.snapshot(A)
+    snaps.begin()
+    snaps.snapshot(A)
+    assert snaps.reads == 1
+    store.append_numbers("/a", np.array([2000.0]), np.array([1.0]))
+    snaps.begin()
+    snaps.snapshot(A)
+    assert snaps.reads == 2
+
+
+def test_what_was_read_is_kept_no_longer_than_keep_s() -> None:
+    """With no time to keep, every look reads again (a series' error that brings no sample still shows)."""
+    _, source = _replay()
+    timeline = Timeline(source)
+    timeline.pause(1005.0)
+    snaps = FrameSnapshots(timeline, keep_s=0.0)
+    for _ in range(3):
+        snaps.begin()
+        snaps.snapshot(A)
+    assert snaps.reads == 3
+
+
+def test_live_every_look_reads_again() -> None:
+    """Live (no cursor) the data move on by themselves: nothing is kept from one look to the next."""
+    source = StaticSource()
+    source.push("/a", "data", 1.0, 10.0)
+    timeline = Timeline(source)
+    snaps = FrameSnapshots(timeline)
+    snaps.begin()
+    assert snaps.snapshot(A).last == 1.0
+    source.push("/a", "data", 2.0, 11.0)
+    snaps.begin()
+    assert snaps.snapshot(A).last == 2.0
+    assert snaps.reads == 2
