@@ -10,7 +10,11 @@ Run from the repository root: ``.venv/bin/python -m benchmarks.bench_timetravel`
 * **redraw** (under a display: ``xvfb-run -a -s "-screen 0 1920x1080x24" ...``): the real viewer with
   ``bench_ui``'s 20 widgets (8 plots of 5 series, 12 gauges) over a 50 topics x 100 Hz history of
   ``--minutes`` served by a `ReplaySource`; one cursor move = seek to a random time + one frame (every
-  widget redrawn at that time); a drag = the cursor moved by 0.1 s per frame, frames per second.
+  widget redrawn at that time); a drag = the cursor moved by 0.1 s per frame, frames per second. Each
+  row splits a frame into the app's work (the seek, snapshots, widget updates: Python) and the render
+  (``render_dearpygui_frame``: Dear ImGui/ImPlot and the GL rasteriser), with the process's CPU time per
+  frame and the load average, since a shared machine moves the wall-clock figures. To compare another
+  checkout, copy this file into it and run it from there.
 * **open**: a recording of 50 topics x 100 Hz for ``--minutes`` (written by ``bench_record``'s writer),
   opened for replay: the time until the first frame can be drawn (the end of the file, 20 bindings
   filled) and until the whole file is seekable, against loading it whole first.
@@ -235,52 +239,83 @@ def _redraw(args: argparse.Namespace) -> None:
     assert span is not None
     for _ in range(30):
         app.frame()
-    still: list[float] = []  # the baseline: the same dashboard, paused, nothing changing (drawing alone)
+    rows: list[list[str]] = []
+    load_before = os.getloadavg()
+
+    def measure(label: str, target: str, moves: list[float] | None = None) -> None:
+        """Frames (one per entry of `moves`: seek there first, or stay): total, app work, render, CPU ms."""
+        out: list[list[float]] = [[], [], [], []]
+        for t in moves if moves is not None else [None] * args.moves:
+            cpu = time.process_time()
+            begin = time.perf_counter()
+            if t is not None:
+                app.timeline.seek(t)
+            app.frame()
+            total = (time.perf_counter() - begin) * 1e3
+            render = (app.frame_times[-1] - app.last_work_s) * 1e3  # the seek counts as app work
+            values = (total, total - render, render, (time.process_time() - cpu) * 1e3)
+            for column, value in zip(out, values, strict=True):
+                column.append(value)
+        total, work, render, cpu = out
+        rows.append(
+            [
+                label,
+                f"{statistics.median(total):.1f}",
+                f"{_p(total, 95):.1f}",
+                f"{max(total):.1f}",
+                f"{statistics.median(work):.1f} / {_p(work, 95):.1f}",
+                f"{statistics.median(render):.1f} / {_p(render, 95):.1f}",
+                f"{statistics.median(cpu):.1f}",
+                target,
+            ]
+        )
+
+    # The baseline: the same dashboard, paused, nothing changing (every widget skipped; drawing alone).
     app.timeline.seek(span[0] + 120)
-    for _ in range(args.moves):
-        begin = time.perf_counter()
-        app.frame()
-        still.append((time.perf_counter() - begin) * 1e3)
+    measure("baseline: one frame, cursor still (the drawing alone)", "")
     rng = random.Random(11)
-    moves: list[float] = []
-    for _ in range(args.moves):
-        begin = time.perf_counter()
-        app.timeline.seek(rng.uniform(span[0] + 120, span[1]))
-        app.frame()
-        moves.append((time.perf_counter() - begin) * 1e3)
+    measure(
+        "seek to a random time + one frame (20 widgets redrawn)",
+        "p95 ≤ 50 ms",
+        [rng.uniform(span[0] + 120, span[1]) for _ in range(args.moves)],
+    )
+    # A drag: the cursor +0.1 s a frame for 5 s, frames back to back (their times in a row of their own).
     t = span[0] + 120
-    frames = 0
+    drag: list[float] = []
     begin = time.perf_counter()
     while time.perf_counter() - begin < 5.0:
         t += 0.1
+        drag.append(t)
         app.timeline.seek(t)
         app.frame()
-        frames += 1
-    fps = frames / (time.perf_counter() - begin)
+    fps = len(drag) / (time.perf_counter() - begin)
+    measure("drag: the same moves again, frame by frame", "", drag)
     if args.shot:
         app.screenshot(args.shot)
     app.close()
+    load_after = os.getloadavg()
+    rows.append(["drag: cursor +0.1 s per frame, 5 s", f"{fps:.1f} fps", "", "", "", "", "", "≥ 30 fps"])
     print_table(
         f"Redraw: the real viewer, 20 widgets, {args.topics} topics × {args.rate} Hz × {args.minutes} min "
-        f"({store.stats().samples:,} samples) from a ReplaySource; {args.moves} moves",
-        ["operation", "p50 ms", "p95 ms", "max ms", "target"],
+        f"({store.stats().samples:,} samples) from a ReplaySource; {args.moves} frames a row; load average "
+        f"{load_before[0]:.2f} before, {load_after[0]:.2f} after",
         [
-            [
-                "baseline: one frame, cursor still (the drawing alone)",
-                f"{statistics.median(still):.1f}",
-                f"{_p(still, 95):.1f}",
-                f"{max(still):.1f}",
-                "",
-            ],
-            [
-                "seek to a random time + one frame (20 widgets redrawn)",
-                f"{statistics.median(moves):.1f}",
-                f"{_p(moves, 95):.1f}",
-                f"{max(moves):.1f}",
-                "p95 ≤ 50 ms",
-            ],
-            ["drag: cursor +0.1 s per frame, 5 s", f"{fps:.1f} fps", "", "", "≥ 30 fps"],
+            "operation",
+            "p50 ms",
+            "p95 ms",
+            "max ms",
+            "app work p50 / p95",
+            "render p50 / p95",
+            "CPU ms p50",
+            "target",
         ],
+        rows,
+    )
+    print(
+        "app work = the seek and everything of ViewerApp.frame() before render_dearpygui_frame (input, "
+        "snapshots, widget updates); render = that call (Dear ImGui/ImPlot, GL rasterising, swap); CPU = "
+        "the process's CPU time over the frame, every thread counted (Mesa's rasterizer threads too), the "
+        "figure least moved by other load."
     )
 
 

@@ -19,8 +19,10 @@ load average are printed, since all of them move the figures.
 
 A second table (``--loop run``, the default ``--scenarios`` include it) runs the viewer as ``dbglog view``
 does, through ``ViewerApp.run`` with its frame cap (``--fps``) and its idle skipping, and reports the viewer
-process's CPU: empty and idle, 20 widgets idle, 20 widgets live. ``--compare TREE`` runs the same rows with
-the ``dbglog`` package of another checkout (e.g. ``git worktree add /tmp/old HEAD~1``) beside this one.
+process's CPU: empty and idle, 20 widgets idle, 20 widgets paused in a replay's history (``--replay-minutes``
+of 50 topics x 100 Hz; the *replay* rows), 20 widgets live. ``--compare TREE`` runs the same rows, with the
+same caps, with the ``dbglog`` package of another checkout (e.g. ``git worktree add /tmp/old HEAD~1``)
+beside this one.
 """
 
 from __future__ import annotations
@@ -152,7 +154,24 @@ def _ui(args: argparse.Namespace) -> None:
 
     engine: Any = None
     source: _DataSource
-    if args.source == "engine":
+    recording = False
+    if args.source == "replay":  # a recording's history, paused in its middle: nothing changes
+        import numpy as np
+
+        from dbglog.viewer._data._history import History
+        from dbglog.viewer._data._replay import ReplaySource
+
+        store = History(clock=None, max_seconds=7200, max_bytes=2**40)
+        names = [f"{_PREFIX}{i}" for i in range(args.topics)]
+        base = np.arange(int(args.rate)) / args.rate
+        t0 = time.time() - args.replay_minutes * 60
+        for b in range(args.replay_minutes * 60):
+            t = t0 + b + base
+            for k, name in enumerate(names):
+                store.append_numbers(name, t, np.sin(t * (0.1 + k * 0.01)))
+        source = ReplaySource(store, dict.fromkeys(names, "std_msgs/msg/Float64"))
+        recording = True
+    elif args.source == "engine":
         from dbglog.viewer import Engine
 
         engine = Engine(stale_after=2.0)
@@ -168,6 +187,8 @@ def _ui(args: argparse.Namespace) -> None:
     width, height = args.width, args.height
     # (a viewer without a cap takes neither option)
     options: dict[str, Any] = {"fps": args.fps, "data_fps": args.data_fps} if args.fps else {}
+    if recording:
+        options["recording"] = True
     app = ViewerApp(source, WidgetRegistry.builtin(), width=width, height=height, **options)
     app.start()
     dpg.set_viewport_vsync(args.vsync)
@@ -180,6 +201,10 @@ def _ui(args: argparse.Namespace) -> None:
         item.place(rect(8 + cell_w * (n % 5), 8 + cell_h * (n // 5), cell_w - 8, cell_h - 8), rebuild=True)
         app.apply_bindings(item, tuple(Binding(f"{_PREFIX}{t}", "data") for t in topics))
     app.select(None)
+    if recording:
+        span = app.timeline.span()
+        assert span is not None
+        app.timeline.seek((span[0] + span[1]) / 2)
     warm_end = time.monotonic() + args.warmup
     while time.monotonic() < warm_end:
         app.frame()
@@ -289,13 +314,17 @@ def _measure(
         "--code",
         code,
         "--fps",
-        str(args.fps if loop == "run" and not code else 0),
+        str(args.fps if loop == "run" else 0),
         "--data-fps",
         str(args.data_fps),
         "--source",
         source,
         "--topics",
         str(args.topics),
+        "--rate",
+        str(args.rate),
+        "--replay-minutes",
+        str(args.replay_minutes),
         "--width",
         str(args.width),
         "--height",
@@ -360,7 +389,7 @@ def main(argv: list[str] | None = None) -> int:
     """Run the benchmark (or one of its child roles)."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0] if __doc__ else None)
     parser.add_argument("--role", choices=("main", "publisher", "ui"), default="main")
-    parser.add_argument("--source", choices=("empty", "static", "engine"), default="engine")
+    parser.add_argument("--source", choices=("empty", "static", "engine", "replay"), default="engine")
     parser.add_argument("--width", type=int, default=1440)
     parser.add_argument("--height", type=int, default=900)
     parser.add_argument("--topics", type=int, default=50)
@@ -370,10 +399,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--vsync", action="store_true", help="(ui role) keep vsync on")
     parser.add_argument(
+        "--replay-minutes", type=int, default=10, help="minutes of history of the replay rows (default 10)"
+    )
+    parser.add_argument(
         "--scenarios",
-        default="empty,static,engine,engine-vsync,empty-run,static-run,engine-run",
-        help="comma-separated subset of empty, static, engine, engine-vsync (frames rendered back to back) "
-        "and empty-run, static-run, engine-run (the viewer's own loop, as `dbglog view` runs it)",
+        default="empty,static,replay,engine,engine-vsync,empty-run,static-run,replay-run,engine-run",
+        help="comma-separated subset of empty, static, replay, engine, engine-vsync (frames rendered back to "
+        "back) and empty-run, static-run, replay-run, engine-run (the viewer's own loop, as `dbglog view` "
+        "runs it)",
     )
     parser.add_argument("--fps", type=float, default=60.0, help="frame cap of the -run rows (default 60)")
     parser.add_argument(
@@ -383,7 +416,8 @@ def main(argv: list[str] | None = None) -> int:
         "--compare",
         default="",
         metavar="TREE",
-        help="also run the -run rows with the dbglog package of this checkout (e.g. a worktree of HEAD~1)",
+        help="also run the -run rows with the dbglog package of this checkout (e.g. a worktree of HEAD~1; it "
+        "must take the --fps and --data-fps caps)",
     )
     parser.add_argument("--loop", choices=("frames", "run"), default="frames", help=argparse.SUPPRESS)
     parser.add_argument("--code", default="", help=argparse.SUPPRESS)
@@ -399,10 +433,12 @@ def main(argv: list[str] | None = None) -> int:
     labels = {
         "empty": ("empty", False, "empty window, vsync off (GL stack fixed cost)"),
         "static": ("static", False, "20 widgets idle, vsync off (drawing only)"),
+        "replay": ("replay", False, "20 widgets paused in a replay's history, vsync off"),
         "engine": ("engine", False, "20 widgets live: 50 topics x 100 Hz, vsync off"),
         "engine-vsync": ("engine", True, "20 widgets live, vsync on (for reference)"),
         "empty-run": ("empty", False, "empty dashboard, nothing changing"),
         "static-run": ("static", False, "20 widgets, nothing changing"),
+        "replay-run": ("replay", False, "20 widgets paused in a replay's history, nothing changing"),
         "engine-run": ("engine", False, "20 widgets live: 50 topics x 100 Hz"),
     }
     chosen = [s.strip() for s in args.scenarios.split(",") if s.strip()]
@@ -435,9 +471,7 @@ def main(argv: list[str] | None = None) -> int:
                 run_rows.append(
                     [
                         label,
-                        f"{code} (no cap)"
-                        if code
-                        else f"this checkout (caps {args.fps:g} fps, data {args.data_fps:g} fps)",
+                        code or "this checkout",
                         f"{med['fps']:.1f}",
                         f"{med['cpu']:.1f}%",
                         _fmt(med["cpu_ms"]),
@@ -467,7 +501,8 @@ def main(argv: list[str] | None = None) -> int:
     load_after = os.getloadavg()
     if run_rows:
         print_table(
-            f"Viewer process CPU as `dbglog view` runs, {args.width}x{args.height} "
+            f"Viewer process CPU as `dbglog view` runs, {args.width}x{args.height}, caps {args.fps:g} fps, "
+            f"data {args.data_fps:g} fps "
             f"(median of {args.repeats} x {args.duration:g} s)",
             [
                 "dashboard",
