@@ -46,6 +46,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--duration", type=float, metavar="S", help="stop by itself after S seconds (default: never)"
     )
+    parser.add_argument(
+        "--queue-depth",
+        type=int,
+        default=None,
+        metavar="N",
+        help="messages each topic may hold while waiting to be written (default: 1000)",
+    )
 
 
 def _human(n: float) -> str:
@@ -70,7 +77,7 @@ def _snapshot_path(base: str, taken: set[str]) -> str:
 
 def run(args: argparse.Namespace) -> int:
     """Record until Ctrl-C/SIGTERM (or --duration); finalise the file; return the exit code."""
-    from dbglog.record._recorder import Recorder, parse_targets
+    from dbglog.record._recorder import DEFAULT_DEPTH, Recorder, parse_targets
     from dbglog.record._writer import McapWriter, RecordingError
 
     def say(message: str) -> None:
@@ -84,6 +91,10 @@ def run(args: argparse.Namespace) -> int:
     if args.snapshot is not None and not args.snapshot > 0:
         say(f"--snapshot must be a positive number of seconds, not {args.snapshot}")
         return 2
+    depth = DEFAULT_DEPTH if args.queue_depth is None else args.queue_depth
+    if depth < 1:
+        say(f"--queue-depth must be at least 1, not {depth}")
+        return 2
     writer = None
     if args.snapshot is None:
         try:
@@ -91,7 +102,7 @@ def run(args: argparse.Namespace) -> int:
         except RecordingError as exc:
             say(str(exc))
             return 1
-    recorder = Recorder(targets, writer, window_s=args.snapshot)
+    recorder = Recorder(targets, writer, window_s=args.snapshot, depth=depth)
     recorder.warn = say
     requests: list[int] = []
 
@@ -148,10 +159,22 @@ def run(args: argparse.Namespace) -> int:
             print(file=sys.stderr)
         if writer is not None:
             writer.close()
+    stats = recorder.stats
     if writer is not None:
         say(
-            f"wrote {writer.messages:,} messages on {recorder.stats.topics} topics to {args.output} "
-            f"({_human(writer.size)}); longest pause of the take loop "
-            f"{recorder.stats.longest_gap_s * 1e3:.0f} ms"
+            f"wrote {writer.messages:,} messages on {stats.topics} topics to {args.output} "
+            f"({_human(writer.size)}); longest pause of the take loop {stats.longest_gap_s * 1e3:.0f} ms, "
+            f"fullest queue {stats.fullest:.0%} (full {stats.full_takes} times), "
+            f"reported lost by DDS {stats.dds_lost}"
+        )
+    if stats.full_takes:
+        say(
+            f"a topic's queue was full {stats.full_takes} times: messages may have been dropped "
+            "(the machine was too busy; a larger --queue-depth rides out longer stalls)"
+        )
+    if stats.dds_lost:
+        say(
+            f"DDS reported {stats.dds_lost} lost message(s): publishers overwrote them in their history "
+            "before this recorder received them (the machine was too busy for this message rate)"
         )
     return 0

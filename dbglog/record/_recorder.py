@@ -18,20 +18,22 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from dbglog._ros._batch import BATCH_DEPTH, BATCH_TOPIC
+from dbglog._ros._batch import BATCH_DEPTH, BATCH_TOPIC, SCALAR_TYPES, is_sdk_node
 from dbglog._ros._tags import TAG_PREFIX
+from dbglog.record._expand import BatchExpander
 from dbglog.record._writer import McapWriter
 
-__all__ = ["Recorder", "Targets", "parse_targets"]
+__all__ = ["DEFAULT_DEPTH", "Recorder", "Stats", "Targets", "parse_targets"]
 
 ROSOUT = "/rosout"
-_DEPTH = 1000
+DEFAULT_DEPTH = 1000
 """KEEP_LAST depth of each subscription: a second of backlog at 1 kHz."""
 _TAKE_MAX = 4096
 _GRAPH_PERIOD = 0.25
 _MIN_CYCLE = 0.005
 _WAIT_S = 0.05
 """Longest wait on the wait set: signals (Ctrl-C, SIGTERM, SIGUSR1) are handled at least this often."""
+_BATCHED_TYPES = frozenset(f"std_msgs/msg/{t}" for t in SCALAR_TYPES)
 
 
 @dataclass(frozen=True)
@@ -91,6 +93,10 @@ class _Sub:
     channel: int
     reliable: bool
     transient: bool
+    depth: int
+    lost_event: Any = None
+    """rcl event handle of DDS's "message lost" status (None where the RMW does not offer it)."""
+    lost: int = 0
     count: int = 0
 
 
@@ -99,10 +105,19 @@ class Stats:
     """What the recorder has done so far."""
 
     messages: int = 0
+    """Messages written (or kept in the RAM window), samples written from batches included."""
+    from_batch: int = 0
+    """Of those, samples of SDK tags written from the batch topic (their topics not subscribed)."""
     topics: int = 0
     bytes_on_disk: int = 0
     longest_gap_s: float = 0.0
     """Longest time the take loop spent away from its wait set (graph polls, chunk writes, the OS)."""
+    full_takes: int = 0
+    """Takes that found a subscription's queue full: older messages may have been dropped by it."""
+    fullest: float = 0.0
+    """Highest share of a subscription's queue found waiting by one take (1.0: full)."""
+    dds_lost: int = 0
+    """Messages DDS reports lost before they reached the queues (publisher history overwritten first)."""
     skipped: dict[str, str] = field(default_factory=dict)
     """Topic -> why it is not recorded (type not installed, publishers disagree)."""
 
@@ -122,7 +137,18 @@ class Recorder:
         window_s: float | None = None,
         flush_period: float = 0.5,
         node_name: str | None = None,
+        depth: int = DEFAULT_DEPTH,
     ) -> None:
+        """Prepare (nothing is subscribed before `run`).
+
+        Args:
+            targets: what to record.
+            writer: the MCAP writer; None for snapshot mode (RAM window of `window_s`).
+            window_s: snapshot mode's window.
+            flush_period: seconds between chunk flushes.
+            node_name: the recorder's node name (default ``dbglog_record_<pid>``).
+            depth: KEEP_LAST depth of each subscription (messages that may wait to be taken).
+        """
         import os
 
         self.targets = targets
@@ -132,8 +158,12 @@ class Recorder:
         """Snapshot mode: (topic, type, log time, source time, CDR), oldest first."""
         self.flush_period = flush_period
         self.node_name = node_name or f"dbglog_record_{os.getpid()}"
+        self.depth = depth
         self.stats = Stats()
         self._subs: dict[str, _Sub] = {}
+        self.via_batch: set[str] = set()
+        """Tag topics only SDK nodes publish, recorded from the batch topic instead of subscribed."""
+        self._expander: BatchExpander | None = None
         self._version = 0
         self._running = True
         self.warn: Callable[[str], None] = lambda _m: None
@@ -149,6 +179,7 @@ class Recorder:
         syncing = threading.Event()
         syncer = None
         if self.writer is not None:
+            self._expander = BatchExpander(self.writer, self._from_batch)
             # fsync can block for long on a busy disk: never in the take loop (a stall loses messages
             # once the publishers' KEEP_LAST history wraps).
             syncer = threading.Thread(target=self._sync_loop, args=(syncing,), name="dbglog-record-sync")
@@ -193,19 +224,26 @@ class Recorder:
                     next_flush = now + self.flush_period
                 if now >= next_tick:
                     self._trim()
+                    self._count_lost()
                     if on_tick is not None:
                         on_tick()
                     next_tick = now + 1.0
             # Drain what already arrived before returning.
             for s in list(self._subs.values()):
                 self._take(s)
+            self._count_lost()
         finally:
             syncing.set()
             if syncer is not None:
                 syncer.join()
             if self.writer is not None:
                 self.writer.flush(sync=True)
-            ros.close([functools.partial(node.destroy_subscription, s.sub) for s in self._subs.values()])
+            destroy: list[Callable[[], object]] = []
+            for s in self._subs.values():
+                if s.lost_event is not None:
+                    destroy.append(s.lost_event.destroy_when_not_in_use)
+                destroy.append(functools.partial(node.destroy_subscription, s.sub))
+            ros.close(destroy)
 
     def _sync_loop(self, done: threading.Event) -> None:
         """Push what was flushed to the disk once a second (survives a power cut, not only a kill)."""
@@ -222,7 +260,9 @@ class Recorder:
     def _refresh(self, node: Any) -> None:
         from rclpy.qos import DurabilityPolicy, ReliabilityPolicy
 
-        for name, _types in node.get_topic_names_and_types():
+        names = sorted((n for n, _types in node.get_topic_names_and_types()), key=lambda n: n != BATCH_TOPIC)
+        batch_nodes: set[tuple[str, str]] = set()
+        for name in names:  # the batch topic first: it decides which tag topics it covers
             if not self.targets.wants(name):
                 continue
             infos = node.get_publishers_info_by_topic(name)
@@ -231,6 +271,21 @@ class Recorder:
             pub_types = sorted({i.topic_type for i in infos})
             if len(pub_types) > 1:
                 self._skip(name, f"publishers disagree on its type ({', '.join(pub_types)})")
+                continue
+            if name == BATCH_TOPIC:
+                batch_nodes = {(i.node_namespace, i.node_name) for i in infos if is_sdk_node(i.node_name)}
+            elif (
+                name not in self._subs
+                and BATCH_TOPIC in self._subs
+                and name.startswith(TAG_PREFIX)
+                and pub_types[0] in _BATCHED_TYPES
+                and all((i.node_namespace, i.node_name) in batch_nodes for i in infos)
+            ):
+                # Only SDK nodes that send the batch publish it: its samples come from the batches (a
+                # subscriber here would make each SDK publish every sample twice).
+                if name not in self.via_batch:
+                    self.via_batch.add(name)
+                    self._count_topics()
                 continue
             best_effort = any(i.qos_profile.reliability == ReliabilityPolicy.BEST_EFFORT for i in infos)
             transient = all(i.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL for i in infos)
@@ -259,17 +314,31 @@ class Recorder:
             self._skip(name, str(exc))
             return
         if old is not None:
+            self._count_lost_of(old)
+            if old.lost_event is not None:
+                old.lost_event.destroy_when_not_in_use()
             node.destroy_subscription(old.sub)
-        depth = max(_DEPTH, BATCH_DEPTH) if name == BATCH_TOPIC else _DEPTH
+        depth = max(self.depth, BATCH_DEPTH) if name == BATCH_TOPIC else self.depth
         qos = subscription_qos(depth, reliable=reliable, transient=transient)
         sub = node.create_subscription(cls, name, lambda _m: None, qos, raw=True)
         channel = 0
         if self.writer is not None:
             channel = self.writer.add_channel(name, msg_type, metadata={"offered_qos_profiles": ""})
-        self._subs[name] = _Sub(name, msg_type, cls, sub, channel, reliable, transient)
+        self._subs[name] = _Sub(
+            name, msg_type, cls, sub, channel, reliable, transient, depth, _lost_event(sub)
+        )
+        self.via_batch.discard(name)
         self._version += 1
         self.stats.skipped.pop(name, None)
-        self.stats.topics = len(self._subs)
+        self._count_topics()
+
+    def _count_topics(self) -> None:
+        expanded = self.via_batch | (self._expander.topics if self._expander is not None else set())
+        self.stats.topics = len(self._subs) + len(expanded - self._subs.keys())
+
+    def _from_batch(self, topic: str) -> bool:
+        """True when tag `topic` is to be written from the batches (wanted, not subscribed itself)."""
+        return topic not in self._subs and self.targets.wants(topic)
 
     # ----- data -------------------------------------------------------------------------------------
 
@@ -279,7 +348,26 @@ class Recorder:
         clock = time.time_ns
         writer = self.writer
         n = 0
-        if writer is not None:
+        expander = self._expander if s.topic == BATCH_TOPIC else None
+        if writer is not None and expander is not None:
+            write = writer.write
+            channel = s.channel
+            expand = expander.expand
+            known = len(expander.topics)
+            samples = 0
+            for _ in range(_TAKE_MAX):
+                got = take(cls, True)
+                if got is None:
+                    break
+                now = clock()
+                write(channel, now, got[0], got[1]["source_timestamp"])
+                samples += expand(now, got[0])
+                n += 1
+            self.stats.from_batch += samples
+            self.stats.messages += samples
+            if len(expander.topics) != known:
+                self._count_topics()
+        elif writer is not None:
             write = writer.write
             channel = s.channel
             for _ in range(_TAKE_MAX):
@@ -298,7 +386,29 @@ class Recorder:
                 append((topic, msg_type, clock(), got[1]["source_timestamp"], got[0]))
                 n += 1
         s.count += n
-        self.stats.messages += n
+        stats = self.stats
+        stats.messages += n
+        if n >= s.depth:
+            stats.full_takes += 1
+        if n > stats.fullest * s.depth:
+            stats.fullest = min(1.0, n / s.depth)
+
+    def _count_lost(self) -> None:
+        """Add up DDS's "message lost" counts of every subscription into `stats.dds_lost`."""
+        for s in self._subs.values():
+            self._count_lost_of(s)
+
+    def _count_lost_of(self, s: _Sub) -> None:
+        if s.lost_event is None:
+            return
+        try:
+            total = int(s.lost_event.take_event().total_count)
+        except Exception:  # an RMW without the event, or the context going away
+            s.lost_event = None
+            return
+        if total > s.lost:
+            self.stats.dds_lost += total - s.lost
+            s.lost = total
 
     def _trim(self) -> None:
         """Snapshot mode: drop what is older than the window."""
@@ -314,11 +424,28 @@ class Recorder:
         self._trim()
         items = list(self.ring)
         channels: dict[tuple[str, str], int] = {}
+        expander = BatchExpander(writer, self._from_batch)
+        count = 0
         for topic, msg_type, log_time, source, data in items:
             key = (topic, msg_type)
             channel = channels.get(key)
             if channel is None:
                 channel = channels[key] = writer.add_channel(topic, msg_type)
             writer.write(channel, log_time, data, source)
+            count += 1
+            if topic == BATCH_TOPIC:
+                count += expander.expand(log_time, data)
         writer.close()
-        return len(items)
+        return count
+
+
+def _lost_event(sub: Any) -> Any:
+    """Return an rcl event handle of `sub`'s "message lost" status, or None when the RMW has none."""
+    from rclpy.event_handler import QoSSubscriptionEventType
+    from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
+
+    try:
+        with sub.handle:
+            return _rclpy.EventHandle(sub.handle, QoSSubscriptionEventType.RCL_SUBSCRIPTION_MESSAGE_LOST)
+    except Exception:  # UnsupportedEventTypeError and the like: not counted then
+        return None

@@ -59,8 +59,8 @@ class _Open:
         self.channels = array("H")
         self.times = array("q")
         self.offsets = array("q")
-        self.bulk: list[tuple[int, npt.NDArray[np.int64], npt.NDArray[np.int64]]] = []
-        """Entries of `write_fixed`: (channel, log times, offsets)."""
+        self.bulk: list[tuple[int | npt.NDArray[np.int64], npt.NDArray[np.int64], npt.NDArray[np.int64]]] = []
+        """Entries of `write_fixed`: (channel or channel per message, log times, offsets)."""
 
     @property
     def count(self) -> int:
@@ -183,14 +183,15 @@ class McapWriter:
 
     def write_fixed(
         self,
-        channel: int,
+        channel: int | npt.NDArray[np.int64],
         log_times: npt.NDArray[np.int64],
         payloads: npt.NDArray[np.uint8],
         publish_times: npt.NDArray[np.int64] | None = None,
     ) -> None:
-        """Append many same-size messages of one channel at once (`payloads` is n x size bytes).
+        """Append many same-size messages at once (`payloads` is n x size bytes).
 
-        Vectorised with numpy: for generating large files and writing snapshots.
+        Vectorised with numpy: for generating large files, writing snapshots and the samples of SDK
+        batches. `channel` is one channel for all, or one per message.
         """
         import numpy as np
 
@@ -202,7 +203,8 @@ class McapWriter:
             rows = np.zeros((hi - lo, 31 + size), dtype=np.uint8)
             rows[:, 0] = _MESSAGE_OP
             rows[:, 1:9] = np.full(hi - lo, 22 + size, dtype="<u8").view(np.uint8).reshape(-1, 8)
-            rows[:, 9:11] = np.full(hi - lo, channel, dtype="<u2").view(np.uint8).reshape(-1, 2)
+            chans = np.full(hi - lo, channel, dtype="<u2") if isinstance(channel, int) else channel[lo:hi]
+            rows[:, 9:11] = chans.astype("<u2").view(np.uint8).reshape(-1, 2)
             rows[:, 15:23] = log_times[lo:hi].astype("<u8").view(np.uint8).reshape(-1, 8)
             rows[:, 23:31] = pub[lo:hi].astype("<u8").view(np.uint8).reshape(-1, 8)
             rows[:, 31:] = payloads[lo:hi]
@@ -211,7 +213,8 @@ class McapWriter:
             chunk.records += rows.tobytes()
             offsets = base + np.arange(hi - lo, dtype=np.int64) * (31 + size)
             times = log_times[lo:hi]
-            chunk.bulk.append((channel, times.astype(np.int64), offsets))
+            part = channel if isinstance(channel, int) else channel[lo:hi].astype(np.int64)
+            chunk.bulk.append((part, times.astype(np.int64), offsets))
             if len(chunk.records) > self.chunk_bytes:
                 self.close_chunk()
 
@@ -227,7 +230,9 @@ class McapWriter:
         times = [np.frombuffer(chunk.times, dtype=np.int64)]
         offsets = [np.frombuffer(chunk.offsets, dtype=np.int64)]
         for channel, t_part, o_part in chunk.bulk:
-            channels.append(np.full(len(t_part), channel, dtype=np.int64))
+            channels.append(
+                np.full(len(t_part), channel, dtype=np.int64) if isinstance(channel, int) else channel
+            )
             times.append(t_part)
             offsets.append(o_part)
         ch = np.concatenate(channels)
