@@ -5,9 +5,8 @@ Pure (no rclpy): ``dbglog bridge --check`` and the viewer can load rules without
 
 from __future__ import annotations
 
-import fnmatch
 import re
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Final, get_args
@@ -15,6 +14,7 @@ from typing import Any, Final, get_args
 import yaml
 
 from dbglog._regex._compile import SHOWN_CHARS, NumberKind, RegexError, compile_regex, shorten
+from dbglog._ros._loglevels import LEVELS, node_matches
 from dbglog._ros._tags import tag_problem, topic_for_tag
 
 __all__ = [
@@ -32,14 +32,11 @@ __all__ = [
 ROSOUT: Final = "/rosout"
 """The default source: ``rcl_interfaces/msg/Log`` messages, matched on their ``msg`` field."""
 
-LEVELS: Final[Mapping[str, int]] = {"debug": 10, "info": 20, "warn": 30, "error": 40, "fatal": 50}
-"""Minimum-severity names and their ``rcl_interfaces/msg/Log`` level values."""
 
 _KINDS: Final = frozenset(get_args(NumberKind))
 _RULE_KEYS: Final = ("tag", "pattern", "node", "level", "type", "source_topic")
 _REQUIRED: Final = ("tag", "pattern")
 _TOPIC = re.compile(r"(?:/[A-Za-z_][A-Za-z0-9_]*)+")
-_GLOB_CHARS: Final = frozenset("*?[")
 
 
 @dataclass(frozen=True, slots=True)
@@ -77,11 +74,7 @@ class Rule:
         """Return whether a line from `source`, logged by `logger` at `level`, is for this rule."""
         if source != self.source_topic or level < self.min_level:
             return False
-        if self.node is None:
-            return True
-        if _GLOB_CHARS.isdisjoint(self.node):
-            return logger == self.node
-        return fnmatch.fnmatchcase(logger, self.node)
+        return self.node is None or node_matches(logger, self.node)
 
 
 @dataclass(frozen=True, slots=True)

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import fnmatch
 import os
 import signal
 import sys
@@ -15,14 +14,12 @@ from types import FrameType
 from typing import Any, Final, TextIO
 
 from dbglog._regex._compile import MAX_LINE, RegexError, compile_regex
+from dbglog._ros._loglevels import LEVEL_NAMES, LEVELS, level_of, node_matches
 
 __all__ = ["HELP", "LEVELS", "LogLine", "LogsFilter", "add_arguments", "format_line", "run"]
 
 HELP = "Print /rosout log lines (time, level, node, message), filtered, coloured on a terminal; follows."
 
-LEVELS: Final = {"debug": 10, "info": 20, "warn": 30, "warning": 30, "error": 40, "fatal": 50}
-"""Level names accepted by ``--level`` and their ``rcl_interfaces/msg/Log`` values."""
-_NAMES: Final = {10: "DEBUG", 20: "INFO", 30: "WARN", 40: "ERROR", 50: "FATAL"}
 _COLOURS: Final = {10: "\x1b[2m", 20: "", 30: "\x1b[33m", 40: "\x1b[31m", 50: "\x1b[1;35m"}
 """ANSI colours per level: debug dim, info plain, warn yellow, error red, fatal bold magenta."""
 _RESET: Final = "\x1b[0m"
@@ -32,9 +29,13 @@ are sorted by their stamps before printing (each node's history arrives in one p
 
 
 def _level(text: str) -> int:
-    value = LEVELS.get(text.strip().lower())
-    if value is None:
-        raise argparse.ArgumentTypeError(f"unknown level {text!r} (one of: debug, info, warn, error, fatal)")
+    """Parse ``--level``: a name of `LEVELS`, or ``warning``."""
+    try:
+        value = level_of(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+    if not value:
+        raise argparse.ArgumentTypeError(f"unknown level {text!r} (one of: {', '.join(LEVELS)})")
     return value
 
 
@@ -111,7 +112,7 @@ class LogsFilter:
             return False
         if self.not_before is not None and line.stamp < self.not_before:
             return False
-        if self.node is not None and not fnmatch.fnmatchcase(line.node, self.node):
+        if self.node is not None and not node_matches(line.node, self.node):
             return False
         return self.grep is None or self.grep.search(line.message[:MAX_LINE]) is not None
 
@@ -119,7 +120,7 @@ class LogsFilter:
 def format_line(line: LogLine, *, colour: bool) -> str:
     """Render `line` as ``HH:MM:SS.mmm LEVEL [node] message`` (continuation lines indented)."""
     clock = time.strftime("%H:%M:%S", time.localtime(line.stamp)) + f".{int(line.stamp * 1000) % 1000:03d}"
-    name = _NAMES.get(line.level, str(line.level))
+    name = LEVEL_NAMES.get(line.level, str(line.level))
     message = line.message.replace("\n", "\n    ")
     text = f"{clock} {name:<5} [{line.node}] {message}"
     if not colour:

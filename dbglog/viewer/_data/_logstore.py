@@ -9,7 +9,6 @@ evaluated; patterns are RE2 (linear time). Layout and measured figures: ``docs/l
 from __future__ import annotations
 
 import collections
-import fnmatch
 import struct
 import threading
 import time
@@ -24,6 +23,17 @@ import re2
 from dbglog._regex._compile import MAX_LINE, RegexError, compile_regex, re2_options
 from dbglog._regex._propose import NumberSpan, Proposal, find_numbers, match_joined
 from dbglog._ros._cdr import read_log, read_string
+from dbglog._ros._loglevels import (
+    DEBUG,
+    ERROR,
+    FATAL,
+    INFO,
+    LEVEL_NAMES,
+    WARN,
+    level_name,
+    level_of,
+    node_matches,
+)
 
 __all__ = [
     "DEBUG",
@@ -43,19 +53,6 @@ __all__ = [
     "level_of",
 ]
 
-DEBUG: Final = 10
-INFO: Final = 20
-WARN: Final = 30
-ERROR: Final = 40
-FATAL: Final = 50
-LEVEL_NAMES: Final[dict[int, str]] = {
-    DEBUG: "DEBUG",
-    INFO: "INFO",
-    WARN: "WARN",
-    ERROR: "ERROR",
-    FATAL: "FATAL",
-}
-"""rcl_interfaces/msg/Log's level constants and their names."""
 LOG_TYPE: Final = "rcl_interfaces/msg/Log"
 STRING_TYPE: Final = "std_msgs/msg/String"
 LOG_TYPES: Final = (LOG_TYPE, STRING_TYPE)
@@ -86,30 +83,6 @@ _LETTERS: Final = frozenset(range(ord("a"), ord("z") + 1))
 
 class FilterError(ValueError):
     """An include or exclude pattern that RE2 refuses; the message says which one and why."""
-
-
-def level_of(name: str) -> int:
-    """Return the level number of a name (``warn``, ``WARNING``, any case); ``""`` is 0 (every line).
-
-    Raises:
-        ValueError: not a level name.
-    """
-    key = name.strip().upper()
-    if not key:
-        return 0
-    if key == "WARNING":
-        key = "WARN"
-    for number, text in LEVEL_NAMES.items():
-        if text == key:
-            return number
-    raise ValueError(f"unknown level {name!r} (one of: debug, info, warn, error, fatal)")
-
-
-def level_name(level: int) -> str:
-    """Return the name shown for a level number: ``WARN``; ``""`` for a line without one (a String)."""
-    if level <= 0:
-        return ""
-    return LEVEL_NAMES.get(level, str(level))
 
 
 @dataclass(frozen=True, slots=True)
@@ -1007,7 +980,7 @@ class LogStore:
         rows = rows + lo
         want = proposal.node if node is None else node
         if want:
-            ids = [k for k, name in enumerate(self._node_names) if fnmatch.fnmatchcase(name, want)]
+            ids = [k for k, name in enumerate(self._node_names) if node_matches(name, want)]
             keep = np.isin(self._nodes[rows], np.asarray(ids, dtype=np.uint16))
             rows, values = rows[keep], values[keep]
         if min_level > 0:
