@@ -576,6 +576,7 @@ def _viewer_main(dashboard: str, seconds: float, warmup: float, nodes: int) -> i
             out |= {
                 "reached": store.added - added0 - (getattr(store, "dropped", 0) - dropped0),
                 "evicted": store.evicted,
+                "dropped": getattr(store, "dropped", 0) - dropped0,
                 "held_gaps": sum(max(s) - min(s) + 1 - len(set(s)) for s in held.values()),
                 "held": sum(len(s) for s in held.values()),
                 "taken": engine.stats().per_topic.get("/rosout", 0),
@@ -694,12 +695,17 @@ def _viewer_run(
         "load1": load1,
     }
     if console:
-        res |= {k: float(out[k]) for k in ("reached", "held_gaps", "held", "taken", "evicted")}
+        res |= {k: float(out[k]) for k in ("reached", "held_gaps", "held", "taken", "evicted", "dropped")}
         res["lost"] = res["sent"] - res["reached"]
     print(
         f"  {'with' if console else 'without'} the console: p50 {res['p50']:.1f} ms, "
         f"p95 {res['p95']:.1f} ms, {res['frames']:.0f} frames, load {load0:.1f}-{load1:.1f}"
-        + (f", lost {res['lost']:.0f}, gaps {res['held_gaps']:.0f}" if console else ""),
+        + (
+            f", lost {res['lost']:.0f} (dropped waiting {res['dropped']:.0f}), gaps {res['held_gaps']:.0f}, "
+            f"engine took {res['taken']:.0f}"
+            if console
+            else ""
+        ),
         file=sys.stderr,
         flush=True,
     )
