@@ -343,17 +343,17 @@ def minmax_decimate(x: FloatArray, y: FloatArray, max_points: int) -> tuple[Floa
     size = -(-n // (max_points // 2))  # samples per bucket, rounded up: at most max_points // 2 buckets
     buckets = -(-n // size)
     pad = buckets * size - n
-    nan = np.isnan(y)
-    if nan.any():
-        low_src, high_src = np.where(nan, np.inf, y), np.where(nan, -np.inf, y)
-    else:  # the common case: no copies to hide NaNs
-        low_src = high_src = np.asarray(y, dtype=np.float64)
-    # Pad the last bucket with values that never win; the last bucket still holds a real sample.
-    if pad:
-        lows = np.concatenate((low_src, np.full(pad, np.inf))).reshape(buckets, size)
-        highs = np.concatenate((high_src, np.full(pad, -np.inf))).reshape(buckets, size)
-    else:
+    if math.isnan(float(np.min(y))):  # a NaN (the minimum is then NaN): hide them, pad with losers
+        nan = np.isnan(y)
+        low_src = np.concatenate((np.where(nan, np.inf, y), np.full(pad, np.inf)))
+        high_src = np.concatenate((np.where(nan, -np.inf, y), np.full(pad, -np.inf)))
         lows, highs = low_src.reshape(buckets, size), high_src.reshape(buckets, size)
+    else:  # the common case, one array for both: padded with copies of the last sample, which come after
+        # it and so never win (argmin and argmax take the first of equal values)
+        src = np.asarray(y, dtype=np.float64)
+        if pad:
+            src = np.concatenate((src, np.full(pad, src[-1])))
+        lows = highs = src.reshape(buckets, size)
     base = np.arange(0, buckets * size, size)
     i_min = base + lows.argmin(axis=1)
     i_max = base + highs.argmax(axis=1)
