@@ -3,9 +3,13 @@
 Run from the repository root: ``.venv/bin/python -m benchmarks.bench_record`` (``--help`` for options;
 ``--seconds 10 --hours 0.1`` for a quick run). Side by side, in one run:
 
-1. **record**: a publisher process sends pre-serialised ``std_msgs/Float64`` round-robin over 50 tag
+1. **record**: publisher processes send pre-serialised ``std_msgs/Float64`` round-robin over 50 tag
    topics (dbglog's tag QoS) at a fixed total rate; the real ``dbglog record`` CLI records them; every
-   message sent is looked for in the file (lost = sent - recorded).
+   message sent is looked for in the file (lost = sent - recorded), and the lost ones are grouped into
+   bursts per topic (each value is a per-publisher sequence number). ``--variants`` runs alternatives
+   side by side, ``--repeats`` times each, interleaved: the publishers' history depth, the recorder's
+   queue depth, and a viewer engine (``bench_engine``'s receiver) beside the recorder or alone. CPU per
+   message of the publishers and of the recorder, and the load average, are printed with every run.
 2. **bytes per sample**: the recorded file's size over its messages, and a file of the same shape
    written directly (100 Hz signals).
 3. **load**: a file of 50 topics x 100 Hz x ``--hours`` written directly with dbglog's writer, loaded
@@ -16,6 +20,7 @@ Run from the repository root: ``.venv/bin/python -m benchmarks.bench_record`` (`
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
 import signal
@@ -25,6 +30,7 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+from typing import Any
 
 _ROOT = Path(__file__).resolve().parent.parent
 if str(_ROOT) not in sys.path:
@@ -42,13 +48,15 @@ def _publisher(args: argparse.Namespace) -> None:
     from rclpy.node import Node
     from std_msgs.msg import Float64
 
-    from dbglog._ros._qos import tag_qos
+    from dbglog._ros._qos import subscription_qos, tag_qos
 
     context = Context()
     rclpy.init(context=context)
     node = Node("bench_record_publisher", context=context)
     mine = range(args.part, args.topics, args.publishers)
-    pubs = [node.create_publisher(Float64, f"/rosdashboard/{_TAG}/t{i}", tag_qos()) for i in mine]
+    # 0: dbglog's tag QoS, what `dbglog.logfloat`'s publishers use (reliable, transient-local, depth 100).
+    qos = tag_qos() if not args.pub_depth else subscription_qos(args.pub_depth, reliable=True, transient=True)
+    pubs = [node.create_publisher(Float64, f"/rosdashboard/{_TAG}/t{i}", qos) for i in mine]
     deadline = time.monotonic() + 60
     while time.monotonic() < deadline and not all(p.get_subscription_count() > 0 for p in pubs):
         time.sleep(0.02)
@@ -59,6 +67,7 @@ def _publisher(args: argparse.Namespace) -> None:
     n_topics, rate = len(pubs), args.rate / args.publishers
     k, stride = args.part, args.publishers
     sent = 0
+    cpu = time.process_time()
     start = time.monotonic()
     end = start + args.seconds
     while True:
@@ -73,7 +82,8 @@ def _publisher(args: argparse.Namespace) -> None:
             pubs[sent % n_topics].publish(header + pack(float(sent * stride + k)))
             sent += 1
     stop = time.monotonic()
-    print(json.dumps({"matched": matched, "seconds": stop - start, "sent": sent}), flush=True)
+    cpu = time.process_time() - cpu
+    print(json.dumps({"matched": matched, "seconds": stop - start, "sent": sent, "cpu": cpu}), flush=True)
     time.sleep(3.0)  # keep reliable writers alive while the recorder drains
     node.destroy_node()
     rclpy.shutdown(context=context)
@@ -82,31 +92,53 @@ def _publisher(args: argparse.Namespace) -> None:
 _SDK_ROBOT = """
 import math, sys, time
 import dbglog
-topics, seconds = int(sys.argv[1]), float(sys.argv[2])
+topics, seconds, hz, seq = int(sys.argv[1]), float(sys.argv[2]), float(sys.argv[3]), sys.argv[4] == "seq"
 tags = [f"bench_sdk/t{i}" for i in range(topics)]
 dbglog.init()
 print("ready", flush=True)
 sys.stdin.readline()
 k = 0
+cpu = time.process_time()
 start = t = time.monotonic()
 while time.monotonic() - start < seconds:
     for i, tag in enumerate(tags):
-        dbglog.logfloat(tag, round(math.sin(k * 0.01 + i) + 0.001 * ((k * 7919 + i) % 13), 4))
+        # seq: every sample's value is its number (to find each one in the file); else a sensor-like signal.
+        if seq:
+            dbglog.logfloat(tag, float(k * topics + i))
+        else:
+            dbglog.logfloat(tag, round(math.sin(k * 0.01 + i) + 0.001 * ((k * 7919 + i) % 13), 4))
     k += 1
-    t += 0.01
+    t += 1.0 / hz
     time.sleep(max(0.0, t - time.monotonic()))
-dbglog.flush()
-print(k * topics, flush=True)
+elapsed = time.monotonic() - start
+cpu = time.process_time() - cpu
+dropped = dbglog.stats().dropped  # publishes what is still queued first
+print(k * topics, elapsed, cpu, dropped, flush=True)
 sys.stdin.readline()
 """
 
 
-def _sdk_run(args: argparse.Namespace, out: Path) -> dict[str, float]:
-    """The dbglog SDK logging Float64 tags at 100 Hz, recorded with the default targets."""
+def _sdk_run(args: argparse.Namespace, out: Path, *, hz: float = 100.0, seq: bool = False) -> dict[str, Any]:
+    """The dbglog SDK logging Float64 tags at `hz`, recorded with the default targets.
+
+    With `seq`, every value is the sample's number and the samples of the batch copy are counted.
+    """
+    import numpy as np
+
+    from dbglog._ros._batch import decode_batch
     from dbglog.record import read_recording
 
+    load0 = os.getloadavg()[0]
     robot = subprocess.Popen(
-        [sys.executable, "-c", _SDK_ROBOT, str(args.topics), str(args.sdk_seconds)],
+        [
+            sys.executable,
+            "-c",
+            _SDK_ROBOT,
+            str(args.topics),
+            str(args.sdk_seconds),
+            str(hz),
+            "seq" if seq else "-",
+        ],
         stdin=subprocess.PIPE,
         stdout=subprocess.PIPE,
         text=True,
@@ -125,7 +157,9 @@ def _sdk_run(args: argparse.Namespace, out: Path) -> dict[str, float]:
     time.sleep(1.0)
     robot.stdin.write("go\n")
     robot.stdin.flush()
-    samples = int(robot.stdout.readline())
+    samples_text, elapsed, robot_cpu, sdk_dropped = robot.stdout.readline().split()
+    samples = int(samples_text)
+    load1 = os.getloadavg()[0]
     last = -1
     while True:
         words = rec.stderr.readline().replace(",", "").split()
@@ -134,28 +168,99 @@ def _sdk_run(args: argparse.Namespace, out: Path) -> dict[str, float]:
             if count == last:
                 break
             last = count
+    rec_cpu = _cpu_seconds(rec.pid)
     rec.send_signal(signal.SIGINT)
-    rec.communicate(timeout=120)
+    _, err = rec.communicate(timeout=120)
     robot.stdin.close()
     robot.wait(30)
     recording = read_recording(out)
     batch = recording.topics.get("/_dbglog/samples")
-    batch_bytes = sum(len(p) for p in batch.payloads()) if batch is not None else 0
+    payloads = list(batch.payloads()) if batch is not None else []
+    batch_bytes = sum(len(p) for p in payloads)
     tag_msgs = sum(len(t) for n, t in recording.topics.items() if n.startswith("/rosdashboard/"))
-    return {"samples": samples, "bytes": out.stat().st_size, "tag_msgs": tag_msgs, "batch_raw": batch_bytes}
+    result: dict[str, Any] = {
+        "samples": samples,
+        "seconds": float(elapsed),
+        "robot_cpu": float(robot_cpu),
+        "sdk_dropped": int(sdk_dropped),
+        "rec_cpu": rec_cpu,
+        "load": max(load0, load1),
+        "bytes": out.stat().st_size,
+        "tag_msgs": tag_msgs,
+        "batch_raw": batch_bytes,
+        "batches": len(payloads),
+        "recorded_msgs": sum(len(t) for t in recording.topics.values()),
+        "dds_lost": next((ln.split()[-1] for ln in err.splitlines() if "longest pause" in ln), "?"),
+    }
+    if seq:
+        values = [
+            t.values for b in payloads for t in decode_batch(bytes(b)).tags if not isinstance(t.values, list)
+        ]
+        got = np.unique(np.concatenate(values)) if values else np.zeros(0)
+        result["batch_samples"] = len(got)
+        result["lost"] = samples - len(got)
+        missing = np.setdiff1d(np.arange(samples, dtype=np.float64), got)
+        # When the lost samples were logged (s into the run), to tell a stall from a start or an end.
+        result["lost_at"] = sorted({round(float(m) / args.topics / hz, 1) for m in missing})
+        tag_values = [
+            t.values
+            for n, t in recording.topics.items()
+            if n.startswith("/rosdashboard/") and t.values is not None
+        ]
+        in_tags = np.unique(np.concatenate(tag_values)) if tag_values else np.zeros(0)
+        result["tag_samples"] = len(in_tags)
+    return result
 
 
-def _record_run(args: argparse.Namespace, out: Path) -> dict[str, float]:
-    """Start the recorder CLI and the publisher; return sent, recorded, lost, CPU and the file's size."""
+_VARIANTS: dict[str, dict[str, int | bool]] = {
+    "tag": {"recorder": True, "viewer": False, "pub_depth": 0, "queue_depth": 0},
+    "deep-queue": {"recorder": True, "viewer": False, "pub_depth": 0, "queue_depth": 10_000},
+    "deep-pub": {"recorder": True, "viewer": False, "pub_depth": 1000, "queue_depth": 0},
+    "deep-both": {"recorder": True, "viewer": False, "pub_depth": 1000, "queue_depth": 10_000},
+    "viewer": {"recorder": False, "viewer": True, "pub_depth": 0, "queue_depth": 0},
+    "rec+viewer": {"recorder": True, "viewer": True, "pub_depth": 0, "queue_depth": 0},
+}
+"""Record-run alternatives: publishers' depth (0: tag QoS, 100), recorder's queue depth (0: its default)."""
+
+
+def _record_run(args: argparse.Namespace, out: Path, variant: str = "tag") -> dict[str, Any]:
+    """Start the recorder CLI (and/or a viewer engine) and the publishers; return what each measured."""
     import numpy as np
 
     from dbglog.record import read_recording
 
-    rec = subprocess.Popen(
-        [sys.executable, "-m", "dbglog", "record", "-o", str(out), "--force", _TAG],
-        stderr=subprocess.PIPE,
-        text=True,
-    )
+    v = _VARIANTS[variant]
+    load0 = os.getloadavg()[0]
+    rec = None
+    if v["recorder"]:
+        cmd = [sys.executable, "-m", "dbglog", "record", "-o", str(out), "--force", _TAG]
+        if v["queue_depth"]:
+            cmd += ["--queue-depth", str(v["queue_depth"])]
+        rec = subprocess.Popen(cmd, stderr=subprocess.PIPE, text=True)
+    viewer = None
+    if v["viewer"]:
+        viewer = subprocess.Popen(
+            [
+                sys.executable,
+                "-m",
+                "benchmarks.bench_engine",
+                "--role",
+                "engine",
+                "--topics",
+                str(args.topics),
+                "--prefix",
+                f"/rosdashboard/{_TAG}/t",
+                "--latency",
+                "0",
+            ],
+            cwd=_ROOT,
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            text=True,
+        )
+        assert viewer.stdout is not None
+        if viewer.stdout.readline().strip() != "ready":
+            raise RuntimeError("the viewer engine did not start")
     pubs = [
         subprocess.Popen(
             [
@@ -174,6 +279,8 @@ def _record_run(args: argparse.Namespace, out: Path) -> dict[str, float]:
                 str(args.domain),
                 "--publishers",
                 str(args.publishers),
+                "--pub-depth",
+                str(v["pub_depth"]),
                 "--part",
                 str(k),
             ],
@@ -186,13 +293,27 @@ def _record_run(args: argparse.Namespace, out: Path) -> dict[str, float]:
     for pub in pubs:
         assert pub.stdout is not None
         results.append(json.loads(pub.stdout.readline()))
+    load1 = os.getloadavg()[0]
     for pub in pubs:
         pub.wait(60)
-    result = {
-        "matched": all(r["matched"] for r in results),
+    sent_parts = [int(r["sent"]) for r in results]
+    result: dict[str, Any] = {
+        "matched": float(all(r["matched"] for r in results)),
         "seconds": max(r["seconds"] for r in results),
-        "sent": sum(r["sent"] for r in results),
+        "sent": sum(sent_parts),
+        "pub_cpu": sum(r["cpu"] for r in results),
+        "load": max(load0, load1),
     }
+    if viewer is not None:
+        time.sleep(2.0)  # let the engine drain its queues
+        out_text, _ = viewer.communicate("stop\n", timeout=60)
+        report = json.loads(out_text.strip().splitlines()[-1])
+        samples = report["samples"]
+        result["viewer_landed"] = report["landed"]
+        if len(samples) >= 2:
+            result["viewer_cpu"] = samples[-1][2] - samples[0][2]
+    if rec is None:
+        return result
     assert rec.stderr is not None
     last = -1
     while True:  # until the recorder's once-a-second summary stops growing
@@ -205,9 +326,17 @@ def _record_run(args: argparse.Namespace, out: Path) -> dict[str, float]:
             last = count
         if not line:
             break
-    cpu = _cpu_seconds(rec.pid)
+    result["rec_cpu"] = _cpu_seconds(rec.pid)
     rec.send_signal(signal.SIGINT)
-    rec.communicate(timeout=120)
+    _, err = rec.communicate(timeout=120)
+    for line in err.splitlines():
+        if "longest pause" in line:
+            words = line.replace(",", "").replace("%", "").split()
+            with contextlib.suppress(ValueError, IndexError):  # a recorder before these reports
+                result["pause_ms"] = float(words[words.index("loop") + 1])
+                result["fullest"] = float(words[words.index("queue") + 1])
+                result["full_takes"] = float(words[words.index("(full") + 1])
+                result["dds_lost"] = float(words[-1])
     recording = read_recording(out, keep_payloads=False)
     recorded = 0
     seen: list[np.ndarray] = []
@@ -215,16 +344,37 @@ def _record_run(args: argparse.Namespace, out: Path) -> dict[str, float]:
         assert topic.values is not None
         recorded += len(topic)
         seen.append(topic.values)
-    distinct = len(np.unique(np.concatenate(seen))) if seen else 0
+    got = np.unique(np.concatenate(seen)).astype(np.int64) if seen else np.zeros(0, np.int64)
+    result.update(recorded=recorded, distinct=len(got), lost=result["sent"] - len(got))
+    result["bytes"] = out.stat().st_size
+    result.update(_bursts(got, sent_parts, args))
+    return result
+
+
+def _bursts(got: object, sent_parts: list[int], args: argparse.Namespace) -> dict[str, Any]:
+    """Group the lost sequence numbers into bursts (consecutive messages of one topic)."""
+    import numpy as np
+
+    stride = len(sent_parts)
+    bursts: list[tuple[int, float]] = []  # (length, seconds into the run)
+    for k, sent in enumerate(sent_parts):
+        n_k = len(range(k, args.topics, stride))
+        expected = np.arange(sent, dtype=np.int64) * stride + k
+        missing = np.setdiff1d(expected, np.asarray(got))
+        if not len(missing):
+            continue
+        seq = missing // stride  # the publisher's own sequence number
+        topic, index = seq % n_k, seq // n_k
+        order = np.lexsort((index, topic))
+        topic, index, seq = topic[order], index[order], seq[order]
+        breaks = np.flatnonzero((np.diff(topic) != 0) | (np.diff(index) != 1)) + 1
+        for lo, hi in zip([0, *breaks.tolist()], [*breaks.tolist(), len(seq)], strict=True):
+            bursts.append((hi - lo, float(seq[lo]) / (args.rate / stride)))
+    times = sorted({round(t) for _, t in bursts})
     return {
-        "matched": float(result["matched"]),
-        "seconds": result["seconds"],
-        "sent": result["sent"],
-        "recorded": recorded,
-        "distinct": distinct,
-        "lost": result["sent"] - distinct,
-        "bytes": out.stat().st_size,
-        "cpu": cpu,
+        "bursts": float(len(bursts)),
+        "longest_burst": float(max((n for n, _ in bursts), default=0)),
+        "burst_seconds": times,
     }
 
 
@@ -281,6 +431,88 @@ def _peer_decode(path: Path, limit: int) -> tuple[int, float]:
     return count, time.perf_counter() - start
 
 
+def _spans(times: list[float]) -> str:
+    """Sorted times (0.1 s steps) as a few 'a-b' spans."""
+    spans: list[list[float]] = []
+    for t in times:
+        if spans and t - spans[-1][1] <= 0.11:
+            spans[-1][1] = t
+        else:
+            spans.append([t, t])
+    text = ", ".join(f"{a:g}-{b:g}" if b > a else f"{a:g}" for a, b in spans[:5])
+    return text + (" ..." if len(spans) > 5 else "") if spans else "-"
+
+
+def _record_table(args: argparse.Namespace, tmp: Path) -> None:
+    """Run the record variants side by side (interleaved repeats) and print one row per run."""
+    import statistics
+
+    variants = [v.strip() for v in args.variants.split(",") if v.strip()]
+    for v in variants:
+        if v not in _VARIANTS:
+            raise SystemExit(f"unknown variant {v!r} (known: {', '.join(_VARIANTS)})")
+    rows = []
+    lost: dict[str, list[float]] = {v: [] for v in variants}
+    for _ in range(args.repeats):
+        for v in variants:
+            r = _record_run(args, tmp / "flood.mcap", v)
+            sent = r["sent"]
+            row = [
+                v,
+                f"{r['load']:.1f}",
+                f"{sent / r['seconds']:,.0f}",
+                f"{r['pub_cpu'] / sent * 1e6:.1f}",
+            ]
+            if "lost" in r:
+                lost[v].append(r["lost"])
+                row += [
+                    f"{r['lost']:,.0f} ({r['lost'] / sent:.2%})",
+                    f"{r['bursts']:.0f} / {r['longest_burst']:.0f}",
+                    ", ".join(str(t) for t in r["burst_seconds"][:6]) or "-",
+                    f"{r['rec_cpu'] / r['seconds']:.2f}",
+                    f"{r['rec_cpu'] / max(1, r['recorded']) * 1e6:.1f}",
+                    f"{r.get('pause_ms', float('nan')):.0f}",
+                    f"{r.get('fullest', float('nan')):.0f} % / {r.get('full_takes', float('nan')):.0f}",
+                    f"{r.get('dds_lost', float('nan')):.0f}",
+                    f"{r['bytes'] / max(1, r['recorded']):.1f}",
+                ]
+            else:
+                row += ["-"] * 9
+            if "viewer_landed" in r:
+                row += [
+                    f"{r['viewer_landed']:,.0f} ({max(0.0, 1 - r['viewer_landed'] / sent):.2%} lost)",
+                    f"{r.get('viewer_cpu', float('nan')) / max(1, r['viewer_landed']) * 1e6:.1f}",
+                ]
+            else:
+                row += ["-", "-"]
+            rows.append(row)
+    print_table(
+        f"dbglog record: {args.topics} topics, {args.rate:,.0f} msg/s for {args.seconds:g} s, "
+        f"{args.publishers} publisher processes, {os.cpu_count()} CPUs",
+        [
+            "variant",
+            "load avg",
+            "achieved msg/s",
+            "publishers CPU µs/msg",
+            "recorder lost",
+            "bursts / longest (msgs of one topic)",
+            "bursts at (s)",
+            "recorder CPU (cores)",
+            "recorder CPU µs/msg",
+            "longest take-loop pause (ms)",
+            "fullest queue / times full",
+            "DDS-reported lost",
+            "bytes/msg",
+            "viewer landed",
+            "viewer CPU µs/msg",
+        ],
+        rows,
+    )
+    for v in variants:
+        if lost[v]:
+            print(f"{v}: median lost {statistics.median(lost[v]):,.0f} over {len(lost[v])} run(s)")
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the benchmark and print the tables."""
     parser = argparse.ArgumentParser(
@@ -293,9 +525,22 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--hours", type=float, default=1.0, help="length of the large file (100 Hz)")
     parser.add_argument("--peer-minutes", type=float, default=3.0, help="part decoded by mcap_ros2")
     parser.add_argument("--publishers", type=int, default=2, help="publisher processes for the record run")
+    parser.add_argument("--pub-depth", type=int, default=0, help=argparse.SUPPRESS)
+    parser.add_argument(
+        "--variants",
+        default="tag",
+        help=f"comma-separated record-run variants, run side by side: {', '.join(_VARIANTS)}",
+    )
+    parser.add_argument("--repeats", type=int, default=1, help="runs of each variant (interleaved)")
     parser.add_argument("--part", type=int, default=0, help=argparse.SUPPRESS)
-    parser.add_argument("--sdk-seconds", type=float, default=30.0, help="length of the SDK run")
-    parser.add_argument("--only", choices=["record", "sdk", "load"], default=None)
+    parser.add_argument("--sdk-seconds", type=float, default=30.0, help="length of the SDK runs")
+    parser.add_argument(
+        "--sdk-hz",
+        type=float,
+        default=1000.0,
+        help="rate per tag of the SDK flood run (every sample numbered and looked for in the file)",
+    )
+    parser.add_argument("--only", choices=["record", "sdk", "sdk-flood", "load"], default=None)
     parser.add_argument("--domain", type=int, default=None)
     args = parser.parse_args(argv)
     if args.domain is None:
@@ -308,35 +553,64 @@ def main(argv: list[str] | None = None) -> int:
 
     tmp = Path(tempfile.mkdtemp(prefix="bench_record_"))
     if args.only in (None, "record"):
-        r = _record_run(args, tmp / "flood.mcap")
-        print_table(
-            f"dbglog record: {args.topics} topics, {args.rate:,.0f} msg/s for {args.seconds:g} s",
-            ["sent", "achieved msg/s", "recorded", "lost", "recorder CPU (cores)", "file", "bytes/msg"],
-            [
-                [
-                    f"{r['sent']:,.0f}",
-                    f"{r['sent'] / r['seconds']:,.0f}",
-                    f"{r['distinct']:,.0f}",
-                    f"{r['lost']:,.0f}",
-                    f"{r['cpu'] / max(1.0, r['seconds']):.2f}",
-                    f"{r['bytes'] / 1e6:.1f} MB",
-                    f"{r['bytes'] / max(1, r['recorded']):.1f}",
-                ]
-            ],
-        )
+        _record_table(args, tmp)
     if args.only in (None, "sdk"):
         r = _sdk_run(args, tmp / "sdk.mcap")
         print_table(
             f"dbglog SDK: {args.topics} Float64 tags x 100 Hz for {args.sdk_seconds:g} s, default targets",
-            ["samples logged", "per-tag messages recorded", "file", "bytes/sample (both copies)"],
+            ["load avg", "samples logged", "per-tag messages recorded", "file", "bytes/sample (both copies)"],
             [
                 [
+                    f"{r['load']:.1f}",
                     f"{r['samples']:,.0f}",
                     f"{r['tag_msgs']:,.0f}",
                     f"{r['bytes'] / 1e6:.2f} MB",
                     f"{r['bytes'] / r['samples']:.1f}",
                 ]
             ],
+        )
+    if args.only in (None, "sdk", "sdk-flood"):
+        rows = []
+        for _ in range(args.repeats):
+            r = _sdk_run(args, tmp / "sdk_flood.mcap", hz=args.sdk_hz, seq=True)
+            rows.append(
+                [
+                    f"{r['load']:.1f}",
+                    f"{r['samples'] / r['seconds']:,.0f}",
+                    f"{r['samples']:,.0f}",
+                    f"{r['batch_samples']:,.0f}",
+                    f"{r['tag_samples']:,.0f}",
+                    f"{r['lost']:,.0f}",
+                    _spans(r["lost_at"]),
+                    f"{r['sdk_dropped']:,}",
+                    f"{r['recorded_msgs'] / r['seconds']:,.0f}",
+                    f"{r['robot_cpu'] / r['samples'] * 1e6:.1f}",
+                    f"{r['rec_cpu'] / r['seconds']:.2f}",
+                    f"{r['rec_cpu'] / r['samples'] * 1e6:.2f}",
+                    r["dds_lost"],
+                    f"{r['bytes'] / r['samples']:.1f}",
+                ]
+            )
+        print_table(
+            f"dbglog SDK flood: {args.topics} tags x {args.sdk_hz:g} Hz for {args.sdk_seconds:g} s, "
+            "default targets, every sample numbered",
+            [
+                "load avg",
+                "samples/s logged",
+                "samples logged",
+                "in the batch copy",
+                "in the tag topics",
+                "lost (batch copy)",
+                "logged at (s)",
+                "dropped by the SDK",
+                "recorder msg/s",
+                "robot CPU µs/sample",
+                "recorder CPU (cores)",
+                "recorder CPU µs/sample",
+                "DDS-reported lost",
+                "bytes/sample",
+            ],
+            rows,
         )
     if args.only in (None, "load"):
         big = tmp / "big.mcap"

@@ -389,3 +389,51 @@ def test_record_no_batch_leaves_out_the_batch_topic(tmp_path: Path, procs: Calla
     assert "/_dbglog/samples" not in decoded
     assert sorted(decoded) == [f"/rosdashboard/{t}" for t in ("count", "early", "late", "speed", "state")]
     assert list(echo_lines(out, "speed")) == [repr(i * 0.5) for i in range(30)]
+
+
+def test_record_writes_sdk_tags_from_the_batch_without_subscribing_to_them(
+    tmp_path: Path, procs: Callable[..., Proc]
+) -> None:
+    """A tag topic only SDK nodes publish is written from the batch (all samples); a peer's is subscribed."""
+    from std_msgs.msg import Float64
+
+    from dbglog._ros._qos import tag_qos
+
+    n = 200
+    peer = RosPeer("record_tag_peer")
+    try:
+        pub = peer.publisher("/rosdashboard/from_peer", Float64, tag_qos())
+        robot = procs("-c", _ROBOT, str(n), stdin=True)
+        assert robot.line() == "ready"
+        out = tmp_path / "b.mcap"
+        rec = procs(*_record(out))
+        _stderr_until(rec, " 3 topics")  # the batch topic, early (from the batch), from_peer (subscribed)
+        assert peer.wait_for_subscribers(pub)
+        robot.send("go")
+        assert robot.line() == "sent"
+        for i in range(20):
+            pub.publish(Float64(data=float(i)))
+        _stderr_until(rec, " 7 topics")  # and speed, count, state, late
+
+        def recorders(topic: str) -> list[str]:
+            infos = peer.node.get_subscriptions_info_by_topic(topic)
+            return [i.node_name for i in infos if i.node_name.startswith("dbglog_record_")]
+
+        assert recorders("/_dbglog/samples")
+        assert recorders("/rosdashboard/from_peer")
+        assert recorders("/rosdashboard/speed") == []  # the SDK then publishes no per-sample copy
+        _counts(rec, lambda c: _settled(c, 3 * n + 20))
+        code, err = rec.end(signal.SIGINT)
+        assert code == 0, err
+        assert "reported lost by DDS 0" in err
+    finally:
+        peer.close()
+    decoded = _decoded(out)
+    assert [m.data for _, m in decoded["/rosdashboard/speed"]] == [i * 0.5 for i in range(n)]
+    assert [m.data for _, m in decoded["/rosdashboard/count"]] == list(range(n))
+    assert [m.data for _, m in decoded["/rosdashboard/state"]] == [f"step {i}" for i in range(n)]
+    assert [m.data for _, m in decoded["/rosdashboard/early"]] == [42.5]
+    assert [m.data for _, m in decoded["/rosdashboard/late"]] == [True]
+    assert [m.data for _, m in decoded["/rosdashboard/from_peer"]] == [float(i) for i in range(20)]
+    stamps = [t for t, _ in decoded["/rosdashboard/speed"]]
+    assert stamps == sorted(stamps)

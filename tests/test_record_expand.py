@@ -1,0 +1,113 @@
+"""The recorder's batch expansion: SDK batch samples written as their tags' own messages (mcap_ros2 reads)."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from array import array
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from mcap.reader import make_reader
+from mcap_ros2.decoder import DecoderFactory
+
+from dbglog._ros._batch import encode_batch, type_code
+from dbglog.record import McapWriter
+from dbglog.record._expand import BatchExpander
+
+T0 = 1_700_000_000_000_000_000
+
+
+def _batch(writer: int, seq: int, k: int) -> bytes:
+    """A batch of 3 samples of each of six tags (one not wanted), the k-th such batch."""
+    tags = [
+        (type_code("Float64"), b"speed"),
+        (type_code("Int32"), b"count"),
+        (type_code("Bool"), b"ok"),
+        (type_code("String"), b"state"),
+        (type_code("Int8"), b"small"),
+        (type_code("Float64"), b"hidden"),
+    ]
+    index, times, values = array("H"), array("q"), array("d")
+    strings: list[bytes] = []
+    for i in range(3):
+        n = 3 * k + i
+        for pos, (code, _name) in enumerate(tags):
+            index.append(pos)
+            times.append(T0 + n * 1000 + pos)
+            if code == type_code("String"):
+                values.append(float(len(strings)))
+                strings.append(f"step {n} é".encode())
+            elif code == type_code("Bool"):
+                values.append(float(n % 2))
+            else:
+                values.append(n * 0.5 if pos in (0, 5) else float(n - 4))
+    return encode_batch(writer, seq, tags, index, times, values, strings)
+
+
+def _read(path: Path) -> dict[str, list[tuple[int, Any, dict[str, str]]]]:
+    """Every message decoded by mcap + mcap_ros2: topic -> (publish time, message, channel metadata)."""
+    out: dict[str, list[tuple[int, Any, dict[str, str]]]] = {}
+    with path.open("rb") as f:
+        reader = make_reader(f, decoder_factories=[DecoderFactory()])
+        for _schema, channel, message, decoded in reader.iter_decoded_messages(log_time_order=False):
+            out.setdefault(channel.topic, []).append((message.publish_time, decoded, dict(channel.metadata)))
+    return out
+
+
+def test_batch_samples_become_their_tags_messages(tmp_path: Path) -> None:
+    """Wanted tags' samples decode as their std_msgs type with their source times; re-sent batches skipped."""
+    path = tmp_path / "x.mcap"
+    with McapWriter(path) as w:
+        expander = BatchExpander(w, lambda topic: topic != "/rosdashboard/hidden")
+        assert expander.expand(T0, _batch(7, 0, 0)) == 15
+        assert expander.expand(T0 + 1, _batch(7, 1, 1)) == 15
+        assert expander.expand(T0 + 2, _batch(7, 1, 1)) == 0  # the same batch again (re-subscription)
+        assert expander.expand(T0 + 3, _batch(8, 0, 2)) == 15  # another writer counts on its own
+        assert expander.expand(T0 + 4, b"\x00\x01\x00\x00 not a batch") == 0
+    assert expander.bad == 1
+    assert expander.topics == {f"/rosdashboard/{t}" for t in ("speed", "count", "ok", "state", "small")}
+    got = _read(path)
+    assert sorted(got) == sorted(expander.topics)
+    n = range(9)
+    assert [m.data for _, m, _ in got["/rosdashboard/speed"]] == [i * 0.5 for i in n]
+    assert [m.data for _, m, _ in got["/rosdashboard/count"]] == [i - 4 for i in n]
+    assert [m.data for _, m, _ in got["/rosdashboard/small"]] == [i - 4 for i in n]
+    assert [m.data for _, m, _ in got["/rosdashboard/ok"]] == [i % 2 == 1 for i in n]
+    assert [m.data for _, m, _ in got["/rosdashboard/state"]] == [f"step {i} é" for i in n]
+    assert [t for t, _, _ in got["/rosdashboard/speed"]] == [T0 + i * 1000 for i in n]
+    assert [t for t, _, _ in got["/rosdashboard/state"]] == [T0 + i * 1000 + 3 for i in n]
+    assert got["/rosdashboard/speed"][0][2] == {"dbglog_from": "/_dbglog/samples"}
+
+
+def test_write_fixed_takes_a_channel_per_message(tmp_path: Path) -> None:
+    """write_fixed with one channel id per message files each message under its own channel."""
+    path = tmp_path / "y.mcap"
+    with McapWriter(path, chunk_bytes=64) as w:  # small chunks: the split keeps each message's channel
+        a = w.add_channel("/a", "std_msgs/msg/Float64")
+        b = w.add_channel("/b", "std_msgs/msg/Float64")
+        values = np.arange(10, dtype="<f8")
+        rows = np.zeros((10, 12), dtype=np.uint8)
+        rows[:, 1] = 1
+        rows[:, 4:] = values.view(np.uint8).reshape(10, 8)
+        chans = np.array([a, b] * 5, dtype=np.int64)
+        times = T0 + np.arange(10, dtype=np.int64)
+        w.write_fixed(chans, times, rows, times)
+    got = _read(path)
+    assert [m.data for _, m, _ in got["/a"]] == [0.0, 2.0, 4.0, 6.0, 8.0]
+    assert [t for t, _, _ in got["/b"]] == [T0 + i for i in (1, 3, 5, 7, 9)]
+
+
+def test_record_rejects_a_queue_depth_below_one(tmp_path: Path) -> None:
+    """--queue-depth 0 is refused with a clear message and exit code 2, before any file is made."""
+    done = subprocess.run(
+        [sys.executable, "-m", "dbglog", "record", "-o", str(tmp_path / "q.mcap"), "--queue-depth", "0"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=False,
+    )
+    assert done.returncode == 2
+    assert "--queue-depth must be at least 1, not 0" in done.stderr
+    assert not (tmp_path / "q.mcap").exists()
