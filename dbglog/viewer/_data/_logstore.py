@@ -63,7 +63,7 @@ MAX_NODES: Final = 65_000
 """Distinct logger names kept apart; later ones share the name `OTHER_NODE` (node ids are 16 bits)."""
 OTHER_NODE: Final = "\u2026"
 _RUN_AFTER: Final = 4
-"""Consecutive matching lines after which one DFA call takes the whole run of matching lines."""
+"""Adjacent matching lines after which one DFA call takes the rest of the run of matching lines."""
 _MAX_SLICE: Final = 1 << 20
 _MAX_CACHED: Final = 12
 """Filter results (masks) kept: switching back to a recent filter costs nothing."""
@@ -1040,34 +1040,35 @@ class LogStore:
     def _find_regex(
         self, compiled: tuple[re2._Regexp, re2._Regexp], r0: int, r1: int
     ) -> npt.NDArray[np.bool_]:
-        """Rows of ``[r0, r1)`` whose message contains a match: one RE2 call per matching line, or one for a
-        whole run of consecutive matching lines while matches come in runs."""
+        """Rows of ``[r0, r1)`` whose message contains a match: one RE2 call per matching line (it ends at the
+        line's end: no search for the next line), or, after `_RUN_AFTER` adjacent ones, one for the rest of
+        the run of matching lines."""
         out = np.zeros(r1 - r0, dtype=bool)
         if r1 <= r0:
             return out
         lines, runs = compiled
         match, run = lines._regexp.Match, runs._regexp.Match
         data = self._text
-        find, count = data.find, data.count
         pos, end = int(self._starts[r0]), int(self._starts[r1])
         hits: list[int] = []
+        hit = hits.append
         spans: list[tuple[int, int]] = []
-        use_runs = True
+        adjacent = 0
         while pos < end:
+            if adjacent >= _RUN_AFTER:  # matches come in a run: one call takes the rest of it
+                stop = run(_ANCHOR_START, data, pos, end)[0][1]
+                if stop > pos:
+                    spans.append((pos, stop))
+                    pos = stop
+                adjacent = 0
+                continue
             found = match(_UNANCHORED, data, pos, end)[0]
             start = found[0]
             if start < 0:
                 break
-            if use_runs or start == pos:  # a run is likely: one call takes all of it
-                stop = run(_ANCHOR_START, data, start, end)[0][1]
-                spans.append((start, stop))
-                use_runs = count(b"\n", start, stop) > 1
-                pos = stop
-            else:
-                hits.append(start)
-                pos = find(b"\n", found[1], end) + 1
-                if pos <= 0:
-                    break
+            adjacent = adjacent + 1 if start == pos else 1
+            hit(start)
+            pos = found[1] + 1
         starts = self._starts[r0 : r1 + 1]
         if hits:
             out[np.searchsorted(starts, np.asarray(hits, dtype=np.int64))] = True
@@ -1164,7 +1165,7 @@ def _compiled(kind: str, pattern: str) -> tuple[re2._Regexp, re2._Regexp]:
     body = _line_anchors(pattern)
     try:
         # Each stored message is one line of the text; with never_nl a match never spans two of them.
-        lines = re2.compile(rf"(?m)^[^\n]*?(?:{body})", options=_MATCH_OPTIONS)
+        lines = re2.compile(rf"(?m)^[^\n]*?(?:{body})[^\n]*", options=_MATCH_OPTIONS)
         runs = re2.compile(rf"(?m)(?:^[^\n]*?(?:{body})[^\n]*$\C)+", options=_MATCH_OPTIONS)
     except re2.error as exc:
         raise FilterError(f"{kind}: {exc}") from None
