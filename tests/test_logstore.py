@@ -93,57 +93,6 @@ def test_undecodable_payloads_are_skipped_and_counted() -> None:
     assert store.line(0).message == "fine"
 
 
-def _big_endian(raw: bytes) -> bytes:
-    """The same Log in big-endian CDR (what a middleware may send): lengths and line number swapped."""
-    import struct
-
-    out = bytearray(raw)
-    out[1] = 0
-    at = 16
-    for _ in range(4):  # name, msg, file, function: a length, the bytes, padding to 4
-        (n,) = struct.unpack_from("<I", raw, at)
-        struct.pack_into(">I", out, at, n)
-        at = 4 + ((at + 4 + n - 4 + 3) & ~3)
-    struct.pack_into(">I", out, at, struct.unpack_from("<I", raw, at)[0])
-    return bytes(out)
-
-
-@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(
-    st.lists(
-        st.tuples(
-            st.sampled_from(["planner", "driver", "n\u00e9", "x" * 40]),
-            st.one_of(
-                st.text(alphabet="ab \n\x00\x01\u00e9", max_size=12),
-                st.just("\u00e9" * (MAX_LINE // 2 + 7)),
-            ),
-            st.sampled_from([DEBUG, INFO, WARN, ERROR, FATAL]),
-            st.sampled_from([("", "", 0), ("/src/a.cpp", "step", 42), ("b.py", "", 7)]),
-        ),
-        min_size=1,
-        max_size=30,
-    ),
-    st.integers(0, 31),
-)
-def test_a_batch_read_at_once_equals_one_read_line_by_line(
-    entries: list[tuple[str, str, int, tuple[str, str, int]]], odd: int
-) -> None:
-    """The batch reader of Log payloads gives what reading each line does: text, node, site, cut, counts."""
-    payloads = [_log_cdr(n, m, lv, file=f, function=fn, line=ln) for n, m, lv, (f, fn, ln) in entries]
-    if odd < len(payloads):  # one big-endian or broken payload sends the whole batch line by line
-        payloads[odd] = _big_endian(payloads[odd]) if odd % 2 else payloads[odd][:19]
-    times = np.arange(len(payloads), dtype=np.float64)
-    batch, single = LogStore(), LogStore()
-    single._read_logs = lambda _payloads: None  # type: ignore[method-assign,assignment]
-    for store in (batch, single):
-        store.push(LOG, times, payloads)
-        store.sync()
-    assert (len(batch), batch.undecodable, batch.nodes()) == (len(single), single.undecodable, single.nodes())
-    assert [batch.line(i) for i in range(len(batch))] == [single.line(i) for i in range(len(single))]
-    assert batch.rows(range(len(batch))) == single.rows(range(len(single)))
-    assert batch._text == single._text
-
-
 def test_the_ids_shown_are_a_view_later_lines_leave_alone() -> None:
     """`select_within` gives its ids without copying them all; lines arriving later, late or evicting,
     do not change what was given."""

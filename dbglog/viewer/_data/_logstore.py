@@ -74,8 +74,6 @@ _SANITIZE: Final = bytes.maketrans(b"\x00\x01\n", b"\x1a\x1a\x1f")
 _U32: Final = (struct.Struct("<I"), struct.Struct(">I"))
 _NAME_AT: Final = 16
 """Payload offset of a Log's name length (after the header, the stamp and the level)."""
-_LOG_LEVEL_AT: Final = 12
-"""Payload offset of a Log's level (after the header and the stamp)."""
 _MATCH_OPTIONS = re2_options(32 << 20)
 _MATCH_OPTIONS.never_nl = True  # a pattern never matches a line break, so never spans two stored lines
 _UNANCHORED = re2._Anchor.UNANCHORED
@@ -395,14 +393,7 @@ class LogStore:
         keep = np.ones(n, dtype=bool)
         cuts: list[tuple[int, int]] = []
         append = texts.append
-        fast = self._read_logs(payloads) if msg_type == LOG_TYPE else None
-        if fast is not None:
-            levels, nodes, sites, texts = fast
-            for index, raw_text in enumerate(texts):
-                if len(raw_text) > MAX_LINE:
-                    cuts.append((index, len(raw_text) - MAX_LINE))
-                    texts[index] = _cut_utf8(raw_text)
-        elif msg_type == LOG_TYPE:
+        if msg_type == LOG_TYPE:
             node_ids, site_ids = self._node_ids, self._site_ids
             for i, raw in enumerate(payloads):
                 read = read_log(raw)
@@ -445,68 +436,6 @@ class LogStore:
         for index, extra in cuts:
             cut[index] = extra
         return _Decoded(msg_type, n, times, levels, nodes, sites, texts, cut, undecodable)
-
-    def _read_logs(
-        self, payloads: list[bytes]
-    ) -> tuple[npt.NDArray[np.uint8], npt.NDArray[np.uint16], npt.NDArray[np.uint32], list[bytes]] | None:
-        """Read a batch of little-endian Log payloads at once: levels, node and site ids, sanitized messages
-        (uncut); None when any payload is not one `read_log` would read that way (the caller goes line by
-        line). numpy finds every field's offset; each line costs three slices and two dict lookups."""
-        n = len(payloads)
-        lens = np.fromiter(map(len, payloads), dtype=np.int64, count=n)
-        if n == 0 or int(lens.min()) < _NAME_AT + 4:
-            return None
-        joined = b"".join(payloads)
-        offs = np.zeros(n, dtype=np.int64)
-        np.cumsum(lens[:-1], out=offs[1:])
-        data = np.frombuffer(joined, dtype=np.uint8)
-        if not (np.all(data[offs] == 0) and np.all(data[offs + 1] == 1)):
-            return None  # not all little endian
-
-        def u32(at: npt.NDArray[np.int64]) -> npt.NDArray[np.int64]:
-            at = np.minimum(at, len(data) - 4)
-            return (
-                data[at].astype(np.int64)
-                | (data[at + 1].astype(np.int64) << 8)
-                | (data[at + 2].astype(np.int64) << 16)
-                | (data[at + 3].astype(np.int64) << 24)
-            )
-
-        name_len = u32(offs + _NAME_AT)
-        name_end = _NAME_AT + 4 + name_len
-        msg_at = 4 + ((name_end - 4 + 3) & ~3)
-        fits = (name_len >= 1) & (msg_at + 4 <= lens)
-        msg_len = u32(offs + np.where(fits, msg_at, 0))
-        msg_end = msg_at + 4 + msg_len
-        if not np.all(fits & (msg_len >= 1) & (msg_end <= lens)):
-            return None
-        levels = data[offs + _LOG_LEVEL_AT].copy()
-        tail_at = offs + 4 + ((msg_end - 4 + 3) & ~3)
-        ends = offs + lens
-        name_a, name_b = (offs + _NAME_AT + 4).tolist(), (offs + name_end - 1).tolist()
-        clean = joined.translate(_SANITIZE)  # per byte: the same as sanitizing each message after the cut
-        texts = [
-            clean[a:b]
-            for a, b in zip((offs + msg_at + 4).tolist(), (offs + msg_end - 1).tolist(), strict=True)
-        ]
-        node_ids, site_ids = self._node_ids, self._site_ids
-        nodes = np.zeros(n, dtype=np.uint16)
-        sites = np.zeros(n, dtype=np.uint32)
-        node_list = [node_ids.get(joined[a:b], -1) for a, b in zip(name_a, name_b, strict=True)]
-        site_list = [
-            site_ids.get(joined[a:b], -1) for a, b in zip(tail_at.tolist(), ends.tolist(), strict=True)
-        ]
-        for i in [i for i, k in enumerate(node_list) if k < 0]:
-            name = joined[name_a[i] : name_b[i]]
-            found = node_ids.get(name)
-            node_list[i] = self._intern_node(name) if found is None else found
-        for i in [i for i, k in enumerate(site_list) if k < 0]:
-            raw, at = payloads[i], int(tail_at[i] - offs[i])
-            found = site_ids.get(raw[at:])
-            site_list[i] = self._intern_site(raw, at, raw[at:]) if found is None else found
-        nodes[:] = node_list
-        sites[:] = site_list
-        return levels, nodes, sites, texts
 
     def append(
         self,
