@@ -118,10 +118,56 @@ sys.stdin.readline()
 """
 
 
-def _sdk_run(args: argparse.Namespace, out: Path, *, hz: float = 100.0, seq: bool = False) -> dict[str, Any]:
+def _viewer_child(topics: int, prefix: str) -> subprocess.Popen[str]:
+    """Start bench_engine's receiver (the viewer's engine bound to `topics` topics); wait until ready."""
+    viewer = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "benchmarks.bench_engine",
+            "--role",
+            "engine",
+            "--topics",
+            str(topics),
+            "--prefix",
+            prefix,
+            "--latency",
+            "0",
+        ],
+        cwd=_ROOT,
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        text=True,
+    )
+    assert viewer.stdout is not None
+    if viewer.stdout.readline().strip() != "ready":
+        raise RuntimeError("the viewer engine did not start")
+    return viewer
+
+
+def _viewer_report(viewer: subprocess.Popen[str]) -> tuple[int, float]:
+    """Stop the viewer child; return (samples it took into its series, CPU seconds it used)."""
+    time.sleep(2.0)  # let the engine drain its queues
+    out_text, _ = viewer.communicate("stop\n", timeout=60)
+    report = json.loads(out_text.strip().splitlines()[-1])
+    samples = report["samples"]
+    cpu = samples[-1][2] - samples[0][2] if len(samples) >= 2 else float("nan")
+    return int(report["landed"]), cpu
+
+
+def _sdk_run(
+    args: argparse.Namespace,
+    out: Path,
+    *,
+    hz: float = 100.0,
+    seq: bool = False,
+    recorder: bool = True,
+    viewer: bool = False,
+) -> dict[str, Any]:
     """The dbglog SDK logging Float64 tags at `hz`, recorded with the default targets.
 
-    With `seq`, every value is the sample's number and the samples of the batch copy are counted.
+    With `seq`, every value is the sample's number and the samples of the batch copy are counted;
+    `viewer` runs the viewer's engine beside, bound to every tag (it reads the batch topic).
     """
     import numpy as np
 
@@ -146,20 +192,37 @@ def _sdk_run(args: argparse.Namespace, out: Path, *, hz: float = 100.0, seq: boo
     assert robot.stdout is not None
     assert robot.stdin is not None
     assert robot.stdout.readline().strip() == "ready"
-    rec = subprocess.Popen(
-        [sys.executable, "-m", "dbglog", "record", "-o", str(out), "--force"],
-        stderr=subprocess.PIPE,
-        text=True,
-    )
-    assert rec.stderr is not None
-    while "1 topics" not in rec.stderr.readline():  # the batch topic is there: go
-        pass
-    time.sleep(1.0)
+    engine = _viewer_child(args.topics, "/rosdashboard/bench_sdk/t") if viewer else None
+    rec = None
+    if recorder:
+        rec = subprocess.Popen(
+            [sys.executable, "-m", "dbglog", "record", "-o", str(out), "--force"],
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        assert rec.stderr is not None
+        while "1 topics" not in rec.stderr.readline():  # the batch topic is there: go
+            pass
+    time.sleep(1.0 if recorder else 2.0)
     robot.stdin.write("go\n")
     robot.stdin.flush()
     samples_text, elapsed, robot_cpu, sdk_dropped = robot.stdout.readline().split()
     samples = int(samples_text)
     load1 = os.getloadavg()[0]
+    result: dict[str, Any] = {
+        "samples": samples,
+        "seconds": float(elapsed),
+        "robot_cpu": float(robot_cpu),
+        "sdk_dropped": int(sdk_dropped),
+        "load": max(load0, load1),
+    }
+    if engine is not None:
+        result["viewer_landed"], result["viewer_cpu"] = _viewer_report(engine)
+    if rec is None:
+        robot.stdin.close()
+        robot.wait(30)
+        return result
+    assert rec.stderr is not None
     last = -1
     while True:
         words = rec.stderr.readline().replace(",", "").split()
@@ -178,13 +241,8 @@ def _sdk_run(args: argparse.Namespace, out: Path, *, hz: float = 100.0, seq: boo
     payloads = list(batch.payloads()) if batch is not None else []
     batch_bytes = sum(len(p) for p in payloads)
     tag_msgs = sum(len(t) for n, t in recording.topics.items() if n.startswith("/rosdashboard/"))
-    result: dict[str, Any] = {
-        "samples": samples,
-        "seconds": float(elapsed),
-        "robot_cpu": float(robot_cpu),
-        "sdk_dropped": int(sdk_dropped),
+    result |= {
         "rec_cpu": rec_cpu,
-        "load": max(load0, load1),
         "bytes": out.stat().st_size,
         "tag_msgs": tag_msgs,
         "batch_raw": batch_bytes,
@@ -540,7 +598,7 @@ def main(argv: list[str] | None = None) -> int:
         default=1000.0,
         help="rate per tag of the SDK flood run (every sample numbered and looked for in the file)",
     )
-    parser.add_argument("--only", choices=["record", "sdk", "sdk-flood", "load"], default=None)
+    parser.add_argument("--only", choices=["record", "sdk", "sdk-flood", "sdk-viewer", "load"], default=None)
     parser.add_argument("--domain", type=int, default=None)
     args = parser.parse_args(argv)
     if args.domain is None:
@@ -609,6 +667,45 @@ def main(argv: list[str] | None = None) -> int:
                 "recorder CPU µs/sample",
                 "DDS-reported lost",
                 "bytes/sample",
+            ],
+            rows,
+        )
+    if args.only in (None, "sdk-viewer"):
+        rows = []
+        for _ in range(args.repeats):
+            for with_recorder in (False, True):
+                r = _sdk_run(
+                    args,
+                    tmp / "sdk_viewer.mcap",
+                    hz=args.sdk_hz,
+                    seq=True,
+                    recorder=with_recorder,
+                    viewer=True,
+                )
+                landed = r["viewer_landed"]
+                rows.append(
+                    [
+                        "viewer + recorder" if with_recorder else "viewer alone",
+                        f"{r['load']:.1f}",
+                        f"{r['samples'] / r['seconds']:,.0f}",
+                        f"{landed:,} ({max(0.0, 1 - landed / r['samples']):.2%} lost)",
+                        f"{r['viewer_cpu'] / r['seconds']:.2f}",
+                        f"{r['lost']:,}" if "lost" in r else "-",
+                        f"{r['rec_cpu'] / r['seconds']:.2f}" if "rec_cpu" in r else "-",
+                        f"{r['robot_cpu'] / r['samples'] * 1e6:.1f}",
+                    ]
+                )
+        print_table(
+            f"Viewer beside the recorder: {args.topics} tags x {args.sdk_hz:g} Hz, {args.sdk_seconds:g} s",
+            [
+                "run",
+                "load avg",
+                "samples/s logged",
+                "viewer: samples taken",
+                "viewer CPU (cores)",
+                "recorder lost",
+                "recorder CPU (cores)",
+                "robot CPU µs/sample",
             ],
             rows,
         )
