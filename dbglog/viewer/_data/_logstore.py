@@ -2,8 +2,8 @@
 
 Pure: numpy, google-re2 and the ground floor's CDR readers and pattern proposals; no ROS, no Dear PyGui.
 One owner thread (the viewer's UI thread) reads and writes a store; any thread may `push` raw CDR batches
-(the engine's ROS thread does), decoding them there, and the owner adds them at its next `sync`. Nothing
-from a line is ever evaluated; patterns are RE2 (linear time). Layout and measured figures: ``docs/logs.md``.
+(the engine's ROS thread does), which the owner decodes at its next `sync`. Nothing from a line is ever
+evaluated; patterns are RE2 (linear time). Layout and measured figures: ``docs/logs.md``.
 """
 
 from __future__ import annotations
@@ -143,11 +143,9 @@ class Matches:
 
 @dataclass(eq=False, slots=True)
 class _Decoded:
-    """A pushed batch, decoded by the pushing thread, waiting for the owner's `sync`."""
+    """A pushed batch, decoded by the owner's `sync`, before its lines are added."""
 
     msg_type: str
-    size: int
-    """Payloads pushed (what `pending` counts)."""
     times: npt.NDArray[np.float64]
     levels: npt.NDArray[np.uint8]
     nodes: npt.NDArray[np.uint16]
@@ -259,11 +257,11 @@ class LogStore:
         self._masks: collections.OrderedDict[tuple[str, str], _Mask] = collections.OrderedDict()
         self._selection: _Selection | None = None
         self._marks = _Selection(("marks",), 0, 0)
-        self._pending: collections.deque[_Decoded] = collections.deque()
+        self._pending: collections.deque[tuple[str, npt.NDArray[np.float64], list[bytes]]] = (
+            collections.deque()
+        )
         self._pending_lines = 0
         self._push_lock = threading.Lock()
-        self._intern_lock = threading.Lock()
-        """Taken to add a logger name or a source location (pushing threads decode, and so intern, too)."""
         self.version = 0
         """Changes whenever lines are added or dropped (a reader redraws when it changes)."""
         self.added = 0
@@ -324,27 +322,27 @@ class LogStore:
     # --- writing ------------------------------------------------------------------------------------
 
     def push(self, msg_type: str, times: npt.ArrayLike, payloads: list[bytes]) -> None:
-        """Decode serialized Log or String messages with their source times and queue them (any thread).
+        """Queue serialized Log or String messages with their source times (any thread; never blocks long).
 
-        The calling thread decodes (the engine's ROS thread, off the UI's frames); the owner adds the lines
-        at its next `sync`. While more than `capacity` lines wait, the oldest waiting batches are dropped
-        (they would be evicted anyway).
+        The owner decodes them at its next `sync` (decoding on the engine's ROS thread instead was measured
+        to make it lose lines in DDS under load: ``docs/logs.md``). While more than `capacity` lines wait, the
+        oldest waiting batches are dropped (they would be evicted anyway).
         """
         if not payloads:
             return
-        batch = self._decode(msg_type, np.asarray(times, dtype=np.float64), payloads)
+        batch = (msg_type, np.asarray(times, dtype=np.float64), payloads)
         with self._push_lock:
             self._pending.append(batch)
-            self._pending_lines += batch.size
-            while self._pending_lines - self._pending[0].size >= self._capacity:
+            self._pending_lines += len(payloads)
+            while self._pending_lines - len(self._pending[0][2]) >= self._capacity:
                 dropped = self._pending.popleft()
-                self._pending_lines -= dropped.size
-                self.added += len(dropped.texts)
-                self.evicted += len(dropped.texts)
-                self.dropped += len(dropped.texts)
+                self._pending_lines -= len(dropped[2])
+                self.added += len(dropped[2])
+                self.evicted += len(dropped[2])
+                self.dropped += len(dropped[2])
 
     def sync(self, max_lines: int | None = None) -> int:
-        """Add the waiting (decoded) batches to the store (owner thread); return how many lines were added.
+        """Decode waiting batches into the store (owner thread); return how many lines were added.
 
         Args:
             max_lines: stop after about this many lines (the rest wait for the next call).
@@ -354,9 +352,9 @@ class LogStore:
             with self._push_lock:
                 if not self._pending:
                     break
-                batch = self._pending.popleft()
-                self._pending_lines -= batch.size
-            added += self._append_decoded(batch)
+                msg_type, times, payloads = self._pending.popleft()
+                self._pending_lines -= len(payloads)
+            added += self._append_decoded(self._decode(msg_type, times, payloads))
         return added
 
     def _append_decoded(self, batch: _Decoded) -> int:
@@ -370,14 +368,13 @@ class LogStore:
         return len(batch.texts)
 
     def _decode(self, msg_type: str, times: npt.NDArray[np.float64], payloads: list[bytes]) -> _Decoded:
-        """Read a batch of payloads into columns (any thread: only interning names touches the store)."""
+        """Read a batch of payloads into columns, interning new logger names and source locations."""
         n = len(payloads)
         undecodable = 0
         if msg_type not in LOG_TYPES:
             empty = np.zeros(0, dtype=np.int64)
             return _Decoded(
                 msg_type,
-                n,
                 times[:0],
                 empty.astype(np.uint8),
                 empty.astype(np.uint16),
@@ -435,7 +432,7 @@ class LogStore:
         cut = np.zeros(len(texts), dtype=np.int64)
         for index, extra in cuts:
             cut[index] = extra
-        return _Decoded(msg_type, n, times, levels, nodes, sites, texts, cut, undecodable)
+        return _Decoded(msg_type, times, levels, nodes, sites, texts, cut, undecodable)
 
     def append(
         self,
@@ -466,12 +463,9 @@ class LogStore:
                 key = f"{file}\x00{function}\x00{line}".encode("utf-8", "replace")
                 found = self._site_ids.get(key)
                 if found is None:
-                    with self._intern_lock:
-                        found = self._site_ids.get(key)
-                        if found is None:
-                            found = len(self._site_list)
-                            self._site_list.append((file, function, int(line)))
-                            self._site_ids[key] = found
+                    found = len(self._site_list)
+                    self._site_list.append((file, function, int(line)))
+                    self._site_ids[key] = found
                 site_ids[i] = found
         texts: list[bytes] = []
         cut = np.zeros(n, dtype=np.int64)
@@ -491,33 +485,26 @@ class LogStore:
         )
 
     def _intern_node(self, name: bytes) -> int:
-        with self._intern_lock:
-            found = self._node_ids.get(name)
+        if len(self._node_names) >= MAX_NODES:
+            text = OTHER_NODE
+            found = self._node_ids.get(text.encode())
             if found is not None:
+                self._node_ids[name] = found
                 return found
-            if len(self._node_names) >= MAX_NODES:
-                text = OTHER_NODE
-                found = self._node_ids.get(text.encode())
-                if found is not None:
-                    self._node_ids[name] = found
-                    return found
-                name = text.encode()
-            else:
-                text = name.decode("utf-8", "replace")
-            node = len(self._node_names)
-            self._node_names.append(text)
-            self._node_ids[name] = node
-            return node
+            name = text.encode()
+        else:
+            text = name.decode("utf-8", "replace")
+        node = len(self._node_names)
+        self._node_names.append(text)
+        self._node_ids[name] = node
+        return node
 
     def _intern_site(self, raw: bytes, at: int, tail: bytes) -> int:
-        with self._intern_lock:
-            found = self._site_ids.get(tail)
-            if found is not None:
-                return found
-            found = len(self._site_list)
-            self._site_list.append(_read_site(raw, at))
-            self._site_ids[tail] = found
-            return found
+        site = _read_site(raw, at)
+        found = len(self._site_list)
+        self._site_list.append(site)
+        self._site_ids[tail] = found
+        return found
 
     def _add(
         self,

@@ -58,7 +58,7 @@ TIP_CHARS = 2000
 COPY_LINES = 10_000
 """Copy with nothing selected copies at most this many of the shown lines (the newest)."""
 SYNC_LINES = 20_000
-"""Lines added per update (the engine's thread decoded them): a long history fills in over a few frames."""
+"""Lines decoded per update: a long history back-fills over a few frames instead of one long one."""
 FILTER_BUDGET_S = 0.03
 """Time a new filter may take per update; the newest lines are answered first."""
 WHEEL_LINES = 3
