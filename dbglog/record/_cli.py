@@ -16,7 +16,9 @@ HELP = "Record dbglog tags and ROS topics into an MCAP file (ROS 2 profile) unti
 _EPILOG = """\
 TARGET is a dbglog tag (proximity -> /rosdashboard/proximity and its sub-tags) or a topic (/odom).
 Without TARGET: every dbglog tag (also those appearing later), the hidden /_dbglog/samples batch topic
-(every sample with its source time) and /rosout. A live summary is printed on stderr every second.
+(every sample with its source time) and /rosout. A tag that only dbglog SDK nodes publish is written
+to its topic from the batches (every sample) rather than subscribed. A live summary is printed on
+stderr every second; the last line says whether messages were lost and where.
 
 Snapshot mode (--snapshot SECONDS) keeps the last SECONDS in RAM and writes nothing until it receives
 SIGUSR1 (kill -USR1 <pid>): each signal writes the window to a new file named after -o with the time

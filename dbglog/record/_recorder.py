@@ -4,7 +4,9 @@ Every message is taken as serialized bytes with its source timestamp (no Python 
 and written straight into the MCAP writer, or into a rolling RAM window in snapshot mode. Topics are
 matched against the targets at every graph poll, so tags that appear later are recorded from their
 first message; QoS follows the publishers (transient-local when they all offer it, so the values kept
-by nodes already running are recorded too).
+by nodes already running are recorded too). A tag topic that only dbglog SDK nodes publish is not
+subscribed when the batch topic is recorded: its samples are written from the batches (`_expand`), since
+a subscriber there makes the SDK publish every sample once more as its own message.
 """
 
 from __future__ import annotations
