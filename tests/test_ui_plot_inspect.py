@@ -91,6 +91,7 @@ class Probe:
                 "link": item.config.properties.get("link", True),
                 "link_box": _rect(widget._link),
                 "updates": item.updates,
+                "drawn_from": widget.drawn_from,
             }
         return {
             "pid": os.getpid(),
@@ -122,6 +123,9 @@ def run_here(scenario: str, tmp_dir: str) -> None:
 
     tmp = Path(tmp_dir)
     registry = WidgetRegistry.builtin()
+    if scenario == "history":
+        history_here(tmp, registry)
+        return
     source = StaticSource()
     for topic in ("/p/ramp", "/p/wave"):
         source.add_topic(topic, "std_msgs/msg/Float64", [FieldInfo("data", "double", True)])
@@ -146,6 +150,47 @@ def run_here(scenario: str, tmp_dir: str) -> None:
                     source.push("/p/ramp", "data", float(count[0]), base + count[0] * STEP)
 
             app.frame_hooks.insert(0, more)
+        app.run()
+    finally:
+        app.close()
+
+
+HISTORY_LONG_S = 400.0
+"""The recording of the "history" scenario: 400 s at 100 Hz, four times what a snapshot holds."""
+
+
+def history_here(tmp: Path, registry: Any) -> None:
+    """A recording longer than a snapshot holds, replayed (paused at its end) with plot A over 100 s."""
+    import struct
+
+    from dbglog.record import McapWriter
+    from dbglog.viewer._data._model import Binding
+    from dbglog.viewer._data._replay import load_replay
+    from dbglog.viewer._document._dashboard import (
+        Dashboard,
+        RawWidget,
+        WidgetConfig,
+        load_dashboard,
+        save_dashboard,
+    )
+    from dbglog.viewer._ui import ViewerApp
+
+    base = math.floor(time.time()) - 3600
+    rec = tmp / "long.mcap"
+    writer = McapWriter(rec)
+    ch = writer.add_channel("/p/ramp", "std_msgs/msg/Float64")
+    for k in range(int(HISTORY_LONG_S * 100)):
+        t = (base * 100 + k) * 10_000_000
+        writer.write(ch, t, b"\x00\x01\x00\x00" + struct.pack("<d", k), t)  # a Float64 in CDR
+    writer.close()
+    dash = tmp / "history.json"
+    plot = WidgetConfig("plot", "A", 20, 20, 900, 300, (Binding("/p/ramp", "data"),), {"window": 100.0})
+    save_dashboard(Dashboard(list[WidgetConfig | RawWidget]([plot]), 20, True), dash)
+    app = ViewerApp(load_replay(rec), registry, width=SIZE[0], height=SIZE[1], recording=True)
+    app.start()
+    try:
+        app.load(load_dashboard(dash, registry.get), dash)
+        app.frame_hooks.append(Probe(app, tmp / "probe", float(base)).hook)
         app.run()
     finally:
         app.close()
@@ -413,3 +458,22 @@ def test_wheel_zoom_while_paused_keeps_the_cursor_at_the_right(viewer: Callable[
     assert near(a["view"][1], cursor + span * CURSOR_MARGIN, 0.05)
     assert near(a["view"][0], cursor - span, 0.05)
     assert a["cursor_values"][0] == ramp_at(state["base"], cursor)
+
+
+def test_a_plot_zoomed_out_past_its_snapshot_draws_the_whole_history(viewer: Callable[[str], Viewer]) -> None:
+    """Zoomed out with the wheel over a replay longer than a snapshot holds (10,000 samples: 100 s here),
+    the plot draws from the start of its range, from the history, not only the snapshot's last 100 s."""
+    v = viewer("history")
+    a = v.plot("A")
+    assert 100.0 <= length(a) <= 110.0  # paused at its end: a margin past the cursor
+    v.move(*v.at("A", 0.5))
+    v.wheel(12)  # each notch 1.1 times longer: 100 s -> 314 s
+    state = v.wait_for(
+        lambda s: length(s["plots"]["A"]) > 250.0 and s["plots"]["A"]["drawn_from"] is not None
+    )
+    a = v.plot("A", state)
+    start, end = a["view"]
+    assert start > state["base"], "the range is still within the recording"
+    column = (end - start) / 800
+    assert a["drawn_from"] <= start + 2 * column, (a["drawn_from"] - start, "drawn from the range's start")
+    assert end - a["drawn_from"] > 250.0, "more than the snapshot's 100 s is drawn"

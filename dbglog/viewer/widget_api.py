@@ -266,6 +266,14 @@ class WidgetHost(Protocol):
     def seek(self, t: float) -> None:
         """Move the dashboard's time cursor to source time `t` (pausing), as a click on the timeline does."""
 
+    def envelope(
+        self, binding: Binding, t0: float, t1: float, pixels: int
+    ) -> tuple[np.ndarray, np.ndarray] | None:
+        """Return a min/max envelope (times, values) of `binding`'s numbers over ``[t0, t1]`` from the
+        viewer's history, up to the time cursor, at most about two points per pixel column of `pixels`:
+        what a plot zoomed out past the samples of its snapshot draws. None when the history holds none.
+        """
+
     def plot_number(self, topic: str, line_id: int, number: int) -> None:
         """Open "Plot this number" for number `number` (0-based) of stored line `line_id` of `topic`."""
 

@@ -14,7 +14,7 @@ from dbglog.viewer._data._logstore import LOG_TYPES, WARN, LogStore
 from dbglog.viewer._ui._frame import TITLE_H
 from dbglog.viewer._ui._plotnumber import NumberPlan, PlotNumberDialog
 from dbglog.viewer._ui._timescale import TimeScale
-from dbglog.viewer.widget_api import ValueKind
+from dbglog.viewer.widget_api import Binding, ValueKind
 
 if TYPE_CHECKING:
     from dbglog.viewer._ui._app import ViewerApp
@@ -65,6 +65,12 @@ class AppHost:
     def seek(self, t: float) -> None:
         """Pause the dashboard at source time `t`."""
         self.app.seek(t)
+
+    def envelope(
+        self, binding: Binding, t0: float, t1: float, pixels: int
+    ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]] | None:
+        """The history's min/max envelope of a binding over a range, up to the cursor (the timeline's)."""
+        return self.app.timeline.envelope(binding, t0, t1, pixels)
 
     def plot_number(self, topic: str, line_id: int, number: int) -> None:
         """Open "Plot this number" for a number of a stored line (one dialog at a time, as every dialog)."""

@@ -148,6 +148,8 @@ class PlotWidget(Widget):
         """The plot's own Pause: its picture (data and end) is frozen; zoom and pan still work on it."""
         self.points_drawn = 0
         """Points sent to the plot in the last update (for tests and the benchmark)."""
+        self.drawn_from: float | None = None
+        """The source time of the oldest point drawn (any series), None when none is drawn."""
         self.cursor_values: list[float | None] = []
         """Paused: each series' value at the cursor (what the legend and the value tags show); else empty."""
         self.hover_time: float | None = None
@@ -175,6 +177,8 @@ class PlotWidget(Widget):
         self._ticks: tuple[tuple[str, float], ...] = ()
         self._info_text = ""
         self._data_key: object = None
+        self._older: dict[Binding, tuple[object, tuple[np.ndarray, np.ndarray] | None]] = {}
+        """Each series' history envelope before its snapshot (zoomed out), with the key it was made for."""
         self._marks_drawn: object = ...  # (nothing drawn yet)
         self._snaps: list[SeriesSnapshot] = []
         self._at: float | None = None
@@ -439,24 +443,70 @@ class PlotWidget(Widget):
         max_points = max(2, self.width - PLOT_MARGIN)
         lo, hi = np.inf, -np.inf
         drawn = 0
+        oldest = np.inf
         for tag, snap in zip(self._series, snaps, strict=True):
             n = min(len(snap.times), len(snap.values))
             times, values = snap.times[len(snap.times) - n :], snap.values[len(snap.values) - n :]
             inside, drawn_part = range_slice(times, start, stop)
             x, y = minmax_decimate(times[drawn_part] - origin, values[drawn_part], max_points)
+            older = self._history_before(snap, start, stop, float(times[0]) if n else stop, max_points)
+            if older is not None and len(older[0]):  # zoomed out past the snapshot: the history's envelope
+                x = np.concatenate((older[0] - origin, x))
+                y = np.concatenate((older[1], y))
+                seen = older[1][older[0] >= start]
+                seen = seen[np.isfinite(seen)]
+                if len(seen):
+                    lo, hi = min(lo, float(seen.min())), max(hi, float(seen.max()))
             # Contiguous float64 arrays go to Dear PyGui through the buffer protocol, without lists.
             dpg.set_value(tag, [np.ascontiguousarray(x, np.float64), np.ascontiguousarray(y, np.float64)])
             drawn += len(x)
+            if len(x):
+                oldest = min(oldest, float(x[0]) + origin)
             shown = values[inside]
             finite = shown[np.isfinite(shown)]
             if len(finite):
                 lo, hi = min(lo, float(finite.min())), max(hi, float(finite.max()))
         self.points_drawn = drawn
+        self.drawn_from = oldest if drawn else None
         if self.prop("scale") == "fixed":
             self._set_y_limits((self.num("y_min"), self.num("y_max")))
         elif np.isfinite(lo):
             pad = (hi - lo) * 0.08 or max(abs(hi) * 0.1, 0.5)
             self._set_y_limits((lo - pad, hi + pad))
+
+    def _history_before(
+        self, snap: SeriesSnapshot, start: float, stop: float, first: float, max_points: int
+    ) -> tuple[np.ndarray, np.ndarray] | None:
+        """The history's min/max envelope of `snap`'s series from `start` up to `first`, the snapshot's oldest
+        sample: a plot zoomed out past what a snapshot carries draws the whole history, not just its end.
+
+        None when the snapshot holds the series' every sample, the range starts after it, or no history
+        answers. Kept while the range's ends move by less than a pixel column (a following plot slides).
+        """
+        host = self.context.host
+        if (
+            host is None
+            or first <= start
+            or snap.count <= len(snap.times)
+            or snap.kind not in (ValueKind.NUMBER, ValueKind.BOOL)
+        ):
+            return None
+        column = (stop - start) / max_points
+        if not column > 0:
+            return None
+        key = (round(start / column), round(first / column), max_points)
+        cached = self._older.get(snap.binding)
+        if cached is not None and cached[0] == key:
+            return cached[1]
+        found = host.envelope(snap.binding, start, first, max(1, round((first - start) / column)))
+        part = None
+        if found is not None:
+            keep = found[0] < first  # the snapshot draws from `first` on
+            part = (found[0][keep], found[1][keep])
+        if len(self._older) > 64:
+            self._older.clear()
+        self._older[snap.binding] = (key, part)
+        return part
 
     def _draw_ticks(self, start: float, stop: float, origin: float) -> None:
         """Label the time axis with the local clock (ticks move with the data; linked plots read alike)."""
