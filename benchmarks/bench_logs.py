@@ -670,7 +670,11 @@ def _viewer_run(
                 p.stdin.write("exit\n")
                 p.stdin.close()
         for p in pubs:
-            p.wait(timeout=30)
+            try:
+                p.wait(timeout=30)
+            except subprocess.TimeoutExpired:  # (after a failure: the flood may still run) keep its error
+                p.kill()
+                p.wait()
             if p.stdout is not None:
                 p.stdout.close()
         data.kill()
