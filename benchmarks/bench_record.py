@@ -690,7 +690,10 @@ def main(argv: list[str] | None = None) -> int:
                         f"{r['samples'] / r['seconds']:,.0f}",
                         f"{landed:,} ({max(0.0, 1 - landed / r['samples']):.2%} lost)",
                         f"{r['viewer_cpu'] / r['seconds']:.2f}",
-                        f"{r['lost']:,}" if "lost" in r else "-",
+                        f"{r['lost']:,} ({_spans(r['lost_at'])}; DDS: {r['dds_lost']})"
+                        if "lost" in r
+                        else "-",
+                        f"{r['sdk_dropped']:,}",
                         f"{r['rec_cpu'] / r['seconds']:.2f}" if "rec_cpu" in r else "-",
                         f"{r['robot_cpu'] / r['samples'] * 1e6:.1f}",
                     ]
@@ -703,7 +706,8 @@ def main(argv: list[str] | None = None) -> int:
                 "samples/s logged",
                 "viewer: samples taken",
                 "viewer CPU (cores)",
-                "recorder lost",
+                "recorder lost (logged at, s; DDS-reported)",
+                "dropped by the SDK",
                 "recorder CPU (cores)",
                 "robot CPU µs/sample",
             ],
