@@ -6,7 +6,6 @@ Nothing from a line is ever evaluated; every pattern is RE2 (linear time).
 
 from __future__ import annotations
 
-import fnmatch
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -17,6 +16,7 @@ import re2
 from numpy.lib.stride_tricks import sliding_window_view
 
 from dbglog._regex._compile import MAX_LINE, MAX_PROGRAM_SIZE, re2_options, shorten
+from dbglog._ros._loglevels import LEVELS, node_matches
 from dbglog._ros._tags import tag_problem
 
 __all__ = [
@@ -397,10 +397,7 @@ def match_lines(
         if len(nodes) != len(lines):
             raise ValueError(f"nodes has {len(nodes)} entries for {len(lines)} lines")
         want = proposal.node
-        if any(c in want for c in "*?["):
-            keep = [i for i, n in enumerate(nodes) if fnmatch.fnmatchcase(n, want)]
-        else:
-            keep = [i for i, n in enumerate(nodes) if n == want]
+        keep = [i for i, n in enumerate(nodes) if node_matches(n, want)]
         rows_in = np.asarray(keep, dtype=np.int64)
         selected = [lines[i] for i in keep]
     rows, values = _match_selected(proposal, selected)
@@ -646,8 +643,6 @@ def _match_slow(proposal: Proposal, lines: Sequence[str]) -> tuple[np.ndarray, n
 
 # --- rules and helpers --------------------------------------------------------------------------------
 
-_LEVEL_NAMES: Final = ("debug", "info", "warn", "error", "fatal")
-
 
 def _yaml_quoted(text: str) -> str:
     """`text` as a YAML single-quoted scalar (every character of a proposal is printable)."""
@@ -672,8 +667,8 @@ def to_bridge_yaml(proposal: Proposal, tag: str, *, level: str | None = None) ->
     if proposal.node is not None:
         lines.append(f"    node: {_yaml_quoted(proposal.node)}")
     if level is not None:
-        if level.lower() not in _LEVEL_NAMES:
-            raise ValueError(f"unknown level {level!r} (one of: {', '.join(_LEVEL_NAMES)})")
+        if level.lower() not in LEVELS:
+            raise ValueError(f"unknown level {level!r} (one of: {', '.join(LEVELS)})")
         lines.append(f"    level: {level.lower()}")
     lines.append(f"    pattern: {_yaml_quoted(proposal.pattern)}")
     return "\n".join(lines) + "\n"
@@ -699,22 +694,13 @@ def suggest_tag(proposal: Proposal) -> str:
     return "value"
 
 
-_CONSOLE_LEVELS: Final = {
-    "DEBUG": "debug",
-    "INFO": "info",
-    "WARN": "warn",
-    "ERROR": "error",
-    "FATAL": "fatal",
-}
-
-
 def parse_console_line(text: str) -> tuple[str, str, str] | None:
     """Split a line as rcl prints it, ``[INFO] [1732200000.123] [node]: message``, into
     ``(level, node, message)``; None when `text` is not in that form."""
     if not text.startswith("["):
         return None
     level, sep, rest = text[1:].partition("] [")
-    if not sep or level not in _CONSOLE_LEVELS:
+    if not sep or level.lower() not in LEVELS or not level.isupper():
         return None
     stamp, sep, rest = rest.partition("] [")
     if not sep or not stamp.replace(".", "", 1).isdigit():
@@ -722,4 +708,4 @@ def parse_console_line(text: str) -> tuple[str, str, str] | None:
     node, sep, message = rest.partition("]: ")
     if not sep or not node:
         return None
-    return _CONSOLE_LEVELS[level], node, message
+    return level.lower(), node, message

@@ -8,7 +8,6 @@ the past its topic has in a `History`. No Dear PyGui; rclpy only to deserialize 
 
 from __future__ import annotations
 
-import fnmatch
 import logging
 import math
 import time
@@ -21,6 +20,7 @@ import numpy.typing as npt
 
 from dbglog._regex._compile import CompiledRegex, RegexError, compile_regex, parse_number
 from dbglog._ros._cdr import decode_fixed
+from dbglog._ros._loglevels import node_matches
 from dbglog.viewer._data._fields import FieldPathError, Resolved, parse_path, resolve
 from dbglog.viewer._data._history import History
 from dbglog.viewer._data._logstore import LOG_TYPE, level_of
@@ -85,7 +85,7 @@ class LineFilter:
         name = msg.name
         passes = self.seen.get(name)
         if passes is None:
-            passes = self.seen[name] = fnmatch.fnmatchcase(name, self.node)
+            passes = self.seen[name] = node_matches(name, self.node)
         return passes
 
 
