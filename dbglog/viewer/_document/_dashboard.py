@@ -31,6 +31,7 @@ from typing import Any
 import numpy as np
 
 from dbglog._regex._compile import RegexError, compile_regex, parse_number
+from dbglog._ros._loglevels import LEVELS
 from dbglog.viewer._data._model import Binding
 from dbglog.viewer._values._transforms import Invalid, transforms_or_invalid, written_transforms
 from dbglog.viewer.widget_api import PropertyError, PropValue, Widget
@@ -722,7 +723,7 @@ def _parse_bindings(raw: object, cls: type[Widget], where: str, msgs: list[str])
     return tuple(out)
 
 
-LOG_LEVELS = ("debug", "info", "warn", "error", "fatal")
+LOG_LEVELS = tuple(LEVELS)
 """The minimum levels a log binding may ask for (``"level"``), as in bridge rules."""
 
 
