@@ -249,6 +249,14 @@ def _sdk_run(
         "batches": len(payloads),
         "recorded_msgs": sum(len(t) for t in recording.topics.values()),
         "dds_lost": next((ln.split()[-1] for ln in err.splitlines() if "longest pause" in ln), "?"),
+        "batches_missing": next(
+            (
+                ln.split("batches missing ")[1].split(",")[0]
+                for ln in err.splitlines()
+                if "batches missing" in ln
+            ),
+            "?",
+        ),
     }
     if seq:
         values = [
@@ -645,7 +653,7 @@ def main(argv: list[str] | None = None) -> int:
                     f"{r['robot_cpu'] / r['samples'] * 1e6:.1f}",
                     f"{r['rec_cpu'] / r['seconds']:.2f}",
                     f"{r['rec_cpu'] / r['samples'] * 1e6:.2f}",
-                    r["dds_lost"],
+                    f"{r['batches_missing']} / {r['dds_lost']}",
                     f"{r['bytes'] / r['samples']:.1f}",
                 ]
             )
@@ -665,7 +673,7 @@ def main(argv: list[str] | None = None) -> int:
                 "robot CPU µs/sample",
                 "recorder CPU (cores)",
                 "recorder CPU µs/sample",
-                "DDS-reported lost",
+                "batches missing / DDS-reported lost",
                 "bytes/sample",
             ],
             rows,
@@ -690,7 +698,10 @@ def main(argv: list[str] | None = None) -> int:
                         f"{r['samples'] / r['seconds']:,.0f}",
                         f"{landed:,} ({max(0.0, 1 - landed / r['samples']):.2%} lost)",
                         f"{r['viewer_cpu'] / r['seconds']:.2f}",
-                        f"{r['lost']:,} ({_spans(r['lost_at'])}; DDS: {r['dds_lost']})"
+                        (
+                            f"{r['lost']:,} ({_spans(r['lost_at'])}; "
+                            f"batches missing {r['batches_missing']}, DDS {r['dds_lost']})"
+                        )
                         if "lost" in r
                         else "-",
                         f"{r['sdk_dropped']:,}",
@@ -706,7 +717,7 @@ def main(argv: list[str] | None = None) -> int:
                 "samples/s logged",
                 "viewer: samples taken",
                 "viewer CPU (cores)",
-                "recorder lost (logged at, s; DDS-reported)",
+                "recorder lost (logged at, s; batches missing, DDS-reported)",
                 "dropped by the SDK",
                 "recorder CPU (cores)",
                 "robot CPU µs/sample",

@@ -428,7 +428,7 @@ def test_record_writes_sdk_tags_from_the_batch_without_subscribing_to_them(
         _counts(rec, lambda c: _settled(c, 3 * n + 20))
         code, err = rec.end(signal.SIGINT)
         assert code == 0, err
-        assert "reported lost by DDS 0" in err
+        assert "batches missing 0, reported lost by DDS 0" in err
     finally:
         peer.close()
     decoded = _decoded(out)

@@ -57,7 +57,7 @@ def _read(path: Path) -> dict[str, list[tuple[int, Any, dict[str, str]]]]:
 
 
 def test_batch_samples_become_their_tags_messages(tmp_path: Path) -> None:
-    """Wanted tags' samples decode as their std_msgs type with their source times; re-sent batches skipped."""
+    """Wanted tags' samples decode as their std_msgs type and source times; re-sent skipped, gaps counted."""
     path = tmp_path / "x.mcap"
     with McapWriter(path) as w:
         expander = BatchExpander(w, lambda topic: topic != "/rosdashboard/hidden")
@@ -66,17 +66,19 @@ def test_batch_samples_become_their_tags_messages(tmp_path: Path) -> None:
         assert expander.expand(T0 + 2, _batch(7, 1, 1)) == 0  # the same batch again (re-subscription)
         assert expander.expand(T0 + 3, _batch(8, 0, 2)) == 15  # another writer counts on its own
         assert expander.expand(T0 + 4, b"\x00\x01\x00\x00 not a batch") == 0
+        assert expander.expand(T0 + 5, _batch(7, 4, 3)) == 15  # batches 2 and 3 of writer 7 never came
     assert expander.bad == 1
+    assert expander.missing == 2
     assert expander.topics == {f"/rosdashboard/{t}" for t in ("speed", "count", "ok", "state", "small")}
     got = _read(path)
     assert sorted(got) == sorted(expander.topics)
-    n = range(9)
+    n = range(12)
     assert [m.data for _, m, _ in got["/rosdashboard/speed"]] == [i * 0.5 for i in n]
     assert [m.data for _, m, _ in got["/rosdashboard/count"]] == [i - 4 for i in n]
     assert [m.data for _, m, _ in got["/rosdashboard/small"]] == [i - 4 for i in n]
     assert [m.data for _, m, _ in got["/rosdashboard/ok"]] == [i % 2 == 1 for i in n]
     assert [m.data for _, m, _ in got["/rosdashboard/state"]] == [f"step {i} é" for i in n]
-    assert [t for t, _, _ in got["/rosdashboard/speed"]] == [T0 + i * 1000 for i in n]
+    assert [t for t, _, _ in got["/rosdashboard/speed"]] == sorted(T0 + i * 1000 for i in n)
     assert [t for t, _, _ in got["/rosdashboard/state"]] == [T0 + i * 1000 + 3 for i in n]
     assert got["/rosdashboard/speed"][0][2] == {"dbglog_from": "/_dbglog/samples"}
 

@@ -167,12 +167,17 @@ def run(args: argparse.Namespace) -> int:
             f"wrote {writer.messages:,} messages on {stats.topics} topics to {args.output} "
             f"({_human(writer.size)}); longest pause of the take loop {stats.longest_gap_s * 1e3:.0f} ms, "
             f"fullest queue {stats.fullest:.0%} (full {stats.full_takes} times), "
-            f"reported lost by DDS {stats.dds_lost}"
+            f"batches missing {recorder.batches_missing}, reported lost by DDS {stats.dds_lost}"
         )
     if stats.full_takes:
         say(
             f"a topic's queue was full {stats.full_takes} times: messages may have been dropped "
             "(the machine was too busy; a larger --queue-depth rides out longer stalls)"
+        )
+    if recorder.batches_missing:
+        say(
+            f"{recorder.batches_missing} SDK batch message(s) never arrived (numbers missing): their samples "
+            "are not in the file"
         )
     if stats.dds_lost:
         say(

@@ -59,6 +59,8 @@ class BatchExpander:
         """Tag topics written from the batches so far."""
         self.bad = 0
         """Batch messages that could not be decoded (kept in the batch topic, not expanded)."""
+        self.missing = 0
+        """Batches never received: gaps in a writer's batch numbers (lost in DDS, or not sent by the SDK)."""
 
     def expand(self, log_time: int, cdr: bytes) -> int:
         """Write the samples of one batch message (CDR bytes); return how many were written."""
@@ -72,6 +74,8 @@ class BatchExpander:
         last = self._last_seq.get(batch.writer)
         if last is not None and batch.seq <= last:
             return 0
+        if last is not None:
+            self.missing += batch.seq - last - 1
         self._last_seq[batch.writer] = batch.seq
         out = self.out
         written = 0

@@ -334,6 +334,11 @@ class Recorder:
         self.stats.skipped.pop(name, None)
         self._count_topics()
 
+    @property
+    def batches_missing(self) -> int:
+        """SDK batches never received while recording (gaps in their writers' numbers)."""
+        return self._expander.missing if self._expander is not None else 0
+
     def _count_topics(self) -> None:
         expanded = self.via_batch | (self._expander.topics if self._expander is not None else set())
         self.stats.topics = len(self._subs) + len(expanded - self._subs.keys())
