@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from dbglog.viewer._widgets._geometry import (
@@ -323,6 +323,7 @@ def test_free_spot_goes_below_a_full_view() -> None:
     st.tuples(st.integers(-100, 900), st.integers(-100, 700), st.integers(40, 300), st.integers(40, 300)),
     st.sampled_from([0, 10, 20]),
 )
+@example(others=[(241, 0, 300, 40)], want=(505, -5, 251, 40), grid=0)  # once placed 1 px past the right edge
 def test_free_spot_never_overlaps(
     others: list[tuple[int, int, int, int]], want: tuple[int, int, int, int], grid: int
 ) -> None:

@@ -156,7 +156,9 @@ def free_spot(want: Rect, others: Sequence[Rect], view: Rect, grid: float) -> Re
     if not any(overlaps(inside, o) for o in others):
         return inside
     bottom = max([max_y, *(o.y + o.h for o in others)])
-    xs = np.arange(x0, max_x + step / 2, step)
+    xs = np.arange(x0, max_x + 1e-9, step)  # never past `max_x`: the rectangle stays within the view's width
+    if xs[-1] < max_x:  # without a grid, the right edge is a place too
+        xs = np.append(xs, max_x)
     ys = np.arange(y0, math.ceil(bottom / step) * step + step / 2, step)
     gx, gy = np.meshgrid(xs, ys)
     free = np.ones(gx.shape, dtype=bool)
