@@ -103,6 +103,7 @@ class Probe:
             items[item.name] = {
                 "rect": [item.rect.x + ox, item.rect.y + oy, item.rect.w, item.rect.h],
                 "status": item.status.value,
+                "pill": item.pill_label,
                 "values": [json_value(s.last) for s in snaps],
                 "times": [s.last_time for s in snaps],
                 "shown": self.shown(item),
@@ -325,8 +326,10 @@ def test_space_pauses_values_hold_and_end_returns_live(viewer: Callable[[], View
         assert held["items"][name]["values"] == state["items"][name]["values"], name
     assert held["items"]["Count"]["updates"] == state["items"]["Count"]["updates"], "redrawn while paused"
     assert held["span"][1] > state["span"][1] + 1.0, "the history keeps growing while paused"
+    assert held["items"]["Count"]["pill"] == "live then", "paused, the pill says the status at the cursor"
     v.key("End")
     live = v.wait_for(lambda s: s["live"] and _shown_count(s["items"]["Count"]) >= sent_then + 8)
+    assert live["items"]["Count"]["pill"] == "live"
     assert live["cursor"] is None
     assert live["button_label"] == "Pause"
     assert shot.stat().st_size > 0

@@ -140,7 +140,11 @@ class CanvasItem:
         self.edited = False
         """Set by `refresh` when the widget changed a saved property itself; the viewer clears it."""
         self._key: tuple[object, ...] | None = None
-        self._pill_state: tuple[Status, str] | None = None
+        self._pill_state: tuple[Status, str, bool] | None = None
+        self._paused = False
+        self.pill_label = ""
+        """What the status pill says (``live``; paused, ``live then``)."""
+        """The dashboard is paused at a time: the pill says the status *then* ("live then")."""
         x, y, w, h = self.geometry()
         self.window = dpg.add_child_window(
             parent=canvas,
@@ -257,7 +261,8 @@ class CanvasItem:
         dpg.draw_circle((r, r), r, color=none, fill=HEADER, parent=dl)
         dpg.draw_circle((w - r, r), r, color=none, fill=HEADER, parent=dl)
         status = self.status
-        label = status.value
+        then = self._paused and status in (Status.LIVE, Status.STALE)
+        label = self.pill_label = f"{status.value} then" if then else status.value
         pill_w = text_size(label, 13)[0] + 26
         max_chars = max(3, int((w - pill_w - 24) / (15 * 0.55)))
         title = self.name if len(self.name) <= max_chars else self.name[: max_chars - 1] + "\u2026"
@@ -275,12 +280,14 @@ class CanvasItem:
             Status.STALE: "Stale: no new message for a while",
             Status.ERROR: "Error",
         }[status]
+        if then:
+            tip = f"{tip} at the cursor time (the dashboard is paused)"
         bindings = "\n".join(
             f"{b.topic}" + (f" \u203a {b.field}" if b.field else "") + (f"  /{b.regex}/" if b.regex else "")
             for b in self.bindings
         )
         dpg.set_value(self.tooltip_text, "\n".join(x for x in (tip, self.reason, bindings) if x))
-        self._pill_state = (status, self.reason)
+        self._pill_state = (status, self.reason, self._paused)
 
     # -- live updates -------------------------------------------------------------------------------
 
@@ -341,7 +348,8 @@ class CanvasItem:
             return
         self._key = key
         self.status, self.reason = own if own is not None else combined_status(snapshots)
-        if (self.status, self.reason) != self._pill_state:
+        self._paused = paused_at is not None
+        if (self.status, self.reason, self._paused) != self._pill_state:
             self._draw_header(int(self.geometry()[2]))
         try:
             self.widget.paused_at = paused_at
