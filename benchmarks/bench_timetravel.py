@@ -246,14 +246,14 @@ def _redraw(args: argparse.Namespace) -> None:
         """Frames (one per entry of `moves`: seek there first, or stay): total, app work, render, CPU ms."""
         out: list[list[float]] = [[], [], [], []]
         for t in moves if moves is not None else [None] * args.moves:
-            cpu = time.process_time()
+            cpu0 = time.process_time()
             begin = time.perf_counter()
             if t is not None:
                 app.timeline.seek(t)
             app.frame()
-            total = (time.perf_counter() - begin) * 1e3
-            render = (app.frame_times[-1] - app.last_work_s) * 1e3  # the seek counts as app work
-            values = (total, total - render, render, (time.process_time() - cpu) * 1e3)
+            frame_ms = (time.perf_counter() - begin) * 1e3
+            render_ms = (app.frame_times[-1] - app.last_work_s) * 1e3  # the seek counts as app work
+            values = (frame_ms, frame_ms - render_ms, render_ms, (time.process_time() - cpu0) * 1e3)
             for column, value in zip(out, values, strict=True):
                 column.append(value)
         total, work, render, cpu = out
