@@ -303,30 +303,7 @@ def _record_run(args: argparse.Namespace, out: Path, variant: str = "tag") -> di
         if v["queue_depth"]:
             cmd += ["--queue-depth", str(v["queue_depth"])]
         rec = subprocess.Popen(cmd, stderr=subprocess.PIPE, text=True)
-    viewer = None
-    if v["viewer"]:
-        viewer = subprocess.Popen(
-            [
-                sys.executable,
-                "-m",
-                "benchmarks.bench_engine",
-                "--role",
-                "engine",
-                "--topics",
-                str(args.topics),
-                "--prefix",
-                f"/rosdashboard/{_TAG}/t",
-                "--latency",
-                "0",
-            ],
-            cwd=_ROOT,
-            stdin=subprocess.PIPE,
-            stdout=subprocess.PIPE,
-            text=True,
-        )
-        assert viewer.stdout is not None
-        if viewer.stdout.readline().strip() != "ready":
-            raise RuntimeError("the viewer engine did not start")
+    viewer = _viewer_child(args.topics, f"/rosdashboard/{_TAG}/t") if v["viewer"] else None
     pubs = [
         subprocess.Popen(
             [
