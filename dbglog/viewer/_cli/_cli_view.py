@@ -120,7 +120,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--republish",
         action="store_true",
-        help="with --replay: publish the recording on ROS 2 at the time cursor, so RViz or ros2 topic echo "
+        help="with --replay: publish the recording on ROS 2 at the time cursor, so RViz or dbglog echo "
         "follow the replay: playing, every message the cursor passes (original topic, type and bytes, in "
         "time order); after a seek or step, each topic's latest message at the cursor; and /clock. Topics "
         "of types not installed here are skipped (a warning names them)",

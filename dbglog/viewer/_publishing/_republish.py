@@ -1,4 +1,4 @@
-"""Republish a replayed recording on ROS 2 at the time cursor, so RViz and ``ros2 topic echo`` follow it.
+"""Republish a replayed recording on ROS 2 at the time cursor, so RViz and ``dbglog echo`` follow it.
 
 Playing, every message the cursor passes goes out in time order with its recorded bytes; a seek, step or
 loop sends each topic's latest message at the cursor once; then ``/clock``. The UI thread only hands the
