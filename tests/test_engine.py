@@ -466,6 +466,8 @@ def _check_consistent_snapshots(engine: Engine, peer: RosPeer) -> None:
     try:
         for k in range(20_000):
             pub.publish(Float64(data=float(k)))
+            if k % 500 == 499:  # bursts of half the queue: a flood, not a DDS overflow test
+                time.sleep(0.01)
         assert wait_until(lambda: engine.snapshot(binding).last == 19_999.0, TIMEOUT)
     finally:
         stop.set()
