@@ -4,10 +4,12 @@ from __future__ import annotations
 
 import os
 import statistics
+import subprocess
+import sys
 import time
 from collections.abc import Callable, Sequence
 
-__all__ = ["local_ros_env", "median_ns_per_call", "print_table"]
+__all__ = ["local_ros_env", "median_ns_per_call", "print_table", "spawn_flood"]
 
 
 def local_ros_env(domain: int | None = None) -> None:
@@ -35,3 +37,26 @@ def print_table(title: str, header: Sequence[str], rows: Sequence[Sequence[objec
     print("|" + "|".join("---" for _ in header) + "|")
     for row in rows:
         print("| " + " | ".join(str(c) for c in row) + " |")
+
+
+def spawn_flood(
+    module: str, publishers: int, rate: float, per_pub: int, span: int, *extra: str
+) -> list[subprocess.Popen[str]]:
+    """Start `publishers` flood children of `module` (``--publisher [extra] --rate --count --offset``).
+
+    Each sends `per_pub` numbered lines at its share of `rate`, numbers starting at ``i * span``; their
+    stdin and stdout are pipes (they report, then wait for a line before they exit).
+    """
+    return [
+        subprocess.Popen(
+            [
+                *(sys.executable, "-m", module, "--publisher", *extra),
+                *("--rate", str(rate / publishers), "--count", str(per_pub), "--offset", str(i * span)),
+            ],
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.DEVNULL,
+            text=True,
+        )
+        for i in range(publishers)
+    ]

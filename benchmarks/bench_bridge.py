@@ -25,7 +25,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
-from benchmarks._common import local_ros_env, print_table
+from benchmarks._common import local_ros_env, print_table, spawn_flood
 
 _WORDS = (
     "battery",
@@ -480,28 +480,7 @@ def bench_end_to_end(mode: str, publishers: int, rate: float, seconds: float) ->
         if "running" not in ready:
             raise RuntimeError(f"the bridge did not start: {ready!r}")
         counter = _Counter("/rosdashboard/bench/seq")
-        pubs = [
-            subprocess.Popen(
-                [
-                    sys.executable,
-                    "-m",
-                    "benchmarks.bench_bridge",
-                    "--publisher",
-                    mode,
-                    "--rate",
-                    str(rate / publishers),
-                    "--count",
-                    str(per_pub),
-                    "--offset",
-                    str(i * _SPAN),
-                ],
-                stdin=subprocess.PIPE,
-                stdout=subprocess.PIPE,
-                stderr=subprocess.DEVNULL,
-                text=True,
-            )
-            for i in range(publishers)
-        ]
+        pubs = spawn_flood("benchmarks.bench_bridge", publishers, rate, per_pub, _SPAN, mode)
         try:
             deadline = time.monotonic() + 60
             while any(

@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 import re2
 
-from benchmarks._common import local_ros_env, print_table
+from benchmarks._common import local_ros_env, print_table, spawn_flood
 from dbglog._regex._propose import MAX_LINE, Proposal, match_joined, preview, propose
 from dbglog.viewer._data._logstore import LogFilter, LogStore
 
@@ -368,27 +368,7 @@ def bench_flood(rate: float, seconds: float, publishers: int = 5) -> list[list[o
 
         ui = threading.Thread(target=console, daemon=True)
         ui.start()
-        pubs = [
-            subprocess.Popen(
-                [
-                    sys.executable,
-                    "-m",
-                    "benchmarks.bench_logs",
-                    "--publisher",
-                    "--rate",
-                    str(rate / publishers),
-                    "--count",
-                    str(per_pub),
-                    "--offset",
-                    str(i * _SPAN),
-                ],
-                stdin=subprocess.PIPE,
-                stdout=subprocess.PIPE,
-                stderr=subprocess.DEVNULL,
-                text=True,
-            )
-            for i in range(publishers)
-        ]
+        pubs = spawn_flood("benchmarks.bench_logs", publishers, rate, per_pub, _SPAN)
         try:
             deadline = time.monotonic() + 60
             while (
@@ -615,20 +595,7 @@ def _viewer_run(
         ],
         stdout=subprocess.DEVNULL,
     )
-    pubs = [
-        subprocess.Popen(
-            [
-                *me,
-                *("--publisher", "--rate", str(rate / publishers)),
-                *("--count", str(per_pub), "--offset", str(i * _SPAN)),
-            ],
-            stdin=subprocess.PIPE,
-            stdout=subprocess.PIPE,
-            stderr=subprocess.DEVNULL,
-            text=True,
-        )
-        for i in range(publishers)
-    ]
+    pubs = spawn_flood("benchmarks.bench_logs", publishers, rate, per_pub, _SPAN)
     ui = subprocess.Popen(
         [
             *me,
