@@ -8,6 +8,10 @@ loop and one call into the google-re2 binding. The output is Markdown tables.
 The flood: five child processes, one rclpy node each, log 20,000 lines/s in all through the real /rosout
 (rcutils' logging call, as a node's logger makes it); the viewer's engine takes them into a `LogStore` that a
 thread drains 20 times a second, as the console does; every sequence number must arrive.
+
+``--viewer`` (under a display) times the real viewer's frames during that flood in three arms, rotated each
+round: a dashboard without the console; the same while another process takes and decodes /rosout (what
+receiving the flood costs this machine with no console in the viewer); the dashboard with the console.
 """
 
 from __future__ import annotations
@@ -568,6 +572,41 @@ def _viewer_main(dashboard: str, seconds: float, warmup: float, nodes: int) -> i
     return 0
 
 
+def _tap_main() -> int:
+    """Child process: /rosout taken and decoded as the console does, outside the viewer; counts flood lines.
+
+    The third arm of ``--viewer``: the viewer runs the dashboard without the console while this process
+    receives the flood, so the table shows what receiving 20,000 lines/s costs the machine by itself.
+    """
+    from rcl_interfaces.msg import Log
+
+    from dbglog._ros._cdr import read_log
+    from dbglog._ros._node import PrivateNode, WaitSet, no_callback, take_batch
+    from dbglog._ros._qos import LOG_DEPTH, subscription_qos
+
+    ros = PrivateNode("bench_log_tap")
+    sub = ros.node.create_subscription(
+        Log,
+        "/rosout",
+        no_callback,
+        subscription_qos(max(LOG_DEPTH, 20_000), reliable=True, transient=True),
+        raw=True,
+    )
+    wait_set = WaitSet(ros, ros.guard())
+    taken = 0
+    print("ready", flush=True)
+    while not select.select([sys.stdin], [], [], 0)[0]:
+        if wait_set.wait([sub], 100_000_000):
+            buffers, _stamps = take_batch(sub.handle.take_message, Log, True, 5_000)
+            for raw in buffers:
+                line = read_log(raw)
+                taken += line is not None and line[2].startswith(b"seq=")  # the flood's lines, not its probes
+        time.sleep(0.005)  # as the engine's minimum cycle
+    print(f"taken {taken}", flush=True)
+    ros.close([lambda: ros.node.destroy_subscription(sub)])
+    return 0
+
+
 def _expect(proc: subprocess.Popen[str], word: str) -> str:
     """Read the child's stdout up to a line starting with `word` (other lines are skipped)."""
     assert proc.stdout is not None
@@ -580,9 +619,18 @@ def _expect(proc: subprocess.Popen[str], word: str) -> str:
 
 
 def _viewer_run(
-    dashboard: Path, console: bool, rate: float, seconds: float, warmup: float, publishers: int
+    dashboard: Path,
+    console: bool,
+    rate: float,
+    seconds: float,
+    warmup: float,
+    publishers: int,
+    tap: bool = False,
 ) -> dict[str, float]:
-    """One measured run: the data publisher, the flood's nodes and a viewer child on `dashboard`."""
+    """One measured run: the data publisher, the flood's nodes and a viewer child on `dashboard`.
+
+    With `tap`, a separate process (not the viewer) receives and decodes /rosout during the flood.
+    """
     import json
 
     per_pub = int(rate * seconds / publishers)
@@ -594,6 +642,11 @@ def _viewer_run(
             *("--duration", str(warmup + seconds + 240)),
         ],
         stdout=subprocess.DEVNULL,
+    )
+    taps = (
+        [subprocess.Popen([*me, "--tap"], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)]
+        if tap
+        else []
     )
     pubs = spawn_flood("benchmarks.bench_logs", publishers, rate, per_pub, _SPAN)
     ui = subprocess.Popen(
@@ -614,6 +667,8 @@ def _viewer_run(
         proc.stdin.flush()
 
     try:
+        for t in taps:
+            _expect(t, "ready")
         _expect(ui, "ready")
         for p in pubs:
             tell(p, "quiet")
@@ -631,7 +686,15 @@ def _viewer_run(
         load1 = os.getloadavg()[0]
         tell(ui, "done")
         out = json.loads(_expect(ui, "{"))
+        for t in taps:
+            time.sleep(2.0)  # the last lines arrive
+            tell(t, "count")
+            out["tap_taken"] = int(_expect(t, "taken").split()[1])
     finally:
+        for t in taps:
+            if t.poll() is None:
+                t.kill()
+            t.wait()
         for p in pubs:
             if p.stdin is not None and p.poll() is None:
                 p.stdin.write("exit\n")
@@ -668,13 +731,18 @@ def _viewer_run(
     if console:
         res |= {k: float(out[k]) for k in ("reached", "held_gaps", "held", "taken", "evicted", "dropped")}
         res["lost"] = res["sent"] - res["reached"]
+    if tap:
+        res["tap_taken"] = float(out["tap_taken"])
+    arm = "with the console" if console else "another process takes /rosout" if tap else "without"
     print(
-        f"  {'with' if console else 'without'} the console: p50 {res['p50']:.1f} ms, "
+        f"  {arm}: p50 {res['p50']:.1f} ms, "
         f"p95 {res['p95']:.1f} ms, {res['frames']:.0f} frames, load {load0:.1f}-{load1:.1f}"
         + (
             f", lost {res['lost']:.0f} (dropped waiting {res['dropped']:.0f}), gaps {res['held_gaps']:.0f}, "
             f"engine took {res['taken']:.0f}"
             if console
+            else f", it took {res['tap_taken']:.0f}"
+            if tap
             else ""
         ),
         file=sys.stderr,
@@ -683,40 +751,59 @@ def _viewer_run(
     return res
 
 
+_ARMS = ("without", "elsewhere", "with")
+"""The ``--viewer`` arms: the dashboard without the console; the same while another process receives and
+decodes /rosout (what the flood costs the machine with no console in the viewer); with the console."""
+
+_ARM_NAMES = {
+    "without": "without (the same dashboard)",
+    "elsewhere": "without, /rosout taken and decoded by another process",
+    "with": "with the Log console on /rosout",
+}
+
+
 def bench_viewer(
     rate: float, seconds: float, repeats: int, warmup: float = 5.0, publishers: int = 5
 ) -> tuple[list[list[object]], list[list[object]]]:
-    """The viewer's frame times on one dashboard with and without a Log console on /rosout, during the
-    flood; the two run alternately, `repeats` times each. Returns the table's rows and each pair's rows."""
+    """The viewer's frame times on one dashboard without and with a Log console on /rosout during the flood,
+    and without it while another process takes /rosout; the arms run in a new rotation each round,
+    `repeats` times each. Returns the table's rows and each round's rows."""
     import json
     import tempfile
 
-    runs: dict[bool, list[dict[str, float]]] = {False: [], True: []}
-    pairs: list[list[object]] = []
+    runs: dict[str, list[dict[str, float]]] = {arm: [] for arm in _ARMS}
+    rounds: list[list[object]] = []
     with tempfile.TemporaryDirectory() as tmp:
         paths = {}
         for console in (False, True):
             paths[console] = Path(tmp) / f"{'with' if console else 'without'}.json"
             paths[console].write_text(json.dumps(_dashboard(console)))
         for r in range(repeats):
-            order = (False, True) if r % 2 == 0 else (True, False)
-            for console in order:
-                runs[console].append(_viewer_run(paths[console], console, rate, seconds, warmup, publishers))
-            without, with_ = runs[False][-1], runs[True][-1]
-            pairs.append(
+            order = _ARMS[r % 3 :] + _ARMS[: r % 3]
+            for arm in order:
+                console = arm == "with"
+                one = _viewer_run(
+                    paths[console], console, rate, seconds, warmup, publishers, tap=arm == "elsewhere"
+                )
+                runs[arm].append(one)
+            last = {arm: runs[arm][-1] for arm in _ARMS}
+            base = last["without"]["p95"]
+            rounds.append(
                 [
                     str(r + 1),
-                    f"{without['p50']:.1f} / {without['p95']:.1f}",
-                    f"{with_['p50']:.1f} / {with_['p95']:.1f}",
-                    f"{100 * (with_['p95'] / without['p95'] - 1):+.0f} %",
-                    f"{with_['lost']:,.0f}",
-                    f"{min(without['load0'], with_['load0']):.1f}-"
-                    f"{max(without['load1'], with_['load1']):.1f}",
+                    *(f"{last[arm]['p50']:.1f} / {last[arm]['p95']:.1f}" for arm in _ARMS),
+                    f"{100 * (last['elsewhere']['p95'] / base - 1):+.0f} %",
+                    f"{100 * (last['with']['p95'] / base - 1):+.0f} %",
+                    f"{last['with']['lost']:,.0f}",
+                    f"{min(x['load0'] for x in last.values()):.1f}-"
+                    f"{max(x['load1'] for x in last.values()):.1f}",
                 ]
             )
     rows: list[list[object]] = []
-    for console in (False, True):
-        got = runs[console]
+    base95 = statistics.median(x["p95"] for x in runs["without"])
+    for arm in _ARMS:
+        got = runs[arm]
+        sent = sum(x["sent"] for x in got)
 
         def med(key: str, got: list[dict[str, float]] = got) -> float:
             return statistics.median(x[key] for x in got)
@@ -724,23 +811,24 @@ def bench_viewer(
         loads = [x[k] for x in got for k in ("load0", "load1")]
         rows.append(
             [
-                "with the Log console on /rosout" if console else "without (the same dashboard)",
+                _ARM_NAMES[arm],
                 f"{med('frames') / seconds:.1f}",
                 f"{med('p50'):.1f}",
                 f"{med('p95'):.1f}",
                 f"{med('p99'):.1f}",
+                "" if arm == "without" else f"{100 * (med('p95') / base95 - 1):+.1f} %",
                 f"{med('cpu'):.0f} %",
                 f"{med('rate'):,.0f}",
-                f"{sum(x['lost'] for x in got):,.0f} of {sum(x['sent'] for x in got):,.0f}"
-                if console
+                f"{sum(x['lost'] for x in got):,.0f} of {sent:,.0f}"
+                if arm == "with"
+                else f"{sum(x['sent'] - x['tap_taken'] for x in got):,.0f} of {sent:,.0f}"
+                if arm == "elsewhere"
                 else "-",
-                f"{sum(x['held_gaps'] for x in got):,.0f}" if console else "-",
+                f"{sum(x['held_gaps'] for x in got):,.0f}" if arm == "with" else "-",
                 f"{min(loads):.1f}-{max(loads):.1f}",
             ]
         )
-    ratio = statistics.median(x["p95"] for x in runs[True]) / statistics.median(x["p95"] for x in runs[False])
-    rows.append(["p95 with / without", "", "", f"{100 * (ratio - 1):+.1f} %", "", "", "", "", "", ""])
-    return rows, pairs
+    return rows, rounds
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -753,7 +841,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--viewer",
         action="store_true",
-        help="only the viewer's frame times with and without a Log console during the flood (needs a "
+        help="only the viewer's frame times without and with a Log console during the flood, and without it "
+        "while another process takes /rosout (needs a "
         'display: xvfb-run -a -s "-screen 0 1600x1000x24")',
     )
     parser.add_argument("--repeats", type=int, default=3, help="--viewer: runs each way (alternating)")
@@ -761,11 +850,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--nodes", type=int, default=5, help=argparse.SUPPRESS)
     parser.add_argument("--viewer-child", default="", help=argparse.SUPPRESS)
     parser.add_argument("--publisher", action="store_true", help=argparse.SUPPRESS)
+    parser.add_argument("--tap", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--count", type=int, default=0, help=argparse.SUPPRESS)
     parser.add_argument("--offset", type=int, default=0, help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.publisher:
         return _publisher_main(args.rate, args.count, args.offset)
+    if args.tap:
+        return _tap_main()
     if args.viewer_child:
         return _viewer_main(args.viewer_child, args.seconds, args.warmup, args.nodes)
     if args.viewer:
@@ -775,14 +867,15 @@ def main(argv: list[str] | None = None) -> int:
         rows, pairs = bench_viewer(args.rate, seconds, args.repeats, args.warmup, args.nodes)
         print_table(
             f"The viewer during the flood ({args.nodes} nodes, {args.rate:,.0f} lines/s, {seconds:g} s; "
-            f"as dbglog view runs: 60 fps cap, data 20 fps; medians of {args.repeats} runs each way, "
-            "alternating)",
+            f"as dbglog view runs: 60 fps cap, data 20 fps; medians of {args.repeats} runs of each arm, "
+            "in a new rotation each round)",
             [
                 "dashboard",
                 "frames/s",
                 "frame p50 ms",
                 "frame p95 ms",
                 "frame p99 ms",
+                "p95 vs without",
                 "viewer CPU",
                 "sent lines/s",
                 "lost (not in the store)",
@@ -792,8 +885,17 @@ def main(argv: list[str] | None = None) -> int:
             rows,
         )
         print_table(
-            "Each pair of runs",
-            ["run", "without: p50 / p95 ms", "with: p50 / p95 ms", "p95 with vs without", "lost", "load"],
+            "Each round",
+            [
+                "round",
+                "without: p50 / p95 ms",
+                "elsewhere: p50 / p95 ms",
+                "with: p50 / p95 ms",
+                "p95 elsewhere vs without",
+                "p95 with vs without",
+                "lost (with)",
+                "load",
+            ],
             pairs,
         )
         return 0
