@@ -96,3 +96,52 @@ def test_live_every_look_reads_again() -> None:
     snaps.begin()
     assert snaps.snapshot(A).last == 2.0
     assert snaps.reads == 2
+
+
+def test_a_short_past_carries_the_recent_samples_and_the_same_state() -> None:
+    """Asked for the last 2 s (or none), the snapshot holds those samples and the one before; value, status,
+    count and rate are those of the whole snapshot."""
+    _, source = _replay()
+    timeline = Timeline(source)
+    timeline.pause(1005.04)
+    whole = timeline.snapshot(A)
+    for past, first in ((2.0, 1003.0), (0.0, 1005.0)):
+        part = timeline.snapshot(A, past)
+        assert part.times[0] == first  # the sample at or before the cursor - past
+        assert np.array_equal(part.times, whole.times[whole.times >= first])
+        assert np.array_equal(part.values, whole.values[whole.times >= first])
+        assert (part.last, part.last_time, part.count, part.status, part.rate_hz) == (
+            whole.last,
+            whole.last_time,
+            whole.count,
+            whole.status,
+            whole.rate_hz,
+        )
+    assert len(timeline.snapshot(A, 1e6).times) == len(whole.times)  # never more than without a past
+
+
+def test_a_look_reads_a_series_again_only_when_asked_for_more_past() -> None:
+    """A gauge's read (no past) serves a second gauge; a plot's longer past reads once more, and then serves
+    both; a read of everything serves any past."""
+    _, source = _replay()
+    timeline = Timeline(source)
+    timeline.pause(1005.0)
+    snaps = FrameSnapshots(timeline)
+    snaps.begin()
+    gauge = snaps.snapshot(A, 0.0)
+    assert snaps.snapshot(A, 0.0) is gauge
+    assert len(gauge.times) == 1
+    plot = snaps.snapshot(A, 3.0)
+    assert snaps.reads == 2
+    assert snaps.snapshot(A, 0.0) is plot
+    assert len(plot.times) == 31
+    everything = snaps.snapshot(B)
+    assert snaps.snapshot(B, 3.0) is everything
+    assert snaps.reads == 3
+
+
+def test_live_a_past_changes_nothing() -> None:
+    """Live (no cursor), the timeline hands out the source's snapshot whatever past is asked for."""
+    _, source = _replay()
+    timeline = Timeline(source)
+    assert len(timeline.snapshot(A, 0.0).times) == len(source.snapshot(A).times)

@@ -228,11 +228,14 @@ class Series:
                 count=self._count,
             )
 
-    def snapshot_at(self, t: float, stale_after: float) -> SeriesSnapshot:
+    def snapshot_at(self, t: float, stale_after: float, past: float | None = None) -> SeriesSnapshot:
         """Return the series as it stood at source time `t` (from the store; without one, from the ring).
 
         Numbers: the samples of the window the ring spans live (at least `_MIN_WINDOW_S`, at most the
         ring's capacity) that end at `t`; text: the texts up to `t`; the value, age and status at `t`.
+        With `past` (seconds), numbers stop at the last `past` seconds before `t` and the sample just before
+        them (a line drawn from them reaches the window's edge): a gauge asks for 0 (the sample at `t`
+        alone), a plot for its visible range; every other field is the same.
         """
         store = self.store
         if store is None:
@@ -265,7 +268,11 @@ class Series:
             assert isinstance(sample.value, bytes)
             last = tuple(np.frombuffer(sample.value, dtype=np.float64).tolist())
         else:
-            times, raw = store.range(self.key, t - window, t)
+            t0 = t - window
+            if past is not None and past < window:  # from the sample at or before t - past (or `sample`)
+                edge = store.at(self.key, t - past) if past > 0 else sample
+                t0 = max(t0, edge.time if edge is not None else t - past)  # never more than without `past`
+            times, raw = store.range(self.key, t0, t)
             times, values = times[-self._capacity :], raw[-self._capacity :].astype(np.float64, copy=False)
             last = typed_like(last_live, float(sample.value))
         age = t - sample.time
@@ -273,10 +280,12 @@ class Series:
         before = store.at(self.key, t - RATE_WINDOW_S)  # the rate over the window before t, as live
         recent = sample.index - (before.index if before is not None else -1)
         rate = recent / RATE_WINDOW_S if recent > 1 else 0.0
-        return replace(
-            base,
-            status=status,
-            reason=reason,
+        return SeriesSnapshot(
+            self.binding,
+            status,
+            reason,
+            kind=kind,
+            msg_type=msg_type,
             times=times,
             values=values,
             texts=texts,
@@ -372,6 +381,14 @@ class SeriesTimes:
         if series.count == 0:  # nothing to travel through yet: say why (not published, a bad field ...)
             return series.snapshot(self.stale_after)
         return series.snapshot_at(t, self.stale_after)
+
+    def snapshot_recent(self, binding: Binding, t: float, past: float) -> SeriesSnapshot:
+        """Return `snapshot_at`'s answer with only the last `past` seconds of samples before `t` (see
+        `Series.snapshot_at`): what a widget that shows a value, or a short range, needs."""
+        series = self._series.get(binding)
+        if series is None or series.count == 0:
+            return self.snapshot_at(binding, t)
+        return series.snapshot_at(t, self.stale_after, past)
 
     def time_span(self) -> tuple[float, float] | None:
         """Return (oldest, newest) source time the history holds, None while it is empty."""

@@ -367,12 +367,23 @@ class Timeline:
 
     # --- DataSource ---------------------------------------------------------------------------------
 
-    def snapshot(self, binding: Binding) -> SeriesSnapshot:
-        """Return the series live, or as it stood at the cursor time."""
+    def snapshot(self, binding: Binding, past: float | None = None) -> SeriesSnapshot:
+        """Return the series live, or as it stood at the cursor time.
+
+        Args:
+            binding: the series.
+            past: paused, the seconds of samples before the cursor the caller needs (0: the value at the
+                cursor alone), when its source can answer with less (`snapshot_recent`); None: all it
+                gives. Live, ignored.
+        """
         t = self.cursor
         if t is None:
             return self.source.snapshot(binding)
         if self._timed is not None:
+            recent = getattr(self._timed, "snapshot_recent", None) if past is not None else None
+            if recent is not None:
+                snap: SeriesSnapshot = recent(binding, t, past)
+                return snap
             return self._timed.snapshot_at(binding, t)
         return cut_at(self.source.snapshot(binding), t, self.stale_after)
 

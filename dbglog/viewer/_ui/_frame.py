@@ -55,7 +55,9 @@ class FrameSnapshots:
     was read is forgotten at `begin` (each look), and as soon as the cursor, the source or the stale
     time differs from when it was read. Paused over a history that did not change (its sample count,
     span, evictions), a look keeps what was read, for at most `keep_s` (a series' state that comes with
-    no sample, such as a type error, still shows within that time).
+    no sample, such as a type error, still shows within that time). Paused, a reader may ask for only the
+    last `past` seconds of samples (a gauge needs the value, a plot its range): a copy of the whole
+    window is then read only for a widget that wants it.
     """
 
     def __init__(self, timeline: Timeline, *, keep_s: float = 1.0) -> None:
@@ -63,7 +65,8 @@ class FrameSnapshots:
         self.keep_s = keep_s
         self.reads = 0
         """Snapshots read from the timeline so far (the tests and the benchmark read this)."""
-        self._memo: dict[Binding, SeriesSnapshot] = {}
+        self._memo: dict[Binding, tuple[float | None, SeriesSnapshot]] = {}
+        """Each binding's snapshot with the `past` it was read for (None: all of it)."""
         self._state: tuple[object, ...] = ()
         self._history: object = None
         self._read_at = -math.inf
@@ -86,16 +89,24 @@ class FrameSnapshots:
         self._memo.clear()
         self._state, self._history, self._read_at = state, history, now
 
-    def snapshot(self, binding: Binding) -> SeriesSnapshot:
-        """Return the timeline's snapshot of `binding`, read once since `begin` at this cursor."""
+    def snapshot(self, binding: Binding, past: float | None = None) -> SeriesSnapshot:
+        """Return the timeline's snapshot of `binding`, read once since `begin` at this cursor.
+
+        Args:
+            binding: the series.
+            past: the seconds of samples before the cursor the caller needs (None: all the source gives);
+                a snapshot read for more is handed out as it is.
+        """
         state = self._now()
         if state != self._state:
             self._memo.clear()
             self._state = state
-        snap = self._memo.get(binding)
-        if snap is None:
-            snap = self._memo[binding] = self.timeline.snapshot(binding)
-            self.reads += 1
+        held = self._memo.get(binding)
+        if held is not None and (held[0] is None or (past is not None and past <= held[0])):
+            return held[1]
+        snap = self.timeline.snapshot(binding, past)
+        self._memo[binding] = (past, snap)
+        self.reads += 1
         return snap
 
 
@@ -296,13 +307,33 @@ class CanvasItem:
         return self._snapshots(source)
 
     def _snapshots(self, source: SnapshotReader) -> list[SeriesSnapshot]:
-        snapshots = [source.snapshot(b) for b in self.series]
+        past = self._past_needed(source)
+        if past is not None and isinstance(source, FrameSnapshots):
+            snapshots = [source.snapshot(b, past) for b in self.series]
+        else:
+            snapshots = [source.snapshot(b) for b in self.series]
         stale_after = self.config.stale_after
         if stale_after is not None:
             snapshots = [s.with_stale_time(stale_after) for s in snapshots]
         if self.widget_cls is not None:  # a kind the widget did not declare is an error, not shown
             snapshots = [shown_as(self.widget_cls, s) for s in snapshots]
         return snapshots
+
+    def _past_needed(self, source: SnapshotReader) -> float | None:
+        """The seconds of samples before the cursor the widget draws, if it says (built-in widgets do, with
+        a `past_needed(at)` method); None: all of them (a plugin's widget, or live)."""
+        if not isinstance(source, FrameSnapshots) or self.widget is None or self.failed:
+            return None
+        at = source.timeline.cursor
+        ask = getattr(self.widget, "past_needed", None)
+        if at is None or ask is None:
+            return None
+        try:
+            past = ask(at)
+        except Exception:  # a wrong answer costs only a copy: read everything
+            _log.debug("%s: past_needed failed", self.name, exc_info=True)
+            return None
+        return None if past is None else max(0.0, float(past))
 
     def changed(self, source: SnapshotReader, *, paused_at: float | None = None) -> bool:
         """Whether `refresh` would redraw now (a count, status or reason changed, the cursor moved)."""

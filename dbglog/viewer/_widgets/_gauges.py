@@ -114,6 +114,10 @@ class DialWidget(Widget):
         w, h = text_size(text, self._size)
         dpg.configure_item(self._readout, text=text, pos=(cx - w / 2, cy + r * 0.55 - h / 2))
 
+    def past_needed(self, at: float) -> float:
+        """Paused at `at`, the samples this widget needs: none before the value at `at` (see `CanvasItem`)."""
+        return 0.0
+
 
 class KnobWidget(DialWidget):
     """A rotary knob over 270 degrees: a filled value arc and a pointer on a round cap."""
@@ -235,6 +239,10 @@ class CompassWidget(Widget):
         cx, _, _ = self._geom
         dpg.configure_item(self._readout, text=text, pos=(cx - w / 2, self.height - self._size - 2))
 
+    def past_needed(self, at: float) -> float:
+        """Paused at `at`, the samples this widget needs: none before the value at `at` (see `CanvasItem`)."""
+        return 0.0
+
 
 class ThermoWidget(Widget):
     """A vertical thermometer bar with a bulb, a labelled scale and a readout."""
@@ -302,3 +310,7 @@ class ThermoWidget(Widget):
         text = format_value(value, int(self.num("decimals")), str(self.prop("unit")))
         w, h = text_size(text, self._size)
         dpg.configure_item(self._readout, text=text, pos=(self.width / 2 - w / 2, self.height - 10 - h / 2))
+
+    def past_needed(self, at: float) -> float:
+        """Paused at `at`, the samples this widget needs: none before the value at `at` (see `CanvasItem`)."""
+        return 0.0

@@ -60,6 +60,8 @@ SELECT_COLOR = (86, 166, 240, 255)
 """A box zoom being dragged (the viewer's accent blue)."""
 TAG_GAP = 18
 """Pixels between two value tags at the cursor (close values are spread apart to stay readable)."""
+PAST_MARGIN = 1.5
+"""Paused, a plot reads this many times the seconds its range shows before the cursor (see `past_needed`)."""
 HEADER_H = 28
 """The row above the plot: Pause, Link and what the plot shows."""
 NO_BUTTON = 4
@@ -374,6 +376,15 @@ class PlotWidget(Widget):
         )
 
     # -- drawing -------------------------------------------------------------------------------------
+
+    def past_needed(self, at: float) -> float:
+        """Paused at `at`, the seconds of samples before it the plot draws: its range, and half of it again
+        (a zoom out by the wheel; further out, `_history_before` draws the history's envelope), or none
+        while its own Pause keeps the picture it has."""
+        if self.paused and getattr(self, "_snaps", None):
+            return 0.0
+        start, _stop = self.time_range().window(self.num("window"), at)
+        return max(0.0, at - start) * PAST_MARGIN
 
     def update(self, snapshots: Sequence[SeriesSnapshot], now: float) -> None:
         """Take ImPlot's zoom and pan into the range, then draw every series over the range and the hover."""

@@ -159,6 +159,10 @@ class LedWidget(Widget):
         self._caption = draw_centered_text("\u2014", cx, height - 12, self._size, DIM, dl)
         self.lit = False
 
+    def past_needed(self, at: float) -> float:
+        """Paused at `at`, the samples this widget needs: none before the value at `at` (see `CanvasItem`)."""
+        return 0.0
+
     def update(self, snapshots: Sequence[SeriesSnapshot], now: float) -> None:
         """Light or dim the lamp for the latest value."""
         last = snapshots[0].last if snapshots else None
