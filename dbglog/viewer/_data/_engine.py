@@ -685,6 +685,10 @@ class Engine(SeriesTimes):
         if not stamps:
             return
         self._count(topic, stamps)
+        if topic.fast is not None and not topic.fast and topic.scalar is None:  # nothing to decode: keep them
+            self._remember(topic, buffers, stamps)
+            self._record_latency(np.asarray(stamps, dtype=np.float64) * 1e-9)
+            return
         if topic.fast is not None:
             fields = [(offset, dtype) for _, offset, dtype in topic.fast]
             if topic.scalar is not None and topic.scalar not in fields:
@@ -717,7 +721,7 @@ class Engine(SeriesTimes):
             self._remember(topic, buffers, stamps)
         sinks = [sink for sink in topic.sinks.values() if sink.resolved is not None]
         times_list = [s * 1e-9 for s in stamps]
-        if not sinks:  # e.g. a Log console's topic: its lines go to the store as bytes, nothing reads messages
+        if not sinks:  # every binding in error: nothing reads the messages
             self._record_latency(np.asarray(times_list))
             return
         from rclpy.serialization import deserialize_message

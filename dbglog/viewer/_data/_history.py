@@ -457,7 +457,7 @@ class History:
             raise ValueError(f"history of {topic!r}: {len(t)} times but {len(payloads)} payloads")
         if not len(t):
             return
-        items = [p if type(p) is bytes else bytes(p) for p in payloads]
+        items = list(payloads) if set(map(type, payloads)) == {bytes} else [bytes(p) for p in payloads]
         with self._lock:
             track = self._track(topic, "payloads", None, msg_type)
             if msg_type:
@@ -550,9 +550,7 @@ class History:
             rest = data[k:] if isinstance(data, list) else data[k:].copy()
             track.pending = _Chunk(rest_t, rest, 0, n - k)
             if isinstance(rest, list):
-                track.pending_bytes = (
-                    rest_t.nbytes + sum(len(x) for x in rest) + _PAYLOAD_OVERHEAD * len(rest)
-                )
+                track.pending_bytes = rest_t.nbytes + sum(map(len, rest)) + _PAYLOAD_OVERHEAD * len(rest)
             else:
                 track.pending_bytes = rest_t.nbytes + rest.nbytes
         else:
@@ -576,7 +574,7 @@ class History:
         o = track.open
         if o is not None and o.size:
             if isinstance(o.data, list):
-                lens = np.fromiter((len(p) for p in o.data[o.start : o.n]), dtype=np.int64, count=o.size)
+                lens = np.fromiter(map(len, o.data[o.start : o.n]), dtype=np.int64, count=o.size)
                 offsets = np.zeros(o.size + 1, dtype=np.int64)
                 np.cumsum(lens, out=offsets[1:])
                 closed = _Chunk(
@@ -611,7 +609,7 @@ class History:
                     times[:live] = o.times[o.start : o.n]
                     if isinstance(o.data, list):
                         new_data: _Arr | list[bytes] = o.data[o.start : o.n]
-                        track.open_bytes = sum(len(p) for p in new_data)
+                        track.open_bytes = sum(map(len, new_data))
                     else:
                         new_data = np.empty(new_cap, dtype=track.dtype)
                         if o.data is not None:
@@ -633,7 +631,7 @@ class History:
                         k = j + 1
                         break
                 o.data.extend(part[:k])
-                track.open_bytes += sum(len(p) for p in part[:k])
+                track.open_bytes += sum(map(len, part[:k]))
             elif o.data is not None:
                 o.data[o.n : o.n + k] = data[done : done + k]
             o.times[o.n : o.n + k] = t[done : done + k]
