@@ -27,6 +27,7 @@ from dbglog.viewer._widgets._geometry import (
     rects_around,
     rects_outside,
     scroll_target,
+    simplify_line,
     snap,
     snap_rect,
     thermo_fill,
@@ -354,3 +355,62 @@ def test_scroll_target_steps_and_clamps() -> None:
     assert scroll_target(100, 2, 500, 60) == 0
     assert scroll_target(480, -1, 500, 60) == 500
     assert scroll_target(0, -1, 0, 60) == 0
+
+
+def _off_line(x: np.ndarray, y: np.ndarray, kx: np.ndarray, ky: np.ndarray) -> float:
+    """The largest distance from a point (x, y) to the polyline (kx, ky)."""
+    ax, ay, bx, by = kx[:-1, None], ky[:-1, None], kx[1:, None], ky[1:, None]
+    dx, dy = bx - ax, by - ay
+    t = np.clip(((x - ax) * dx + (y - ay) * dy) / np.maximum(dx * dx + dy * dy, 1e-300), 0.0, 1.0)
+    return float(np.max(np.min(np.hypot(ax + t * dx - x, ay + t * dy - y), axis=0)))
+
+
+def test_simplify_line_thins_a_smooth_curve_within_the_tolerance() -> None:
+    """A sine decimated to a point per pixel loses most of its points; the line moves by < 3 x 0.15 px."""
+    t = np.arange(1000) / 100.0
+    x, y = minmax_decimate(t, np.sin(t * 1.3), 180)
+    sx, sy = 18.0, 40.0
+    kx, ky, _ = simplify_line(x, y, sx, sy)
+    assert len(kx) < len(x) / 2
+    assert (kx[0], kx[-1]) == (x[0], x[-1])
+    assert _off_line(x * sx, y * sy, kx * sx, ky * sy) <= 3 * 0.15 + 1e-9
+
+
+def test_simplify_line_keeps_noise_spikes_and_gaps() -> None:
+    """Noise keeps nearly every point; a spike and the points either side of a NaN gap stay."""
+    rng = np.random.default_rng(3)
+    x = np.arange(200, dtype=np.float64)
+    y = rng.normal(size=200)
+    kx, _, _ = simplify_line(x, y, 1.0, 20.0)
+    assert len(kx) > 190
+    flat = np.zeros(50)
+    flat[20], flat[35] = 5.0, np.nan
+    fx, fy, _ = simplify_line(np.arange(50.0), flat, 1.0, 20.0)
+    assert 20.0 in fx
+    assert 5.0 in fy
+    assert {34.0, 35.0, 36.0} <= set(fx.tolist())
+
+
+def test_simplify_line_keeps_each_groups_ends() -> None:
+    """Two straight lines in one array: each keeps only its first and last point, with its group id."""
+    x = np.concatenate((np.arange(10.0), np.arange(10.0)))
+    y = np.concatenate((np.arange(10.0), 5.0 - np.arange(10.0)))
+    groups = np.repeat(np.arange(2), 10)
+    kx, ky, kept = simplify_line(x, y, 1.0, 1.0, groups=groups, passes=8)
+    assert kept is not None
+    assert kx.tolist() == [0.0, 9.0, 0.0, 9.0]
+    assert ky.tolist() == [0.0, 9.0, 5.0, -4.0]
+    assert kept.tolist() == [0, 0, 1, 1]
+
+
+@given(st.lists(st.floats(-1e3, 1e3), min_size=3, max_size=300), st.floats(0.01, 100))
+@settings(max_examples=60, deadline=None)
+def test_simplify_line_property(values: list[float], y_scale: float) -> None:
+    """Any line: the points kept are a subsequence with both ends, none further than 3 x tolerance px."""
+    y = np.asarray(values)
+    x = np.arange(len(y), dtype=np.float64)
+    kx, ky, _ = simplify_line(x, y, 1.0, y_scale)
+    assert (kx[0], kx[-1]) == (0.0, len(y) - 1.0)
+    assert np.all(np.diff(kx) > 0)
+    assert np.array_equal(ky, y[kx.astype(int)])
+    assert _off_line(x, y * y_scale, kx, ky * y_scale) <= 3 * 0.15 + 1e-6

@@ -17,7 +17,7 @@ import dearpygui.dearpygui as dpg
 import numpy as np
 
 from dbglog.viewer._widgets._common import SERIES_COLORS, clock_text, latest_number
-from dbglog.viewer._widgets._geometry import minmax_decimate, range_slice, spread
+from dbglog.viewer._widgets._geometry import minmax_decimate, range_slice, simplify_line, spread
 from dbglog.viewer._widgets._timeaxis import (
     AxisSync,
     HoverTracker,
@@ -455,7 +455,8 @@ class PlotWidget(Widget):
         lo, hi = np.inf, -np.inf
         drawn = 0
         oldest = np.inf
-        for tag, snap in zip(self._series, snaps, strict=True):
+        lines: list[tuple[np.ndarray, np.ndarray]] = []
+        for snap in snaps:
             n = min(len(snap.times), len(snap.values))
             times, values = snap.times[len(snap.times) - n :], snap.values[len(snap.values) - n :]
             inside, drawn_part = range_slice(times, start, stop)
@@ -468,22 +469,47 @@ class PlotWidget(Widget):
                 seen = seen[np.isfinite(seen)]
                 if len(seen):
                     lo, hi = min(lo, float(seen.min())), max(hi, float(seen.max()))
-            # Contiguous float64 arrays go to Dear PyGui through the buffer protocol, without lists.
-            dpg.set_value(tag, [np.ascontiguousarray(x, np.float64), np.ascontiguousarray(y, np.float64)])
-            drawn += len(x)
+            lines.append((x, y))
             if len(x):
                 oldest = min(oldest, float(x[0]) + origin)
             shown = values[inside]
             finite = shown[np.isfinite(shown)]
             if len(finite):
                 lo, hi = min(lo, float(finite.min())), max(hi, float(finite.max()))
-        self.points_drawn = drawn
-        self.drawn_from = oldest if drawn else None
         if self.prop("scale") == "fixed":
             self._set_y_limits((self.num("y_min"), self.num("y_max")))
         elif np.isfinite(lo):
             pad = (hi - lo) * 0.08 or max(abs(hi) * 0.1, 0.5)
             self._set_y_limits((lo - pad, hi + pad))
+        for tag, (x, y) in zip(self._series, self._simplified(lines, stop - start), strict=True):
+            # Contiguous float64 arrays go to Dear PyGui through the buffer protocol, without lists.
+            dpg.set_value(tag, [np.ascontiguousarray(x, np.float64), np.ascontiguousarray(y, np.float64)])
+            drawn += len(x)
+        self.points_drawn = drawn
+        self.drawn_from = oldest if drawn else None
+
+    def _simplified(
+        self, lines: list[tuple[np.ndarray, np.ndarray]], seconds: float
+    ) -> list[tuple[np.ndarray, np.ndarray]]:
+        """The lines less the points a straight segment passes within a fraction of a pixel of (see
+        `simplify_line`; every series in one call), scaled by upper bounds of the plot area's pixels."""
+        if self._limits is None or len(lines) == 0 or sum(len(x) for x, _ in lines) < 3:
+            return lines
+        y_lo, y_hi = self._limits
+        x_scale = self.width / seconds if seconds > 0 else 0.0
+        y_scale = self._plot_h / (y_hi - y_lo) if y_hi > y_lo else 0.0
+        ids = np.repeat(np.arange(len(lines)), [len(x) for x, _ in lines])
+        x, y, kept = simplify_line(
+            np.concatenate([x for x, _ in lines]),
+            np.concatenate([y for _, y in lines]),
+            x_scale,
+            y_scale,
+            groups=ids,
+        )
+        if kept is None:
+            return lines
+        cuts = np.searchsorted(kept, np.arange(1, len(lines)))
+        return list(zip(np.split(x, cuts), np.split(y, cuts), strict=True))
 
     def _history_before(
         self, snap: SeriesSnapshot, start: float, stop: float, first: float, max_points: int
