@@ -373,8 +373,8 @@ def simplify_line(
     x_scale: float,
     y_scale: float,
     *,
-    tolerance: float = 0.15,
-    passes: int = 3,
+    tolerance: float = 0.2,
+    passes: int = 2,
     groups: npt.NDArray[np.int64] | None = None,
 ) -> tuple[FloatArray, FloatArray, npt.NDArray[np.int64] | None]:
     """Drop the points of a line that lie within `tolerance` pixels of the chord between their neighbours.
@@ -383,37 +383,41 @@ def simplify_line(
     a smooth stretch decimated to a point per pixel column is mostly points that a straight segment
     passes within a fraction of a pixel of. Each pass looks at every other point (its neighbours stay),
     so the line drawn never moves by more than ``passes * tolerance`` pixels; spikes, steps, gaps (NaN)
-    and the ends are kept. `x_scale` and `y_scale` are pixels per data unit (an overestimate is safe:
-    it keeps more points). `groups` (non-decreasing ids, one per point) holds several lines in one
-    array: the first and last point of each group are kept, and the ids come back with the points kept.
+    and the ends are kept. `x` is non-decreasing (a time axis); `x_scale` and `y_scale` are pixels per
+    data unit (an overestimate is safe: it keeps more points). `groups` (non-decreasing ids, one per
+    point) holds several lines in one array: the first and last point of each group are kept, and the
+    ids come back with the points kept.
     """
     n = len(x)
     if n < 3 or not (x_scale > 0 and y_scale > 0) or not (math.isfinite(x_scale) and math.isfinite(y_scale)):
         return x, y, groups
-    px, py = x * x_scale, y * y_scale
+    p = x * x_scale + 1j * (y * y_scale)  # the points in pixels, as complex numbers: fewer array passes
+    free = np.ones(n, dtype=bool)  # may go: not an end of the line or of a group
+    free[0] = free[-1] = False
+    if groups is not None:
+        change = groups[1:] != groups[:-1]
+        free[1:] &= ~change
+        free[:-1] &= ~change
+    idx = np.arange(n)
     for parity in range(passes):
-        n = len(px)
-        if n < 3:
+        if len(p) < 3:
             break
-        ax, ay, cx, cy, bx, by = px[:-2], py[:-2], px[1:-1], py[1:-1], px[2:], py[2:]
-        dx, dy = bx - ax, by - ay
+        a = p[:-2]
+        chord = p[2:] - a
         with np.errstate(invalid="ignore"):  # NaN (a gap) compares False: kept
-            close = np.abs(dx * (cy - ay) - dy * (cx - ax)) < tolerance * np.hypot(dx, dy)
-            close &= (cx >= ax) & (cx <= bx)
+            close = np.abs((chord.conjugate() * (p[1:-1] - a)).imag) < tolerance * np.abs(chord)
+        close &= free[1:-1]
         close[(parity + 1) % 2 :: 2] = False  # every other point: a dropped point's neighbours stay
-        if groups is not None:
-            close &= (groups[:-2] == groups[1:-1]) & (groups[1:-1] == groups[2:])
         if not close.any():
             if parity:
                 break
             continue
-        keep = np.ones(n, dtype=bool)
+        keep = np.ones(len(p), dtype=bool)
         keep[1:-1] = ~close
-        px, py = px[keep], py[keep]
-        x, y = x[keep], y[keep]
-        if groups is not None:
-            groups = groups[keep]
-    return x, y, groups
+        p, idx, free = p[keep], idx[keep], free[keep]
+    if len(idx) == n:
+        return x, y, groups
+    return x[idx], y[idx], None if groups is None else groups[idx]
 
 
 def spread(positions: Sequence[float], gap: float) -> list[float]:

@@ -12,6 +12,7 @@ the zoom and pan; `_timeaxis` reads them back and keeps the axis and the range i
 from __future__ import annotations
 
 from collections.abc import Sequence
+from itertools import pairwise
 
 import dearpygui.dearpygui as dpg
 import numpy as np
@@ -508,8 +509,8 @@ class PlotWidget(Widget):
         )
         if kept is None:
             return lines
-        cuts = np.searchsorted(kept, np.arange(1, len(lines)))
-        return list(zip(np.split(x, cuts), np.split(y, cuts), strict=True))
+        cuts = [0, *np.searchsorted(kept, np.arange(1, len(lines))).tolist(), len(kept)]
+        return [(x[a:b], y[a:b]) for a, b in pairwise(cuts)]
 
     def _history_before(
         self, snap: SeriesSnapshot, start: float, stop: float, first: float, max_points: int
