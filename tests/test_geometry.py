@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 from dbglog.viewer._widgets._geometry import (
     Part,
     Rect,
+    arc_step,
     canvas_extent,
     compass_label,
     format_tick,
@@ -414,3 +415,12 @@ def test_simplify_line_property(values: list[float], y_scale: float) -> None:
     assert np.all(np.diff(kx) > 0)
     assert np.array_equal(ky, y[kx.astype(int)])
     assert _off_line(x, y * y_scale, kx, ky * y_scale) <= 2 * 0.2 + 1e-6
+
+
+@pytest.mark.parametrize("radius", [5.0, 20.0, 60.0, 150.0, 1000.0])
+def test_arc_step_keeps_chords_within_a_tenth_of_a_pixel(radius: float) -> None:
+    """A gauge arc's points are as far apart as a chord 0.1 px off the circle allows, 2 to 10 degrees."""
+    step = arc_step(radius)
+    assert 2.0 <= step <= 10.0
+    sagitta = radius * (1 - math.cos(math.radians(step / 2)))
+    assert sagitta <= 0.1 + 1e-9 or step == 2.0

@@ -9,7 +9,7 @@ from collections.abc import Sequence
 import dearpygui.dearpygui as dpg
 import numpy as np
 
-from dbglog.viewer._widgets._geometry import format_tick, nice_ticks, polar
+from dbglog.viewer._widgets._geometry import arc_step, format_tick, nice_ticks, polar
 from dbglog.viewer.widget_api import Color, SeriesSnapshot
 
 TEXT: Color = (222, 226, 232, 255)
@@ -143,10 +143,13 @@ def set_disc_color(item: int | str, color: Color) -> None:
 
 
 def arc_points(
-    cx: float, cy: float, r: float, start: float, end: float, step: float = 4.0
+    cx: float, cy: float, r: float, start: float, end: float, step: float | None = None
 ) -> list[list[float]]:
-    """Return polyline points of an arc from angle `start` to `end` degrees (0 = up, clockwise)."""
-    n = max(2, int(abs(end - start) / step) + 1)
+    """Return polyline points of an arc from angle `start` to `end` degrees (0 = up, clockwise), `step`
+    degrees apart at most (default: chords within 0.1 px of the circle, `arc_step`; a software renderer
+    pays for every segment of a thick line)."""
+    step = arc_step(r) if step is None else step
+    n = max(2, math.ceil(abs(end - start) / step) + 1)
     return [list(polar(cx, cy, r, start + (end - start) * i / (n - 1))) for i in range(n)]
 
 

@@ -16,6 +16,7 @@ import numpy.typing as npt
 __all__ = [
     "Part",
     "Rect",
+    "arc_step",
     "canvas_extent",
     "compass_label",
     "format_tick",
@@ -365,6 +366,14 @@ def minmax_decimate(x: FloatArray, y: FloatArray, max_points: int) -> tuple[Floa
     np.maximum(i_min, i_max, out=order[1::2])
     np.minimum(order, n - 1, out=order)
     return x[order], y[order]
+
+
+def arc_step(radius: float, max_error: float = 0.1) -> float:
+    """Return the angle in degrees between an arc's points so that its chords stay within `max_error` pixels
+    of the circle (between 2 and 10 degrees): a 60 px dial needs 6.6, not a point every 4."""
+    if not radius > max_error:
+        return 10.0
+    return float(min(10.0, max(2.0, math.degrees(2 * math.acos(1 - max_error / radius)))))
 
 
 def simplify_line(
