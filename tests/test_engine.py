@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
+import contextlib
 import itertools
 import signal
 import subprocess
 import sys
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 
 import numpy as np
 import pytest
@@ -16,7 +17,7 @@ from builtin_interfaces.msg import Time
 from geometry_msgs.msg import PoseStamped, Twist
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import LaserScan
-from std_msgs.msg import Bool, Float64, Float64MultiArray, Int32, MultiArrayDimension, String
+from std_msgs.msg import Bool, Float64, Float64MultiArray, MultiArrayDimension, String
 
 from dbglog._ros._qos import tag_qos
 from dbglog.viewer._data._engine import Engine, queue_depth_for
@@ -266,22 +267,80 @@ def test_killed_publisher_turns_stale(engine: Engine) -> None:
     assert "no message" in stale.reason
 
 
+# A publisher child that starts publishing `<type>(data=<value>)` every 20 ms at the first line on stdin and
+# shuts down cleanly when stdin closes: a node restarted by its user, in a process of its own.
+_RESTARTABLE = """
+import sys, threading, time, rclpy
+from rclpy.context import Context
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from std_msgs.msg import Float64, Int32
+topic, type_name, text = sys.argv[1:4]
+cls, value = (Float64, float(text)) if type_name == "Float64" else (Int32, int(text))
+ctx = Context(); rclpy.init(context=ctx)
+node = Node("restartable", context=ctx)
+qos = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
+pub = node.create_publisher(cls, topic, qos)
+started, closed = threading.Event(), threading.Event()
+def watch():
+    for _ in sys.stdin:
+        started.set()
+    closed.set()
+threading.Thread(target=watch, daemon=True).start()
+while not closed.is_set():
+    if started.is_set():
+        pub.publish(cls(data=value))
+    time.sleep(0.02)
+node.destroy_node()
+rclpy.shutdown(context=ctx)
+"""
+
+
+@contextlib.contextmanager
+def _publisher_process(topic: str, type_name: str, value: str) -> Iterator[Callable[[], None]]:
+    """Run a `_RESTARTABLE` child; yield the function that starts its publishing; stop it cleanly."""
+    proc = subprocess.Popen(
+        [sys.executable, "-c", _RESTARTABLE, topic, type_name, value], stdin=subprocess.PIPE, text=True
+    )
+    assert proc.stdin is not None
+    stdin = proc.stdin
+
+    def start() -> None:
+        stdin.write("go\n")
+        stdin.flush()
+
+    try:
+        yield start
+    finally:
+        stdin.close()
+        try:
+            proc.wait(10)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait(10)
+
+
 def test_publisher_restarted_with_another_type_errors_then_recovers(engine: Engine) -> None:
     """Float64 -> Int32 on the same topic: ERROR "type changed" until the first Int32, then LIVE again."""
     topic = _topic("retype")
     binding = Binding(topic)
     engine.bind(binding)
-    with RosPeer("retype_a") as first:
-        pub = first.publisher(topic, Float64)
-        _publish_until(pub, lambda i: Float64(data=1.5), engine, binding, 1)
-    with RosPeer("retype_b") as second:
-        pub2 = second.publisher(topic, Int32)
+    # The publishers run in child processes, as a restarted node does. With RosPeers in this process, beside
+    # the engine's participant, Fast DDS 2.14 now and then never matched the new writer to the engine's
+    # reader (the reader matched the writer; the writer stayed at 0 subscriptions): an in-process discovery
+    # race, not the engine's. Under load (2 x `yes`, 2 cores), alternating loops of this scenario: in-process
+    # 3 failures of 250 (UDPv4 only: 1 of 150, so not the shared-memory transport), cross-process 0 of 250.
+    with _publisher_process(topic, "Float64", "1.5") as start_first:
+        start_first()
+        _snap_when(engine, binding, lambda s: s.count >= 1)
+    with _publisher_process(topic, "Int32", "7") as start_second:
         err = _snap_when(engine, binding, lambda s: s.status == Status.ERROR)
         assert "type changed" in err.reason
         assert "std_msgs/msg/Int32" in err.reason
         assert err.msg_type == "std_msgs/msg/Int32"
         count = err.count
-        snap = _publish_until(pub2, lambda i: Int32(data=7), engine, binding, count + 1)
+        start_second()  # only now: the ERROR must be seen before the first Int32 ends it
+        snap = _snap_when(engine, binding, lambda s: s.count > count)
         assert snap.status == Status.LIVE
         assert snap.last == 7
         assert isinstance(snap.last, int)
