@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import struct
 import time
 from dataclasses import dataclass
 
@@ -91,6 +92,65 @@ def test_undecodable_payloads_are_skipped_and_counted() -> None:
     assert len(store) == 1
     assert store.undecodable == 2
     assert store.line(0).message == "fine"
+
+
+def _be_log_cdr(name: str, msg: str, level: int, file: str, function: str, line: int) -> bytes:
+    """A Log message in big-endian CDR (what a big-endian machine's DDS sends; rclpy here writes little)."""
+    out = bytearray(b"\x00\x00\x00\x00" + struct.pack(">iIB", 7, 9, level))
+
+    def text(value: str) -> None:
+        out.extend(b"\x00" * (-(len(out) - 4) % 4))  # aligned to 4 from the end of the header
+        data = value.encode()
+        out.extend(struct.pack(">I", len(data) + 1) + data + b"\x00")
+
+    for value in (name, msg, file, function):
+        text(value)
+    out.extend(b"\x00" * (-(len(out) - 4) % 4))
+    out.extend(struct.pack(">I", line))
+    return bytes(out)
+
+
+_words = st.text(st.characters(codec="utf-8", exclude_characters="\x00\x01\n\x1a\x1f"), max_size=11)
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    lines=st.lists(
+        st.tuples(
+            _words.filter(bool),
+            _words,
+            st.sampled_from([DEBUG, INFO, WARN, ERROR, FATAL]),
+            _words,
+            _words,
+            st.integers(0, 2**32 - 1),
+        ),
+        min_size=1,
+        max_size=8,
+    ),
+    cut=st.integers(0, 200),
+)
+def test_log_payloads_decode_alike_in_either_byte_order_and_cut_ones_are_counted(
+    lines: list[tuple[str, str, int, str, str, int]], cut: int
+) -> None:
+    """Every field of a Log line reads back the same from rclpy's little-endian bytes and from big-endian
+    ones (names and messages of every length, so every padding); a payload cut short is counted, never
+    raised, and the lines around it stay."""
+    little = [_log_cdr(n, m, lv, file=f, function=fn, line=ln) for n, m, lv, f, fn, ln in lines]
+    big = [_be_log_cdr(n, m, lv, f, fn, ln) for n, m, lv, f, fn, ln in lines]
+    short = little[0][: min(cut, len(little[0]) - 1)]
+    store = LogStore()
+    store.push(LOG, np.arange(3 * len(lines) + 1, dtype=np.float64), [*little, short, *big, *little])
+    store.sync()
+    assert store.undecodable <= 1
+    held = [store.line(i) for i in range(len(store))]
+    expect = [(m, lv, n, f, fn, ln) for n, m, lv, f, fn, ln in lines]
+    got = [(x.message, x.level, x.node, x.file, x.function, x.line) for x in held]
+    if store.undecodable:
+        assert got == expect * 3
+    else:  # cut where the message had already ended: what the line kept reads alike
+        assert got[: len(lines)] == expect
+        assert got[len(lines) + 1 :] == expect * 2
+        assert (got[len(lines)][2], got[len(lines)][0]) == (lines[0][0], lines[0][1])
 
 
 def test_the_ids_shown_are_a_view_later_lines_leave_alone() -> None:
