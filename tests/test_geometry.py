@@ -404,6 +404,29 @@ def test_simplify_line_keeps_each_groups_ends() -> None:
     assert kept.tolist() == [0, 0, 1, 1]
 
 
+def test_simplify_line_keeps_the_farthest_point_of_a_column() -> None:
+    """Samples with equal times (a vertical run): the extreme one lies on the chord's line but past its end,
+    so it stays; the one between its neighbours goes."""
+    x = np.array([0.0, 1.0, 1.0, 1.0, 2.0])
+    y = np.array([0.0, 0.0, 10.0, 5.0, 5.0])
+    kx, ky, _ = simplify_line(x, y, 1.0, 1.0)
+    assert 10.0 in ky.tolist()
+    assert _off_line(x, y, kx, ky) <= 2 * 0.2 + 1e-9
+
+
+@given(
+    st.lists(st.tuples(st.integers(0, 3), st.floats(-1e3, 1e3)), min_size=3, max_size=200),
+    st.floats(0.01, 100),
+)
+@settings(max_examples=60, deadline=None)
+def test_simplify_line_property_with_equal_times(steps: list[tuple[int, float]], y_scale: float) -> None:
+    """Non-decreasing times with repeats (columns of equal x): no point drawn moves more than 2 x 0.2 px."""
+    x = np.cumsum([float(dx) for dx, _ in steps])
+    y = np.asarray([v for _, v in steps])
+    kx, ky, _ = simplify_line(x, y, 1.0, y_scale)
+    assert _off_line(x, y * y_scale, kx, ky * y_scale) <= 2 * 0.2 + 1e-6
+
+
 @given(st.lists(st.floats(-1e3, 1e3), min_size=3, max_size=300), st.floats(0.01, 100))
 @settings(max_examples=60, deadline=None)
 def test_simplify_line_property(values: list[float], y_scale: float) -> None:

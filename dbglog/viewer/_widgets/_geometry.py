@@ -413,8 +413,11 @@ def simplify_line(
             break
         a = p[:-2]
         chord = p[2:] - a
+        along = chord.conjugate() * (p[1:-1] - a)  # real: how far along the chord; imag: |chord| x the offset
         with np.errstate(invalid="ignore"):  # NaN (a gap) compares False: kept
-            close = np.abs((chord.conjugate() * (p[1:-1] - a)).imag) < tolerance * np.abs(chord)
+            close = np.abs(along.imag) < tolerance * np.abs(chord)
+            # ... and between its neighbours: in a column of equal x the farthest point is not on the chord
+            close &= (along.real >= 0) & (along.real <= (chord * chord.conjugate()).real)
         close &= free[1:-1]
         close[(parity + 1) % 2 :: 2] = False  # every other point: a dropped point's neighbours stay
         if not close.any():
