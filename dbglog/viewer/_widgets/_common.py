@@ -142,6 +142,11 @@ def set_disc_color(item: int | str, color: Color) -> None:
         dpg.configure_item(item, color=color, fill=color)
 
 
+def value_at_cursor_only(_widget: object, _at: float) -> float:
+    """A widget's ``past_needed``: paused, it shows the value at the cursor, so no samples before it."""
+    return 0.0
+
+
 def arc_points(
     cx: float, cy: float, r: float, start: float, end: float, step: float | None = None
 ) -> list[list[float]]:

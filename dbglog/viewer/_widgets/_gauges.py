@@ -21,6 +21,7 @@ from dbglog.viewer._widgets._common import (
     format_value,
     latest_number,
     text_size,
+    value_at_cursor_only,
 )
 from dbglog.viewer._widgets._geometry import (
     compass_label,
@@ -114,9 +115,7 @@ class DialWidget(Widget):
         w, h = text_size(text, self._size)
         dpg.configure_item(self._readout, text=text, pos=(cx - w / 2, cy + r * 0.55 - h / 2))
 
-    def past_needed(self, at: float) -> float:
-        """Paused at `at`, the samples this widget needs: none before the value at `at` (see `CanvasItem`)."""
-        return 0.0
+    past_needed = value_at_cursor_only
 
 
 class KnobWidget(DialWidget):
@@ -239,9 +238,7 @@ class CompassWidget(Widget):
         cx, _, _ = self._geom
         dpg.configure_item(self._readout, text=text, pos=(cx - w / 2, self.height - self._size - 2))
 
-    def past_needed(self, at: float) -> float:
-        """Paused at `at`, the samples this widget needs: none before the value at `at` (see `CanvasItem`)."""
-        return 0.0
+    past_needed = value_at_cursor_only
 
 
 class ThermoWidget(Widget):
@@ -311,6 +308,4 @@ class ThermoWidget(Widget):
         w, h = text_size(text, self._size)
         dpg.configure_item(self._readout, text=text, pos=(self.width / 2 - w / 2, self.height - 10 - h / 2))
 
-    def past_needed(self, at: float) -> float:
-        """Paused at `at`, the samples this widget needs: none before the value at `at` (see `CanvasItem`)."""
-        return 0.0
+    past_needed = value_at_cursor_only

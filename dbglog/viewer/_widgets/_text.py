@@ -8,7 +8,15 @@ from collections.abc import Sequence
 import dearpygui.dearpygui as dpg
 import numpy as np
 
-from dbglog.viewer._widgets._common import DIM, TEXT, draw_centered_text, draw_disc, set_disc_color, text_size
+from dbglog.viewer._widgets._common import (
+    DIM,
+    TEXT,
+    draw_centered_text,
+    draw_disc,
+    set_disc_color,
+    text_size,
+    value_at_cursor_only,
+)
 from dbglog.viewer._widgets._geometry import led_on
 from dbglog.viewer.widget_api import Property, PropKind, SeriesSnapshot, ValueKind, Widget
 
@@ -159,9 +167,7 @@ class LedWidget(Widget):
         self._caption = draw_centered_text("\u2014", cx, height - 12, self._size, DIM, dl)
         self.lit = False
 
-    def past_needed(self, at: float) -> float:
-        """Paused at `at`, the samples this widget needs: none before the value at `at` (see `CanvasItem`)."""
-        return 0.0
+    past_needed = value_at_cursor_only
 
     def update(self, snapshots: Sequence[SeriesSnapshot], now: float) -> None:
         """Light or dim the lamp for the latest value."""
