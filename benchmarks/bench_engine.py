@@ -112,7 +112,11 @@ def _receiver(args: argparse.Namespace) -> None:
         from dbglog.viewer._data._engine import Engine
         from dbglog.viewer._data._model import Binding
 
-        kwargs = {"queue_budget": args.queue_budget} if args.queue_budget else {}
+        kwargs: dict[str, Any] = {"queue_budget": args.queue_budget} if args.queue_budget else {}
+        if args.min_cycle is not None:
+            kwargs["min_cycle"] = args.min_cycle
+        if args.max_stretch is not None:
+            kwargs["max_stretch"] = args.max_stretch
         engine = Engine(measure_latency=bool(args.latency), history=args.history, **kwargs)
         engine.start()
         bindings = [Binding(t) for t in topics]
@@ -121,9 +125,8 @@ def _receiver(args: argparse.Namespace) -> None:
         print("ready", flush=True)
         while not stop.wait(_SAMPLE_S):
             stats = engine.stats()
-            samples.append(
-                (time.monotonic(), stats.taken, time.process_time(), _rss_bytes(), stats.thread_cpu_s)
-            )
+            now, cpu = time.monotonic(), time.process_time()
+            samples.append((now, stats.taken, cpu, _rss_bytes(), stats.thread_cpu_s, stats.cycles))
         snaps = [engine.snapshot(b) for b in bindings]
         lat = engine.latencies()
         result["landed"] = sum(s.count for s in snaps)
@@ -251,6 +254,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--queue-budget", type=int, default=0, help="the engine's queue_budget (0: the engine's default)"
     )
+    parser.add_argument("--min-cycle", type=float, default=None, help="the engine's min_cycle in seconds")
+    parser.add_argument(
+        "--max-stretch",
+        type=float,
+        default=None,
+        help="the engine's max_stretch in seconds (default: the engine's; 0 = rest only min_cycle)",
+    )
     parser.add_argument("--latency", type=int, choices=[0, 1], default=1, help=argparse.SUPPRESS)
     parser.add_argument(
         "--only", choices=["flood", "rate", "soak"], default=None, help="run one part of the benchmark"
@@ -273,6 +283,10 @@ def main(argv: list[str] | None = None) -> int:
     _CHILD_ARGS[:] = ["--pub-qos", args.pub_qos]
     if args.queue_budget:
         _CHILD_ARGS.extend(["--queue-budget", str(args.queue_budget)])
+    if args.min_cycle is not None:
+        _CHILD_ARGS.extend(["--min-cycle", str(args.min_cycle)])
+    if args.max_stretch is not None:
+        _CHILD_ARGS.extend(["--max-stretch", str(args.max_stretch)])
     print(
         f"ROS_DOMAIN_ID={os.environ['ROS_DOMAIN_ID']}, {os.cpu_count()} CPUs, {args.repeats} repeats, "
         f"publisher QoS {args.pub_qos}"

@@ -20,7 +20,7 @@ from sensor_msgs.msg import LaserScan
 from std_msgs.msg import Bool, Float64, Float64MultiArray, MultiArrayDimension, String
 
 from dbglog._ros._qos import tag_qos
-from dbglog.viewer._data._engine import Engine, queue_depth_for
+from dbglog.viewer._data._engine import Engine, _stretch, queue_depth_for
 from dbglog.viewer._data._model import Binding, SeriesSnapshot, Status, ValueKind
 from tests._ros import RosPeer, wait_until
 
@@ -421,6 +421,23 @@ def test_queue_depths_share_a_budget() -> None:
     assert queue_depth_for(1, None, max_depth=1000, budget=20_000) == 100
     assert queue_depth_for(1, 8, max_depth=10, budget=20_000) == 10
     assert queue_depth_for(0, 8, max_depth=1000, budget=300) == 300
+
+
+def test_a_busy_cycle_rests_as_long_as_it_worked_within_bounds() -> None:
+    """The engine rests longer only when it fell behind, never past the cap or half a queue's depth."""
+    # Kept up (the work took less than the 5 ms cycle): no rest beyond the cycle.
+    assert _stretch(0.004, 0.010, 0.1, 0.005, 0.02) == 0.0
+    # Fell behind: rests as long as it worked ...
+    assert _stretch(0.008, 0.020, 0.01, 0.005, 0.02) == pytest.approx(0.008)
+    # ... at most the cap,
+    assert _stretch(0.050, 0.060, 0.01, 0.005, 0.02) == pytest.approx(0.02)
+    # ... and not so long that the fullest queue (45 % full after 20 ms) would pass half its depth:
+    # it may wait 20 ms x 0.5 / 0.45 = 22.2 ms in all, of which 12 ms were the work.
+    assert _stretch(0.012, 0.020, 0.45, 0.005, 0.05) == pytest.approx(0.020 * 0.5 / 0.45 - 0.012)
+    # A queue already half full: no rest at all; never negative.
+    assert _stretch(0.012, 0.020, 0.5, 0.005, 0.05) == 0.0
+    assert _stretch(0.030, 0.020, 0.45, 0.005, 0.05) == 0.0
+    assert _stretch(0.0, 0.020, 0.0, 0.0, 0.05) == 0.0
 
 
 def test_bindings_on_one_topic_share_one_subscription(engine: Engine, peer: RosPeer) -> None:

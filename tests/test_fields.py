@@ -158,4 +158,12 @@ def test_bulk_decode_refuses_big_endian_and_short_buffers() -> None:
     big = b"\x00\x00\x00\x00" + struct.pack(">d", 1.0)
     assert decode_fixed([big] * 3, [(0, "<f8")]) is None
     assert decode_fixed([big] * 20, [(0, "<f8")]) is None
+    little = b"\x00\x01\x00\x00" + struct.pack("<d", 1.0)
+    for k in (0, 7, 19):  # one of a joined batch is enough
+        mixed = [little] * 20
+        mixed[k] = big
+        assert decode_fixed(mixed, [(0, "<f8")]) is None
+    columns = decode_fixed([little] * 20, [(0, "<f8")])
+    assert columns is not None
+    assert columns[0].tolist() == [1.0] * 20
     assert decode_fixed([b"\x00\x01\x00\x00\x01"], [(0, "<f8")]) is None

@@ -59,6 +59,8 @@ _log = logging.getLogger("dbglog.viewer.engine")
 _MAX_BATCH = 20_000
 """At most this many messages are taken from one subscription per cycle (others get their turn)."""
 _RESUBSCRIBE_DEDUP_S = 1.0
+_FILL_LIMIT = 0.5
+"""A rest after a busy cycle never lets a subscription's queue fill past this share of its depth."""
 _LATENCY_SAMPLES = 1 << 20
 _MIN_DEPTH = 50
 """No subscription queues fewer messages than this, however many topics share the budget."""
@@ -73,6 +75,25 @@ LOG_TYPE = "rcl_interfaces/msg/Log"
 LOG_QUEUE = 20_000
 """Queue depth of a log topic's subscription: a second of lines at 20,000 lines/s may wait while this thread
 is busy or starved (the Log console keeps every line); DDS's memory grows only while lines wait."""
+
+
+def _stretch(busy: float, window: float, fullest: float, cycle: float, most: float) -> float:
+    """Return how long the engine rests after a cycle that used `busy` seconds of CPU.
+
+    Nothing beyond the usual `cycle` while the engine keeps up (a cycle's work takes less than that
+    cycle). When it falls behind (a flood: many topics, each with a few messages a cycle), it rests as
+    long as it worked, at most `most`: its messages wait in DDS until they make batches big enough
+    that the per-batch costs (a take that finds nothing, a history append, numpy calls) stop
+    dominating, and the engine uses about half a core instead of all of it. Never so long that a queue
+    passes half its depth: the fullest one took `fullest` of its depth in the last `window` seconds,
+    and fills in proportion to the time.
+    """
+    if busy <= cycle or fullest >= _FILL_LIMIT:
+        return 0.0
+    rest = min(busy, most)
+    if fullest > 0.0:
+        rest = min(rest, window * _FILL_LIMIT / fullest - busy)
+    return max(0.0, rest)
 
 
 def queue_depth_for(n_topics: int, message_size: int | None, *, max_depth: int, budget: int) -> int:
@@ -124,6 +145,8 @@ class _TopicSub:
     scalar: tuple[int, str] | None = None
     """(offset, dtype) of ``data`` when the message is a std_msgs scalar: its history keeps numbers."""
     taken: int = 0
+    depth: int = 1
+    """The subscription's KEEP_LAST queue depth."""
 
 
 def _normalize(topic: str) -> str:
@@ -145,6 +168,8 @@ class Engine(SeriesTimes):
         graph_period: seconds between ROS graph polls (topic list, late publishers, type changes).
         min_cycle: minimum seconds between two wake-ups; under load messages queue in DDS meanwhile
             and are decoded as one batch (bounded extra latency, far less per-message overhead).
+        max_stretch: after a cycle whose work took longer than `min_cycle` (a flood), the engine rests
+            as long as it worked, at most this long: bigger batches, half the CPU (see ``_stretch``).
         queue_depth: the deepest KEEP_LAST queue of one subscription (absorbs bursts and pauses).
         queue_budget: messages queued in DDS across all subscriptions; each subscription's depth is
             its share of this (see ``queue_depth_for``), which bounds memory after a long pause.
@@ -162,6 +187,7 @@ class Engine(SeriesTimes):
         stale_after: float = 2.0,
         graph_period: float = 0.25,
         min_cycle: float = 0.005,
+        max_stretch: float = 0.02,
         queue_depth: int = 1000,
         queue_budget: int = 35_000,
         node_name: str = "dbglog_viewer",
@@ -183,6 +209,7 @@ class Engine(SeriesTimes):
         self.stale_after = stale_after
         self.graph_period = graph_period
         self.min_cycle = max(0.0, min_cycle)
+        self.max_stretch = max(0.0, max_stretch)
         self.queue_depth = queue_depth
         self.queue_budget = queue_budget
         self.node_name = node_name
@@ -407,8 +434,11 @@ class Engine(SeriesTimes):
         node, context = ros.node, ros.context
         next_graph = 0.0
         wait_set = WaitSet(ros, self._guard)
+        previous_start = time.monotonic()
         while self._running and context.ok():
             cycle_start = time.monotonic()
+            woke, woke_cpu = cycle_start, self._thread_cpu
+            fullest = 0.0
             try:
                 if self._dirty.is_set():
                     self._dirty.clear()
@@ -424,11 +454,12 @@ class Engine(SeriesTimes):
                     subscriptions.append(batch_sub)
                 timeout = max(0.0, next_graph - time.monotonic())
                 ready = wait_set.wait(subscriptions, int(timeout * 1e9))
+                woke, woke_cpu = time.monotonic(), time.thread_time()
                 self._cycles += 1
                 if ready:
                     for topic in wait_subs:
                         if topic.sub.handle.pointer in ready:
-                            self._drain(topic)
+                            fullest = max(fullest, self._drain(topic) / topic.depth)
                     if batch_sub is not None and batch_sub.handle.pointer in ready:
                         self._batches.drain()
             except Exception:
@@ -438,7 +469,11 @@ class Engine(SeriesTimes):
                 wait_set.reset()
                 time.sleep(0.05)
             self._thread_cpu = time.thread_time()
-            rest = self.min_cycle - (time.monotonic() - cycle_start)
+            now = time.monotonic()
+            busy = self._thread_cpu - woke_cpu
+            stretch = _stretch(busy, woke - previous_start, fullest, self.min_cycle, self.max_stretch)
+            rest = max(self.min_cycle - (now - cycle_start), stretch)
+            previous_start = woke
             if rest > 0 and self._running:
                 time.sleep(rest)
 
@@ -639,7 +674,7 @@ class Engine(SeriesTimes):
             depth = max(depth, LOG_DEPTH, LOG_QUEUE)  # the history re-sent to a late reader, and bursts
         qos = subscription_qos(depth, reliable=reliable, transient=transient)
         sub = node.create_subscription(cls, name, no_callback, qos, raw=True)
-        topic = _TopicSub(name, msg_type, cls, sub, reliable, transient)
+        topic = _TopicSub(name, msg_type, cls, sub, reliable, transient, depth=depth)
         topic.scalar = scalar_plan(cls, msg_type)
         if self.store.kind(name) == ("numbers" if topic.scalar else "payloads"):
             # A latched publisher re-sends what the history may already hold: skip that much.
@@ -679,15 +714,23 @@ class Engine(SeriesTimes):
 
     # --- ingest (ROS thread) ----------------------------------------------------------------------
 
-    def _drain(self, topic: _TopicSub) -> None:
+    def _drain(self, topic: _TopicSub) -> int:
+        """Take and decode what waits on one subscription; return how many messages it took."""
         cls = topic.cls
         buffers, stamps = take_batch(topic.sub.handle.take_message, cls, True, _MAX_BATCH)
         if not stamps:
-            return
+            return 0
         self._count(topic, stamps)
+        self._decode(topic, buffers, stamps)
+        return len(stamps)
+
+    def _decode(self, topic: _TopicSub, buffers: list[bytes], stamps: list[int]) -> None:
+        """Keep a batch taken from `topic` in the history and feed it to the topic's bindings."""
+        cls = topic.cls
+        times = np.asarray(stamps, dtype=np.float64) * 1e-9
         if topic.fast is not None and not topic.fast and topic.scalar is None:  # nothing to decode: keep them
-            self._remember(topic, buffers, stamps)
-            self._record_latency(np.asarray(stamps, dtype=np.float64) * 1e-9)
+            self._remember(topic, buffers, stamps, times)
+            self._record_latency(times)
             return
         if topic.fast is not None:
             fields = [(offset, dtype) for _, offset, dtype in topic.fast]
@@ -695,9 +738,8 @@ class Engine(SeriesTimes):
                 fields.append(topic.scalar)
             columns = decode_fixed(buffers, fields)
             scalar = None if columns is None or topic.scalar is None else columns[fields.index(topic.scalar)]
-            self._remember(topic, buffers, stamps, scalar)
+            self._remember(topic, buffers, stamps, times, scalar)
             if columns is not None:
-                times = np.asarray(stamps, dtype=np.float64) * 1e-9
                 now = time.monotonic()
                 skipping = now < topic.skip_deadline
                 broken = False
@@ -718,12 +760,12 @@ class Engine(SeriesTimes):
                 self._record_latency(times)
                 return
         else:
-            self._remember(topic, buffers, stamps)
+            self._remember(topic, buffers, stamps, times)
         sinks = [sink for sink in topic.sinks.values() if sink.resolved is not None]
-        times_list = [s * 1e-9 for s in stamps]
         if not sinks:  # every binding in error: nothing reads the messages
-            self._record_latency(np.asarray(times_list))
+            self._record_latency(times)
             return
+        times_list = times.tolist()
         from rclpy.serialization import deserialize_message
 
         messages = [deserialize_message(b, cls) for b in buffers]  # ~11 µs a Log message: only when read
@@ -743,29 +785,31 @@ class Engine(SeriesTimes):
                     feed(sink, messages, times_list, now)
             except Exception as exc:  # this binding's error alone; the others keep going
                 break_sink(sink, exc)
-        self._record_latency(np.asarray(times_list))
+        self._record_latency(times)
 
     def _remember(
         self,
         topic: _TopicSub,
         buffers: list[bytes],
         stamps: list[int],
+        times: npt.NDArray[np.float64],
         column: npt.NDArray[np.float64] | None = None,
     ) -> None:
         """Keep a batch of the topic's messages in the history (numbers for std_msgs scalars).
 
-        `column`: the scalar's values already decoded from `buffers` (the live decode's), if any.
+        `times`: the `stamps` in seconds; `column`: the scalar's values already decoded from `buffers`
+        (the live decode's), if any.
         """
         if topic.held_until_ns and time.monotonic() < topic.skip_deadline:
             fresh = [s > topic.held_until_ns for s in stamps]
             if not all(fresh):  # a latched publisher re-sent what the history holds
+                keep = np.asarray(fresh, dtype=bool)
                 buffers = [b for b, k in zip(buffers, fresh, strict=True) if k]
                 if column is not None:
-                    column = column[np.asarray(fresh, dtype=bool)]
-                stamps = [s for s, k in zip(stamps, fresh, strict=True) if k]
-                if not stamps:
+                    column = column[keep]
+                times = times[keep]
+                if not len(times):
                     return
-        times = np.asarray(stamps, dtype=np.float64) * 1e-9
         self._held_types[topic.name] = topic.msg_type
         try:
             if topic.scalar is None:
