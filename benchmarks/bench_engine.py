@@ -112,11 +112,7 @@ def _receiver(args: argparse.Namespace) -> None:
         from dbglog.viewer._data._engine import Engine
         from dbglog.viewer._data._model import Binding
 
-        kwargs: dict[str, Any] = {"queue_budget": args.queue_budget} if args.queue_budget else {}
-        if args.min_cycle is not None:
-            kwargs["min_cycle"] = args.min_cycle
-        if args.max_stretch is not None:
-            kwargs["max_stretch"] = args.max_stretch
+        kwargs = {name: getattr(args, name) for name in _ENGINE_OPTIONS if getattr(args, name) is not None}
         engine = Engine(measure_latency=bool(args.latency), history=args.history, **kwargs)
         engine.start()
         bindings = [Binding(t) for t in topics]
@@ -180,6 +176,8 @@ def _receiver(args: argparse.Namespace) -> None:
 
 _CHILD_ARGS: list[str] = []
 """Options every receiver child gets (set from the command line)."""
+_ENGINE_OPTIONS = ("queue_budget", "min_cycle", "max_stretch")
+"""Command-line options that are `Engine` settings of the same name (None: the engine's default)."""
 
 
 def _child(role: str, *extra: str) -> subprocess.Popen[str]:
@@ -252,7 +250,7 @@ def main(argv: list[str] | None = None) -> int:
         "'deep' = reliable, volatile, depth 1000 (Fast DDS then delays deliveries by 0.3-0.7 s now and then)",
     )
     parser.add_argument(
-        "--queue-budget", type=int, default=0, help="the engine's queue_budget (0: the engine's default)"
+        "--queue-budget", type=int, default=None, help="the engine's queue_budget (default: the engine's)"
     )
     parser.add_argument("--min-cycle", type=float, default=None, help="the engine's min_cycle in seconds")
     parser.add_argument(
@@ -281,12 +279,9 @@ def main(argv: list[str] | None = None) -> int:
 
     local_ros_env(args.domain if args.domain is not None else random.randint(150, 230))
     _CHILD_ARGS[:] = ["--pub-qos", args.pub_qos]
-    if args.queue_budget:
-        _CHILD_ARGS.extend(["--queue-budget", str(args.queue_budget)])
-    if args.min_cycle is not None:
-        _CHILD_ARGS.extend(["--min-cycle", str(args.min_cycle)])
-    if args.max_stretch is not None:
-        _CHILD_ARGS.extend(["--max-stretch", str(args.max_stretch)])
+    for name in _ENGINE_OPTIONS:  # the engine children get the same settings
+        if getattr(args, name) is not None:
+            _CHILD_ARGS.extend([f"--{name.replace('_', '-')}", str(getattr(args, name))])
     print(
         f"ROS_DOMAIN_ID={os.environ['ROS_DOMAIN_ID']}, {os.cpu_count()} CPUs, {args.repeats} repeats, "
         f"publisher QoS {args.pub_qos}"

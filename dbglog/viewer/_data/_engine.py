@@ -434,7 +434,7 @@ class Engine(SeriesTimes):
         node, context = ros.node, ros.context
         next_graph = 0.0
         wait_set = WaitSet(ros, self._guard)
-        previous_start = time.monotonic()
+        previous_woke = time.monotonic()
         while self._running and context.ok():
             cycle_start = time.monotonic()
             woke, woke_cpu = cycle_start, self._thread_cpu
@@ -471,9 +471,9 @@ class Engine(SeriesTimes):
             self._thread_cpu = time.thread_time()
             now = time.monotonic()
             busy = self._thread_cpu - woke_cpu
-            stretch = _stretch(busy, woke - previous_start, fullest, self.min_cycle, self.max_stretch)
+            stretch = _stretch(busy, woke - previous_woke, fullest, self.min_cycle, self.max_stretch)
             rest = max(self.min_cycle - (now - cycle_start), stretch)
-            previous_start = woke
+            previous_woke = woke
             if rest > 0 and self._running:
                 time.sleep(rest)
 
