@@ -17,8 +17,20 @@ from itertools import pairwise
 import dearpygui.dearpygui as dpg
 import numpy as np
 
-from dbglog.viewer._widgets._common import SERIES_COLORS, clock_text, latest_number
+from dbglog.viewer._widgets._common import SERIES_COLORS, clock_text, latest_number, text_size
 from dbglog.viewer._widgets._geometry import minmax_decimate, range_slice, simplify_line, spread
+from dbglog.viewer._widgets._plotfit import (
+    ROW_H,
+    ROW_MARGIN,
+    LegendMode,
+    LegendPlan,
+    fit_text,
+    info_forms,
+    keep_within,
+    legend_plan,
+    tag_columns,
+    tag_digits,
+)
 from dbglog.viewer._widgets._timeaxis import (
     AxisSync,
     HoverTracker,
@@ -61,12 +73,22 @@ SELECT_COLOR = (86, 166, 240, 255)
 """A box zoom being dragged (the viewer's accent blue)."""
 TAG_GAP = 18
 """Pixels between two value tags at the cursor (close values are spread apart to stay readable)."""
+TAG_SIDE = 6
+"""Pixels between the cursor (or hover) line and the value tags beside it."""
+TAG_PAD = 2
+"""ImPlot's padding around a tag's text (AnnotationPadding), on each side."""
 PAST_MARGIN = 1.5
 """Paused, a plot reads this many times the seconds its range shows before the cursor (see `past_needed`)."""
 HEADER_H = 28
 """The row above the plot: Pause, Link and what the plot shows."""
 NO_BUTTON = 4
 """A mouse button nobody presses (ImGui's last): ImPlot's double-click fit goes there; ours resets."""
+HEADER_FIXED = 150
+"""Pixels of the header before its range label (Pause, Link) until the first frame measures them."""
+SWATCH_W, SWATCH_GAP = 6, 2
+"""The collapsed legend's toggle: a colour swatch per series, this wide, this far apart."""
+TEXT_WIDTHS_KEPT = 512
+"""Measured text widths kept per plot (labels and header forms)."""
 GESTURES_TIP = (
     "Wheel: zoom the time axis (following the newest data while live)\n"
     "Drag: pan \u00b7 right drag: zoom to a box (both hold the range)\n"
@@ -75,11 +97,11 @@ GESTURES_TIP = (
 )
 
 
-def reading(value: float | None) -> str:
+def reading(value: float | None, digits: int = 6) -> str:
     """Return a series' value at the cursor as the legend and the value tag show it (6 significant digits)."""
     if value is None or not np.isfinite(value):
         return "\u2014"
-    return f"{value:.6g}"
+    return f"{value:.{digits}g}"
 
 
 def series_label(binding: Binding) -> str:
@@ -97,8 +119,14 @@ def span_text(seconds: float) -> str:
     return f"{seconds:.3g} s"
 
 
-def _plot_theme() -> int | str:
-    """The plot's dark colours (bound per plot, not globally)."""
+def _clock(t: float, millis: bool) -> str:
+    """A source time as the local clock, with milliseconds (``12:03:04.512``) or without (``12:03:04``)."""
+    text = clock_text(t)
+    return text if millis else text.rsplit(".", 1)[0]
+
+
+def _plot_theme(*, compact_legend: bool = False) -> int | str:
+    """The plot's dark colours (bound per plot, not globally); a compact legend box for a legend row."""
     with dpg.theme() as theme, dpg.theme_component(dpg.mvPlot):
         dpg.add_theme_color(dpg.mvPlotCol_PlotBg, (24, 26, 32, 255), category=dpg.mvThemeCat_Plots)
         # The frame around the plot area is the widget panel itself: leaving it transparent looks the same
@@ -108,6 +136,11 @@ def _plot_theme() -> int | str:
         dpg.add_theme_color(dpg.mvPlotCol_LegendBg, (33, 36, 44, 200), category=dpg.mvThemeCat_Plots)
         dpg.add_theme_color(dpg.mvPlotCol_Selection, SELECT_COLOR, category=dpg.mvThemeCat_Plots)
         dpg.add_theme_style(dpg.mvPlotStyleVar_PlotPadding, 4, 4, category=dpg.mvThemeCat_Plots)
+        if compact_legend:  # a row above the plot area: as little height as the names need
+            dpg.add_theme_style(
+                dpg.mvPlotStyleVar_LegendPadding, ROW_MARGIN, 3, category=dpg.mvThemeCat_Plots
+            )
+            dpg.add_theme_style(dpg.mvPlotStyleVar_LegendInnerPadding, 5, 2, category=dpg.mvThemeCat_Plots)
     result: int | str = theme
     return result
 
@@ -176,6 +209,16 @@ class PlotWidget(Widget):
         self._notes: list[int | str] = []
         self._labels: list[str] = []
         self._shown_labels: list[str] = []
+        self.legend_plan = LegendPlan(LegendMode.OFF, ())
+        """Where the legend is and the names it shows (`legend_plan`, for the plot's size and series)."""
+        self.legend_open = False
+        """Collapsed: the toggle in the header shows the legend over the plot (the user asked for it)."""
+        self._legend: int | str = 0
+        self._legend_shown: object = None
+        self._widths: dict[str, float] = {}
+        self._info_key: object = None
+        self.info_full = ""
+        """The header's range label in full (what `info` shortens to fit, shown in its tooltip)."""
         self._limits: Limits | None = None
         self._ticks: tuple[tuple[str, float], ...] = ()
         self._info_text = ""
@@ -205,8 +248,14 @@ class PlotWidget(Widget):
             )
             with dpg.tooltip(self._link):
                 dpg.add_text("Zoom and pan together with the other linked plots")
+            # The collapsed legend: a swatch per series; hovered it names them, clicked it shows the legend.
+            with dpg.group(show=False) as self._chip_box:  # (a tooltip needs a group: not a drawlist)
+                self._chip = dpg.add_drawlist(1, 16, callback=self._on_chip)
+            with dpg.tooltip(self._chip_box):
+                self._chip_tip = dpg.add_group()
             self._info = dpg.add_text("", color=(138, 146, 158, 255))
             with dpg.tooltip(self._info):
+                self._info_tip = dpg.add_text("", show=False)
                 dpg.add_text(GESTURES_TIP)
         self.plot = dpg.add_plot(
             width=width,
@@ -216,9 +265,8 @@ class PlotWidget(Widget):
             no_mouse_pos=True,
             fit_button=NO_BUTTON,
         )
-        dpg.bind_item_theme(self.plot, _plot_theme())
-        if self.prop("legend"):
-            dpg.add_plot_legend(parent=self.plot, location=dpg.mvPlot_Location_NorthWest)
+        self._themes = {False: _plot_theme()}
+        dpg.bind_item_theme(self.plot, self._themes[False])
         self.x_axis = dpg.add_plot_axis(
             dpg.mvXAxis, parent=self.plot, label="", no_menus=True, no_highlight=True, no_initial_fit=True
         )
@@ -273,7 +321,8 @@ class PlotWidget(Widget):
         for tag in (*self._series, *self._dots, *self._notes):
             dpg.delete_item(tag)
         self._series, self._dots, self._notes = [], [], []
-        for i, label in enumerate(labels):
+        plan = legend_plan(labels, self.width, self._plot_h, self._measure, enabled=bool(self.prop("legend")))
+        for i, label in enumerate(plan.labels):
             color = SERIES_COLORS[i % len(SERIES_COLORS)]
             tag = dpg.add_line_series([], [], label=label, parent=self.y_axis)
             with dpg.theme() as theme, dpg.theme_component(dpg.mvLineSeries):
@@ -300,9 +349,69 @@ class PlotWidget(Widget):
             )
             self._notes.append(note)
         self._labels = labels
-        self._shown_labels = list(labels)
+        self._shown_labels = list(plan.labels)
         self._data_key, self._marks_drawn = None, ...
         self._configured.clear()
+        self.legend_plan = plan
+        self._show_chip(labels)
+
+    def _show_legend(self) -> None:
+        """Place the legend as planned: over the data, in a row above them, or hidden behind the toggle
+        (shown over the data while the toggle is on); none without the ``legend`` property."""
+        mode = self.legend_plan.mode
+        shown = (mode, self.legend_open and mode is LegendMode.COLLAPSED)
+        if shown == self._legend_shown:
+            return
+        self._legend_shown = shown
+        if self._legend:
+            dpg.delete_item(self._legend)
+            self._legend = 0
+        if mode is LegendMode.OFF or (mode is LegendMode.COLLAPSED and not self.legend_open):
+            pass
+        elif mode is LegendMode.ROW:
+            self._legend = dpg.add_plot_legend(
+                parent=self.plot, location=dpg.mvPlot_Location_North, outside=True, horizontal=True
+            )
+        else:
+            self._legend = dpg.add_plot_legend(parent=self.plot, location=dpg.mvPlot_Location_NorthWest)
+        compact = mode is LegendMode.ROW
+        if compact not in self._themes:
+            self._themes[compact] = _plot_theme(compact_legend=compact)
+        dpg.bind_item_theme(self.plot, self._themes[compact])
+        self._marks_drawn = ...  # the legend's names with values, or without
+
+    def _show_chip(self, labels: Sequence[str]) -> None:
+        """The collapsed legend's toggle: a colour swatch per series, naming them all in its tooltip."""
+        collapsed = self.legend_plan.mode is LegendMode.COLLAPSED
+        dpg.configure_item(self._chip_box, show=collapsed)
+        dpg.delete_item(self._chip, children_only=True)
+        dpg.delete_item(self._chip_tip, children_only=True)
+        if not collapsed:
+            return
+        width = len(labels) * (SWATCH_W + SWATCH_GAP) + SWATCH_GAP
+        dpg.configure_item(self._chip, width=width)
+        dpg.draw_rectangle((0, 0), (width, 16), color=(0, 0, 0, 0), fill=(44, 48, 58, 255), parent=self._chip)
+        for i, label in enumerate(labels):
+            color = SERIES_COLORS[i % len(SERIES_COLORS)]
+            x = SWATCH_GAP + i * (SWATCH_W + SWATCH_GAP)
+            dpg.draw_rectangle((x, 3), (x + SWATCH_W, 13), color=color, fill=color, parent=self._chip)
+            dpg.add_text(f"\u25a0 {label}", color=color, parent=self._chip_tip)
+        dpg.add_text("Click: show the legend over the plot (again: hide it)", parent=self._chip_tip)
+
+    def _on_chip(self, *_: object) -> None:
+        self.legend_open = not self.legend_open  # (a callback: the next update shows it)
+
+    def _measure(self, text: str) -> float:
+        """The width of `text` in pixels in the viewer's font (estimated until the font is measured)."""
+        width = self._widths.get(text)
+        if width is None:
+            size = dpg.get_text_size(text)
+            if not size or not size[0] > 0:
+                return text_size(text, 13)[0]
+            if len(self._widths) > TEXT_WIDTHS_KEPT:
+                self._widths.clear()
+            width = self._widths[text] = float(size[0])
+        return width
 
     def _configure(self, tag: int | str, **config: object) -> None:
         """Configure a mark item, unless its last configuration was exactly this (each call costs)."""
@@ -371,6 +480,7 @@ class PlotWidget(Widget):
             self._hover.x,
             rng.hover,
             self._doubles,
+            self.legend_open,
             self._sync.forcing,
             self._visible and self._sync.due(self._frame),
             self.paused,
@@ -394,6 +504,7 @@ class PlotWidget(Widget):
             self._snaps, self._at, self._now = list(snapshots), self.paused_at, now
         snaps, at = self._snaps, self._at
         self._ensure_series(snaps)
+        self._show_legend()
         latest = [float(s.times[-1]) for s in snaps if len(s.times)]
         own_newest = max(latest) if latest else self._now
         rng = self.time_range()
@@ -584,24 +695,31 @@ class PlotWidget(Widget):
         else:
             marks = [None] * len(snaps)
         shown = {i: m[1] for i, m in enumerate(marks) if m is not None and np.isfinite(m[1])}
-        offsets = dict(zip(shown, self._tag_offsets(list(shown.values())), strict=True))
-        side = -6
+        side = -1
         if hover is not None and self.view is not None:
             start, stop = self.view
-            side = 6 if hover < (start + stop) / 2 else -6  # tags on the side with more room
-        labels = list(self._labels)
+            side = 1 if hover < (start + stop) / 2 else -1  # tags on the side with more room
+        digits = tag_digits(self.width)
+        texts = {i: reading(v, digits) for i, v in shown.items()}
+        places = dict(zip(shown, self._tag_places(list(shown.values()), list(texts.values())), strict=True))
+        labels = list(self.legend_plan.labels)
+        valued = self.legend_plan.values_in_legend or self.legend_open
         for i, (note, dot) in enumerate(zip(self._notes, self._dots, strict=True)):
-            mark = marks[i] if i in offsets else None
+            mark = marks[i] if i in places else None
             self._configure(dot, show=mark is not None and hover is not None)
             if mark is None:
                 self._configure(note, show=False)
             else:
                 self._configure(
-                    note, show=True, label=reading(mark[1]), default_value=mark, offset=(side, offsets[i])
+                    note,
+                    show=True,
+                    label=texts[i],
+                    default_value=(mark[0], places[i][0]),
+                    offset=(side * places[i][1], 0),
                 )
                 if hover is not None:
                     dpg.set_value(dot, [[mark[0]], [mark[1]]])
-            if hover is not None or at is not None:
+            if valued and (hover is not None or at is not None):
                 value = self.hover_values[i] if hover is not None else self.cursor_values[i]
                 labels[i] = f"{labels[i]}  {reading(value)}"
         if labels != self._shown_labels:
@@ -612,26 +730,68 @@ class PlotWidget(Widget):
     def _show_info(
         self, rng: TimeRange, at: float | None, end: float, start: float, stop: float, hover: float | None
     ) -> None:
-        """The header: the time under the pointer, else what the range is (following, or held)."""
-        if hover is not None and not rng.following:
-            info = f"{clock_text(hover)} \u00b7 held"
-        elif hover is not None:  # following, the time before the newest sample (the cursor) stays put
-            info = f"{clock_text(hover)}  {hover - end:+.3g} s"
-        elif not rng.following:
-            info = f"held: {span_text(stop - start)} to {clock_text(stop)}"
-        elif at is None:
-            info = f"{span_text(stop - start)} window"
-        else:
-            info = f"{span_text(end - start)} to {clock_text(at)}"
+        """The header: the time under the pointer, else what the range is (following, or held), in the
+        longest form that fits beside Pause and Link (the full one in its tooltip)."""
+        forms = info_forms(
+            following=rng.following,
+            paused=at is not None,
+            span=span_text(stop - start),
+            span_to_end=span_text(end - start),
+            clock=_clock,
+            stop=stop,
+            end=end,
+            hover=hover,
+        )
+        room = self.width - self._info_offset()
+        key = (forms, room)
+        if key == self._info_key:
+            return
+        self._info_key = key
+        info = fit_text(forms, room, self._measure)
         if info != self._info_text:
             dpg.set_value(self._info, info)
             self._info_text = info
+        full = forms[0] if info != forms[0] else ""
+        if full != self.info_full:
+            dpg.configure_item(self._info_tip, show=bool(full))
+            dpg.set_value(self._info_tip, full)
+            self.info_full = full
 
-    def _tag_offsets(self, values: Sequence[float]) -> list[float]:
-        """Vertical pixel offsets that keep the value tags of close values from covering each other."""
-        if self._limits is None or len(values) < 2:
-            return [0.0] * len(values)
+    def _info_offset(self) -> float:
+        """Pixels from the header's left to its range label (measured once drawn, else estimated)."""
+        pause_w = dpg.get_item_rect_size(self._pause)[0]
+        if pause_w > 0:
+            return float(dpg.get_item_rect_min(self._info)[0] - dpg.get_item_rect_min(self._pause)[0])
+        if self.legend_plan.mode is LegendMode.COLLAPSED:
+            return HEADER_FIXED + float(dpg.get_item_width(self._chip) or 0)
+        return HEADER_FIXED
+
+    def _tag_places(self, values: Sequence[float], texts: Sequence[str]) -> list[tuple[float, float]]:
+        """Where each value tag goes: its centre (data units) and its distance in pixels from the line.
+
+        Beside its value, moved apart so that close values' tags do not cover each other, all inside the
+        plot area; tags too many for the area's height stand in two columns (`tag_columns`).
+        (A tag is drawn centred on its point: ImPlot puts a tag with a vertical offset above or below the
+        point by the offset's sign, so an offset alone cannot centre it anywhere.)
+        """
+        if self._limits is None or not values:
+            return [(v, TAG_SIDE) for v in values]
         lo, hi = self._limits
-        area_h = max(20.0, self._plot_h) - 34  # less the paddings and time labels
-        ys = [(hi - v) / ((hi - lo) or 1.0) * area_h for v in values]
-        return [new - old for new, old in zip(spread(ys, TAG_GAP), ys, strict=True)]
+        area_h = max(20.0, self._plot_h) - 34  # less the paddings and time labels (a little less than drawn)
+        if self.legend_plan.mode is LegendMode.ROW:
+            area_h -= ROW_H
+        per_px = ((hi - lo) or 1.0) / max(1.0, area_h)
+        ys = [(hi - v) / per_px for v in values]
+        room = max(0.0, area_h - TAG_GAP)
+        columns = tag_columns(ys, TAG_GAP, room)
+        first_w = max((self._measure(t) for t, c in zip(texts, columns, strict=True) if c == 0), default=0.0)
+        places: list[tuple[float, float]] = [(0.0, 0.0)] * len(values)
+        for column in (0, 1):
+            mine = [i for i, c in enumerate(columns) if c == column]
+            placed = keep_within(
+                spread([ys[i] for i in mine], TAG_GAP), TAG_GAP, TAG_GAP / 2, TAG_GAP / 2 + room
+            )
+            away = TAG_SIDE if column == 0 else TAG_SIDE + first_w + 2 * TAG_PAD + TAG_SIDE / 2
+            for i, y in zip(mine, placed, strict=True):
+                places[i] = (hi - y * per_px, away)
+        return places
