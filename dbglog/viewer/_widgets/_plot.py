@@ -86,7 +86,9 @@ NO_BUTTON = 4
 HEADER_FIXED = 150
 """Pixels of the header before its range label (Pause, Link) until the first frame measures them."""
 SWATCH_W, SWATCH_GAP = 6, 2
-"""The collapsed legend's toggle: a colour swatch per series, this wide, this far apart."""
+"""The collapsed legend: a colour swatch per series in the header, this wide, this far apart."""
+DIM = (138, 146, 158, 255)
+"""Secondary text (the header's range label, notes in tooltips): the viewer's dim grey."""
 TEXT_WIDTHS_KEPT = 512
 """Measured text widths kept per plot (labels and header forms)."""
 GESTURES_TIP = (
@@ -211,8 +213,8 @@ class PlotWidget(Widget):
         self._shown_labels: list[str] = []
         self.legend_plan = LegendPlan(LegendMode.OFF, ())
         """Where the legend is and the names it shows (`legend_plan`, for the plot's size and series)."""
-        self.legend_open = False
-        """Collapsed: the toggle in the header shows the legend over the plot (the user asked for it)."""
+        self._chip_texts: list[int | str] = []
+        self._chip_named: list[str] = []
         self._legend: int | str = 0
         self._legend_shown: object = None
         self._widths: dict[str, float] = {}
@@ -220,7 +222,7 @@ class PlotWidget(Widget):
         self.info_full = ""
         """The header's range label in full (what `info` shortens to fit, shown in its tooltip)."""
         self._limits: Limits | None = None
-        self._ticks: tuple[tuple[str, float], ...] = ()
+        self._ticks: tuple[tuple[str, float], ...] | None = None
         self._info_text = ""
         self._data_key: object = None
         self._older: dict[Binding, tuple[object, tuple[np.ndarray, np.ndarray] | None]] = {}
@@ -248,12 +250,12 @@ class PlotWidget(Widget):
             )
             with dpg.tooltip(self._link):
                 dpg.add_text("Zoom and pan together with the other linked plots")
-            # The collapsed legend: a swatch per series; hovered it names them, clicked it shows the legend.
+            # The collapsed legend: a swatch per series; hovered, it names them (with their values).
             with dpg.group(show=False) as self._chip_box:  # (a tooltip needs a group: not a drawlist)
-                self._chip = dpg.add_drawlist(1, 16, callback=self._on_chip)
+                self._chip = dpg.add_drawlist(1, 16)
             with dpg.tooltip(self._chip_box):
                 self._chip_tip = dpg.add_group()
-            self._info = dpg.add_text("", color=(138, 146, 158, 255))
+            self._info = dpg.add_text("", color=DIM)
             with dpg.tooltip(self._info):
                 self._info_tip = dpg.add_text("", show=False)
                 dpg.add_text(GESTURES_TIP)
@@ -356,17 +358,16 @@ class PlotWidget(Widget):
         self._show_chip(labels)
 
     def _show_legend(self) -> None:
-        """Place the legend as planned: over the data, in a row above them, or hidden behind the toggle
-        (shown over the data while the toggle is on); none without the ``legend`` property."""
+        """Place the legend as planned: over the data, or in a row above them; none when collapsed (the
+        header's swatches name the series) or without the ``legend`` property."""
         mode = self.legend_plan.mode
-        shown = (mode, self.legend_open and mode is LegendMode.COLLAPSED)
-        if shown == self._legend_shown:
+        if mode == self._legend_shown:
             return
-        self._legend_shown = shown
+        self._legend_shown = mode
         if self._legend:
             dpg.delete_item(self._legend)
             self._legend = 0
-        if mode is LegendMode.OFF or (mode is LegendMode.COLLAPSED and not self.legend_open):
+        if mode in (LegendMode.OFF, LegendMode.COLLAPSED):
             pass
         elif mode is LegendMode.ROW:
             self._legend = dpg.add_plot_legend(
@@ -379,13 +380,15 @@ class PlotWidget(Widget):
             self._themes[compact] = _plot_theme(compact_legend=compact)
         dpg.bind_item_theme(self.plot, self._themes[compact])
         self._marks_drawn = ...  # the legend's names with values, or without
+        self._ticks = None  # (set again: the plot's items changed)
 
     def _show_chip(self, labels: Sequence[str]) -> None:
-        """The collapsed legend's toggle: a colour swatch per series, naming them all in its tooltip."""
+        """The collapsed legend: a colour swatch per series in the header, naming them all in its tooltip."""
         collapsed = self.legend_plan.mode is LegendMode.COLLAPSED
         dpg.configure_item(self._chip_box, show=collapsed)
         dpg.delete_item(self._chip, children_only=True)
         dpg.delete_item(self._chip_tip, children_only=True)
+        self._chip_texts, self._chip_named = [], []
         if not collapsed:
             return
         width = len(labels) * (SWATCH_W + SWATCH_GAP) + SWATCH_GAP
@@ -395,11 +398,8 @@ class PlotWidget(Widget):
             color = SERIES_COLORS[i % len(SERIES_COLORS)]
             x = SWATCH_GAP + i * (SWATCH_W + SWATCH_GAP)
             dpg.draw_rectangle((x, 3), (x + SWATCH_W, 13), color=color, fill=color, parent=self._chip)
-            dpg.add_text(f"\u25a0 {label}", color=color, parent=self._chip_tip)
-        dpg.add_text("Click: show the legend over the plot (again: hide it)", parent=self._chip_tip)
-
-    def _on_chip(self, *_: object) -> None:
-        self.legend_open = not self.legend_open  # (a callback: the next update shows it)
+            self._chip_texts.append(dpg.add_text(f"\u25a0 {label}", color=color, parent=self._chip_tip))
+        dpg.add_text("(too small a plot for a legend beside the lines)", color=DIM, parent=self._chip_tip)
 
     def _measure(self, text: str) -> float:
         """The width of `text` in pixels in the viewer's font (estimated until the font is measured)."""
@@ -480,7 +480,6 @@ class PlotWidget(Widget):
             self._hover.x,
             rng.hover,
             self._doubles,
-            self.legend_open,
             self._sync.forcing,
             self._visible and self._sync.due(self._frame),
             self.paused,
@@ -658,12 +657,17 @@ class PlotWidget(Widget):
         return part
 
     def _draw_ticks(self, start: float, stop: float, origin: float) -> None:
-        """Label the time axis with the local clock (ticks move with the data; linked plots read alike)."""
+        """Label the time axis with the local clock (ticks move with the data; linked plots read alike); a
+        plot too narrow for a clock label between its ends shows none (not ImPlot's seconds from the end)."""
         ticks = tuple(
             (label, t - origin) for t, label in time_ticks(start, stop, max(40, self.width - PLOT_MARGIN))
         )
         if ticks != self._ticks:
-            dpg.set_axis_ticks(self.x_axis, ticks)
+            if ticks:
+                dpg.set_axis_ticks(self.x_axis, ticks)
+            else:
+                dpg.reset_axis_ticks(self.x_axis)
+            self._configure(self.x_axis, no_tick_labels=not ticks)
             self._ticks = ticks
 
     def _show_marks(
@@ -703,7 +707,8 @@ class PlotWidget(Widget):
         texts = {i: reading(v, digits) for i, v in shown.items()}
         places = dict(zip(shown, self._tag_places(list(shown.values()), list(texts.values())), strict=True))
         labels = list(self.legend_plan.labels)
-        valued = self.legend_plan.values_in_legend or self.legend_open
+        valued = self.legend_plan.values_in_legend
+        named = [f"\u25a0 {label}" for label in self._labels] if self._chip_texts else []
         for i, (note, dot) in enumerate(zip(self._notes, self._dots, strict=True)):
             mark = marks[i] if i in places else None
             self._configure(dot, show=mark is not None and hover is not None)
@@ -719,13 +724,20 @@ class PlotWidget(Widget):
                 )
                 if hover is not None:
                     dpg.set_value(dot, [[mark[0]], [mark[1]]])
-            if valued and (hover is not None or at is not None):
-                value = self.hover_values[i] if hover is not None else self.cursor_values[i]
-                labels[i] = f"{labels[i]}  {reading(value)}"
+            if hover is not None or at is not None:
+                value = reading(self.hover_values[i] if hover is not None else self.cursor_values[i])
+                if valued:
+                    labels[i] = f"{labels[i]}  {value}"
+                if named:
+                    named[i] = f"{named[i]}  {value}"
         if labels != self._shown_labels:
             for tag, label in zip(self._series, labels, strict=True):
                 dpg.configure_item(tag, label=label)
             self._shown_labels = labels
+        if named != self._chip_named:
+            for tag, text in zip(self._chip_texts, named, strict=True):
+                dpg.set_value(tag, text)
+            self._chip_named = named
 
     def _show_info(
         self, rng: TimeRange, at: float | None, end: float, start: float, stop: float, hover: float | None

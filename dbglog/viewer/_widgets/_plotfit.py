@@ -45,8 +45,8 @@ X_TICKS_H = 30.0
 """Plot height the time tick labels and paddings take."""
 INSIDE_COVER = 0.2
 """A legend may sit over the data when it covers at most this fraction of the plot area ..."""
-INSIDE_SIDE = 0.5
-"""... and at most this fraction of its width and of its height."""
+INSIDE_W, INSIDE_H = 0.5, 0.6
+"""... and at most these fractions of its width and of its height (a narrow list of five names is fine)."""
 MIN_AREA_H = 50.0
 """A legend row above the plot area is used only when this much height is left for the data."""
 NARROW_W = 360.0
@@ -112,8 +112,8 @@ def _inside_fits(labels: Sequence[str], area_w: float, area_h: float, measure: M
     box_h = 2 * BOX_PAD + LINE_H * len(labels)
     return (
         box_w * box_h <= INSIDE_COVER * area_w * area_h
-        and box_w <= INSIDE_SIDE * area_w
-        and box_h <= INSIDE_SIDE * area_h
+        and box_w <= INSIDE_W * area_w
+        and box_h <= INSIDE_H * area_h
     )
 
 
