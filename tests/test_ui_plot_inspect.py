@@ -30,6 +30,7 @@ STEP = 0.05
 """Seconds between two samples of the known series: sample k holds the value k."""
 HISTORY_S = 60.0
 """How far back the known samples reach before the viewer starts."""
+WHEELS = ("/robot/left_wheel_velocity", "/robot/right_wheel_velocity", "/robot/odometry_linear_x")
 
 
 # -- the child: a real viewer whose frame hook reports what the plots show --------------------------------
@@ -48,6 +49,29 @@ def inspect_dashboard(tmp: Path) -> Path:
         WidgetConfig("dial", "D", 520, 300, 220, 260, (ramp,), {"minimum": 0, "maximum": 5000}),
     ]
     path = tmp / "inspect.json"
+    save_dashboard(Dashboard(list[WidgetConfig | RawWidget](widgets), 20, True), path)
+    return path
+
+
+SMALL_TOPICS = tuple(f"/s/t{i}" for i in range(5)) + WHEELS
+"""The "small" scenario's series: five sines (a plot of the bench dashboard) and three long names."""
+
+
+def small_dashboard(tmp: Path) -> Path:
+    """S: a cell of the 20-widget bench dashboard (five series); T: too small for a legend row (three long
+    names); L: a big plot with S's series; a dial."""
+    from dbglog.viewer._data._model import Binding
+    from dbglog.viewer._document._dashboard import Dashboard, RawWidget, WidgetConfig, save_dashboard
+
+    five = tuple(Binding(f"/s/t{i}", "data") for i in range(5))
+    wheels = tuple(Binding(topic, "data") for topic in WHEELS)
+    widgets = [
+        WidgetConfig("plot", "S", 20, 20, 236, 194, five, {"window": 10.0}),
+        WidgetConfig("plot", "T", 280, 20, 200, 150, wheels, {"window": 10.0}),
+        WidgetConfig("plot", "L", 500, 20, 480, 260, five, {"window": 10.0}),
+        WidgetConfig("dial", "D", 20, 320, 220, 200, (five[0],), {"minimum": -2, "maximum": 2}),
+    ]
+    path = tmp / "small.json"
     save_dashboard(Dashboard(list[WidgetConfig | RawWidget](widgets), 20, True), path)
     return path
 
@@ -92,6 +116,13 @@ class Probe:
                 "link_box": _rect(widget._link),
                 "updates": item.updates,
                 "drawn_from": widget.drawn_from,
+                "width": widget.width,
+                "legend": widget.legend_plan.mode.value,
+                "legend_names": list(widget.legend_plan.labels),
+                "series_labels": [dpg.get_item_label(tag) for tag in widget._series],
+                "info_rect": _rect(widget._info),
+                "info_full": widget.info_full,
+                "chip": _rect(widget._chip) if dpg.is_item_shown(widget._chip_box) else None,
             }
         return {
             "pid": os.getpid(),
@@ -127,16 +158,18 @@ def run_here(scenario: str, tmp_dir: str) -> None:
         history_here(tmp, registry)
         return
     source = StaticSource()
-    for topic in ("/p/ramp", "/p/wave"):
+    for topic in ("/p/ramp", "/p/wave", *SMALL_TOPICS):
         source.add_topic(topic, "std_msgs/msg/Float64", [FieldInfo("data", "double", True)])
     base = math.floor(time.time()) - HISTORY_S
     k = np.arange(int(HISTORY_S / STEP) + 1)
     source.set_series("/p/ramp", "data", base + k * STEP, k.astype(np.float64))
     source.set_series("/p/wave", "data", base + k * STEP, np.sin(k / 20.0) * 100)
+    for j, topic in enumerate(SMALL_TOPICS):
+        source.set_series(topic, "data", base + k * STEP, np.sin(k / (15.0 + 4 * j) + j) * 10 + j)
     app = ViewerApp(source, registry, width=SIZE[0], height=SIZE[1])
     app.start()
     try:
-        path = inspect_dashboard(tmp)
+        path = small_dashboard(tmp) if scenario == "small" else inspect_dashboard(tmp)
         app.load(load_dashboard(path, registry.get), path)
         probe = Probe(app, tmp / "probe", base)
         app.frame_hooks.append(probe.hook)
@@ -477,3 +510,90 @@ def test_a_plot_zoomed_out_past_its_snapshot_draws_the_whole_history(viewer: Cal
     column = (end - start) / 800
     assert a["drawn_from"] <= start + 2 * column, (a["drawn_from"] - start, "drawn from the range's start")
     assert end - a["drawn_from"] > 250.0, "more than the snapshot's 100 s is drawn"
+
+
+# -- small plots: the legend beside the lines, a header label that fits ------------------------------------
+
+
+def legend_band(img: np.ndarray, rect: list[float]) -> tuple[int, int]:
+    """The rows of a plot item in a screenshot above its data area, and the first row of the area: where a
+    plot's background fills most of a row (the rows above hold the header, or a legend row)."""
+    from dbglog.viewer._widgets._plot import _plot_theme  # noqa: F401  (the colour below is its PlotBg)
+
+    x, y, w, h = (int(v) for v in rect)
+    rows = img[y : y + h, x + 45 : x + w - 10, :3].astype(np.int64)
+    bg = (np.abs(rows - np.array([24, 26, 32])).max(axis=2) <= 2).mean(axis=1)
+    top = int(np.argmax(bg > 0.5))
+    return y, y + top
+
+
+def swatches(img: np.ndarray, x0: int, y0: int, x1: int, y1: int, n: int) -> list[bool]:
+    """Whether a region holds a legend's colour square of each of the first `n` series: a solid block of
+    6 x 6 pixels in its colour (a line, 2 pixels wide, has none)."""
+    from dbglog.viewer._widgets._common import SERIES_COLORS
+
+    part = img[y0:y1, x0:x1, :3].astype(np.int64)
+    found = []
+    for color in SERIES_COLORS[:n]:
+        mask = (np.abs(part - np.array(color[:3])).max(axis=2) <= 6).astype(np.int64)
+        sums = np.pad(mask.cumsum(axis=0).cumsum(axis=1), ((1, 0), (1, 0)))
+        blocks = sums[6:, 6:] - sums[:-6, 6:] - sums[6:, :-6] + sums[:-6, :-6]
+        found.append(bool((blocks == 36).any()))
+    return found
+
+
+def test_a_small_plot_keeps_its_legend_off_the_lines(viewer: Callable[[str], Viewer]) -> None:
+    """A bench-sized plot shows its legend as a row of short names above the plot area (none of its colour
+    squares over the data) while a big plot keeps it inside with full names; a plot too small for a row
+    shows a swatch per series in its header instead, which names them when hovered."""
+    from tests.test_ui import read_png
+
+    v = viewer("small")
+    state = v.frames(3)
+    s, t, big = (v.plot(n, state) for n in "STL")
+    assert s["legend"] == "row", s
+    assert s["legend_names"] == ["t0", "t1", "t2", "t3", "t4"]
+    assert s["series_labels"] == s["legend_names"], "the legend shows the short names"
+    assert big["legend"] == "inside"
+    assert big["series_labels"] == [f"/s/t{i}" for i in range(5)]
+    assert t["legend"] == "collapsed", t
+    assert t["chip"] is not None, "the swatches show in T's header"
+    img = read_png(v.shot("small"))
+    top, area = legend_band(img, s["plot"])
+    x, _, w, _ = (int(p) for p in s["plot"])
+    assert area - top >= 15, "a legend row above the data area"
+    assert all(swatches(img, x, top, x + w, area, 5)), "each series' colour square in the row above the lines"
+    assert not any(swatches(img, x, area, x + w, area + 100, 5)), "and none over them"
+    bx, _, bw, _ = (int(p) for p in big["plot"])
+    btop, barea = legend_band(img, big["plot"])
+    assert barea - btop < 15, "the big plot's area starts at its top"
+    assert all(swatches(img, bx + 40, barea, bx + bw // 2, barea + 100, 5)), "L's legend: inside, top left"
+    tx, _, tw, _ = (int(p) for p in t["plot"])
+    _, tarea = legend_band(img, t["plot"])
+    assert not any(swatches(img, tx + 40, tarea, tx + tw, tarea + 60, 3)), "T: no legend over its lines"
+    cx, cy, cw, ch = (int(p) for p in t["chip"])
+    assert not any(swatches(img, cx - 20, cy + ch + 4, cx + 80, cy + ch + 100, 3)), "no tooltip yet"
+    v.move(cx + cw / 2, cy + ch / 2)
+    time.sleep(0.8)  # (Dear ImGui shows a tooltip once the pointer rests)
+    v.frames(5)
+    img = read_png(v.shot("small-names"))
+    assert all(swatches(img, cx - 20, cy + ch + 4, cx + 80, cy + ch + 100, 3)), "hovered: the series listed"
+
+
+def test_a_narrow_plot_header_shortens_its_label_to_fit(viewer: Callable[[str], Viewer]) -> None:
+    """Paused, a bench-sized plot's header says a shorter form of what a wide plot says (the full one in its
+    tooltip), within the plot's width; the wide plot says it in full."""
+    v = viewer("small")
+    v.move(*v.at("D", 0.5))
+    v.key("space")
+    state = v.wait_for(lambda st: st["cursor"] is not None and v.plot("S", st)["info_full"] != "")
+    s, big = v.plot("S", state), v.plot("L", state)
+    assert big["info_full"] == "", "the wide plot's label is whole"
+    assert " to " in big["info"], big["info"]
+    assert s["info"], s
+    assert s["info"] != s["info_full"], s
+    assert s["info_full"] == big["info"], "the same range, in full in the narrow plot's tooltip"
+    assert s["info_full"].startswith(s["info"]), "a shorter form, not another text"
+    ix, _, iw, _ = s["info_rect"]
+    px, _, pw, _ = s["plot"]
+    assert ix + iw <= px + pw + 1, (s["info_rect"], s["plot"], "the label ends inside the plot's width")
