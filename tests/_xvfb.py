@@ -11,9 +11,9 @@ __all__ = ["x_display"]
 
 
 @contextmanager
-def x_display() -> Iterator[str]:
-    """Yield a display name: ``$DISPLAY`` when set, else a private Xvfb started (and stopped) here."""
-    if os.environ.get("DISPLAY"):
+def x_display(*, private: bool = False) -> Iterator[str]:
+    """Yield a display name: ``$DISPLAY`` when set (and not `private`), else a private Xvfb started here."""
+    if os.environ.get("DISPLAY") and not private:
         yield os.environ["DISPLAY"]
         return
     read, write = os.pipe()

@@ -1,4 +1,4 @@
-"""Session-wide test setup: DDS kept on loopback, a random ROS domain per session."""
+"""Session-wide test setup: DDS kept on loopback, a random ROS domain per session (and per worker)."""
 
 from __future__ import annotations
 
@@ -8,13 +8,16 @@ from collections.abc import Iterator
 
 import pytest
 
+from tests._workers import private_display, worker_domain
 from tests._xvfb import x_display
 
 # Before anything imports rclpy: every process of this session (and its children) shares one random
-# domain, and discovery never leaves this machine unless the caller set the range explicitly.
+# domain, a parallel worker's its own (tests/_workers.py), and discovery never leaves this machine unless
+# the caller set the range explicitly.
 os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
 if "DBGLOG_TEST_DOMAIN_FIXED" not in os.environ:
     os.environ["ROS_DOMAIN_ID"] = str(random.SystemRandom().randint(1, 100))
+os.environ["ROS_DOMAIN_ID"] = str(worker_domain(int(os.environ.get("ROS_DOMAIN_ID", "0")), os.environ))
 os.environ.setdefault("RMW_IMPLEMENTATION", "rmw_fastrtps_cpp")
 
 
@@ -32,6 +35,6 @@ def _reset_dbglog_state() -> Iterator[None]:
 
 @pytest.fixture(scope="module")
 def display() -> Iterator[str]:
-    """The X display for GUI tests: the caller's, or a private Xvfb started for the test module."""
-    with x_display() as name:
+    """The X display for GUI tests: the caller's, or a private Xvfb (always one for parallel workers)."""
+    with x_display(private=private_display(os.environ)) as name:
         yield name

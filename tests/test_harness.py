@@ -4,15 +4,33 @@ from __future__ import annotations
 
 import os
 
+import pytest
 from std_msgs.msg import Float64
 
 from tests._ros import RosPeer
+from tests._workers import MAX_DOMAIN, private_display, worker_domain, worker_index
 
 
 def test_session_environment_keeps_dds_local() -> None:
-    """Every test process runs with a random domain and localhost-only discovery."""
+    """Every test process runs with a random domain (each worker its own) and localhost-only discovery."""
     assert os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] == "LOCALHOST"
-    assert 0 < int(os.environ["ROS_DOMAIN_ID"]) <= 100
+    lowest = 100 * worker_index(os.environ)
+    assert lowest < int(os.environ["ROS_DOMAIN_ID"]) <= min(lowest + 100, MAX_DOMAIN)
+
+
+def test_parallel_workers_get_a_domain_and_a_display_each() -> None:
+    """Workers gw0, gw1 of one suite never share a ROS domain or, when several, an X display."""
+    assert worker_domain(37, {}) == 37
+    assert worker_domain(37, {"PYTEST_XDIST_WORKER": "gw0"}) == 37
+    assert worker_domain(37, {"PYTEST_XDIST_WORKER": "gw1"}) == 137
+    assert worker_domain(95, {"PYTEST_XDIST_WORKER": "gw1"}) == 195  # .ci/run's second suite
+    with pytest.raises(ValueError, match="domain 237, outside 0-232"):
+        worker_domain(37, {"PYTEST_XDIST_WORKER": "gw2"})
+    with pytest.raises(ValueError, match="expected gw<number>"):
+        worker_index({"PYTEST_XDIST_WORKER": "worker-1"})
+    assert not private_display({})
+    assert not private_display({"PYTEST_XDIST_WORKER_COUNT": "1"})
+    assert private_display({"PYTEST_XDIST_WORKER_COUNT": "2"})
 
 
 def test_two_peers_exchange_messages() -> None:
