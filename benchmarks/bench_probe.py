@@ -298,7 +298,45 @@ _MIX_BLOCK = 500
 an "on" block, at most 10 ms later, spills into the next block's first 2 %)."""
 
 
-def publisher_mixed(seconds: float) -> None:
+def set_thread_slice(microseconds: float) -> None:
+    """Give the calling thread its own scheduler slice (Linux >= 6.12, EEVDF's ``sched_runtime``).
+
+    A thread with a shorter slice than the one running on its CPU may preempt it at once when it wakes
+    up; with the default (here 1.4 ms) a waking loop can wait for the running task's slice to end.
+
+    Raises:
+        OSError: the kernel refused (older than 6.12, or a value outside 0.1-100 ms).
+    """
+    import ctypes
+
+    class _SchedAttr(ctypes.Structure):
+        _fields_ = [
+            ("size", ctypes.c_uint32),
+            ("sched_policy", ctypes.c_uint32),
+            ("sched_flags", ctypes.c_uint64),
+            ("sched_nice", ctypes.c_int32),
+            ("sched_priority", ctypes.c_uint32),
+            ("sched_runtime", ctypes.c_uint64),
+            ("sched_deadline", ctypes.c_uint64),
+            ("sched_period", ctypes.c_uint64),
+            ("sched_util_min", ctypes.c_uint32),
+            ("sched_util_max", ctypes.c_uint32),
+        ]
+
+    libc = ctypes.CDLL(None, use_errno=True)
+    attr = _SchedAttr()
+    get_attr, set_attr = 315, 314  # x86_64 syscall numbers of sched_getattr / sched_setattr
+    if libc.syscall(get_attr, 0, ctypes.byref(attr), ctypes.sizeof(attr), 0) != 0:
+        raise OSError(ctypes.get_errno(), f"sched_getattr: {os.strerror(ctypes.get_errno())}")
+    attr.size = ctypes.sizeof(attr)
+    attr.sched_runtime = int(microseconds * 1000)
+    if libc.syscall(set_attr, 0, ctypes.byref(attr), 0) != 0:
+        raise OSError(
+            ctypes.get_errno(), f"sched_setattr slice {microseconds} us: {os.strerror(ctypes.get_errno())}"
+        )
+
+
+def publisher_mixed(seconds: float, slice_us: float | None = None) -> None:
     """The interleaved run: one process alternates blocks of no calls, the empty function and dbglog on.
 
     Each block of `_MIX_BLOCK` iterations runs one mode, in a new random order every round, so the
@@ -307,6 +345,8 @@ def publisher_mixed(seconds: float) -> None:
     separate runs on a shared 2-core machine cannot (their p99 drifts ±50 % run to run).
     """
     steps = {mode: _make_calls(mode) for mode in _MIX_MODES}
+    if slice_us is not None:
+        set_thread_slice(slice_us)
     created = time.monotonic()
     print("ready", flush=True)
     sys.stdin.readline()
@@ -506,11 +546,12 @@ def _echo_result(echo: subprocess.Popen[str], lines: list[str], n: int) -> dict[
     return {"echo_count": len(values), "echo_ordered": values == [float(k) for k in range(len(values))]}
 
 
-def run_interleaved(seconds: float) -> dict[str, Any]:
+def run_interleaved(seconds: float, slice_us: float | None = None) -> dict[str, Any]:
     """One interleaved publisher (`publisher_mixed`) with a real viewer engine attached; its figures."""
     domain = random.randint(101, 200)
+    sliced = [] if slice_us is None else ["--loop-slice-us", str(slice_us)]
     pub = _spawn(
-        ["--role", "publisher", "--mode", "mix", "--seconds", str(seconds)], _env(ROOT, "on", domain)
+        ["--role", "publisher", "--mode", "mix", "--seconds", str(seconds), *sliced], _env(ROOT, "on", domain)
     )
     engine = None
     try:
@@ -537,7 +578,7 @@ def run_interleaved(seconds: float) -> dict[str, Any]:
                 proc.kill()
 
 
-def _print_interleaved(runs: list[dict[str, Any]], seconds: float) -> None:
+def _print_interleaved(runs: list[dict[str, Any]], seconds: float, loop: str = "") -> None:
     sys.path.insert(0, str(ROOT))
     from benchmarks._common import print_table
 
@@ -560,9 +601,9 @@ def _print_interleaved(runs: list[dict[str, Any]], seconds: float) -> None:
         f"{r['min_count']}/{r['expected']}{'' if r['ordered'] else ' (out of order!)'}" for r in runs
     ]
     print_table(
-        f"Interleaved 1 kHz loop with a viewer attached: blocks of {_MIX_BLOCK} iterations per mode, random "
-        f"order, {seconds:.0f} s per run, {len(runs)} runs (medians, ranges); samples of the dbglog blocks "
-        f"in the viewer (min per tag / sent): {', '.join(delivered)}",
+        f"Interleaved 1 kHz loop{loop} with a viewer attached: blocks of {_MIX_BLOCK} iterations per mode, "
+        f"random order, {seconds:.0f} s per run, {len(runs)} runs (medians, ranges); samples of the dbglog "
+        f"blocks in the viewer (min per tag / sent): {', '.join(delivered)}",
         ["Calls", "per call p50 µs", "per call p99 µs", "period p50 µs", "period p99 µs", "p99 / no calls"],
         rows,
     )
@@ -626,20 +667,33 @@ def main() -> None:
         help="only the interleaved run: no calls / empty function / dbglog on in alternating blocks of one "
         "process, a viewer attached (the loop period's p99 compared under the same load)",
     )
+    parser.add_argument(
+        "--loop-slice-us",
+        type=float,
+        default=None,
+        help="with --interleaved: also run the loop with this scheduler slice (Linux >= 6.12; runs "
+        "alternate with the default slice)",
+    )
     args = parser.parse_args()
     if args.role == "publisher" and args.mode == "mix":
-        publisher_mixed(args.seconds)
+        publisher_mixed(args.seconds, args.loop_slice_us)
         return
     if args.role == "publisher":
         publisher(args.mode, args.seconds)
         return
     if args.interleaved:
-        runs = []
+        arms: list[float | None] = [None] if args.loop_slice_us is None else [None, args.loop_slice_us]
+        by_arm: dict[float | None, list[dict[str, Any]]] = {arm: [] for arm in arms}
         for rep in range(args.repeats):
-            res = run_interleaved(args.seconds)
-            runs.append(res)
-            print(f"# interleaved repeat {rep}: {json.dumps(res)}", file=sys.stderr, flush=True)
-        _print_interleaved(runs, args.seconds)
+            for arm in arms if rep % 2 == 0 else arms[::-1]:
+                res = run_interleaved(args.seconds, arm)
+                by_arm[arm].append(res)
+                note = f"# interleaved repeat {rep} slice {arm}: {json.dumps(res)}"
+                print(note, file=sys.stderr, flush=True)
+        for arm, runs in by_arm.items():
+            slice_text = "the default" if arm is None else f"{arm:g} µs"
+            loop = "" if args.loop_slice_us is None else f" (its thread's slice: {slice_text})"
+            _print_interleaved(runs, args.seconds, loop)
         return
     if args.role == "subscriber":
         subscriber(args.expect, args.history)
