@@ -444,8 +444,11 @@ class Runtime:
             try:
                 from std_msgs.msg import UInt8MultiArray
 
+                from dbglog._ros._nogil import unlocked_publish
+
                 self._batch_publisher = node.create_publisher(UInt8MultiArray, BATCH_TOPIC, batch_qos())
-                self.batch_publish = self._batch_publisher.publish
+                # The DDS write without the GIL: the caller's threads run meanwhile (dbglog/_ros/_nogil.py).
+                self.batch_publish = unlocked_publish(self._batch_publisher) or self._batch_publisher.publish
             except Exception as exc:
                 self._batch_publisher = self.batch_publish = None
                 self.reporter.warn(

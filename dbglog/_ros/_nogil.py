@@ -1,0 +1,86 @@
+"""Publish serialized bytes without holding the GIL during the DDS write.
+
+rclpy's ``Publisher.publish(bytes)`` calls ``rcl_publish_serialized_message`` with the GIL held (rclpy
+7.1's ``publish_raw`` releases nothing), so every Python thread of the process waits while Fast DDS
+writes a reliable message to a matched reader: tens of µs, hundreds at its tail. dbglog's publisher
+thread sends one batch every 10 ms; a user's control loop that wakes up meanwhile would wait for it.
+Here the same rcl function is called through ``ctypes``, which releases the GIL for the length of the
+foreign call. The publisher's handle is held (``with handle``: rclpy's guard against destroying an entity
+in use) around the call, exactly as ``Publisher.publish`` does. No import of rclpy at module level.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import logging
+from collections.abc import Callable
+from typing import Any
+
+__all__ = ["unlocked_publish"]
+
+_log = logging.getLogger("dbglog.ros")
+
+
+class _Allocator(ctypes.Structure):
+    """``rcutils_allocator_t``: four function pointers and a state (all NULL: never used to publish)."""
+
+    _fields_ = [
+        ("allocate", ctypes.c_void_p),
+        ("deallocate", ctypes.c_void_p),
+        ("reallocate", ctypes.c_void_p),
+        ("zero_allocate", ctypes.c_void_p),
+        ("state", ctypes.c_void_p),
+    ]
+
+
+class _SerializedMessage(ctypes.Structure):
+    """``rcl_serialized_message_t`` (``rcutils_uint8_array_t``): the bytes, their length and capacity."""
+
+    _fields_ = [
+        ("buffer", ctypes.c_char_p),
+        ("buffer_length", ctypes.c_size_t),
+        ("buffer_capacity", ctypes.c_size_t),
+        ("allocator", _Allocator),
+    ]
+
+
+def _rcl() -> tuple[Any, Any]:
+    """Return rcl's publish of serialized bytes and rcutils' error reset, from the libraries rclpy loaded."""
+    # By soname: the libraries already loaded by rclpy's extension are the ones returned.
+    write = ctypes.CDLL("librcl.so").rcl_publish_serialized_message
+    write.argtypes = [ctypes.c_void_p, ctypes.POINTER(_SerializedMessage), ctypes.c_void_p]
+    write.restype = ctypes.c_int32
+    reset = ctypes.CDLL("librcutils.so").rcutils_reset_error  # what rcl_reset_error() expands to
+    reset.argtypes = []
+    reset.restype = None
+    return write, reset
+
+
+def unlocked_publish(publisher: Any) -> Callable[[bytes], None] | None:
+    """Return a function that publishes serialized bytes on `publisher` with the GIL released.
+
+    `publisher` is an ``rclpy.publisher.Publisher``. None when this rclpy or its ``librcl`` cannot be
+    reached this way (the caller keeps ``publisher.publish``). A failed write falls back to
+    ``publisher.publish`` once, which raises rclpy's own error.
+    """
+    try:
+        write, reset = _rcl()
+        handle = publisher.handle
+        with handle:
+            if not handle.pointer:
+                return None
+    except Exception as exc:  # another rclpy, no librcl by that name: rclpy's publish it is
+        _log.debug("dbglog: publishing with the GIL held (%s: %s)", type(exc).__name__, exc)
+        return None
+    fallback = publisher.publish
+
+    def publish(data: bytes) -> None:
+        """Publish `data` (one serialized message) on the publisher."""
+        message = _SerializedMessage(data, len(data), len(data))  # its own: callers may be concurrent
+        with handle:  # rclpy destroys no entity while its handle is held
+            ret = write(handle.pointer, ctypes.byref(message), None)  # ctypes drops the GIL for this call
+        if ret != 0:
+            reset()
+            fallback(data)
+
+    return publish
