@@ -43,6 +43,8 @@ _TAGS = [
 _STRING_EVERY = 100
 """The throttled logstring (throttle=0.1 s) publishes every 100th iteration at 1 kHz."""
 _WORK_S = 25e-6
+_MIX_LATE_US = 100.0
+"""The interleaved run counts the wake-ups later than this (µs) per mode, and their time runnable."""
 _WARMUP_S = 6.0
 """The loop runs unmeasured until its tags are this old: a robot logs for minutes, and dbglog sends
 every sample on a tag's own topic during the tag's first 5 s (a subscriber may still be matching)."""
@@ -360,6 +362,9 @@ def publisher_mixed(seconds: float, slice_us: float | None = None) -> None:
     rounds = max(1, int(seconds * 1000) // (_MIX_BLOCK * len(_MIX_MODES)))
     periods: dict[str, list[float]] = {m: [] for m in _MIX_MODES}
     calls: dict[str, list[float]] = {m: [] for m in _MIX_MODES}
+    runq = _RunQueue()
+    late: dict[str, list[tuple[float, float]]] = {m: [] for m in _MIX_MODES}
+    """Per mode, (sleep overshoot, run-queue wait) in µs of each wake-up more than `_MIX_LATE_US` late."""
     rng = random.Random(7)
     k = 0
     on_iterations = 0
@@ -382,7 +387,11 @@ def publisher_mixed(seconds: float, slice_us: float | None = None) -> None:
                 deadline += 0.001
                 rest = deadline - time.monotonic()
                 if rest > 0:
+                    q0, t0 = runq.ns(), time.monotonic()
                     time.sleep(rest)
+                    over = (time.monotonic() - t0 - rest) * 1e6
+                    if over > _MIX_LATE_US:
+                        late[mode].append((over, (runq.ns() - q0) / 1e3))
                 elif rest < -0.001:  # a missed deadline is skipped, as a ROS 2 timer does: no burst
                     deadline = time.monotonic()
             out.extend(float(c) for c in timed)
@@ -394,6 +403,10 @@ def publisher_mixed(seconds: float, slice_us: float | None = None) -> None:
             "call_p50_ns": _pct(calls[mode], 0.5),
             "call_p99_ns": _pct(calls[mode], 0.99),
             "iterations": len(periods[mode]),
+            "late_wakeups": len(late[mode]),
+            "late_runqueue_share": (
+                sum(q for _, q in late[mode]) / sum(o for o, _ in late[mode]) if late[mode] else None
+            ),
         }
         for mode in _MIX_MODES
     }
@@ -587,6 +600,9 @@ def _print_interleaved(runs: list[dict[str, Any]], seconds: float, loop: str = "
     for mode in _MIX_MODES:
         p99 = [r["modes"][mode]["period_p99_us"] for r in runs]
         ratio = [r["modes"][mode]["period_p99_us"] / r["modes"]["none"]["period_p99_us"] for r in runs]
+        lates = [r["modes"][mode].get("late_wakeups", 0) for r in runs]
+        shares = [s for r in runs if (s := r["modes"][mode].get("late_runqueue_share")) is not None]
+        share = f" ({statistics.median(shares):.0%})" if shares else ""
         rows.append(
             [
                 names[mode],
@@ -595,6 +611,7 @@ def _print_interleaved(runs: list[dict[str, Any]], seconds: float, loop: str = "
                 f"{statistics.median(r['modes'][mode]['period_p50_us'] for r in runs):.0f}",
                 f"{statistics.median(p99):.0f} ({min(p99):.0f}-{max(p99):.0f})",
                 f"{statistics.median(ratio):.3f} ({min(ratio):.3f}-{max(ratio):.3f})",
+                f"{statistics.median(lates):.0f}{share}",
             ]
         )
     delivered = [
@@ -604,7 +621,15 @@ def _print_interleaved(runs: list[dict[str, Any]], seconds: float, loop: str = "
         f"Interleaved 1 kHz loop{loop} with a viewer attached: blocks of {_MIX_BLOCK} iterations per mode, "
         f"random order, {seconds:.0f} s per run, {len(runs)} runs (medians, ranges); samples of the dbglog "
         f"blocks in the viewer (min per tag / sent): {', '.join(delivered)}",
-        ["Calls", "per call p50 µs", "per call p99 µs", "period p50 µs", "period p99 µs", "p99 / no calls"],
+        [
+            "Calls",
+            "per call p50 µs",
+            "per call p99 µs",
+            "period p50 µs",
+            "period p99 µs",
+            "p99 / no calls",
+            f"wake-ups > {_MIX_LATE_US:.0f} µs late (share waiting for a CPU)",
+        ],
         rows,
     )
 

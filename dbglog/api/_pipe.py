@@ -38,6 +38,21 @@ _YIELD_NS = 30_000
 wakes up meanwhile waits for the GIL for at most this long. (``sleep(0)`` is not enough: the GIL has
 no fairness, this thread would take it straight back before a woken thread is scheduled.)"""
 _YIELD_S = 1e-5
+
+
+def _breathe(since: int) -> int:
+    """Let other threads take the GIL if this one has held it `_YIELD_NS` since `since`; the new mark.
+
+    Marks are ``time.perf_counter_ns()``. Only the publisher thread breathes: a flush on the caller's
+    thread (``flush()``, shutdown) must not sleep.
+    """
+    now = time.perf_counter_ns()
+    if now - since <= _YIELD_NS:
+        return since
+    time.sleep(_YIELD_S)
+    return time.perf_counter_ns()
+
+
 LISTEN_CHECK_S = 0.1
 """How often a tag's subscriber count is looked up (a C call)."""
 _NEWEST_EVERY = 0.1
@@ -136,7 +151,7 @@ class Pipe:
             idle = time.monotonic() - idle_since > _IDLE_AFTER
             if self.pending:  # all of them before going to sleep
                 with self.lock, contextlib.suppress(Exception):
-                    self._publish_pending(time.monotonic(), force=idle)
+                    self._publish_pending(time.monotonic(), force=idle, yield_gil=True)
             if idle:
                 self.sleeping = True
                 if not self.queue:
@@ -149,7 +164,12 @@ class Pipe:
             queue = self.queue
 
     def _flush_once(self, *, yield_gil: bool) -> int:
-        """Take up to `_MAX_BATCH` samples: one batch message, then each sample on its tag's topic."""
+        """Take up to `_MAX_BATCH` samples: one batch message, then each sample on its tag's topic.
+
+        With `yield_gil` (the publisher thread) no stretch of it holds the GIL much longer than
+        `_YIELD_NS` (`_breathe`): a caller's loop that wakes up meanwhile gets it within that.
+        """
+        mark = time.perf_counter_ns()  # the GIL held since (about) now: the thread just woke up
         queue = self.queue
         popleft = queue.popleft
         items: list[Item] = []
@@ -164,25 +184,30 @@ class Pipe:
             return len(items)
         chans, vals, times = zip(*items, strict=True)
         order = list(dict.fromkeys(chans))
-        batched = self._publish_batch(order, chans, vals, times)
+        if yield_gil:
+            mark = _breathe(mark)
+        batched = self._publish_batch(order, chans, vals, times, yield_gil=yield_gil)
         if yield_gil:
             time.sleep(_YIELD_S)
+            mark = time.perf_counter_ns()
         published = runtime.reporter.published
         now = time.monotonic()
         watched: set[Channel] = set()
         for c in order:
             if now - c.checked > LISTEN_CHECK_S:
-                c.listened(now)
+                c.listened(now)  # a C call: count the tag's subscribers
+                if yield_gil:
+                    mark = _breathe(mark)
             if not (batched and c.alive and not c.listening):
                 watched.add(c)
         pending = self.pending
         if not watched:  # only the viewer listens (it reads the batch): each tag's newest on its topic
             published.add(len(items))
             pending.update(zip(chans, vals, strict=True))
-            self._publish_pending(now)
+            self._publish_pending(now, yield_gil=yield_gil)
             return len(items)
         if not pending.keys().isdisjoint(watched):  # a subscriber came: its tag's older newest first
-            self._publish_pending(now, force=True, only=watched)
+            self._publish_pending(now, force=True, only=watched, yield_gil=yield_gil)
         send = runtime.send_queued
         clock = time.perf_counter_ns
         last = clock()
@@ -209,12 +234,15 @@ class Pipe:
                     last = clock()
         finally:
             published.add(sent)
-        self._publish_pending(now)
+        self._publish_pending(now, yield_gil=yield_gil)
         return len(items)
 
-    def _publish_pending(self, now: float, *, force: bool = False, only: set[Channel] | None = None) -> None:
+    def _publish_pending(
+        self, now: float, *, force: bool = False, only: set[Channel] | None = None, yield_gil: bool = False
+    ) -> None:
         """Publish the pending newest values whose tag's last one went out `_NEWEST_EVERY` ago (or all, if
         `force`; or only those of `only`) on their topics (the batch carried and counted every sample)."""
+        mark = time.perf_counter_ns()
         pending = self.pending
         due = [
             ch
@@ -231,6 +259,8 @@ class Pipe:
                     ch.publish_raw(ch.encode(value))
                 else:
                     ch.send(value, message=False)
+            if yield_gil:
+                mark = _breathe(mark)
 
     def _publish_batch(
         self,
@@ -238,11 +268,14 @@ class Pipe:
         chans: tuple[Channel, ...],
         vals: tuple[object, ...],
         times: tuple[int, ...],
+        *,
+        yield_gil: bool = False,
     ) -> bool:
         """Publish one batch message of the samples (columns built by C loops); False if it failed."""
         publish = self.runtime.batch_publish
         if publish is None:
             return False
+        mark = time.perf_counter_ns()
         lookup = {c: i for i, c in enumerate(order)}
         tags = [(c.code, c.tag_bytes) for c in order]
         index = array("H", map(lookup.__getitem__, chans))
@@ -259,7 +292,11 @@ class Pipe:
                 elif ch.convert is not None:
                     numbers[i] = ch.convert(numbers[i])
         values = array("d", numbers)
+        if yield_gil:
+            mark = _breathe(mark)
         message = encode_batch(self.writer, self.seq, tags, index, array("q", times), values, strings)
+        if yield_gil:
+            _breathe(mark)
         self.seq += 1
         try:
             publish(message)
