@@ -184,15 +184,20 @@ def _make_calls(mode: str) -> Any:
     else:
         import dbglog
 
-        assert dbglog.enabled == (mode == "on"), (mode, dbglog.enabled)
-        if mode == "on":
-            dbglog.init()
-        logfloat, logint, logbool, logstring = (
-            dbglog.logfloat,
-            dbglog.logint,
-            dbglog.logbool,
-            dbglog.logstring,
-        )
+        if mode == "off" and dbglog.enabled:  # the interleaved run: the functions DBGLOG=off binds
+            from dbglog.api import _disabled as off
+
+            logfloat, logint, logbool, logstring = off.logfloat, off.logint, off.logbool, off.logstring
+        else:
+            assert dbglog.enabled == (mode == "on"), (mode, dbglog.enabled)
+            if mode == "on":
+                dbglog.init()
+            logfloat, logint, logbool, logstring = (
+                dbglog.logfloat,
+                dbglog.logint,
+                dbglog.logbool,
+                dbglog.logstring,
+            )
     for tag in ftags:
         logfloat(tag, -1.0)
     for tag in itags:
@@ -294,7 +299,7 @@ def publisher(mode: str, seconds: float) -> None:
         dbglog.flush(5.0)
 
 
-_MIX_MODES = ("none", "nop", "on")
+_MIX_MODES = ("none", "nop", "off", "on")
 _MIX_BLOCK = 500
 """Iterations per block of one mode in the interleaved run (0.5 s: the publisher thread's last flush of
 an "on" block, at most 10 ms later, spills into the next block's first 2 %)."""
@@ -595,7 +600,7 @@ def _print_interleaved(runs: list[dict[str, Any]], seconds: float, loop: str = "
     sys.path.insert(0, str(ROOT))
     from benchmarks._common import print_table
 
-    names = {"none": "no calls", "nop": "empty function", "on": "dbglog on"}
+    names = {"none": "no calls", "nop": "empty function", "off": "dbglog off", "on": "dbglog on"}
     rows = []
     for mode in _MIX_MODES:
         p99 = [r["modes"][mode]["period_p99_us"] for r in runs]
