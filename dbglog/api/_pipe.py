@@ -209,8 +209,6 @@ class Pipe:
         if not pending.keys().isdisjoint(watched):  # a subscriber came: its tag's older newest first
             self._publish_pending(now, force=True, only=watched, yield_gil=yield_gil)
         send = runtime.send_queued
-        clock = time.perf_counter_ns
-        last = clock()
         sent = 0
         try:
             for ch, value, _ in items:
@@ -229,9 +227,8 @@ class Pipe:
                         sent += 1
                 elif send(ch, value):
                     sent += 1
-                if yield_gil and clock() - last > _YIELD_NS:
-                    time.sleep(_YIELD_S)
-                    last = clock()
+                if yield_gil:
+                    mark = _breathe(mark)
         finally:
             published.add(sent)
         self._publish_pending(now, yield_gil=yield_gil)
