@@ -62,15 +62,19 @@ class RosPeer:
         self.node = Node(name, context=self.context)
         self._executor = SingleThreadedExecutor(context=self.context)
         self._executor.add_node(self.node)
+        self._stop = threading.Event()
         self._thread = threading.Thread(target=self._spin, name=f"{name}-spin", daemon=True)
         self._thread.start()
 
     def _spin(self) -> None:
         try:
-            while self.context.ok():
+            while not self._stop.is_set() and self.context.ok():
                 self._executor.spin_once(timeout_sec=0.05)
         except ExternalShutdownException:
             pass
+        except Exception:
+            if self.context.ok():  # (a context shut down under the wait set is the end, not a failure)
+                raise
 
     def subscribe(self, topic: str, msg_type: Any, qos: QoSProfile | int = RELIABLE_VOLATILE) -> Collector:
         """Subscribe to `topic` and return the collector that fills with its messages."""
@@ -91,10 +95,11 @@ class RosPeer:
         return next((t for name, t in self.node.get_topic_names_and_types() if name == topic), [])
 
     def close(self) -> None:
-        """Shut the context down and join the spinning thread."""
+        """Stop and join the spinning thread, then shut the context down."""
+        self._stop.set()
+        self._thread.join(timeout=5)
         if self.context.ok():
             rclpy.shutdown(context=self.context)
-        self._thread.join(timeout=5)
         self._executor.shutdown(timeout_sec=1)
         self.node.destroy_node()
 

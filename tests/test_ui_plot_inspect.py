@@ -123,6 +123,7 @@ class Probe:
                 "info_rect": _rect(widget._info),
                 "info_full": widget.info_full,
                 "chip": _rect(widget._chip) if dpg.is_item_shown(widget._chip_box) else None,
+                "chip_hovered": bool(dpg.is_item_hovered(widget._chip_box)),
             }
         return {
             "pid": os.getpid(),
@@ -574,8 +575,9 @@ def test_a_small_plot_keeps_its_legend_off_the_lines(viewer: Callable[[str], Vie
     cx, cy, cw, ch = (int(p) for p in t["chip"])
     assert not any(swatches(img, cx - 20, cy + ch + 4, cx + 80, cy + ch + 100, 3)), "no tooltip yet"
     v.move(cx + cw / 2, cy + ch / 2)
-    time.sleep(0.8)  # (Dear ImGui shows a tooltip once the pointer rests)
-    v.frames(5)
+    # (the tooltip shows in every frame the swatches are hovered; an idle viewer draws few frames, so wait
+    # for the state that says so, not for a count of frames)
+    v.wait_for(lambda st: v.plot("T", st)["chip_hovered"])
     img = read_png(v.shot("small-names"))
     assert all(swatches(img, cx - 20, cy + ch + 4, cx + 80, cy + ch + 100, 3)), "hovered: the series listed"
 
