@@ -425,9 +425,20 @@ def publisher_mixed(seconds: float, slice_us: float | None = None) -> None:
 # --- the subscriber process (a real viewer engine) --------------------------------------------------
 
 
-def subscriber(expect: int, history: int) -> None:
-    """Bind the 10 tags in a real engine; print ``bound``, then counts/order/latency on a stdin line."""
+def subscriber(expect: int, history: int, cpu: str) -> None:
+    """Bind the 10 tags in a real engine; print ``bound``, then counts/order/latency on a stdin line.
+
+    The process shares the CPU as ``dbglog view --cpu`` would (`cpu`), before any thread starts.
+    """
     import importlib
+
+    try:
+        sched: Any = importlib.import_module("dbglog._sched")
+    except ImportError:  # a source tree from before ``--cpu`` (``--before``): an ordinary process
+        sched = None
+    if sched is not None:
+        refused = sched.set_cpu_policy(sched.CpuPolicy(cpu))
+        assert refused is None, refused
 
     try:
         data = "dbglog.viewer._data."
@@ -564,8 +575,9 @@ def _echo_result(echo: subprocess.Popen[str], lines: list[str], n: int) -> dict[
     return {"echo_count": len(values), "echo_ordered": values == [float(k) for k in range(len(values))]}
 
 
-def run_interleaved(seconds: float, slice_us: float | None = None) -> dict[str, Any]:
-    """One interleaved publisher (`publisher_mixed`) with a real viewer engine attached; its figures."""
+def run_interleaved(seconds: float, slice_us: float | None = None, cpu: str = "background") -> dict[str, Any]:
+    """One interleaved publisher (`publisher_mixed`) with a real viewer engine attached (sharing the CPU as
+    ``dbglog view --cpu`` `cpu` does); its figures."""
     domain = random.randint(101, 200)
     sliced = [] if slice_us is None else ["--loop-slice-us", str(slice_us)]
     pub = _spawn(
@@ -576,7 +588,7 @@ def run_interleaved(seconds: float, slice_us: float | None = None) -> dict[str, 
         assert _readline(pub, 60) == "ready"
         n = int(seconds * 1000)
         engine = _spawn(
-            ["--role", "subscriber", "--expect", str(n), "--history", str(n + 20_000)],
+            ["--role", "subscriber", "--expect", str(n), "--history", str(n + 20_000), "--cpu", cpu],
             _env(ROOT, "on", domain),
         )
         assert _readline(engine, 90) == "bound"
@@ -596,7 +608,9 @@ def run_interleaved(seconds: float, slice_us: float | None = None) -> dict[str, 
                 proc.kill()
 
 
-def _print_interleaved(runs: list[dict[str, Any]], seconds: float, loop: str = "") -> None:
+def _print_interleaved(
+    runs: list[dict[str, Any]], seconds: float, loop: str = "", cpu: str = "background"
+) -> None:
     sys.path.insert(0, str(ROOT))
     from benchmarks._common import print_table
 
@@ -623,8 +637,9 @@ def _print_interleaved(runs: list[dict[str, Any]], seconds: float, loop: str = "
         f"{r['min_count']}/{r['expected']}{'' if r['ordered'] else ' (out of order!)'}" for r in runs
     ]
     print_table(
-        f"Interleaved 1 kHz loop{loop} with a viewer attached: blocks of {_MIX_BLOCK} iterations per mode, "
-        f"random order, {seconds:.0f} s per run, {len(runs)} runs (medians, ranges); samples of the dbglog "
+        f"Interleaved 1 kHz loop{loop} with a viewer attached (--cpu {cpu}): blocks of {_MIX_BLOCK} "
+        f"iterations per mode, random order, {seconds:.0f} s per run, {len(runs)} runs (medians, ranges); "
+        "samples of the dbglog "
         f"blocks in the viewer (min per tag / sent): {', '.join(delivered)}",
         [
             "Calls",
@@ -639,8 +654,11 @@ def _print_interleaved(runs: list[dict[str, Any]], seconds: float, loop: str = "
     )
 
 
-def run_once(tree: Path, mode: str, sub: bool, seconds: float, echo: bool = False) -> dict[str, Any]:
-    """One publisher run (and a viewer engine process when `sub`); return its figures."""
+def run_once(
+    tree: Path, mode: str, sub: bool, seconds: float, echo: bool = False, cpu: str = "background"
+) -> dict[str, Any]:
+    """One publisher run (and a viewer engine process when `sub`, sharing the CPU as ``--cpu`` `cpu`);
+    return its figures."""
     domain = random.randint(101, 200)
     pub = _spawn(["--role", "publisher", "--mode", mode, "--seconds", str(seconds)], _env(tree, mode, domain))
     engine = None
@@ -649,7 +667,7 @@ def run_once(tree: Path, mode: str, sub: bool, seconds: float, echo: bool = Fals
         assert _readline(pub, 60) == "ready"
         if sub:
             n = int(seconds * 1000)
-            args = ["--role", "subscriber", "--expect", str(n), "--history", str(n + 20_000)]
+            args = ["--role", "subscriber", "--expect", str(n), "--history", str(n + 20_000), "--cpu", cpu]
             engine = _spawn(args, _env(tree, "on", domain))
             assert _readline(engine, 90) == "bound"
             if echo:
@@ -704,6 +722,16 @@ def main() -> None:
         help="with --interleaved: also run the loop with this scheduler slice (Linux >= 6.12; runs "
         "alternate with the default slice)",
     )
+    parser.add_argument(
+        "--viewer-cpu",
+        choices=["background", "normal", "both"],
+        default="background",
+        help="how the viewer engine shares the CPU (dbglog view --cpu; default background, as dbglog view "
+        "does); both: with --interleaved, runs alternate the two",
+    )
+    parser.add_argument(
+        "--cpu", choices=["background", "normal"], default="background", help=argparse.SUPPRESS
+    )
     args = parser.parse_args()
     if args.role == "publisher" and args.mode == "mix":
         publisher_mixed(args.seconds, args.loop_slice_us)
@@ -711,22 +739,24 @@ def main() -> None:
     if args.role == "publisher":
         publisher(args.mode, args.seconds)
         return
+    cpus = ["background", "normal"] if args.viewer_cpu == "both" else [args.viewer_cpu]
     if args.interleaved:
-        arms: list[float | None] = [None] if args.loop_slice_us is None else [None, args.loop_slice_us]
-        by_arm: dict[float | None, list[dict[str, Any]]] = {arm: [] for arm in arms}
+        slices: list[float | None] = [None] if args.loop_slice_us is None else [None, args.loop_slice_us]
+        arms = [(slice_us, cpu) for cpu in cpus for slice_us in slices]
+        by_arm: dict[tuple[float | None, str], list[dict[str, Any]]] = {arm: [] for arm in arms}
         for rep in range(args.repeats):
             for arm in arms if rep % 2 == 0 else arms[::-1]:
-                res = run_interleaved(args.seconds, arm)
+                res = run_interleaved(args.seconds, *arm)
                 by_arm[arm].append(res)
-                note = f"# interleaved repeat {rep} slice {arm}: {json.dumps(res)}"
+                note = f"# interleaved repeat {rep} slice {arm[0]} viewer cpu {arm[1]}: {json.dumps(res)}"
                 print(note, file=sys.stderr, flush=True)
-        for arm, runs in by_arm.items():
-            slice_text = "the default" if arm is None else f"{arm:g} µs"
+        for (slice_us, cpu), runs in by_arm.items():
+            slice_text = "the default" if slice_us is None else f"{slice_us:g} µs"
             loop = "" if args.loop_slice_us is None else f" (its thread's slice: {slice_text})"
-            _print_interleaved(runs, args.seconds, loop)
+            _print_interleaved(runs, args.seconds, loop, cpu)
         return
     if args.role == "subscriber":
-        subscriber(args.expect, args.history)
+        subscriber(args.expect, args.history, args.cpu)
         return
     configs: list[tuple[str, Path, str]] = [
         ("no calls", ROOT, "none"),
@@ -745,7 +775,7 @@ def main() -> None:
         for sub in {"both": (False, True), "with": (True,), "without": (False,)}[args.viewer]:
             for name, tree, mode in configs:
                 echo = args.echo and sub and mode in ("rclpy", "on")
-                res = run_once(tree, mode, sub, args.seconds, echo=echo)
+                res = run_once(tree, mode, sub, args.seconds, echo=echo, cpu=cpus[0])
                 results.setdefault((name, sub), []).append(res)
                 print(f"# repeat {rep} {name} sub={sub}: {json.dumps(res)}", file=sys.stderr, flush=True)
     _print(configs, results)

@@ -68,6 +68,65 @@ def test_idle_view_uses_a_few_percent_of_a_core(display: str, tmp_path: Path) ->
     assert share <= IDLE_CPU_MAX, f"idle viewer used {100 * share:.0f} % of a core"
 
 
+def thread_policies(pid: int) -> dict[str, set[int]]:
+    """The scheduling policies of process `pid`'s threads, by thread name (``dds.*`` are Fast DDS's)."""
+    found: dict[str, set[int]] = {}
+    for task in Path(f"/proc/{pid}/task").iterdir():
+        try:
+            name = (task / "comm").read_text().strip()
+            found.setdefault(name, set()).add(os.sched_getscheduler(int(task.name)))
+        except (OSError, ProcessLookupError):  # a thread that ended meanwhile
+            continue
+    return found
+
+
+@pytest.mark.parametrize(("cpu", "policy"), [(None, "SCHED_IDLE"), ("normal", "SCHED_OTHER")])
+def test_view_runs_every_thread_in_the_background_unless_told_otherwise(
+    display: str, tmp_path: Path, cpu: str | None, policy: str
+) -> None:
+    """`dbglog view` puts all of its threads (the window's, the engine's, the middleware's) under
+    SCHED_IDLE, so that a robot's thread that wakes up takes the CPU at once; `--cpu normal` does not."""
+    from dbglog.viewer._document._dashboard import Dashboard, save_dashboard
+
+    path = tmp_path / "empty.json"
+    save_dashboard(Dashboard([], 20, True), path)
+    env = {**os.environ, "DISPLAY": display}
+    extra = [] if cpu is None else ["--cpu", cpu]
+    with (tmp_path / "view.log").open("w") as log:
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "dbglog", "view", str(path), *extra],
+            env=env,
+            stdout=log,
+            stderr=subprocess.STDOUT,
+            cwd=ROOT,
+        )
+        try:
+            found = subprocess.run(
+                ["xdotool", "search", "--sync", "--pid", str(proc.pid)],
+                env=env,
+                capture_output=True,
+                timeout=60,
+                check=False,
+            )
+            assert found.returncode == 0, (tmp_path / "view.log").read_text()
+            deadline = time.monotonic() + 30
+            threads = thread_policies(proc.pid)
+            while not any(name.startswith("dds.") for name in threads) and time.monotonic() < deadline:
+                time.sleep(0.2)  # the middleware's threads start with the engine's node
+                threads = thread_policies(proc.pid)
+            assert any(name.startswith("dds.") for name in threads), threads
+            assert len(threads) >= 3, threads
+            # (Mesa starts its shader disk cache thread, "<comm>:disk$0", under SCHED_BATCH itself: it stands)
+            mesa = {k for k, v in threads.items() if ":disk$" in k and v == {os.SCHED_BATCH}}
+            others = {k: v for k, v in threads.items() if v != {getattr(os, policy)} and k not in mesa}
+            assert not others, f"not {policy}: {others}"
+            assert proc.poll() is None, (tmp_path / "view.log").read_text()
+        finally:
+            proc.terminate()
+            proc.wait(15)
+    assert "note:" not in (tmp_path / "view.log").read_text()
+
+
 def render_rate(v: Viewer, seconds: float) -> float:
     """Frames the viewer rendered per second over the next `seconds`."""
     start = v.state()

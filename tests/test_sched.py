@@ -1,0 +1,72 @@
+"""`set_cpu_policy`: a dbglog process steps aside for the robot (SCHED_IDLE), all of its threads.
+
+Each case runs in a child process, so the test runner's own policy is never touched.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+import textwrap
+
+import pytest
+
+from dbglog._sched import CpuPolicy
+
+pytestmark = pytest.mark.skipif(not hasattr(os, "SCHED_IDLE"), reason="SCHED_IDLE is Linux's")
+
+CHILD = textwrap.dedent(
+    """
+    import os, sys, threading
+    from pathlib import Path
+    from dbglog._sched import CpuPolicy, set_cpu_policy
+
+    def policies():
+        return sorted({os.sched_getscheduler(int(t.name)) for t in Path("/proc/self/task").iterdir()})
+
+    stop = threading.Event()
+    before = threading.Thread(target=stop.wait)  # a thread that already runs
+    before.start()
+    print("start", policies(), flush=True)
+    print("refused", set_cpu_policy(CpuPolicy(sys.argv[1])), flush=True)
+    after = threading.Thread(target=stop.wait)  # and one started afterwards
+    after.start()
+    print("end", policies(), flush=True)
+    stop.set()
+    """
+)
+
+
+def run_child(policy: str, *prefix: str) -> dict[str, str]:
+    """Run CHILD with `policy` (under the `prefix` command, e.g. chrt); its lines by their first word."""
+    done = subprocess.run(
+        [*prefix, sys.executable, "-c", CHILD, policy], capture_output=True, text=True, timeout=60, check=True
+    )
+    return dict(line.split(" ", 1) for line in done.stdout.splitlines())
+
+
+def test_background_puts_every_thread_under_sched_idle_and_normal_brings_them_back() -> None:
+    """Background: the threads that run and those started later are SCHED_IDLE; normal: SCHED_OTHER."""
+    out = run_child("background")
+    assert out["start"] == str([os.SCHED_OTHER])
+    assert out["refused"] == "None"
+    assert out["end"] == str([os.SCHED_IDLE]), "every thread, the one already running and the new one"
+    assert shutil.which("chrt"), "util-linux's chrt starts the child in the background"
+    out = run_child("normal", "chrt", "--idle", "0")
+    assert out["start"] == str([os.SCHED_IDLE])
+    assert out["end"] == str([os.SCHED_OTHER])
+
+
+def test_a_policy_the_user_chose_stands() -> None:
+    """A process started under SCHED_BATCH (chrt --batch) keeps it: only the two ordinary policies move."""
+    out = run_child("background", "chrt", "--batch", "0")
+    assert out["start"] == str([os.SCHED_BATCH])
+    assert out["refused"] == "None"
+    assert out["end"] == str([os.SCHED_BATCH])
+
+
+def test_the_policy_names_are_the_cli_words() -> None:
+    """`--cpu` takes the enum's values."""
+    assert [p.value for p in CpuPolicy] == ["background", "normal"]
