@@ -6,11 +6,12 @@ bounds are loose for a loaded CI machine, `benchmarks/bench_ui.py` reports the r
 
 from __future__ import annotations
 
+import contextlib
 import os
 import subprocess
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import pytest
@@ -32,8 +33,12 @@ def cpu_seconds(pid: int) -> float:
     return (utime + stime) / os.sysconf("SC_CLK_TCK")
 
 
-def test_idle_view_uses_a_few_percent_of_a_core(display: str, tmp_path: Path) -> None:
-    """`dbglog view` on an empty dashboard, left alone, uses a few percent of a core (was 0.75-1.6 cores)."""
+@contextlib.contextmanager
+def running_view(display: str, tmp_path: Path, *extra: str) -> Iterator[subprocess.Popen[bytes]]:
+    """Run `dbglog view` on an empty dashboard (with `extra` options) until its window is up; stop it after.
+
+    Its output goes to ``view.log`` in `tmp_path`.
+    """
     from dbglog.viewer._document._dashboard import Dashboard, save_dashboard
 
     path = tmp_path / "empty.json"
@@ -41,7 +46,7 @@ def test_idle_view_uses_a_few_percent_of_a_core(display: str, tmp_path: Path) ->
     env = {**os.environ, "DISPLAY": display}
     with (tmp_path / "view.log").open("w") as log:
         proc = subprocess.Popen(
-            [sys.executable, "-m", "dbglog", "view", str(path), "--size", "1440x900"],
+            [sys.executable, "-m", "dbglog", "view", str(path), *extra],
             env=env,
             stdout=log,
             stderr=subprocess.STDOUT,
@@ -56,14 +61,20 @@ def test_idle_view_uses_a_few_percent_of_a_core(display: str, tmp_path: Path) ->
                 check=False,
             )
             assert found.returncode == 0, (tmp_path / "view.log").read_text()
-            time.sleep(2.0)  # start-up (imports, the first frames) is not idling
-            cpu0, t0 = cpu_seconds(proc.pid), time.monotonic()
-            time.sleep(4.0)
-            share = (cpu_seconds(proc.pid) - cpu0) / (time.monotonic() - t0)
+            yield proc
             assert proc.poll() is None, (tmp_path / "view.log").read_text()
         finally:
             proc.terminate()
             proc.wait(15)
+
+
+def test_idle_view_uses_a_few_percent_of_a_core(display: str, tmp_path: Path) -> None:
+    """`dbglog view` on an empty dashboard, left alone, uses a few percent of a core (was 0.75-1.6 cores)."""
+    with running_view(display, tmp_path, "--size", "1440x900") as proc:
+        time.sleep(2.0)  # start-up (imports, the first frames) is not idling
+        cpu0, t0 = cpu_seconds(proc.pid), time.monotonic()
+        time.sleep(4.0)
+        share = (cpu_seconds(proc.pid) - cpu0) / (time.monotonic() - t0)
     print(f"idle viewer: {100 * share:.1f} % of one core")
     assert share <= IDLE_CPU_MAX, f"idle viewer used {100 * share:.0f} % of a core"
 
@@ -86,44 +97,19 @@ def test_view_runs_every_thread_in_the_background_unless_told_otherwise(
 ) -> None:
     """`dbglog view` puts all of its threads (the window's, the engine's, the middleware's) under
     SCHED_IDLE, so that a robot's thread that wakes up takes the CPU at once; `--cpu normal` does not."""
-    from dbglog.viewer._document._dashboard import Dashboard, save_dashboard
-
-    path = tmp_path / "empty.json"
-    save_dashboard(Dashboard([], 20, True), path)
-    env = {**os.environ, "DISPLAY": display}
     extra = [] if cpu is None else ["--cpu", cpu]
-    with (tmp_path / "view.log").open("w") as log:
-        proc = subprocess.Popen(
-            [sys.executable, "-m", "dbglog", "view", str(path), *extra],
-            env=env,
-            stdout=log,
-            stderr=subprocess.STDOUT,
-            cwd=ROOT,
-        )
-        try:
-            found = subprocess.run(
-                ["xdotool", "search", "--sync", "--pid", str(proc.pid)],
-                env=env,
-                capture_output=True,
-                timeout=60,
-                check=False,
-            )
-            assert found.returncode == 0, (tmp_path / "view.log").read_text()
-            deadline = time.monotonic() + 30
+    with running_view(display, tmp_path, *extra) as proc:
+        deadline = time.monotonic() + 30
+        threads = thread_policies(proc.pid)
+        while not any(name.startswith("dds.") for name in threads) and time.monotonic() < deadline:
+            time.sleep(0.2)  # the middleware's threads start with the engine's node
             threads = thread_policies(proc.pid)
-            while not any(name.startswith("dds.") for name in threads) and time.monotonic() < deadline:
-                time.sleep(0.2)  # the middleware's threads start with the engine's node
-                threads = thread_policies(proc.pid)
-            assert any(name.startswith("dds.") for name in threads), threads
-            assert len(threads) >= 3, threads
-            # (Mesa starts its shader disk cache thread, "<comm>:disk$0", under SCHED_BATCH itself: it stands)
-            mesa = {k for k, v in threads.items() if ":disk$" in k and v == {os.SCHED_BATCH}}
-            others = {k: v for k, v in threads.items() if v != {getattr(os, policy)} and k not in mesa}
-            assert not others, f"not {policy}: {others}"
-            assert proc.poll() is None, (tmp_path / "view.log").read_text()
-        finally:
-            proc.terminate()
-            proc.wait(15)
+        assert any(name.startswith("dds.") for name in threads), threads
+        assert len(threads) >= 3, threads
+        # (Mesa starts its shader disk cache thread, "<comm>:disk$0", under SCHED_BATCH itself: it stands)
+        mesa = {k for k, v in threads.items() if ":disk$" in k and v == {os.SCHED_BATCH}}
+        others = {k: v for k, v in threads.items() if v != {getattr(os, policy)} and k not in mesa}
+        assert not others, f"not {policy}: {others}"
     assert "note:" not in (tmp_path / "view.log").read_text()
 
 
