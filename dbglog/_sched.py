@@ -13,11 +13,12 @@ Pure standard library; no ROS. Policies other than these two are left alone.
 
 from __future__ import annotations
 
+import collections
 import os
 from enum import StrEnum
 from pathlib import Path
 
-__all__ = ["CpuPolicy", "set_cpu_policy"]
+__all__ = ["CpuPolicy", "CpuWaitMeter", "cpu_times_ns", "in_background", "set_cpu_policy"]
 
 
 class CpuPolicy(StrEnum):
@@ -60,3 +61,50 @@ def set_cpu_policy(policy: CpuPolicy) -> str | None:
         except OSError as exc:
             return f"the kernel refused {policy.value} ({exc.strerror})"
     return None
+
+
+def in_background() -> bool:
+    """Whether the calling thread runs under ``SCHED_IDLE``."""
+    try:
+        return hasattr(os, "SCHED_IDLE") and os.sched_getscheduler(0) == os.SCHED_IDLE
+    except OSError:
+        return False
+
+
+def cpu_times_ns() -> tuple[int, int] | None:
+    """Nanoseconds the calling thread has run, and has waited runnable for a CPU (Linux's schedstat)."""
+    try:
+        run, wait = Path("/proc/thread-self/schedstat").read_text().split()[:2]
+        return int(run), int(wait)
+    except (OSError, ValueError):
+        return None
+
+
+class CpuWaitMeter:
+    """Of the time a thread wanted a CPU over the last `window` seconds, the share it waited for one.
+
+    Fed with readings of `cpu_times_ns`: a viewer in the background on a busy machine says so, rather than
+    just drawing late. A thread that hardly wanted the CPU in the window (an idle viewer) has no share.
+    """
+
+    MIN_BUSY_NS = 50_000_000
+    """Below this much time running or waiting in the window, no share is given."""
+
+    def __init__(self, window: float = 3.0) -> None:
+        self.window = window
+        self._readings: collections.deque[tuple[float, int, int]] = collections.deque()
+
+    def add(self, now: float, run_ns: int, wait_ns: int) -> float | None:
+        """Take a reading at `now` (monotonic seconds); return the share waited over the window, or None
+        (too little seen: less than half the window, or too little time wanting the CPU)."""
+        readings = self._readings
+        if readings and (now <= readings[-1][0] or run_ns < readings[-1][1] or wait_ns < readings[-1][2]):
+            readings.clear()  # (the clock or a counter went back: another thread, a restart)
+        readings.append((now, run_ns, wait_ns))
+        while len(readings) > 2 and readings[1][0] <= now - self.window:
+            readings.popleft()  # the oldest kept is the last one at or before the window's start
+        first_t, first_run, first_wait = readings[0]
+        busy = (run_ns - first_run) + (wait_ns - first_wait)
+        if now - first_t < self.window / 2 or busy < self.MIN_BUSY_NS:
+            return None
+        return (wait_ns - first_wait) / busy

@@ -134,6 +134,10 @@ def run_here(scenario: str, tmp_dir: str) -> None:
     from dbglog.viewer._ui import StaticSource, ViewerApp
     from dbglog.viewer._widgets import WidgetRegistry
 
+    if "-bg" in scenario:  # as `dbglog view` runs by default: every thread under SCHED_IDLE
+        from dbglog._sched import CpuPolicy, set_cpu_policy
+
+        assert set_cpu_policy(CpuPolicy.BACKGROUND) is None
     tmp = Path(tmp_dir)
     registry = WidgetRegistry.builtin()
     source = StaticSource()

@@ -152,6 +152,64 @@ def test_idle_viewer_renders_rarely_and_answers_a_click_at_once(viewer: Callable
     assert latency <= 0.5, f"the click took {latency:.2f} s to select"
 
 
+BUSY_NICE_19 = "import os, time\nos.nice(19)\nend = time.time() + 40\nwhile time.time() < end: pass"
+"""A busy loop for 40 s at the lowest priority of the ordinary policy."""
+
+
+def waiting_share(status: str) -> int:
+    """The share of the time the status bar says the viewer waits for a CPU, in percent (0: it does not)."""
+    if "waits for a CPU " not in status:
+        return 0
+    return int(status.split("waits for a CPU ")[1].split(" %")[0])
+
+
+def test_a_background_viewer_starved_by_busy_cpus_says_so(viewer: Callable[[str], Viewer]) -> None:
+    """A viewer in the background (SCHED_IDLE) on a machine whose CPUs other work keeps busy draws late; its
+    status bar then says it waits for a CPU and how to share instead, and stops saying so once they rest."""
+    v = viewer("live-bg:20")
+    v.ready()
+    time.sleep(1.5)
+    assert "waits for a CPU" not in v.frames(3)["status"]
+    # Busy loops on every CPU, at nice 19 so that the other tests running beside this one hardly notice
+    # them: to a SCHED_IDLE viewer even a nice-19 task comes first.
+    busy = [subprocess.Popen([sys.executable, "-c", BUSY_NICE_19]) for _ in range(os.cpu_count() or 2)]
+    try:
+        state = v.wait_for(lambda s: waiting_share(s["status"]) >= 50, timeout=40)
+        assert "(background: the robot first; --cpu normal)" in state["status"]
+        assert state["status"].strip().startswith("waits for a CPU"), "first, before the dashboard's name"
+        v.shot("starved")  # (what the status bar looks like then, for a person to look at)
+    finally:
+        for proc in busy:
+            proc.kill()
+            proc.wait(10)
+    v.wait_for(lambda s: "waits for a CPU" not in s["status"], timeout=30)
+
+
+def test_cpu_wait_is_measured_over_a_window_and_shown_past_a_quarter() -> None:
+    """The meter turns readings of the thread's run-queue time into a share of the last seconds; the status
+    bar shows it from 25 % of the thread's busy time, with the way out when the viewer is in the
+    background."""
+    from dbglog._sched import CpuWaitMeter, cpu_times_ns
+    from dbglog.viewer._ui._pacing import cpu_wait_text
+
+    meter = CpuWaitMeter(window=3.0)
+    ms = 1_000_000
+    assert meter.add(0.0, 0, 0) is None
+    assert meter.add(1.0, 100 * ms, 0) is None, "less than half the window seen"
+    assert meter.add(2.0, 200 * ms, 200 * ms) == pytest.approx(0.5), "waited as long as it ran"
+    assert meter.add(4.0, 200 * ms, 500 * ms) == pytest.approx(0.5 / 0.6), "the last 3 s: from t = 1"
+    assert meter.add(9.0, 210 * ms, 500 * ms) is None, "an idle thread (10 ms busy in 3 s): no share"
+    assert meter.add(10.0, 400 * ms, 500 * ms) == pytest.approx(0.0)
+    assert meter.add(9.5, 0, 0) is None, "a counter or clock going back starts afresh"
+    times = cpu_times_ns()
+    assert times is not None, "Linux's schedstat of this thread"
+    assert times[0] > 0
+    assert cpu_wait_text(None, True) == ""
+    assert cpu_wait_text(0.2, True) == ""
+    assert cpu_wait_text(0.47, False) == "waits for a CPU 47 % of its busy time"
+    assert cpu_wait_text(0.99, True).endswith("(background: the robot first; --cpu normal)")
+
+
 def test_pacer_caps_the_rate_renders_changes_and_idles() -> None:
     """The pacer keeps to its caps (input 50 fps, data 25 fps and half the time), idles in between."""
     from dbglog.viewer._ui._pacing import Pacer

@@ -21,6 +21,7 @@ from typing import Any, Self
 
 import dearpygui.dearpygui as dpg
 
+from dbglog._sched import CpuWaitMeter, cpu_times_ns, in_background
 from dbglog.viewer._data._model import Binding, DataSource
 from dbglog.viewer._data._timeline import Timeline, TimeSource
 from dbglog.viewer._document._canvas_doc import CanvasDoc, TopicSetup
@@ -46,6 +47,7 @@ from dbglog.viewer._ui._pacing import (
     IDLE_RENDER_S,
     Pacer,
     XInput,
+    cpu_wait_text,
     wait_readable,
     x_connection_fd,
 )
@@ -163,6 +165,8 @@ class ViewerApp:
         self._view_key: tuple[object, ...] = ()
         self._render_starts: collections.deque[float] = collections.deque(maxlen=240)
         self._fps_text = ""
+        self._cpu_wait = CpuWaitMeter()
+        self._cpu_wait_text = ""
         self._fps_at = -1.0
         self.publisher = PublishService()
         """The controls' publishing service: this app's own, handed to every widget at mount."""
@@ -1167,6 +1171,9 @@ class ViewerApp:
                 self._fps_text = "idle"
             else:
                 self._fps_text = f"{min(recent, 999)} fps"
+            times = cpu_times_ns()  # (this is the window's thread: the one whose frames come late)
+            share = None if times is None else self._cpu_wait.add(now, *times)
+            self._cpu_wait_text = cpu_wait_text(share, in_background())
         parts = self.doc.summary()
         replay = self.replay_name
         if replay is not None:
@@ -1177,6 +1184,8 @@ class ViewerApp:
             parts.append(self._history_text)
         if self._fps_text:
             parts.append(self._fps_text)
+        if self._cpu_wait_text:  # first: it says why everything else comes late
+            parts.insert(0, self._cpu_wait_text)
         text = "  " + "   \u00b7   ".join(parts) + "   "
         if text != self._status_left:
             self._status_left = text

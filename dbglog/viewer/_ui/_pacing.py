@@ -19,12 +19,14 @@ import time
 from dataclasses import dataclass
 
 __all__ = [
+    "CPU_WAIT_SHOWN",
     "DEFAULT_DATA_FPS",
     "DEFAULT_FPS",
     "DIALOG_IDLE_RENDER_S",
     "IDLE_RENDER_S",
     "Pacer",
     "XInput",
+    "cpu_wait_text",
     "wait_readable",
     "x_connection_fd",
 ]
@@ -37,6 +39,19 @@ IDLE_RENDER_S = 10.0
 """Seconds between two frames while nothing changes: a safety net, as input and new data wake the loop."""
 DIALOG_IDLE_RENDER_S = 0.5
 """The same with a dialog open, whose text cursor blinks."""
+
+
+CPU_WAIT_SHOWN = 0.25
+"""From this share of its busy time spent waiting for a CPU, the status bar says so."""
+
+
+def cpu_wait_text(share: float | None, background: bool) -> str:
+    """The status bar's note on the window's thread waiting for a CPU (`share` of the time it wanted one),
+    or ""."""
+    if share is None or share < CPU_WAIT_SHOWN:
+        return ""
+    text = f"waits for a CPU {100 * share:.0f} % of its busy time"
+    return f"{text} (background: the robot first; --cpu normal)" if background else text
 
 
 @dataclass
