@@ -13,12 +13,23 @@ Pure standard library; no ROS. Policies other than these two are left alone.
 
 from __future__ import annotations
 
+import argparse
 import collections
 import os
+import sys
 from enum import StrEnum
 from pathlib import Path
 
-__all__ = ["CpuPolicy", "CpuWaitMeter", "cpu_times_ns", "in_background", "set_cpu_policy"]
+__all__ = [
+    "CpuPolicy",
+    "CpuWaitMeter",
+    "add_cpu_argument",
+    "apply_cpu_argument",
+    "cpu_policy_arg",
+    "cpu_times_ns",
+    "in_background",
+    "set_cpu_policy",
+]
 
 
 class CpuPolicy(StrEnum):
@@ -61,6 +72,32 @@ def set_cpu_policy(policy: CpuPolicy) -> str | None:
         except OSError as exc:
             return f"the kernel refused {policy.value} ({exc.strerror})"
     return None
+
+
+def cpu_policy_arg(text: str) -> CpuPolicy:
+    """Parse ``--cpu`` for argparse."""
+    try:
+        return CpuPolicy(text.strip().lower())
+    except ValueError:
+        names = ", ".join(policy.value for policy in CpuPolicy)
+        raise argparse.ArgumentTypeError(f"{text!r} is not a CPU policy: use one of {names}") from None
+
+
+def add_cpu_argument(parser: argparse.ArgumentParser, default: CpuPolicy, help_text: str) -> None:
+    """Declare a command's ``--cpu {background,normal}`` option."""
+    parser.add_argument(
+        "--cpu", type=cpu_policy_arg, default=default, metavar="{background,normal}", help=help_text
+    )
+
+
+def apply_cpu_argument(policy: CpuPolicy, prog: str) -> None:
+    """Put the process under `policy` (first thing in a command: later threads inherit it); a refusal is
+    said on stderr, never fatal."""
+    refused = set_cpu_policy(policy)
+    if refused is not None and policy is CpuPolicy.BACKGROUND:
+        print(f"{prog}: note: runs as an ordinary process: {refused}", file=sys.stderr)
+    elif refused is not None:
+        print(f"{prog}: warning: --cpu {policy.value}: {refused}", file=sys.stderr)
 
 
 def in_background() -> bool:

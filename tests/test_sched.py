@@ -5,15 +5,19 @@ Each case runs in a child process, so the test runner's own policy is never touc
 
 from __future__ import annotations
 
+import functools
 import os
 import shutil
+import signal
 import subprocess
 import sys
 import textwrap
+from pathlib import Path
 
 import pytest
 
 from dbglog._sched import CpuPolicy
+from tests._ros import wait_until
 
 pytestmark = pytest.mark.skipif(not hasattr(os, "SCHED_IDLE"), reason="SCHED_IDLE is Linux's")
 
@@ -70,3 +74,61 @@ def test_a_policy_the_user_chose_stands() -> None:
 def test_the_policy_names_are_the_cli_words() -> None:
     """`--cpu` takes the enum's values."""
     assert [p.value for p in CpuPolicy] == ["background", "normal"]
+
+
+def policies_of(pid: int) -> dict[str, set[int]]:
+    """The scheduling policies of process `pid`'s threads, by thread name."""
+    found: dict[str, set[int]] = {}
+    for task in Path(f"/proc/{pid}/task").iterdir():
+        try:
+            name = (task / "comm").read_text().strip()
+            found.setdefault(name, set()).add(os.sched_getscheduler(int(task.name)))
+        except (OSError, ProcessLookupError):  # a thread that ended meanwhile
+            continue
+    return found
+
+
+def middleware_up(proc: subprocess.Popen[str]) -> bool:
+    """Whether `proc` ended, or runs Fast DDS's threads."""
+    return proc.poll() is not None or any(name.startswith("dds.") for name in policies_of(proc.pid))
+
+
+@pytest.mark.parametrize("command", ["bridge", "record"])
+def test_bridge_and_record_run_in_the_background_when_asked(tmp_path: Path, command: str) -> None:
+    """`dbglog bridge` and `dbglog record` stay ordinary by default (a starved one would lose data); with
+    `--cpu background` every one of their threads, the middleware's included, is SCHED_IDLE."""
+    rules = tmp_path / "rules.yaml"
+    rules.write_text("rules:\n  - tag: battery\n    pattern: 'battery=(\\d+)%'\n")
+    base = {
+        "bridge": ["bridge", str(rules), "--no-state"],
+        "record": ["record", "battery", "-o", str(tmp_path / "out.mcap"), "--force"],
+    }[command]
+    for extra, policy in (([], os.SCHED_OTHER), (["--cpu", "background"], os.SCHED_IDLE)):
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "dbglog", *base, *extra],
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        try:
+            assert wait_until(functools.partial(middleware_up, proc), timeout=30)
+            assert proc.poll() is None, proc.communicate()[1]
+            found = policies_of(proc.pid)
+            assert all(p == {policy} for p in found.values()), (extra, found)
+        finally:
+            proc.send_signal(signal.SIGINT)
+            _, err = proc.communicate(timeout=30)
+        assert "--cpu" not in err, err
+
+
+def test_a_bad_cpu_word_is_named() -> None:
+    """`--cpu` says what it takes."""
+    done = subprocess.run(
+        [sys.executable, "-m", "dbglog", "bridge", "rules.yaml", "--cpu", "idle"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=False,
+    )
+    assert done.returncode == 2
+    assert "'idle' is not a CPU policy: use one of background, normal" in done.stderr

@@ -9,6 +9,8 @@ import sys
 import time
 from types import FrameType
 
+from dbglog._sched import CpuPolicy, add_cpu_argument, apply_cpu_argument
+
 __all__ = ["HELP", "add_arguments", "run"]
 
 HELP = "Record dbglog tags and ROS topics into an MCAP file (ROS 2 profile) until Ctrl-C or SIGTERM."
@@ -55,6 +57,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="N",
         help="messages each topic may hold while waiting to be written (default: 1000)",
     )
+    add_cpu_argument(
+        parser,
+        CpuPolicy.NORMAL,
+        "how the recorder shares the CPU with the robot: normal (default) or background (Linux's "
+        "SCHED_IDLE: a robot thread that wakes up takes the CPU from it at once; on a machine kept busy, "
+        "messages then wait, and past --queue-depth they may be dropped (the summary says how often a "
+        "queue was full)",
+    )
 
 
 def _human(n: float) -> str:
@@ -97,6 +107,7 @@ def run(args: argparse.Namespace) -> int:
     if depth < 1:
         say(f"--queue-depth must be at least 1, not {depth}")
         return 2
+    apply_cpu_argument(args.cpu, "dbglog record")  # before rclpy starts its threads: they inherit it
     writer = None
     if args.snapshot is None:
         try:

@@ -12,6 +12,7 @@ from pathlib import Path
 from types import FrameType
 
 from dbglog._regex._compile import shorten
+from dbglog._sched import CpuPolicy, add_cpu_argument, apply_cpu_argument
 from dbglog.regex_bridge._rules import RulesError, load_rules
 
 __all__ = ["HELP", "add_arguments", "run"]
@@ -59,6 +60,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         action="store_true",
         help="keep nothing between runs: a bridge restarted within 10 s publishes /rosout's recent "
         "history again",
+    )
+    add_cpu_argument(
+        parser,
+        CpuPolicy.NORMAL,
+        "how the bridge shares the CPU with the robot: normal (default) or background (Linux's "
+        "SCHED_IDLE: a robot thread that wakes up takes the CPU from the bridge at once; on a machine "
+        "kept busy, log lines then wait and may be lost)",
     )
     suggest = parser.add_argument_group("suggest options")
     suggest.add_argument(
@@ -114,6 +122,7 @@ def run(args: argparse.Namespace) -> int:
                 print(f"  {out.topic} ({out.kind}) <- rule #{rule.index + 1} line {rule.line}")
         return 0
 
+    apply_cpu_argument(args.cpu, "dbglog bridge")  # before rclpy starts its threads: they inherit it
     stop = threading.Event()
 
     def request_stop(signum: int, _frame: FrameType | None) -> None:

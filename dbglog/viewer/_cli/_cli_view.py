@@ -11,7 +11,7 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from dbglog._sched import CpuPolicy, set_cpu_policy
+from dbglog._sched import CpuPolicy, add_cpu_argument, apply_cpu_argument
 
 if TYPE_CHECKING:
     from dbglog.viewer._data._model import DataSource
@@ -99,15 +99,6 @@ def cursor_arg(text: str) -> float:
 def fps_arg(text: str) -> float:
     """Parse a frame cap in frames per second (1..240) for argparse."""
     return _number_within(text, "frames per second", "fps", 1, 240)
-
-
-def cpu_arg(text: str) -> CpuPolicy:
-    """Parse ``--cpu`` for argparse."""
-    try:
-        return CpuPolicy(text.strip().lower())
-    except ValueError:
-        names = ", ".join(policy.value for policy in CpuPolicy)
-        raise argparse.ArgumentTypeError(f"{text!r} is not a CPU policy: use one of {names}") from None
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -220,12 +211,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="SECONDS",
         help="a series turns stale after this long without a message (default 2)",
     )
-    parser.add_argument(
-        "--cpu",
-        type=cpu_arg,
-        default=CpuPolicy.BACKGROUND,
-        metavar="{background,normal}",
-        help="how the viewer shares the CPU with the robot: background (default; Linux's SCHED_IDLE: "
+    add_cpu_argument(
+        parser,
+        CpuPolicy.BACKGROUND,
+        "how the viewer shares the CPU with the robot: background (default; Linux's SCHED_IDLE: "
         "any robot thread that wakes up takes the CPU from the viewer at once, and the viewer still "
         "gets all the CPU nobody else wants) or normal (share it evenly: for a machine kept busy by "
         "other work, e.g. a build, where a background viewer would draw late)",
@@ -234,11 +223,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Open the viewer; return the exit code."""
-    refused = set_cpu_policy(args.cpu)  # first: every thread started from here on inherits it
-    if refused is not None and args.cpu is CpuPolicy.BACKGROUND:
-        print(f"dbglog view: note: runs as an ordinary process: {refused}", file=sys.stderr)
-    elif refused is not None:
-        print(f"dbglog view: warning: --cpu {args.cpu.value}: {refused}", file=sys.stderr)
+    apply_cpu_argument(args.cpu, "dbglog view")  # first: every thread started from here on inherits it
     from dbglog.viewer._document._dashboard import DashboardError, LoadResult, load_dashboard
     from dbglog.viewer._widgets import WidgetRegistry
 
