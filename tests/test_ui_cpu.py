@@ -16,6 +16,7 @@ from pathlib import Path
 
 import pytest
 
+from tests.test_sched import policies_of
 from tests.test_ui_canvas import ROOT, Viewer, item, viewer
 
 __all__ = ["viewer"]  # the fixture, shared with test_ui_canvas
@@ -79,18 +80,6 @@ def test_idle_view_uses_a_few_percent_of_a_core(display: str, tmp_path: Path) ->
     assert share <= IDLE_CPU_MAX, f"idle viewer used {100 * share:.0f} % of a core"
 
 
-def thread_policies(pid: int) -> dict[str, set[int]]:
-    """The scheduling policies of process `pid`'s threads, by thread name (``dds.*`` are Fast DDS's)."""
-    found: dict[str, set[int]] = {}
-    for task in Path(f"/proc/{pid}/task").iterdir():
-        try:
-            name = (task / "comm").read_text().strip()
-            found.setdefault(name, set()).add(os.sched_getscheduler(int(task.name)))
-        except (OSError, ProcessLookupError):  # a thread that ended meanwhile
-            continue
-    return found
-
-
 @pytest.mark.parametrize(("cpu", "policy"), [(None, "SCHED_IDLE"), ("normal", "SCHED_OTHER")])
 def test_view_runs_every_thread_in_the_background_unless_told_otherwise(
     display: str, tmp_path: Path, cpu: str | None, policy: str
@@ -100,10 +89,10 @@ def test_view_runs_every_thread_in_the_background_unless_told_otherwise(
     extra = [] if cpu is None else ["--cpu", cpu]
     with running_view(display, tmp_path, *extra) as proc:
         deadline = time.monotonic() + 30
-        threads = thread_policies(proc.pid)
+        threads = policies_of(proc.pid)
         while not any(name.startswith("dds.") for name in threads) and time.monotonic() < deadline:
             time.sleep(0.2)  # the middleware's threads start with the engine's node
-            threads = thread_policies(proc.pid)
+            threads = policies_of(proc.pid)
         assert any(name.startswith("dds.") for name in threads), threads
         assert len(threads) >= 3, threads
         # (Mesa starts its shader disk cache thread, "<comm>:disk$0", under SCHED_BATCH itself: it stands)
