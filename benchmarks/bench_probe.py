@@ -588,7 +588,7 @@ def run_interleaved(seconds: float, slice_us: float | None = None, cpu: str = "b
         assert _readline(pub, 60) == "ready"
         n = int(seconds * 1000)
         engine = _spawn(
-            ["--role", "subscriber", "--expect", str(n), "--history", str(n + 20_000), "--cpu", cpu],
+            ["--role", "subscriber", "--expect", str(n), "--history", str(n + 20_000), "--viewer-cpu", cpu],
             _env(ROOT, "on", domain),
         )
         assert _readline(engine, 90) == "bound"
@@ -667,7 +667,8 @@ def run_once(
         assert _readline(pub, 60) == "ready"
         if sub:
             n = int(seconds * 1000)
-            args = ["--role", "subscriber", "--expect", str(n), "--history", str(n + 20_000), "--cpu", cpu]
+            args = ["--role", "subscriber", "--expect", str(n), "--history", str(n + 20_000)]
+            args += ["--viewer-cpu", cpu]
             engine = _spawn(args, _env(tree, "on", domain))
             assert _readline(engine, 90) == "bound"
             if echo:
@@ -729,10 +730,9 @@ def main() -> None:
         help="how the viewer engine shares the CPU (dbglog view --cpu; default background, as dbglog view "
         "does); both: with --interleaved, runs alternate the two",
     )
-    parser.add_argument(
-        "--cpu", choices=["background", "normal"], default="background", help=argparse.SUPPRESS
-    )
     args = parser.parse_args()
+    if args.viewer_cpu == "both" and not args.interleaved and args.role == "main":
+        parser.error("--viewer-cpu both needs --interleaved (separate runs take one policy)")
     if args.role == "publisher" and args.mode == "mix":
         publisher_mixed(args.seconds, args.loop_slice_us)
         return
@@ -756,7 +756,7 @@ def main() -> None:
             _print_interleaved(runs, args.seconds, loop, cpu)
         return
     if args.role == "subscriber":
-        subscriber(args.expect, args.history, args.cpu)
+        subscriber(args.expect, args.history, args.viewer_cpu)
         return
     configs: list[tuple[str, Path, str]] = [
         ("no calls", ROOT, "none"),

@@ -13,6 +13,7 @@ import subprocess
 import sys
 import textwrap
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -88,7 +89,7 @@ def policies_of(pid: int) -> dict[str, set[int]]:
     return found
 
 
-def middleware_up(proc: subprocess.Popen[str]) -> bool:
+def middleware_up(proc: subprocess.Popen[Any]) -> bool:
     """Whether `proc` ended, or runs Fast DDS's threads."""
     return proc.poll() is not None or any(name.startswith("dds.") for name in policies_of(proc.pid))
 

@@ -7,6 +7,7 @@ bounds are loose for a loaded CI machine, `benchmarks/bench_ui.py` reports the r
 from __future__ import annotations
 
 import contextlib
+import functools
 import os
 import subprocess
 import sys
@@ -16,7 +17,8 @@ from pathlib import Path
 
 import pytest
 
-from tests.test_sched import policies_of
+from tests._ros import wait_until
+from tests.test_sched import middleware_up, policies_of
 from tests.test_ui_canvas import ROOT, Viewer, item, viewer
 
 __all__ = ["viewer"]  # the fixture, shared with test_ui_canvas
@@ -88,11 +90,9 @@ def test_view_runs_every_thread_in_the_background_unless_told_otherwise(
     SCHED_IDLE, so that a robot's thread that wakes up takes the CPU at once; `--cpu normal` does not."""
     extra = [] if cpu is None else ["--cpu", cpu]
     with running_view(display, tmp_path, *extra) as proc:
-        deadline = time.monotonic() + 30
+        # (the middleware's threads start with the engine's node)
+        assert wait_until(functools.partial(middleware_up, proc), timeout=30)
         threads = policies_of(proc.pid)
-        while not any(name.startswith("dds.") for name in threads) and time.monotonic() < deadline:
-            time.sleep(0.2)  # the middleware's threads start with the engine's node
-            threads = policies_of(proc.pid)
         assert any(name.startswith("dds.") for name in threads), threads
         assert len(threads) >= 3, threads
         # (Mesa starts its shader disk cache thread, "<comm>:disk$0", under SCHED_BATCH itself: it stands)
