@@ -12,7 +12,7 @@ import numpy as np
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 
-from dbglog._ros._batch import encode_batch, type_code
+from dbglog._ros._batch import SLOT_FORMATS, encode_batch, pack_values, type_code
 from dbglog.record import McapWriter
 from dbglog.record._expand import BatchExpander
 
@@ -29,7 +29,8 @@ def _batch(writer: int, seq: int, k: int) -> bytes:
         (type_code("Int8"), b"small"),
         (type_code("Float64"), b"hidden"),
     ]
-    index, times, values = array("H"), array("q"), array("d")
+    index, times = array("H"), array("q")
+    values: list[float] = []
     strings: list[bytes] = []
     for i in range(3):
         n = 3 * k + i
@@ -37,13 +38,14 @@ def _batch(writer: int, seq: int, k: int) -> bytes:
             index.append(pos)
             times.append(T0 + n * 1000 + pos)
             if code == type_code("String"):
-                values.append(float(len(strings)))
+                values.append(len(strings))
                 strings.append(f"step {n} é".encode())
             elif code == type_code("Bool"):
-                values.append(float(n % 2))
+                values.append(n % 2)
             else:
-                values.append(n * 0.5 if pos in (0, 5) else float(n - 4))
-    return encode_batch(writer, seq, tags, index, times, values, strings)
+                values.append(n * 0.5 if pos in (0, 5) else n - 4)
+    slots = "".join(SLOT_FORMATS[tags[pos][0]] for pos in index)
+    return encode_batch(writer, seq, tags, index, times, pack_values(slots, values), strings)
 
 
 def _read(path: Path) -> dict[str, list[tuple[int, Any, dict[str, str]]]]:

@@ -2,19 +2,21 @@
 
 The SDK's publisher thread sends one batch per flush on the hidden topic `BATCH_TOPIC`; the viewer's
 engine reads every sample (in order, with its own source time) from it instead of one message per
-sample on ``/rosdashboard/<tag>``. Version 1 layout, little-endian, in the message's ``data`` field::
+sample on ``/rosdashboard/<tag>``. Version 2 layout, little-endian, in the message's ``data`` field::
 
     header   "DBGL" u8 version u8 flags u16 n_tags u32 n_samples u64 writer u64 seq u32 n_strings
     tags     n_tags x (u8 type code, u16 name length, name UTF-8); the sample tag index is the position
     pad      zero bytes to a multiple of 8 from the start of the payload
     index    u16 x n_samples, padded to 8
     times    i64 x n_samples (source time, ns since the epoch)
-    values   f64 x n_samples: the number (Bool 0/1; integers beyond 2**53 rounded, as a viewer's
-             float64 series holds them anyway), or for String the text's number
+    values   8 bytes x n_samples, read as the sample's tag type says (`SLOT_FORMATS`): f64 for
+             Float64/Float32, i64 for Int8..Int64, u64 for UInt8..UInt64 (so every integer is exact),
+             u64 0/1 for Bool, u64 for String: the number of its text in `strings`
     strings  u32 x n_strings lengths, then the UTF-8 texts back to back
 
-`writer` is random per connection and `seq` counts its batches from 0, so a reader sees lost batches.
-No import of rclpy or numpy at module level.
+Version 1 (still read: an older SDK elsewhere on the network sends it) is the same but for the values:
+f64 for every sample, integers beyond 2**53 rounded. `writer` is random per connection and `seq` counts
+its batches from 0, so a reader sees lost batches. No import of rclpy or numpy at module level.
 """
 
 from __future__ import annotations
@@ -24,7 +26,7 @@ import struct
 from array import array
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from dbglog._ros._cdr import CDR_HEADER
 
@@ -37,14 +39,17 @@ __all__ = [
     "BATCH_TOPIC",
     "BATCH_TYPE",
     "SCALAR_TYPES",
+    "SLOT_FORMATS",
     "BatchError",
     "DecodedBatch",
     "TagSamples",
     "decode_batch",
     "encode_batch",
     "is_sdk_node",
+    "pack_values",
     "sdk_node_name",
     "type_code",
+    "value_dtype",
 ]
 
 BATCH_TOPIC = "/_dbglog/samples"
@@ -82,8 +87,15 @@ SCALAR_TYPES: tuple[str, ...] = (
 )
 """std_msgs types a batch carries, by type code (their index)."""
 
+SLOT_FORMATS = "ddqqqqQQQQQQ"
+"""`struct` code of the 8-byte value slot of each type code in a version-2 batch (f64, i64 or u64)."""
+
 _MAGIC = b"DBGL"
-_VERSION = 1
+_VERSION = 2
+_READS = (1, 2)
+"""Versions `decode_batch` reads."""
+_SLOT_DTYPES = {"d": "<f8", "q": "<i8", "Q": "<u8"}
+_FLOAT_TYPES = frozenset(("Float64", "Float32"))
 _HEADER = struct.Struct("<4sBBHIQQI")
 _TAG = struct.Struct("<BH")
 _CDR_PREFIX = struct.Struct("<4sIII")
@@ -103,6 +115,24 @@ def _pad8(n: int) -> int:
     return (-n) % 8
 
 
+def pack_values(slots: str, values: Sequence[float]) -> bytes:
+    """Return the values column of a version-2 batch: each value packed as its slot's code says.
+
+    Args:
+        slots: one `SLOT_FORMATS` code (``d``, ``q`` or ``Q``) per sample.
+        values: each sample's number (a float, an int in its slot's range; a bool for Bool, the text's
+            number for String).
+
+    Raises:
+        struct.error, TypeError, OverflowError: a value does not fit its slot.
+    """
+    if not slots:
+        return b""
+    if slots.count(slots[0]) == len(slots):  # one kind (the usual batch): one C loop, no format to parse
+        return array(slots[0], values).tobytes()  # native order: little-endian, as `index` and `times`
+    return struct.pack("<" + slots, *values)
+
+
 def encode_batch(
     writer: int,
     seq: int,
@@ -120,7 +150,7 @@ def encode_batch(
         tags: (type code, tag UTF-8) per tag; samples refer to them by position.
         index: ``array('H')``: each sample's tag position.
         times: ``array('q')``: each sample's source time in ns.
-        values: ``array('d')`` (or its bytes): each sample's value, see the module docstring.
+        values: the values column (`pack_values`; an ``array('d')`` when every tag is a float tag).
         strings: the texts of String samples, numbered in order.
     """
     n = len(index)
@@ -151,8 +181,9 @@ class TagSamples:
     std_type: str
     """``Float64``, ``Int32``, ``String`` ... (the per-tag topic's std_msgs type)."""
     times_ns: npt.NDArray[np.int64]
-    values: npt.NDArray[np.float64] | list[str]
-    """Numbers as float64 (bools 0/1), or the texts of a String tag."""
+    values: npt.NDArray[Any] | list[str]
+    """The numbers as the tag's type holds them (`value_dtype`: float64, int64, uint64 or bool), or the
+    texts of a String tag."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -165,11 +196,20 @@ class DecodedBatch:
     tags: list[TagSamples]
 
 
+def value_dtype(std_type: str) -> str:
+    """Return the numpy dtype of a numeric tag type's decoded values (``float64``, ``int64`` ...)."""
+    if std_type in _FLOAT_TYPES:
+        return "float64"
+    if std_type == "Bool":
+        return "bool"
+    return "uint64" if std_type.startswith("UInt") else "int64"
+
+
 def decode_batch(cdr: bytes) -> DecodedBatch:
-    """Decode one batch message from its CDR bytes (as a raw subscription takes them).
+    """Decode one batch message (version 1 or 2) from its CDR bytes (as a raw subscription takes them).
 
     Raises:
-        BatchError: the bytes are not a version-1 batch.
+        BatchError: the bytes are not a batch of a version this dbglog reads.
     """
     import numpy as np
 
@@ -183,8 +223,11 @@ def decode_batch(cdr: bytes) -> DecodedBatch:
     magic, version, _, n_tags, n, writer, seq, n_strings = _HEADER.unpack_from(data, 0)
     if magic != _MAGIC:
         raise BatchError("not a dbglog batch (bad magic)")
-    if version != _VERSION:
-        raise BatchError(f"batch version {version} is not supported (this dbglog reads {_VERSION})")
+    if version not in _READS:
+        raise BatchError(
+            f"batch version {version} is not supported (this dbglog reads versions "
+            f"{', '.join(map(str, _READS))}): the sender's dbglog is newer, update this one"
+        )
     pos = _HEADER.size
     table: list[tuple[str, str]] = []
     try:
@@ -214,19 +257,43 @@ def decode_batch(cdr: bytes) -> DecodedBatch:
             pos += size
     order = np.argsort(index, kind="stable")
     bounds = np.searchsorted(index[order], np.arange(n_tags + 1))
+    columns: dict[str, npt.NDArray[Any]] = {}  # the values section read as f64, i64 or u64
+
+    def column(slot: str) -> npt.NDArray[Any]:
+        if slot not in columns:
+            columns[slot] = np.frombuffer(raw, dtype=_SLOT_DTYPES[slot])
+        return columns[slot]
+
     out: list[TagSamples] = []
     for i, (name, std_type) in enumerate(table):
         sel = order[bounds[i] : bounds[i + 1]]
         if not len(sel):
             continue
-        column = np.frombuffer(raw, dtype="<f8")[sel]
-        values: npt.NDArray[np.float64] | list[str]
+        slot = "d" if version == 1 else SLOT_FORMATS[SCALAR_TYPES.index(std_type)]
+        got = column(slot)[sel]
+        values: npt.NDArray[Any] | list[str]
         if std_type == "String":
             try:
-                values = [texts[int(k)] for k in column.tolist()]
-            except (IndexError, ValueError) as exc:
+                values = [texts[int(k)] for k in got.tolist()]
+            except (IndexError, ValueError, OverflowError) as exc:
                 raise BatchError("a String sample refers to a missing text") from exc
+        elif std_type == "Bool":
+            values = got != 0
+        elif slot == "d" and std_type not in _FLOAT_TYPES:  # version 1: an integer sent as f64
+            values = _float_to_int(got, np.dtype(value_dtype(std_type)))
         else:
-            values = column.copy()
+            values = got
         out.append(TagSamples(name, std_type, times[sel], values))
     return DecodedBatch(writer, seq, n, out)
+
+
+def _float_to_int(values: npt.NDArray[np.float64], dtype: np.dtype[Any]) -> npt.NDArray[Any]:
+    """Return a version-1 batch's f64 integers as `dtype`, saturated (2**63 - 1 may have become 2**63)."""
+    import numpy as np
+
+    info = np.iinfo(dtype)
+    top = float(info.max) + 1.0  # a power of 2, exact: the first float beyond the type's range
+    clean = np.nan_to_num(values, nan=0.0, posinf=top, neginf=float(info.min))
+    out = np.clip(clean, float(info.min), np.nextafter(top, 0.0)).astype(dtype)
+    out[clean >= top] = info.max
+    return out

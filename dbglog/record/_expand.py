@@ -10,7 +10,7 @@ so every other MCAP tool still reads ``/rosdashboard/<tag>``.
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from dbglog._ros._batch import BatchError, decode_batch
 from dbglog._ros._cdr import CDR_HEADER, string_payload
@@ -79,7 +79,7 @@ class BatchExpander:
         self._last_seq[batch.writer] = batch.seq
         out = self.out
         written = 0
-        groups: dict[str, tuple[list[int], list[npt.NDArray[np.int64]], list[npt.NDArray[np.float64]]]] = {}
+        groups: dict[str, tuple[list[int], list[npt.NDArray[np.int64]], list[npt.NDArray[Any]]]] = {}
         for samples in batch.tags:
             topic = TAG_PREFIX + samples.tag
             if not self.wanted(topic):
@@ -108,6 +108,7 @@ class BatchExpander:
             n = len(v)
             rows = np.zeros((n, 4 + size), dtype=np.uint8)
             rows[:, :4] = _HEADER
+            # The batch's dtype (int64/uint64 exact, bool) cast to the field's: every integer kept as sent.
             rows[:, 4 : 4 + item] = v.astype(dtype).view(np.uint8).reshape(n, item)
             t = np.concatenate(times) if len(times) > 1 else times[0]
             out.write_fixed(np.array(chans, dtype=np.int64), np.full(n, log_time, dtype=np.int64), rows, t)

@@ -37,7 +37,9 @@ class TagSeries:
     std_type: str
     """``Float64``, ``Int32``, ``Bool``, ``String`` ..."""
     times_ns: npt.NDArray[np.int64]
-    values: npt.NDArray[np.float64] | list[str]
+    values: npt.NDArray[Any] | list[str]
+    """From the batch topic as its tag type holds them (int64/uint64 exact, bool); from a tag's own
+    topic as float64."""
 
 
 def _stderr(message: str) -> None:
@@ -112,10 +114,11 @@ def _fmt(value: object, width: int = 24) -> str:
     return text if len(text) <= width else text[: width - 1] + "…"
 
 
-def _typed(std_type: str, value: float) -> object:
+def _typed(std_type: str, value: float | int | bool) -> object:
+    """Return a value as its std_msgs type's Python type (an int stays exact)."""
     if std_type == "Bool":
         return bool(value)
-    if std_type.startswith(("Int", "UInt")) and math.isfinite(value):
+    if std_type.startswith(("Int", "UInt")) and (not isinstance(value, float) or math.isfinite(value)):
         return int(value)
     return float(value)
 
@@ -149,7 +152,8 @@ def tags_table(
             if isinstance(s.values, list):
                 first, last = s.values[0], s.values[-1]
             else:
-                first, last = _typed(s.std_type, float(s.values[0])), _typed(s.std_type, float(s.values[-1]))
+                ends = s.values[[0, -1]].tolist()  # Python numbers: an int64 stays exact
+                first, last = _typed(s.std_type, ends[0]), _typed(s.std_type, ends[1])
         name = TAG_PREFIX + tag if all_topics else tag
         rows.append(
             [

@@ -189,9 +189,9 @@ class BatchIngest:
         history = self._history
         t0 = -np.inf if after is None else float(np.nextafter(after, np.inf))
         kind = history.kind(name)
-        if kind == "numbers":
+        if kind == "numbers":  # as held: int64/uint64 exact (the live ring makes floats of them itself)
             times, values = history.range(name, t0, np.inf)
-            return (times, values.astype(np.float64, copy=False)) if len(times) else None
+            return (times, values) if len(times) else None
         if kind == "payloads":
             times, payloads = history.payloads(name, t0, np.inf)
             texts = [(read_string(p) or b"").decode("utf-8", "replace") for p in payloads]
@@ -265,13 +265,20 @@ class BatchIngest:
         self._record_latency(times)
 
     def _remember(self, name: str, times: Any, values: Any) -> None:
-        """Keep a tag's samples in the history (a tag whose type changed starts a new history)."""
+        """Keep a tag's samples in the history (a tag whose type changed starts a new history).
+
+        Numbers keep the batch's dtype (`value_dtype`): int64/uint64 exact beyond 2**53, bools as bools.
+        """
         history = self._history
         kind = "payloads" if isinstance(values, list) else "numbers"
         if history.kind(name) not in (None, kind):
             history.drop(name)
         if kind == "numbers":
-            history.append_numbers(name, times, values)
+            try:
+                history.append_numbers(name, times, values)
+            except ValueError:  # held as another dtype (Float64 -> Int64): the new type starts afresh
+                history.drop(name)
+                history.append_numbers(name, times, values)
         else:
             history.append_payloads(
                 name, times, [string_payload(v) for v in values], msg_type="std_msgs/msg/String"
