@@ -105,6 +105,10 @@ except KeyboardInterrupt:
 """
 
 
+_BIG_INT = 2**62 + 1
+"""An integer a float64 cannot hold (the batch carries it exactly)."""
+
+
 def measure_enabled(calls: int, repeats: int, with_subscriber: bool) -> Timing:
     """dbglog.logfloat (switched on) vs raw rclpy publish of a reused Float64 on a cached publisher."""
     import rclpy
@@ -123,6 +127,7 @@ def measure_enabled(calls: int, repeats: int, with_subscriber: bool) -> Timing:
     pub = node.create_publisher(Float64, "/bench/raw", tag_qos())
     msg = Float64(data=1.0)
     dbglog.logfloat("bench/x", 1.0)
+    dbglog.logint("bench/n", _BIG_INT)
     sub = None
     if with_subscriber:
         sub = subprocess.Popen(
@@ -139,9 +144,13 @@ def measure_enabled(calls: int, repeats: int, with_subscriber: bool) -> Timing:
         ):
             time.sleep(0.05)
     try:
-        ns = {"dbglog": dbglog, "pub": pub, "msg": msg}
+        ns = {"dbglog": dbglog, "pub": pub, "msg": msg, "big": _BIG_INT}
         return _time_alternating(
-            {"raw": ("pub.publish(msg)", ns), "dbglog": ("dbglog.logfloat('bench/x', 1.0)", ns)},
+            {
+                "raw": ("pub.publish(msg)", ns),
+                "dbglog": ("dbglog.logfloat('bench/x', 1.0)", ns),
+                "dbglog_int": ("dbglog.logint('bench/n', big)", ns),
+            },
             calls,
             repeats,
         )
@@ -263,6 +272,14 @@ def main(argv: list[str] | None = None) -> int:
                 f"`dbglog.logfloat('bench/x', 1.0)` ({label})",
                 f"{on['dbglog']:.0f}",
                 _ratio(on["dbglog"], on["raw"]),
+                "≤ 1.10×",
+            ]
+        )
+        rows.append(
+            [
+                f"`dbglog.logint('bench/n', 2**62 + 1)` ({label})",
+                f"{on['dbglog_int']:.0f}",
+                _ratio(on["dbglog_int"], on["raw"]),
                 "≤ 1.10×",
             ]
         )
