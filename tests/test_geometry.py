@@ -15,6 +15,7 @@ from dbglog.viewer._widgets._geometry import (
     arc_step,
     canvas_extent,
     compass_label,
+    corner_fans,
     format_tick,
     free_spot,
     gauge_angle,
@@ -23,7 +24,9 @@ from dbglog.viewer._widgets._geometry import (
     minmax_decimate,
     nice_ticks,
     normalize_heading,
+    overlapped,
     overlaps,
+    panels_on_clear,
     polar,
     rects_around,
     rects_outside,
@@ -252,6 +255,52 @@ def test_rects_outside_leave_every_hole_empty() -> None:
         cx, cy = hole.x + hole.w / 2, hole.y + hole.h / 2
         assert not any(r.contains(cx, cy) for r in pieces)
     assert any(r.contains(27, 20) for r in pieces), "the gap between the holes is painted"
+
+
+def test_overlapped_names_each_rectangle_another_one_covers_in_part() -> None:
+    """A pair that shares area is flagged both ways; touching edges and far ones are not."""
+    rects = [Rect(0, 0, 100, 100), Rect(100, 0, 50, 50), Rect(90, 90, 20, 20), Rect(300, 300, 10, 10)]
+    assert overlapped(rects) == [True, False, True, False]
+    assert overlapped([]) == []
+
+
+def test_panels_on_clear_pays_for_a_full_canvas_not_for_a_sparse_one() -> None:
+    """Close panels: painting the gaps costs less than filling the panels; a few small ones, more."""
+    area = Rect(0, 0, 1000, 600)
+    full = [Rect(x, y, 230, 280) for x in (10, 250, 490, 730) for y in (10, 300)]
+    assert panels_on_clear(area, full, [False] * len(full))
+    assert not panels_on_clear(area, full, [False] * len(full), extra=450_000), "a toolbox that large"
+    assert not panels_on_clear(area, full, [True] * len(full)), "panels that keep their fill anyway"
+    sparse = [Rect(10, 10, 200, 200), Rect(400, 10, 200, 200)]
+    assert not panels_on_clear(area, sparse, [False, False])
+    assert not panels_on_clear(area, [], [])
+
+
+def test_corner_fans_fill_exactly_outside_the_rounding() -> None:
+    """The four fans cover each corner square less its quarter disc, and nothing inside the rounding."""
+    r, radius = Rect(10, 20, 100, 60), 6.0
+    fans = corner_fans(r, radius, segments=32)
+    assert len(fans) == 4 * 32
+    square_less_disc = radius * radius * (1 - math.pi / 4)
+
+    def area(t: tuple[tuple[float, float], ...]) -> float:
+        (ax, ay), (bx, by), (cx, cy) = t
+        return abs((bx - ax) * (cy - ay) - (cx - ax) * (by - ay)) / 2
+
+    assert sum(area(t) for t in fans) == pytest.approx(4 * square_less_disc, rel=0.01)
+    for t in fans:
+        for px, py in t:
+            assert r.contains(px, py), "inside the frame"
+            inner_x = min(max(px, r.x + radius), r.x + r.w - radius)
+            inner_y = min(max(py, r.y + radius), r.y + r.h - radius)
+            assert math.hypot(px - inner_x, py - inner_y) >= radius - 1e-9 or (px, py) in (
+                (r.x, r.y),
+                (r.x + r.w, r.y),
+                (r.x, r.y + r.h),
+                (r.x + r.w, r.y + r.h),
+            ), "on the rounding or at a corner"
+    assert corner_fans(Rect(0, 0, 8, 8), radius) == [], "too small for its rounding"
+    assert corner_fans(r, 0) == []
 
 
 def test_uncovered_returns_the_gaps_between_covers() -> None:

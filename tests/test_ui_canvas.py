@@ -52,6 +52,31 @@ def canvas_dashboard(tmp: Path) -> Path:
     return path
 
 
+def dense_dashboard(tmp: Path) -> Path:
+    """Six widgets that fill the view, and an LED on top of the last one (a file may hold that)."""
+    from dbglog.viewer._document._dashboard import Dashboard, RawWidget, WidgetConfig, save_dashboard
+
+    widgets = [
+        WidgetConfig(kind, name, x, y, 240, 260, (), {})
+        for (kind, name), (x, y) in zip(
+            (
+                ("dial", "Gauge"),
+                ("thermo", "Thermo"),
+                ("compass", "Heading"),
+                ("string", "Text"),
+                ("knob", "Knob"),
+                ("dial", "Under"),
+            ),
+            ((20, 20), (280, 20), (540, 20), (20, 300), (280, 300), (540, 300)),
+            strict=True,
+        )
+    ]
+    widgets.append(WidgetConfig("led", "Over", 620, 400, 140, 140, (), {}))
+    path = tmp / "dense.json"
+    save_dashboard(Dashboard(list[WidgetConfig | RawWidget](widgets), 20, True), path)
+    return path
+
+
 class Probe:
     """Frame hook: writes the viewer's visible state to `state.json` whenever it changes."""
 
@@ -86,9 +111,11 @@ class Probe:
                     "name": i.name,
                     "type": i.config.type,
                     "rect": [i.rect.x + ox, i.rect.y + oy, i.rect.w, i.rect.h],
+                    "filled": i.frame_look[1],
                 }
                 for i in app.items
             ],
+            "on_panel": app.paint.on_panel,
             "canvas": [ox + sx, oy + sy, view_w - bar_w, view_h - bar_h],
             "scroll": [sx, sy],
             "scroll_max": [dpg.get_x_scroll_max(app.canvas), dpg.get_y_scroll_max(app.canvas)],
@@ -149,7 +176,7 @@ def run_here(scenario: str, tmp_dir: str) -> None:
     app = ViewerApp(source, registry, width=SIZE[0], height=SIZE[1], **options)
     app.start()
     try:
-        path = canvas_dashboard(tmp)
+        path = dense_dashboard(tmp) if scenario.startswith("dense") else canvas_dashboard(tmp)
         app.load(load_dashboard(path, registry.get), path)
         app.frame()  # the first frame with the dashboard: what its status bar says
         probe = Probe(app, tmp, dpg.get_value(app.status_left))
@@ -314,6 +341,83 @@ def test_drop_lands_on_free_grid_spot_inside_the_canvas(viewer: Callable[[str], 
     assert cy <= new[1]
     assert new[1] + new[3] <= cy + ch
     assert state["dialog"] == "TopicDialog", "the drop opens the new widget's topic setup"
+
+
+def test_a_full_canvas_is_cleared_to_the_panel_colour_and_looks_the_same(
+    viewer: Callable[[str], Viewer],
+) -> None:
+    """Widgets that fill the view are drawn without fills of their own over a canvas cleared to their colour:
+    the gaps and the rounded corners show the canvas colour, a widget over another still hides it, and one
+    dragged by its title keeps its fill while it moves (the grid is painted under it)."""
+    from dbglog.viewer._ui._frame import TITLE_H
+    from dbglog.viewer._ui._theme import CANVAS, GRID, PANEL
+
+    v = viewer("dense")
+    state = v.ready()
+    assert state["on_panel"] is True
+    filled = {i["name"]: i["filled"] for i in state["items"]}
+    assert filled == {
+        "Gauge": False,
+        "Thermo": False,
+        "Heading": False,
+        "Text": False,
+        "Knob": False,
+        "Under": True,
+        "Over": True,
+    }, "only the two that overlap keep their fills"
+    img = v.png("dense")
+    gx, gy, gw, gh = (int(p) for p in item(state, "Gauge")["rect"])
+    tx = int(item(state, "Thermo")["rect"][0])
+    gap = img[gy + 40 : gy + gh - 40, gx + gw + 4 : tx - 4]  # between two widgets: canvas (and grid lines)
+    assert count_near(gap, PANEL, 2) == 0, "no panel colour between the widgets"
+    assert count_near(gap, CANVAS, 2) > 0.5 * gap.shape[0] * gap.shape[1]
+    for x, y in ((gx, gy), (gx + gw - 1, gy), (gx, gy + gh - 1), (gx + gw - 1, gy + gh - 1)):
+        corner = img[y : y + 1, x : x + 1]  # outside the rounding: the canvas, or a grid line on the edge
+        assert count_near(corner, CANVAS, 3) + count_near(corner, GRID, 3) == 1, f"rounded corner {(x, y)}"
+    inside = img[gy + TITLE_H + 4 : gy + TITLE_H + 14, gx + 4 : gx + 40]  # the dial's face lies lower
+    assert count_near(inside, PANEL, 2) == inside.shape[0] * inside.shape[1], "the panel colour inside"
+    ox, oy, _, oh = (int(p) for p in item(state, "Over")["rect"])
+    strip = img[oy + TITLE_H + 6 : oy + oh - 8, ox + 4 : ox + 12]  # over the dial below, left of the bulb
+    assert count_near(strip, PANEL, 2) == strip.shape[0] * strip.shape[1], "the widget below does not show"
+    # Drag the text widget by its title over the knob: while it moves it keeps its fill; back, it has none.
+    x, y, w, h = item(state, "Text")["rect"]
+    v.move(x + 40, y + 12)
+    v.xdo("mousedown", "1")
+    v.frames(3)
+    for step in range(1, 5):
+        v.move(x + 40 + step * 30, y + 12 + step * 10)
+    state = v.wait_for(lambda s: item(s, "Text")["filled"] is True)
+    assert item(state, "Knob")["filled"] is False, "the one it passes over is still: no fill of its own"
+    dragging = v.png("dragging")
+    kx, ky, kw, kh = (int(p) for p in item(state, "Knob")["rect"])
+    mx, my, mw, mh = (int(p) for p in item(state, "Text")["rect"])
+    x0, x1 = max(kx, mx) + 10, min(kx + kw, mx + mw) - 10  # where the moved text lies over the knob,
+    y0, y1 = max(ky, my) + 80, min(ky + kh, my + mh) - 10  # below its text line
+    assert x1 - x0 > 40
+    assert y1 - y0 > 40
+    spread = np.ptp(img[y0:y1, x0:x1, :3].reshape(-1, 3).astype(int), axis=0)
+    assert spread.max() > 40, "the knob's dial lies there when nothing covers it"
+    spread = np.ptp(dragging[y0:y1, x0:x1, :3].reshape(-1, 3).astype(int), axis=0)
+    assert spread.max() <= 3, f"the dragged widget's own plain box hides the knob: {spread}"
+    v.move(x + 40, y + 12)
+    v.frames(3)
+    v.xdo("mouseup", "1")
+    state = v.wait_for(lambda s: item(s, "Text")["filled"] is False)
+    assert item(state, "Text")["rect"] == [x, y, w, h]
+
+
+def test_a_sparse_canvas_keeps_filled_widget_frames(viewer: Callable[[str], Viewer]) -> None:
+    """A few widgets on a large canvas: the canvas is cleared to its own colour and every frame is filled."""
+    from dbglog.viewer._ui._theme import CANVAS, PANEL
+
+    v = viewer("canvas")
+    state = v.ready()
+    assert state["on_panel"] is False
+    assert all(i["filled"] for i in state["items"])
+    img = v.png("sparse")
+    gx, gy, gw, _ = (int(p) for p in item(state, "Gauge")["rect"])
+    assert count_near(img[gy + 1 : gy + 2, gx + gw + 30 : gx + gw + 90], CANVAS, 2) > 40
+    assert count_near(img[gy + 50 : gy + 51, gx + 4 : gx + 20], PANEL, 2) == 16
 
 
 def test_status_bar_counts_widgets_from_the_first_frame(viewer: Callable[[str], Viewer]) -> None:

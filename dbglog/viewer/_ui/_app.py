@@ -60,6 +60,7 @@ from dbglog.viewer._widgets import WidgetRegistry
 from dbglog.viewer._widgets._geometry import (
     Rect,
     free_spot,
+    overlapped,
     snap_rect,
 )
 from dbglog.viewer.widget_api import TimeRange, Widget
@@ -241,7 +242,13 @@ class ViewerApp:
             dpg.bind_font(font)
         theme.apply_theme()
         self.frame_theme = theme.frame_theme()
-        self._selected_theme = theme.selected_frame_theme()
+        self._frame_themes = {
+            (False, True): self.frame_theme,
+            (False, False): theme.frame_theme(filled=False),
+            (True, True): theme.selected_frame_theme(),
+            (True, False): theme.selected_frame_theme(filled=False),
+        }
+        """(selected, filled) -> the theme of a widget frame."""
         # The close button only asks (`request_quit`): the window closes when `quit` stops the loop.
         dpg.create_viewport(
             title=self.title,
@@ -346,7 +353,6 @@ class ViewerApp:
             with dpg.group(horizontal=True):
                 self.status_left = dpg.add_text("", color=theme.DIM)
                 self.status_msg = dpg.add_text("")
-        dpg.set_viewport_clear_color(theme.CANVAS)
         dpg.bind_item_theme(self.main, theme.main_window_theme())
         unfilled = theme.unfilled_child_theme()
         dpg.bind_item_theme(self.canvas, unfilled)
@@ -717,11 +723,11 @@ class ViewerApp:
 
     def select(self, item: CanvasItem | None) -> None:
         """Highlight `item` (or nothing)."""
-        if self.selected is not None and self.selected in self.items:
-            dpg.bind_item_theme(self.selected.window, self.frame_theme)
+        before = self.selected
         self.doc.selected = item
-        if item is not None:
-            dpg.bind_item_theme(item.window, self._selected_theme)
+        for changed in (before, item):
+            if changed is not None and changed in self.items:  # the fill stays: `_draw_chrome` decides it
+                self._bind_frame(changed, filled=changed.frame_look[1])
 
     def bring_to_front(self, item: CanvasItem) -> None:
         """Draw `item` above the others."""
@@ -1197,8 +1203,30 @@ class ViewerApp:
         ox, oy = self.canvas_origin()
         w, h = self.canvas_size()
         (tx, ty), (tw, th) = dpg.get_item_rect_min(self.body_group), dpg.get_item_rect_size(self.toolbox)
-        self.paint.draw_backdrop(Rect(ox, oy, w, h), Rect(tx, ty, tw, th))
         drag = self.pointer_input.drag  # widgets are opaque: no grid under them (the dragged one aside)
-        covers = tuple(i.rect for i in self.items if drag is None or i is not drag.item)
+        moving = drag.item if drag is not None else None
+        still = [i for i in self.items if i is not moving]
+        covers = tuple(i.rect for i in still)
+        over = overlapped(covers)  # these keep a fill of their own, or another would show through
         rects = [i.rect for i in self.items]
-        self.paint.draw_grid((w, h), rects, covers, self.doc.grid_size, self.doc.snap)
+        self.paint.draw_grid(
+            (w, h),
+            rects,
+            covers,
+            self.doc.grid_size,
+            self.doc.snap,
+            filled=over,
+            toolbox_area=tw * th,
+            settled=drag is None,
+        )
+        self.paint.draw_backdrop(Rect(ox, oy, w, h), Rect(tx, ty, tw, th))
+        unfilled = {id(i) for i, o in zip(still, over, strict=True) if not o and self.paint.on_panel}
+        for item in self.items:
+            self._bind_frame(item, filled=id(item) not in unfilled)
+
+    def _bind_frame(self, item: CanvasItem, *, filled: bool) -> None:
+        """Give `item`'s frame its theme: selected or not, with a fill of its own or none (`CanvasPaint`)."""
+        look = (item is self.selected, filled)
+        if item.frame_look != look:
+            item.frame_look = look
+            dpg.bind_item_theme(item.window, self._frame_themes[look])

@@ -9,7 +9,14 @@ import dearpygui.dearpygui as dpg
 
 from dbglog.viewer._ui import _theme as theme
 from dbglog.viewer._widgets import WidgetRegistry
-from dbglog.viewer._widgets._geometry import Rect, canvas_extent, rects_outside, uncovered
+from dbglog.viewer._widgets._geometry import (
+    Rect,
+    canvas_extent,
+    corner_fans,
+    panels_on_clear,
+    rects_outside,
+    uncovered,
+)
 
 __all__ = ["PAYLOAD_TYPE", "TOOLBOX_W", "CanvasPaint", "Toolbox"]
 
@@ -20,6 +27,10 @@ TOOLBOX_W = 190
 
 def _corners(r: Rect) -> tuple[float, float, float, float]:
     return r.x, r.y, r.w, r.h
+
+
+def _fill(r: Rect, color: tuple[int, int, int, int], parent: int | str) -> None:
+    dpg.draw_rectangle((r.x, r.y), (r.x + r.w, r.y + r.h), color=theme.NO_FILL, fill=color, parent=parent)
 
 
 class Toolbox:
@@ -106,14 +117,23 @@ class Toolbox:
 
 
 class CanvasPaint:
-    """The window colour around the canvas and toolbox (the backdrop) and the canvas's grid."""
+    """The window colour around the canvas and toolbox (the backdrop) and the canvas's grid.
+
+    A dashboard of close widgets is drawn on a canvas cleared to the panels' colour (`on_panel`): the
+    canvas colour is painted only where no widget lies (and in their rounded corners), and the widgets'
+    frames have no fill of their own. That is the same picture with far fewer pixels shaded, which is
+    most of a frame's cost on a software renderer; a sparse dashboard is drawn the usual way.
+    """
 
     def __init__(self, backdrop: int | str, grid_layer: int | str) -> None:
         self.backdrop, self.grid_layer = backdrop, grid_layer
         self.window_size = (0, 0)
         """The viewport's client size in pixels, as last fitted."""
-        self._backdrop_key: tuple[float, ...] | None = None
+        self.on_panel = False
+        """Whether the viewport is cleared to the panel colour (widget frames then go unfilled)."""
+        self._backdrop_key: tuple[object, ...] | None = None
         self._grid_key: tuple[object, ...] | None = None
+        dpg.set_viewport_clear_color(theme.CANVAS)
 
     def fit_window(self, window: int | str) -> None:
         """Make `window` as large as the viewport (it has no background of its own to fill)."""
@@ -123,12 +143,15 @@ class CanvasPaint:
             dpg.configure_item(window, width=size[0], height=size[1])
 
     def draw_backdrop(self, canvas: Rect, toolbox: Rect) -> None:
-        """Paint the window colour everywhere but over the canvas and the toolbox."""
-        key: tuple[float, ...] = (*self.window_size, *_corners(canvas), *_corners(toolbox))
+        """Paint the window colour everywhere but over the canvas and the toolbox (and the canvas colour
+        under the toolbox while the viewport is cleared to the panel colour)."""
+        key = (*self.window_size, *_corners(canvas), *_corners(toolbox), self.on_panel)
         if key == self._backdrop_key:
             return
         self._backdrop_key = key
         dpg.delete_item(self.backdrop, children_only=True)
+        if self.on_panel:
+            _fill(toolbox, theme.CANVAS, self.backdrop)
         outer = Rect(0, 0, float(self.window_size[0]), float(self.window_size[1]))
         for r in rects_outside(outer, (canvas, toolbox)):
             dpg.draw_rectangle(
@@ -142,20 +165,50 @@ class CanvasPaint:
         covers: tuple[Rect, ...],
         grid_size: int,
         snap: bool,
+        *,
+        filled: Sequence[bool] = (),
+        toolbox_area: float = 0.0,
+        settled: bool = True,
     ) -> None:
-        """Draw the grid over the whole scrolled area, except under `covers` (only when something moved)."""
+        """Draw the grid over the whole scrolled area, except under `covers` (only when something moved).
+
+        Args:
+            view: the canvas's visible size.
+            rects: every widget's frame.
+            covers: the frames that lie still (a dragged one aside).
+            grid_size: the grid step in pixels.
+            snap: whether widgets snap to it (the grid is brighter then).
+            filled: for each of `covers`, whether it keeps its own fill (over another widget); the others
+                have none while `on_panel` (then the canvas colour is painted around them).
+            toolbox_area: pixels of canvas colour painted under the toolbox while `on_panel`.
+            settled: no widget is being dragged: `on_panel` is decided again (a drag keeps it as it was,
+                rather than flip every frame's look while the widget moves).
+        """
         view_w, view_h = view
         if view_w <= 0:
             return
         extent = canvas_extent(view_w, view_h, rects, theme.SCROLLBAR)
         w, h = int(extent[0]), int(extent[1])
-        key = (w, h, view_w, view_h, grid_size, snap, bool(rects), covers)
+        flags = tuple(filled) if filled else (False,) * len(covers)
+        key = (w, h, view_w, view_h, grid_size, snap, bool(rects), covers, flags, toolbox_area)
         if key == self._grid_key:
             return
         self._grid_key = key
         layer = self.grid_layer
         dpg.delete_item(layer, children_only=True)
         dpg.configure_item(layer, width=max(1, w), height=max(1, h))
+        area = Rect(0, 0, w, h)
+        on_panel = panels_on_clear(area, covers, flags, toolbox_area) if settled else self.on_panel
+        if on_panel != self.on_panel:
+            self.on_panel = on_panel
+            dpg.set_viewport_clear_color(theme.PANEL if on_panel else theme.CANVAS)
+        if on_panel:
+            for r in rects_outside(area, covers):
+                _fill(r, theme.CANVAS, layer)
+            for r, keeps_fill in zip(covers, flags, strict=True):
+                if not keeps_fill:
+                    for p1, p2, p3 in corner_fans(r, theme.FRAME_ROUNDING):
+                        dpg.draw_triangle(p1, p2, p3, color=theme.NO_FILL, fill=theme.CANVAS, parent=layer)
         step = grid_size
         while w / step > 160 or h / step > 160:
             step *= 2

@@ -167,6 +167,8 @@ class CanvasItem:
             border=True,
         )
         dpg.bind_item_theme(self.window, theme)
+        self.frame_look = (False, True)
+        """(selected, filled): the look of the frame's theme, as the app last bound it."""
         self._build(int(w), int(h))
 
     # -- geometry and config ------------------------------------------------------------------------

@@ -35,6 +35,10 @@ TEXT: Color = (222, 226, 232, 255)
 DIM: Color = (138, 146, 158, 255)
 ACCENT: Color = (86, 166, 240, 255)
 GRID: Color = (40, 44, 53, 255)
+NO_FILL: Color = (0, 0, 0, 0)
+"""A fill Dear ImGui skips altogether (fully transparent)."""
+FRAME_ROUNDING = 6
+"""Corner radius of a widget frame in pixels."""
 SCROLLBAR = 14
 """Width of a scrollbar in pixels (the canvas keeps its grid clear of them)."""
 
@@ -126,31 +130,37 @@ def main_window_theme() -> int | str:
 def unfilled_child_theme() -> int | str:
     """Return a theme for the canvas: no fill of its own (the viewport is cleared to its colour)."""
     with dpg.theme() as theme, dpg.theme_component(dpg.mvChildWindow):
-        dpg.add_theme_color(dpg.mvThemeCol_ChildBg, (0, 0, 0, 0), category=dpg.mvThemeCat_Core)
+        dpg.add_theme_color(dpg.mvThemeCol_ChildBg, NO_FILL, category=dpg.mvThemeCat_Core)
     result: int | str = theme
     return result
 
 
-def frame_theme() -> int | str:
-    """Return the theme of a widget frame on the canvas: a raised panel with no inner padding."""
+def frame_theme(*, filled: bool = True) -> int | str:
+    """Return the theme of a widget frame on the canvas: a raised panel with no inner padding.
+
+    Unfilled, the frame paints no background: the canvas is then cleared to the panel colour
+    (`CanvasPaint`), which costs a software renderer nothing, instead of every panel shading its pixels.
+    """
     with dpg.theme() as theme, dpg.theme_component(dpg.mvChildWindow):
-        dpg.add_theme_color(dpg.mvThemeCol_ChildBg, PANEL, category=dpg.mvThemeCat_Core)
+        fill = PANEL if filled else NO_FILL
+        dpg.add_theme_color(dpg.mvThemeCol_ChildBg, fill, category=dpg.mvThemeCat_Core)
         dpg.add_theme_color(dpg.mvThemeCol_Border, BORDER, category=dpg.mvThemeCat_Core)
         dpg.add_theme_style(dpg.mvStyleVar_WindowPadding, 0, 0, category=dpg.mvThemeCat_Core)
         dpg.add_theme_style(dpg.mvStyleVar_ItemSpacing, 6, 4, category=dpg.mvThemeCat_Core)
-        dpg.add_theme_style(dpg.mvStyleVar_ChildRounding, 6, category=dpg.mvThemeCat_Core)
+        dpg.add_theme_style(dpg.mvStyleVar_ChildRounding, FRAME_ROUNDING, category=dpg.mvThemeCat_Core)
     result: int | str = theme
     return result
 
 
-def selected_frame_theme() -> int | str:
-    """Return the frame theme of the selected widget (accent border)."""
+def selected_frame_theme(*, filled: bool = True) -> int | str:
+    """Return the frame theme of the selected widget (accent border), filled or not (see `frame_theme`)."""
     with dpg.theme() as theme, dpg.theme_component(dpg.mvChildWindow):
-        dpg.add_theme_color(dpg.mvThemeCol_ChildBg, PANEL, category=dpg.mvThemeCat_Core)
+        fill = PANEL if filled else NO_FILL
+        dpg.add_theme_color(dpg.mvThemeCol_ChildBg, fill, category=dpg.mvThemeCat_Core)
         dpg.add_theme_color(dpg.mvThemeCol_Border, ACCENT, category=dpg.mvThemeCat_Core)
         dpg.add_theme_style(dpg.mvStyleVar_WindowPadding, 0, 0, category=dpg.mvThemeCat_Core)
         dpg.add_theme_style(dpg.mvStyleVar_ItemSpacing, 6, 4, category=dpg.mvThemeCat_Core)
-        dpg.add_theme_style(dpg.mvStyleVar_ChildRounding, 6, category=dpg.mvThemeCat_Core)
+        dpg.add_theme_style(dpg.mvStyleVar_ChildRounding, FRAME_ROUNDING, category=dpg.mvThemeCat_Core)
         dpg.add_theme_style(dpg.mvStyleVar_ChildBorderSize, 2, category=dpg.mvThemeCat_Core)
     result: int | str = theme
     return result

@@ -6,6 +6,7 @@ No Dear PyGui here: everything is tested without a display.
 from __future__ import annotations
 
 import enum
+import itertools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -19,6 +20,7 @@ __all__ = [
     "arc_step",
     "canvas_extent",
     "compass_label",
+    "corner_fans",
     "format_tick",
     "free_spot",
     "gauge_angle",
@@ -27,7 +29,9 @@ __all__ = [
     "minmax_decimate",
     "nice_ticks",
     "normalize_heading",
+    "overlapped",
     "overlaps",
+    "panels_on_clear",
     "polar",
     "range_slice",
     "rects_around",
@@ -137,6 +141,53 @@ def snap_rect(rect: Rect, grid: float, *, min_w: float = 0.0, min_h: float = 0.0
 def overlaps(a: Rect, b: Rect) -> bool:
     """Whether two rectangles share any area (touching edges do not)."""
     return a.x < b.x + b.w and b.x < a.x + a.w and a.y < b.y + b.h and b.y < a.y + a.h
+
+
+def overlapped(rects: Sequence[Rect]) -> list[bool]:
+    """For each rectangle, whether another one of `rects` shares some of its area."""
+    return [any(i != j and overlaps(a, b) for j, b in enumerate(rects)) for i, a in enumerate(rects)]
+
+
+def panels_on_clear(extent: Rect, panels: Sequence[Rect], filled: Sequence[bool], extra: float = 0.0) -> bool:
+    """Whether clearing the canvas to the panels' colour shades fewer pixels than filling each panel.
+
+    A software renderer pays for every pixel of every layer, and a clear costs almost nothing. With the
+    canvas cleared to the panels' colour, only what no panel covers is painted in the canvas colour, plus
+    `extra` (the toolbox) and the panels that must stay `filled` (one over another, one being dragged);
+    a dashboard of close panels shades far less this way, a few panels on a large canvas far more.
+    """
+    covered = sum(r.w * r.h for r in panels)
+    gaps = sum(r.w * r.h for r in rects_outside(extent, panels))
+    still = sum(r.w * r.h for r, f in zip(panels, filled, strict=True) if f)
+    return gaps + extra + still < covered
+
+
+def corner_fans(r: Rect, radius: float, segments: int = 4) -> list[tuple[tuple[float, float], ...]]:
+    """Return triangles that fill the corners of `r` outside its rounding of `radius` (a fan per corner).
+
+    A panel without a fill of its own, over a canvas cleared to its colour, has square corners; these
+    paint the canvas colour back where the rounded frame leaves them.
+    """
+    if not radius > 0 or r.w < 2 * radius or r.h < 2 * radius:
+        return []
+    x0, y0, x1, y1 = r.x, r.y, r.x + r.w, r.y + r.h
+    out: list[tuple[tuple[float, float], ...]] = []
+    # (corner, arc centre, start angle): the arc runs a quarter turn from the start angle, clockwise on screen
+    for corner, centre, start in (
+        ((x0, y0), (x0 + radius, y0 + radius), 180.0),
+        ((x1, y0), (x1 - radius, y0 + radius), 270.0),
+        ((x1, y1), (x1 - radius, y1 - radius), 0.0),
+        ((x0, y1), (x0 + radius, y1 - radius), 90.0),
+    ):
+        arc = [
+            (
+                centre[0] + radius * math.cos(math.radians(start + 90.0 * k / segments)),
+                centre[1] + radius * math.sin(math.radians(start + 90.0 * k / segments)),
+            )
+            for k in range(segments + 1)
+        ]
+        out.extend((corner, a, b) for a, b in itertools.pairwise(arc))
+    return out
 
 
 def free_spot(want: Rect, others: Sequence[Rect], view: Rect, grid: float) -> Rect:
