@@ -13,8 +13,10 @@ Run from the repository root: ``.venv/bin/python -m benchmarks.bench_timetravel`
   widget redrawn at that time); a drag = the cursor moved by 0.1 s per frame, frames per second. Each
   row splits a frame into the app's work (the seek, snapshots, widget updates: Python) and the render
   (``render_dearpygui_frame``: Dear ImGui/ImPlot and the GL rasteriser), with the process's CPU time per
-  frame and the load average, since a shared machine moves the wall-clock figures. To compare another
-  checkout, copy this file into it and run it from there.
+  frame and the load average, since a shared machine moves the wall-clock figures. Last, the drag again in
+  1 s blocks alternating the two looks of a dense dashboard (every widget frame filled, as before; the
+  canvas cleared to the panel colour, now): fps and CPU per frame side by side in this process. To compare
+  another checkout, copy this file into it and run it from there.
 * **open**: a recording of 50 topics x 100 Hz for ``--minutes`` (written by ``bench_record``'s writer),
   opened for replay: the time until the first frame can be drawn (the end of the file, 20 bindings
   filled) and until the whole file is seekable, against loading it whole first.
@@ -290,11 +292,43 @@ def _redraw(args: argparse.Namespace) -> None:
         app.frame()
     fps = len(drag) / (time.perf_counter() - begin)
     measure("drag: the same moves again, frame by frame", "", drag)
+    # The same drag with every widget frame filling itself (the look before the canvas was cleared to the
+    # panel colour), alternating 1 s blocks with today's drawing in this process: the ratio is this sitting's.
+    blocks: dict[bool, list[float]] = {True: [0, 0.0, 0.0], False: [0, 0.0, 0.0]}  # frames, seconds, CPU
+    for block in range(2 * args.fill_blocks):
+        panel = block % 2 == 1
+        app.paint.panel_clear = panel
+        app.frame()  # the canvas and frames take the look (not counted)
+        begin, cpu0 = time.perf_counter(), time.process_time()
+        while time.perf_counter() - begin < 1.0:
+            t += 0.1
+            app.timeline.seek(t)
+            app.frame()
+            blocks[panel][0] += 1
+        blocks[panel][1] += time.perf_counter() - begin
+        blocks[panel][2] += time.process_time() - cpu0
+    fill_rows = [
+        [
+            f"drag, 1 s blocks alternating ({args.fill_blocks} each): {label}",
+            f"{blocks[panel][0] / blocks[panel][1]:.1f} fps",
+            "",
+            "",
+            "",
+            "",
+            f"{blocks[panel][2] / blocks[panel][0] * 1e3:.1f}",
+            "",
+        ]
+        for panel, label in (
+            (False, "every widget frame filled (before)"),
+            (True, "canvas cleared to the panel colour"),
+        )
+    ]
     if args.shot:
         app.screenshot(args.shot)
     app.close()
     load_after = os.getloadavg()
     rows.append(["drag: cursor +0.1 s per frame, 5 s", f"{fps:.1f} fps", "", "", "", "", "", "≥ 30 fps"])
+    rows.extend(fill_rows)
     print_table(
         f"Redraw: the real viewer, 20 widgets, {args.topics} topics × {args.rate} Hz × {args.minutes} min "
         f"({store.stats().samples:,} samples) from a ReplaySource; {args.moves} frames a row; load average "
@@ -388,6 +422,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--minutes", type=int, default=60)
     parser.add_argument("--widgets", type=int, default=20)
     parser.add_argument("--moves", type=int, default=200)
+    parser.add_argument(
+        "--fill-blocks", type=int, default=6, help="(redraw) 1 s drag blocks per look in the fill comparison"
+    )
     parser.add_argument("--backfill-samples", type=int, default=60_000)
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--domain", type=int, default=None, help="ROS_DOMAIN_ID (random by default)")

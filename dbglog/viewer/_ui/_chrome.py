@@ -131,6 +131,9 @@ class CanvasPaint:
         """The viewport's client size in pixels, as last fitted."""
         self.on_panel = False
         """Whether the viewport is cleared to the panel colour (widget frames then go unfilled)."""
+        self.panel_clear = True
+        """Whether a dense dashboard may be drawn on a panel-coloured canvas (False: every frame fills
+        itself, as before; `benchmarks/bench_timetravel.py` compares the two)."""
         self._backdrop_key: tuple[object, ...] | None = None
         self._grid_key: tuple[object, ...] | None = None
         dpg.set_viewport_clear_color(theme.CANVAS)
@@ -190,7 +193,7 @@ class CanvasPaint:
         extent = canvas_extent(view_w, view_h, rects, theme.SCROLLBAR)
         w, h = int(extent[0]), int(extent[1])
         flags = tuple(filled) if filled else (False,) * len(covers)
-        key = (w, h, view_w, view_h, grid_size, snap, bool(rects), covers, flags, toolbox_area)
+        key = (w, h, *view, grid_size, snap, bool(rects), covers, flags, toolbox_area, self.panel_clear)
         if key == self._grid_key:
             return
         self._grid_key = key
@@ -198,7 +201,9 @@ class CanvasPaint:
         dpg.delete_item(layer, children_only=True)
         dpg.configure_item(layer, width=max(1, w), height=max(1, h))
         area = Rect(0, 0, w, h)
-        on_panel = panels_on_clear(area, covers, flags, toolbox_area) if settled else self.on_panel
+        on_panel = self.panel_clear and panels_on_clear(area, covers, flags, toolbox_area)
+        if not settled:
+            on_panel = self.on_panel
         if on_panel != self.on_panel:
             self.on_panel = on_panel
             dpg.set_viewport_clear_color(theme.PANEL if on_panel else theme.CANVAS)
