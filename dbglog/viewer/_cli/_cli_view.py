@@ -337,10 +337,9 @@ def run(args: argparse.Namespace) -> int:
                 (not all_live(app) and args.replay is None) or (auto is not None and auto.pending)
             ) and time.monotonic() < deadline:
                 app.frame()
-            if args.cursor is not None:
-                place_cursor(app, args.cursor)
+            newest = place_cursor(app, args.cursor) if args.cursor is not None else None
             if args.report_json is not None:
-                write_report(app, args.report_json)
+                write_report(app, args.report_json, cursor_from=newest)
             try:
                 path = app.screenshot(args.screenshot)
             except (OSError, TimeoutError) as exc:
@@ -424,14 +423,18 @@ def replay_status(app: ViewerApp, path: Path, auto: bool, *, republish: bool = F
     )
 
 
-def place_cursor(app: ViewerApp, t: float) -> float:
-    """Pause `app` at `t` (negative: seconds before the newest sample held), draw it; return the cursor."""
+def place_cursor(app: ViewerApp, t: float) -> float | None:
+    """Pause `app` at `t` (negative: seconds before the newest sample held) and draw it.
+
+    Returns the newest source time the cursor counted back from (None for an epoch time): live data go on
+    arriving while the frames at the cursor are drawn, so the report says what the cursor was placed from.
+    """
+    newest = None
     if t < 0:
         span = app.time_span()
-        t = (span[1] if span is not None else time.time()) + t
+        newest = span[1] if span is not None else time.time()
+        t += newest
     app.seek(t)
     for _ in range(3):  # every widget redraws at the cursor, the bar shows it
         app.frame()
-    cursor = app.timeline.cursor
-    assert cursor is not None
-    return cursor
+    return newest

@@ -173,7 +173,7 @@ def all_live(app: ViewerApp) -> bool:
     return bool(app.items) and all(item.status is Status.LIVE for item in app.items)
 
 
-def widget_report(app: ViewerApp) -> dict[str, Any]:
+def widget_report(app: ViewerApp, *, cursor_from: float | None = None) -> dict[str, Any]:
     """Return every widget's name, type, status (and why) and bindings, with the dashboard as saved.
 
     Also the recording replayed (its path, None for live data), the time cursor (epoch seconds, None while
@@ -181,12 +181,14 @@ def widget_report(app: ViewerApp) -> dict[str, Any]:
     and, per widget, `values`: the value each binding
     shows at the cursor (live: the latest), and `samples`: how many samples of it the history holds (the
     source's `samples_held`, else the live series' length); both None for a control's publish targets.
+    `cursor_from`: the newest source time a cursor given in seconds before it counted back from.
     """
     return {
         "file": str(app.path) if app.path is not None else None,
         "modified": app.dirty,
         "replay": str(getattr(app.source, "name", "")) if app.timeline.recording else None,
         "cursor": app.timeline.cursor,
+        "cursor_from": cursor_from,
         "span": list(span) if (span := app.time_span()) is not None else None,
         "widgets": [
             {
@@ -229,9 +231,10 @@ def json_value(value: object) -> Any:
     return str(value)
 
 
-def write_report(app: ViewerApp, path: str | os.PathLike[str]) -> Path:
+def write_report(app: ViewerApp, path: str | os.PathLike[str], *, cursor_from: float | None = None) -> Path:
     """Write `widget_report` as JSON to `path` and return the path."""
     target = Path(path)
     target.parent.mkdir(parents=True, exist_ok=True)
-    target.write_text(json.dumps(widget_report(app), indent=2) + "\n", encoding="utf-8")
+    report = widget_report(app, cursor_from=cursor_from)
+    target.write_text(json.dumps(report, indent=2) + "\n", encoding="utf-8")
     return target
