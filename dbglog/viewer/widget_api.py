@@ -545,6 +545,16 @@ class Widget(abc.ABC):
         time while paused (`paused_at`), so ``now - snapshot.last_time`` is the age of the value then.
         """
 
+    def past_needed(self, at: float) -> float | None:
+        """Return how many seconds of samples before the cursor time `at` the widget draws while paused.
+
+        The viewer then reads only those (and the sample just before them) from the history, so moving the
+        cursor costs less: 0 for a widget that shows the value at the cursor alone (a gauge), a plot's
+        visible range for a plot. The default None: every sample a live series' window holds. Every other
+        field of the snapshot is the same either way; asked on the UI thread before each paused update.
+        """
+        return None
+
     def status(self) -> tuple[Status, str] | None:
         """Return the widget's own status and reason for its pill, or None (the default) to show its series'.
 

@@ -322,20 +322,22 @@ class CanvasItem:
         return snapshots
 
     def _past_needed(self, source: SnapshotReader) -> float | None:
-        """The seconds of samples before the cursor the widget draws, if it says (built-in widgets do, with
-        a `past_needed(at)` method); None: all of them (a plugin's widget, or live)."""
+        """The seconds of samples before the cursor the widget draws, if it says (`Widget.past_needed`);
+        None: all of them (live, or a widget that does not say)."""
         if not isinstance(source, FrameSnapshots) or self.widget is None or self.failed:
             return None
         at = source.timeline.cursor
-        ask = getattr(self.widget, "past_needed", None)
-        if at is None or ask is None:
+        if at is None:
             return None
         try:
-            past = ask(at)
+            past = self.widget.past_needed(at)
+            seconds = None if past is None else float(past)
         except Exception:  # a wrong answer costs only a copy: read everything
             _log.debug("%s: past_needed failed", self.name, exc_info=True)
             return None
-        return None if past is None else max(0.0, float(past))
+        if seconds is None or not seconds < math.inf:  # NaN or infinite: everything
+            return None
+        return max(0.0, seconds)
 
     def changed(self, source: SnapshotReader, *, paused_at: float | None = None) -> bool:
         """Whether `refresh` would redraw now (a count, status or reason changed, the cursor moved)."""

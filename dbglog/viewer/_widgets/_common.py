@@ -142,7 +142,7 @@ def set_disc_color(item: int | str, color: Color) -> None:
         dpg.configure_item(item, color=color, fill=color)
 
 
-def value_at_cursor_only(_widget: object, _at: float) -> float:
+def value_at_cursor_only(self: object, at: float) -> float | None:
     """A widget's ``past_needed``: paused, it shows the value at the cursor, so no samples before it."""
     return 0.0
 
