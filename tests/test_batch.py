@@ -5,11 +5,7 @@ viewer engine's history exactly.
 
 from __future__ import annotations
 
-import os
 import struct
-import subprocess
-import sys
-import textwrap
 import uuid
 from array import array
 from collections.abc import Iterator
@@ -34,9 +30,9 @@ from dbglog.viewer._data._engine import Engine
 from dbglog.viewer._data._model import Binding, ValueKind
 from dbglog.viewer._data._replay import history_of
 from dbglog.viewer._publishing._republish import _payloads
+from tests._children import run_sdk
 from tests._ros import wait_until
 
-ROOT = Path(__file__).resolve().parent.parent
 T0 = 1_700_000_000_000_000_000
 BIG = 2**62 + 1
 """An Int64 a float64 cannot hold (it would become 2**62)."""
@@ -227,8 +223,6 @@ def test_big_integers_logged_by_the_sdk_reach_the_engine_history_exactly(engine:
     signed, unsigned, plain = f"{_RUN}/stamp_ns", f"{_RUN}/counter", f"{_RUN}/unbound"
     bound = Binding(topic_for_tag(signed))
     engine.bind(bound)
-    env = {k: v for k, v in os.environ.items() if k not in ("DBGLOG", "DBGLOG_STRICT")}
-    env["PYTHONPATH"] = str(ROOT)
     code = f"""
         import time, dbglog
         dbglog.init()
@@ -244,15 +238,7 @@ def test_big_integers_logged_by_the_sdk_reach_the_engine_history_exactly(engine:
         time.sleep(3.0)  # the batch writer stays: a viewer that discovers it late gets them all
         """
     before = engine.batch_stats().samples
-    done = subprocess.run(
-        [sys.executable, "-c", textwrap.dedent(code)],
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=90,
-        cwd=ROOT,
-        check=False,
-    )
+    done = run_sdk(code)
     assert done.returncode == 0, done.stderr
     store = engine.store
     topics = [topic_for_tag(t) for t in (signed, unsigned, plain)]

@@ -7,7 +7,6 @@ real `RosPeer` subscriber in that process: they drive the widgets' own callbacks
 from __future__ import annotations
 
 import json
-import subprocess
 import sys
 import time
 import warnings
@@ -30,6 +29,7 @@ from dbglog.viewer._data._interfaces import (
 from dbglog.viewer._data._model import Status
 from dbglog.viewer._publishing._publish import PublishRequest, PublishService
 from dbglog.viewer._widgets._controls import parse_message, slider_value
+from tests._children import run_scenario
 from tests._ros import RosPeer, wait_until
 
 # ---------------------------------------------------------------------------------------------------------
@@ -490,17 +490,4 @@ SCENARIOS = sorted(n.removeprefix("scenario_") for n in dir() if n.startswith("s
 @pytest.mark.parametrize("scenario", SCENARIOS)
 def test_controls_ui(scenario: str, tmp_path: Path) -> None:
     """Each control scenario (see its docstring) passes in the real viewer, in a process of its own."""
-    root = Path(__file__).resolve().parent.parent
-    code = (
-        f"import sys; sys.path.insert(0, {str(root)!r}); "
-        "from tests import test_controls; test_controls.run_here(sys.argv[1], sys.argv[2])"
-    )
-    proc = subprocess.run(
-        [sys.executable, "-c", code, scenario, str(tmp_path)],
-        capture_output=True,
-        text=True,
-        timeout=100,
-        check=False,
-        cwd=root,
-    )
-    assert proc.returncode == 0, f"scenario {scenario} failed:\n{proc.stdout}\n{proc.stderr}"
+    run_scenario("test_controls", scenario, tmp_path, timeout=100)

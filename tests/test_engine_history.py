@@ -25,6 +25,7 @@ from dbglog.viewer._data._engine import Engine
 from dbglog.viewer._data._model import Binding, SeriesSnapshot, Status, ValueKind
 from dbglog.viewer._data._timeline import NOT_YET, Timeline
 from dbglog.viewer._values._transforms import Scale
+from tests._children import run_sdk
 from tests._ros import RosPeer, wait_until
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -46,21 +47,6 @@ def peer() -> Iterator[RosPeer]:
         yield p
 
 
-def _sdk(code: str) -> subprocess.CompletedProcess[str]:
-    """Run dbglog SDK code in a child process (its own node and batch writer)."""
-    env = {k: v for k, v in os.environ.items() if k not in ("DBGLOG", "DBGLOG_STRICT")}
-    env["PYTHONPATH"] = str(ROOT)
-    return subprocess.run(
-        [sys.executable, "-c", textwrap.dedent(code)],
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=90,
-        cwd=ROOT,
-        check=False,
-    )
-
-
 def _wait_snap(engine: Engine, binding: Binding, ok: object) -> SeriesSnapshot:
     assert callable(ok)
     wait_until(lambda: bool(ok(engine.snapshot(binding))), TIMEOUT)
@@ -71,7 +57,7 @@ def _wait_snap(engine: Engine, binding: Binding, ok: object) -> SeriesSnapshot:
 
 def _sdk_log_known_values(tag: str, n: int, period: float) -> None:
     """Log the values 0..n-1, one per `period` seconds, from a child process; wait for delivery."""
-    done = _sdk(
+    done = run_sdk(
         f"""
         import time, dbglog
         dbglog.init()

@@ -29,6 +29,7 @@ from dbglog.viewer._ui import StaticSource
 from dbglog.viewer._widgets import BUILTIN_WIDGETS, WidgetRegistry
 from dbglog.viewer._widgets._registry import declaration_problem
 from dbglog.viewer.widget_api import Property, PropKind, Widget
+from tests._children import run_scenario
 from tests.test_ui import count_color, read_png
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -503,20 +504,8 @@ def plugin_dirs(request: pytest.FixtureRequest) -> dict[str, list[Path]]:
 @pytest.mark.parametrize("scenario", sorted(SCENARIOS))
 def test_plugin_scenario(scenario: str, plugin_dirs: dict[str, list[Path]], tmp_path: Path) -> None:
     """Each plugin scenario (see its docstring) passes in a viewer process of its own."""
-    code = (
-        f"import sys; sys.path.insert(0, {str(ROOT)!r}); "
-        "from tests import test_plugins; test_plugins.run_here(sys.argv[1], sys.argv[2])"
-    )
-    proc = subprocess.run(
-        [sys.executable, "-c", code, scenario, str(tmp_path)],
-        capture_output=True,
-        text=True,
-        timeout=100,
-        check=False,
-        cwd=ROOT,
-        env=env_with(plugin_dirs[SCENARIOS[scenario]]),
-    )
-    assert proc.returncode == 0, f"scenario {scenario} failed:\n{proc.stdout}\n{proc.stderr}"
+    env = env_with(plugin_dirs[SCENARIOS[scenario]])
+    run_scenario("test_plugins", scenario, tmp_path, timeout=100, env=env)
 
 
 # -- end to end: pip-installed plugin, real ROS 2 publisher, `dbglog view` ---------------------------

@@ -39,6 +39,7 @@ from dbglog.viewer._widgets import WidgetRegistry
 from dbglog.viewer._widgets._geometry import Rect
 from dbglog.viewer._widgets._plot import PlotWidget
 from dbglog.viewer.widget_api import Widget
+from tests._children import run_scenario
 
 pytestmark = pytest.mark.gui
 
@@ -602,20 +603,7 @@ SCENARIOS = sorted(n.removeprefix("scenario_") for n in dir() if n.startswith("s
 @pytest.mark.parametrize("scenario", SCENARIOS)
 def test_ui_scenario(scenario: str, tmp_path: Path) -> None:
     """Each UI scenario (see its docstring) passes in a process of its own (one Dear PyGui context each)."""
-    root = Path(__file__).resolve().parent.parent
-    code = (
-        f"import sys; sys.path.insert(0, {str(root)!r}); "
-        "from tests import test_ui; test_ui.run_here(sys.argv[1], sys.argv[2])"
-    )
-    proc = subprocess.run(
-        [sys.executable, "-c", code, scenario, str(tmp_path)],
-        capture_output=True,
-        text=True,
-        timeout=90,
-        check=False,
-        cwd=root,
-    )
-    assert proc.returncode == 0, f"scenario {scenario} failed:\n{proc.stdout}\n{proc.stderr}"
+    run_scenario("test_ui", scenario, tmp_path)
 
 
 def _run_cli(*args: str, timeout: float = 60) -> subprocess.CompletedProcess[str]:

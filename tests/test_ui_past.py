@@ -7,8 +7,6 @@ own; the widgets are plugin-style classes registered like an entry point's.
 
 from __future__ import annotations
 
-import subprocess
-import sys
 import warnings
 from collections.abc import Sequence
 from pathlib import Path
@@ -19,6 +17,7 @@ import pytest
 
 from dbglog.viewer._data._model import Binding, SeriesSnapshot
 from dbglog.viewer.widget_api import Widget
+from tests._children import run_scenario
 
 pytestmark = pytest.mark.gui
 
@@ -140,17 +139,4 @@ SCENARIOS = sorted(n.removeprefix("scenario_") for n in dir() if n.startswith("s
 @pytest.mark.parametrize("scenario", SCENARIOS)
 def test_past_scenario(scenario: str, tmp_path: Path) -> None:
     """Each scenario (see its docstring) passes in a process of its own (one Dear PyGui context each)."""
-    root = Path(__file__).resolve().parent.parent
-    code = (
-        f"import sys; sys.path.insert(0, {str(root)!r}); "
-        "from tests import test_ui_past; test_ui_past.run_here(sys.argv[1], sys.argv[2])"
-    )
-    proc = subprocess.run(
-        [sys.executable, "-c", code, scenario, str(tmp_path)],
-        capture_output=True,
-        text=True,
-        timeout=90,
-        check=False,
-        cwd=root,
-    )
-    assert proc.returncode == 0, f"scenario {scenario} failed:\n{proc.stdout}\n{proc.stderr}"
+    run_scenario("test_ui_past", scenario, tmp_path)

@@ -1,0 +1,51 @@
+"""Child processes the tests start: a viewer scenario in a fresh process, dbglog SDK code in its own node."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import textwrap
+from collections.abc import Mapping
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def run_scenario(
+    module: str, scenario: str, tmp: Path, *, timeout: float = 90, env: Mapping[str, str] | None = None
+) -> None:
+    """Run ``tests.<module>.run_here(scenario, tmp)`` in a fresh Python process; fail with its output.
+
+    Dear PyGui 2.3 crashes now and then when a second context is created in one process, so each viewer
+    scenario gets a process (and a Dear PyGui context) of its own.
+    """
+    code = (
+        f"import sys; sys.path.insert(0, {str(ROOT)!r}); "
+        f"from tests import {module}; {module}.run_here(sys.argv[1], sys.argv[2])"
+    )
+    proc = subprocess.run(
+        [sys.executable, "-c", code, scenario, str(tmp)],
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        check=False,
+        cwd=ROOT,
+        env=None if env is None else dict(env),
+    )
+    assert proc.returncode == 0, f"scenario {scenario} failed:\n{proc.stdout}\n{proc.stderr}"
+
+
+def run_sdk(code: str, *, timeout: float = 90) -> subprocess.CompletedProcess[str]:
+    """Run dbglog SDK code (dedented) in a child process: its own node and batch writer, dbglog on."""
+    env = {k: v for k, v in os.environ.items() if k not in ("DBGLOG", "DBGLOG_STRICT")}
+    env["PYTHONPATH"] = str(ROOT)
+    return subprocess.run(
+        [sys.executable, "-c", textwrap.dedent(code)],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        cwd=ROOT,
+        check=False,
+    )
