@@ -16,6 +16,7 @@ from dbglog.viewer._widgets._plotfit import (
     MIN_AREA_H,
     ROW_H,
     ROW_MARGIN,
+    VALUE_SAMPLE,
     X_TICKS_H,
     Y_TICKS_W,
     LegendMode,
@@ -84,11 +85,13 @@ def test_short_labels_keep_names_they_cannot_shorten() -> None:
 
 
 def test_a_big_plot_keeps_its_legend_inside_with_full_names() -> None:
-    """A default-sized plot (420 x 212 px) shows its legend over the data, full names, as it always did."""
+    """A default-sized plot (420 x 212 px) shows its legend over the data, full names, as it always did; five
+    long names with their values would cover a quarter of the data, so the values stay in the tags."""
     plan = legend_plan(BENCH, 420, 212, measure)
     assert plan.mode is LegendMode.INSIDE
     assert plan.labels == tuple(BENCH)
-    assert plan.values_in_legend
+    assert not plan.values_in_legend
+    assert legend_plan(BENCH, 640, 300, measure).values_in_legend, "a bigger plot has room for them"
 
 
 def test_the_bench_cell_puts_short_names_in_a_row_above_the_lines() -> None:
@@ -116,6 +119,19 @@ def test_a_plot_too_small_for_a_row_collapses_its_legend() -> None:
     assert collapsed.labels == tuple(short_labels(names))
 
 
+def test_values_join_the_legend_only_where_they_still_leave_the_lines_clear() -> None:
+    """Paused, a default-sized plot's legend carries the values; a 200 px plot keeps its small legend of
+    names over the data and leaves the values to the tags (its grown box covered the lines)."""
+    three = ["/t0", "/t1", "/t2"]
+    big = legend_plan(three, 420, 212, measure)
+    assert big.mode is LegendMode.INSIDE
+    assert big.values_in_legend
+    small = legend_plan(three, 200, 160, measure)
+    assert small.mode is LegendMode.INSIDE
+    assert small.labels == tuple(three)
+    assert not small.values_in_legend
+
+
 def test_no_legend_property_no_legend() -> None:
     """The ``legend`` property off (or no series): no legend, whatever the size."""
     assert legend_plan(BENCH, 900, 600, measure, enabled=False).mode is LegendMode.OFF
@@ -134,15 +150,22 @@ def test_a_legend_over_the_data_is_small_and_a_row_fits(labels: list[str], w: in
     assert plan.labels in (tuple(labels), short_labels(labels))
     area_w, area_h = w - Y_TICKS_W, h - X_TICKS_H
     if plan.mode is LegendMode.INSIDE:
-        box_w = 2 * BOX_PAD + ENTRY_EXTRA + max(map(measure, plan.labels))
         box_h = 2 * BOX_PAD + LINE_H * len(plan.labels)
-        assert box_w * box_h <= INSIDE_COVER * area_w * area_h + 1e-6
+        for shown in (
+            plan.labels,
+            [f"{n}{VALUE_SAMPLE}" for n in plan.labels] if plan.values_in_legend else [],
+        ):
+            if shown:  # the names alone, and with the values when the legend carries them
+                box_w = 2 * BOX_PAD + ENTRY_EXTRA + max(map(measure, shown))
+                assert box_w * box_h <= INSIDE_COVER * area_w * area_h + 1e-6
     elif plan.mode is LegendMode.ROW:
         row = sum(measure(n) + ENTRY_EXTRA for n in plan.labels) + ENTRY_GAP * (len(plan.labels) - 1)
         assert 2 * BOX_PAD + row <= w - 2 * ROW_MARGIN + 1e-6
         assert area_h - ROW_H >= MIN_AREA_H
     else:
         assert plan.mode is LegendMode.COLLAPSED
+    if plan.mode is not LegendMode.INSIDE:
+        assert not plan.values_in_legend
 
 
 @given(names, sizes, sizes)

@@ -47,6 +47,8 @@ INSIDE_COVER = 0.2
 """A legend may sit over the data when it covers at most this fraction of the plot area ..."""
 INSIDE_W, INSIDE_H = 0.5, 0.6
 """... and at most these fractions of its width and of its height (a narrow list of five names is fine)."""
+VALUE_SAMPLE = "  -0.000000"
+"""What a value adds to a legend entry (two spaces and six significant digits), to size the box with it."""
 MIN_AREA_H = 50.0
 """A legend row above the plot area is used only when this much height is left for the data."""
 NARROW_W = 360.0
@@ -74,12 +76,9 @@ class LegendPlan:
 
     mode: LegendMode
     labels: tuple[str, ...]
-
-    @property
-    def values_in_legend(self) -> bool:
-        """Whether the legend entries carry each series' value (paused or hovered): only inside, where
-        the box may grow; a row or a toggle leaves the values to the tags at the cursor."""
-        return self.mode is LegendMode.INSIDE
+    values_in_legend: bool = False
+    """Whether the legend entries carry each series' value (paused or hovered): only inside, and only when
+    the box grown by the values still covers little of the data; else the tags at the cursor show them."""
 
 
 def short_labels(labels: Sequence[str]) -> tuple[str, ...]:
@@ -129,7 +128,9 @@ def legend_plan(
     """Choose where a plot of `plot_w` x `plot_h` pixels shows the legend of `labels`.
 
     In order: inside over the data with the full names when the box is small against the plot area (a big
-    plot looks as it always did); inside with short names (`short_labels`) on the same terms; a row above
+    plot looks as it always did; paused or hovered, each series' value is added to its entry when the box
+    stays small with it, else the value tags show them); inside with short names (`short_labels`) on the
+    same terms; a row above
     the plot area, full then short names, when it fits the width and leaves the data `MIN_AREA_H` pixels;
     else collapsed to the header's toggle.
 
@@ -147,7 +148,8 @@ def legend_plan(
     if area_w > 0 and area_h > 0:
         for names in (full, short):
             if _inside_fits(names, area_w, area_h, measure):
-                return LegendPlan(LegendMode.INSIDE, names)
+                valued = [f"{name}{VALUE_SAMPLE}" for name in names]
+                return LegendPlan(LegendMode.INSIDE, names, _inside_fits(valued, area_w, area_h, measure))
     if area_h - ROW_H >= MIN_AREA_H:
         for names in (full, short):
             if _row_fits(names, plot_w, measure):
