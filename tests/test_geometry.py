@@ -9,6 +9,7 @@ import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
+from dbglog.viewer._widgets._common import knob_radii, knob_scale_radius, scale_label_inner
 from dbglog.viewer._widgets._geometry import (
     Part,
     Rect,
@@ -496,3 +497,35 @@ def test_arc_step_keeps_chords_within_a_tenth_of_a_pixel(radius: float) -> None:
     assert 2.0 <= step <= 10.0
     sagitta = radius * (1 - math.cos(math.radians(step / 2)))
     assert sagitta <= 0.1 + 1e-9 or step == 2.0
+
+
+@pytest.mark.parametrize(
+    ("r", "lo", "hi"), [(40.0, 0, 100), (58.0, 0, 100), (85.0, 0, 100), (150.0, 0, 100), (150.0, -1000, 1000)]
+)
+def test_a_knobs_value_arc_stays_inside_its_scale_labels(r: float, lo: float, hi: float) -> None:
+    """The knob's arc (6 px thick) ends 2 px inside the widest label, the cap 8 px inside the arc; a large
+    knob keeps its usual proportions (cap half the scale, arc 8 px outside it)."""
+    label_size = max(11.0, r / 7)
+    arc, cap = knob_radii(r, lo, hi, label_size)
+    assert arc + 3 <= scale_label_inner(r, lo, hi, label_size) - 2 + 1e-9 or cap == 6.0
+    assert cap <= arc - 8 + 1e-9
+    assert cap <= r * 0.5
+    if (r, hi) == (150.0, 100):
+        assert (arc, cap) == (r * 0.5 + 8, r * 0.5)
+
+
+def test_scale_labels_reach_in_by_half_the_widest_label() -> None:
+    """The widest label of -1000..1000 at 20 px, sideways at 9 o'clock, reaches in by half its width."""
+    widest = max(len(format_tick(t)) for t in nice_ticks(-1000, 1000, 6))
+    inner = scale_label_inner(150.0, -1000, 1000, 20.0)
+    assert inner == pytest.approx(150 - 10 - 0.95 * 20 - widest * 20 * 0.55 / 2)
+    assert scale_label_inner(150.0, 5, 5, 20.0) == 140.0, "no scale, no labels"
+
+
+@pytest.mark.parametrize(("w", "h"), [(220, 186), (340, 306), (600, 600), (160, 116)])
+def test_a_knobs_readout_fits_below_its_scale(w: float, h: float) -> None:
+    """The readout, 0.9 radius below the centre (8 px + radius from the top), ends inside the body."""
+    r = knob_scale_radius(w, h)
+    size = max(14.0, min(26.0, r / 3.4))
+    assert 8 + r + 0.9 * r + size / 2 <= h or r == 20.0
+    assert r <= w / 2 - 8 or r == 20.0

@@ -194,6 +194,41 @@ def draw_scale(
         draw_centered_text(format_tick(t), lx, ly, label_size, DIM, parent)
 
 
+def scale_label_inner(r: float, lo: float, hi: float, label_size: float, max_ticks: int = 6) -> float:
+    """Return the radius inside which `draw_scale`'s labels leave a gauge's face free (pure: no display).
+
+    A label is centred `r - 10 - 0.95 * label_size` from the centre; the widest one, lying sideways at
+    the 9 or 3 o'clock position, reaches in by half its width.
+    """
+    if hi == lo:
+        return r - 10
+    ticks = nice_ticks(min(lo, hi), max(lo, hi), max_ticks)
+    half = max((text_size(format_tick(t), label_size)[0] / 2 for t in ticks), default=0.0)
+    return r - 10 - label_size * 0.95 - max(half, label_size / 2)
+
+
+def knob_scale_radius(width: float, height: float) -> float:
+    """Return the radius of a knob's scale in a body of `width` x `height` pixels, centred 8 px below its
+    top: the 270 degree scale and, 0.9 radius below the centre, the readout (at most 26 px high) fit."""
+    scale_fits = (height - 34) / (1 + math.cos(math.radians(45))) - 4
+    readout_fits = (height - 8 - 13 - 4) / 1.9
+    return max(20.0, min(width / 2 - 8, scale_fits, readout_fits))
+
+
+def scale_ticks(r: float) -> int:
+    """Return how many labelled ticks a gauge scale of radius `r` gets at most: 6, or 3 on a small one
+    (where six labels would touch each other)."""
+    return 6 if r >= 50 else 3
+
+
+def knob_radii(r: float, lo: float, hi: float, label_size: float) -> tuple[float, float]:
+    """Return a knob's value-arc radius and its cap's radius inside a scale of radius `r`: the arc (6 px
+    thick) stays 2 px inside the scale's labels, the cap 8 px inside the arc (half the scale at most)."""
+    arc = min(r * 0.5 + 8, scale_label_inner(r, lo, hi, label_size, scale_ticks(r)) - 5)
+    cap = max(6.0, min(r * 0.5, arc - 8))
+    return max(arc, cap + 8), cap
+
+
 def draw_title(parent: int | str, text: str, x: float, y: float, size: float) -> None:
     """Draw a small dim caption (used for units and labels)."""
     if text:

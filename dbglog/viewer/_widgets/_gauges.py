@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 
 import dearpygui.dearpygui as dpg
@@ -19,7 +18,10 @@ from dbglog.viewer._widgets._common import (
     draw_disc,
     draw_scale,
     format_value,
+    knob_radii,
+    knob_scale_radius,
     latest_number,
+    scale_ticks,
     text_size,
     value_at_cursor_only,
 )
@@ -90,7 +92,18 @@ class DialWidget(Widget):
             parent=dl,
         )
         self._arc = dpg.draw_polyline([[cx, cy], [cx, cy]], color=self.color("color"), thickness=4, parent=dl)
-        draw_scale(dl, cx, cy, r - 6, lo, hi, start=self.START, sweep=self.SWEEP, label_size=max(11, r / 7))
+        draw_scale(
+            dl,
+            cx,
+            cy,
+            r - 6,
+            lo,
+            hi,
+            start=self.START,
+            sweep=self.SWEEP,
+            label_size=max(11, r / 7),
+            max_ticks=scale_ticks(r - 6),
+        )
         self._needle = dpg.draw_polygon(
             _needle_points(cx, cy, r - 14, self.START),
             color=self.color("color"),
@@ -137,13 +150,25 @@ class KnobWidget(DialWidget):
         lo, hi = self.num("minimum"), self.num("maximum")
         self.drawlist = dpg.add_drawlist(width, height, parent=parent)
         dl = self.drawlist
-        r = max(20.0, min(width / 2 - 8, (height - 34) / (1 + math.cos(math.radians(45))) - 4))
+        r = knob_scale_radius(width, height)
         cx, cy = width / 2, 8 + r
         self._geom = (cx, cy, r)
-        draw_scale(dl, cx, cy, r, lo, hi, start=self.START, sweep=self.SWEEP, label_size=max(11, r / 7))
-        ring = r * 0.5
+        label_size = max(11, r / 7)
+        draw_scale(
+            dl,
+            cx,
+            cy,
+            r,
+            lo,
+            hi,
+            start=self.START,
+            sweep=self.SWEEP,
+            label_size=label_size,
+            max_ticks=scale_ticks(r),
+        )
+        self._arc_r, ring = knob_radii(r, lo, hi, label_size)
         dpg.draw_polyline(
-            arc_points(cx, cy, ring + 8, self.START, self.START + self.SWEEP),
+            arc_points(cx, cy, self._arc_r, self.START, self.START + self.SWEEP),
             color=TRACK,
             thickness=6,
             parent=dl,
@@ -151,6 +176,7 @@ class KnobWidget(DialWidget):
         self._arc = dpg.draw_polyline([[cx, cy], [cx, cy]], color=self.color("color"), thickness=6, parent=dl)
         draw_disc(dl, (cx, cy), ring, (44, 48, 57, 255), outline=FACE_EDGE, thickness=2)
         draw_disc(dl, (cx, cy), ring * 0.82, (38, 42, 50, 255), outline=(60, 66, 78, 255))
+        self._ring = ring
         self._needle = dpg.draw_line((cx, cy), (cx, cy), color=HUB, thickness=4, parent=dl)
         self._size = max(14.0, min(26.0, r / 3.4))
         self._readout = draw_centered_text("\u2014", cx, cy + r * 0.9, self._size, TEXT, dl)
@@ -163,8 +189,8 @@ class KnobWidget(DialWidget):
         angle = gauge_angle(
             value if value is not None else lo, lo, hi, start_deg=self.START, sweep_deg=self.SWEEP
         )
-        ring = r * 0.5
-        dpg.configure_item(self._arc, points=arc_points(cx, cy, ring + 8, self.START, angle))
+        ring = self._ring
+        dpg.configure_item(self._arc, points=arc_points(cx, cy, self._arc_r, self.START, angle))
         dpg.configure_item(
             self._needle, p1=polar(cx, cy, ring * 0.3, angle), p2=polar(cx, cy, ring * 0.78, angle)
         )
