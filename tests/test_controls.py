@@ -126,6 +126,31 @@ def test_service_composes_fields_and_reports_live(service: PublishService) -> No
         assert service.state("ang").sent == 0
 
 
+def test_service_waits_for_a_topic_whose_type_the_default_cannot_serve(service: PublishService) -> None:
+    """A slider on a topic's linear.x, and a button with a Twist's fields, before anything on the graph
+    knows the topic (the robot not up yet): waiting, with the reason, not an error, and nothing sent; once
+    a Twist subscriber appears both take its type and publish."""
+    topic = "/ctl_svc/later_cmd"
+    service.update("lin", PublishRequest(topic, field="linear.x", value=0.5), send=True)
+    service.update("btn", PublishRequest(topic, fields={"angular": {"z": 1.0}}), send=False)
+    assert wait_until(lambda: "on the ROS graph" in service.state("lin").reason, 15), service.state("lin")
+    time.sleep(0.6)  # a few reads of the graph later: still waiting
+    for key, field_name in (("lin", "'linear.x'"), ("btn", "'angular.z'")):
+        state = service.state(key)
+        assert state.status is Status.WAITING, state
+        assert f"waiting for {topic} on the ROS graph" in state.reason
+        assert field_name in state.reason
+        assert state.msg_type is None
+    assert service.state("lin").sent == 0
+    with RosPeer("controls_later_peer") as peer:
+        got = peer.subscribe(topic, Twist)
+        assert wait_until(_state_is(service, "lin", Status.LIVE), 15), service.state("lin")
+        assert service.state("lin").msg_type == "geometry_msgs/msg/Twist"
+        assert wait_until(_state_is(service, "btn", Status.LIVE), 15), service.state("btn")
+        service.update("lin", PublishRequest(topic, field="linear.x", value=0.75), send=True)
+        assert wait_until(lambda: bool(got.messages) and got.messages[-1].linear.x == 0.75, 15)
+
+
 def test_service_type_clash_is_an_error(service: PublishService) -> None:
     """A control whose type differs from the topic's type on the graph is an error naming both types."""
     with RosPeer("controls_clash_peer") as peer:

@@ -64,6 +64,8 @@ class _Entry:
     """The field path the single value sets, once resolved."""
     basis: object = None
     """What the type was last resolved from (the request without its value, the graph read)."""
+    waiting: str = ""
+    """Why no type is chosen yet: the topic is not on the graph and the default type cannot serve it."""
 
 
 @dataclass(eq=False, slots=True)
@@ -324,6 +326,13 @@ class PublishService:
                     f"type clash: {name} is {on_graph} on the ROS graph, but this widget publishes {explicit}"
                 )
             chosen = explicit or on_graph or normalize_type(request.default_type)
+            entry.waiting = "" if explicit or on_graph else self._default_cannot_serve(chosen, request)
+            if entry.waiting:  # e.g. a field of a Twist before the robot is up: wait for the graph to say
+                entry.msg_type, entry.error = None, ""
+                topic = topics.get(name)
+                if topic is not None:
+                    topic.users.discard(key)
+                return
             topic = topics.get(name)
             if topic is not None and topic.msg_type != chosen:
                 if topic.users - {key}:
@@ -349,6 +358,24 @@ class PublishService:
                 topic.users.discard(key)
         except Exception as exc:  # rclpy rejects a topic name, a type support is broken, ...
             entry.error = f"cannot publish on {name!r}: {exc}"
+
+    @staticmethod
+    def _default_cannot_serve(default: str, request: PublishRequest) -> str:
+        """Say why a topic not on the graph must wait for it: the default type lacks the request's field
+        (or fields); "" when the default type serves it."""
+        cls = message_type(default)
+        wait = f"waiting for {request.topic} on the ROS graph to learn its type"
+        if request.fields is not None:
+            try:
+                fill_message(cls, request.fields)
+            except InterfaceError as exc:
+                if "no field" in str(exc):
+                    return f"{wait} ({default} does not fit: {exc}; or choose the type in Topic setup)"
+            return ""
+        path = request.field.strip()
+        if not path or path in {f.path for f in form_fields(cls)}:
+            return ""
+        return f"{wait} ({default} has no field {path!r}; or choose the type in Topic setup)"
 
     @staticmethod
     def _value_path(cls: Any, msg_type: str, request: PublishRequest) -> str:
@@ -408,6 +435,8 @@ class PublishService:
         subs = graph.subscribers.get(name, 0)
         if entry.error:
             return PublishState(Status.ERROR, entry.error, entry.msg_type, subs, entry.sent)
+        if entry.waiting:
+            return PublishState(Status.WAITING, entry.waiting, None, subs, entry.sent)
         if entry.msg_type is None:
             return PublishState(Status.WAITING, "resolving the topic's type", None, subs, entry.sent)
         sent = f"; {entry.sent} sent" if entry.sent else ""
