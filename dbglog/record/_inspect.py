@@ -38,8 +38,8 @@ class TagSeries:
     """``Float64``, ``Int32``, ``Bool``, ``String`` ..."""
     times_ns: npt.NDArray[np.int64]
     values: npt.NDArray[Any] | list[str]
-    """From the batch topic as its tag type holds them (int64/uint64 exact, bool); from a tag's own
-    topic as float64."""
+    """As the tag type holds them (int64/uint64 exact, float64, bool), from the batch topic or the tag's
+    own topic alike."""
 
 
 def _stderr(message: str) -> None:
@@ -118,7 +118,8 @@ def _typed(std_type: str, value: float | int | bool) -> object:
     """Return a value as its std_msgs type's Python type (an int stays exact)."""
     if std_type == "Bool":
         return bool(value)
-    if std_type.startswith(("Int", "UInt")) and (not isinstance(value, float) or math.isfinite(value)):
+    integral = std_type.startswith(("Int", "UInt")) or std_type in ("Byte", "Char")
+    if integral and (not isinstance(value, float) or math.isfinite(value)):
         return int(value)
     return float(value)
 
@@ -171,7 +172,9 @@ def tags_table(
                 continue
             first = last = None
             if topic.values is not None and len(topic):
-                first, last = float(topic.values[0]), float(topic.values[-1])
+                std_type = topic.msg_type.rsplit("/", 1)[1]
+                ends = topic.values[[0, -1]].tolist()  # Python numbers: an int64 stays exact
+                first, last = _typed(std_type, ends[0]), _typed(std_type, ends[1])
             rows.append(
                 [name, topic.msg_type, f"{len(topic):,}", _rate(topic.times_ns), _fmt(first), _fmt(last)]
             )

@@ -17,14 +17,23 @@ import struct
 import zlib
 from collections.abc import Iterator
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, TypeAlias
 
 import numpy as np
 import numpy.typing as npt
 
+from dbglog._ros._batch import value_dtype
 from dbglog.record._writer import MAGIC, RecordingError
 
-__all__ = ["SCALAR_DTYPES", "Recording", "TopicData", "read_recording", "recording_span"]
+__all__ = [
+    "SCALAR_DTYPES",
+    "Recording",
+    "ScalarValues",
+    "TopicData",
+    "read_recording",
+    "recording_span",
+    "scalar_dtype",
+]
 
 SCALAR_DTYPES: dict[str, str] = {
     "std_msgs/msg/Float64": "<f8",
@@ -43,6 +52,9 @@ SCALAR_DTYPES: dict[str, str] = {
 }
 """Single-value std_msgs types whose value sits right after the 4-byte CDR header."""
 
+ScalarValues: TypeAlias = npt.NDArray[np.float64 | np.int64 | np.uint64 | np.bool_]
+"""A single-value topic's values as its type holds them (`value_dtype`: exact integers, bools)."""
+
 _SUPPORTED_ENCODINGS = {"cdr"}
 _U64 = struct.Struct("<Q")
 _REC = struct.Struct("<BQ")
@@ -56,8 +68,10 @@ class TopicData:
     msg_type: str
     times_ns: npt.NDArray[np.int64]
     """Source time of each message (the MCAP publish time; the log time where that is 0)."""
-    values: npt.NDArray[np.float64] | None = None
-    """For single-value std_msgs types: the values (bools 0/1)."""
+    values: ScalarValues | None = None
+    """For single-value std_msgs types: the values as the type holds them (`scalar_dtype`): int64 for
+    Int8..Int64, uint64 for UInt8..UInt64, Byte and Char (every integer exact), float64 for Float32 and
+    Float64, bool for Bool."""
     definition: str = ""
     """The ``ros2msg`` schema text stored in the file."""
     _data: npt.NDArray[np.uint8] = field(default_factory=lambda: np.empty(0, np.uint8), repr=False)
@@ -108,7 +122,7 @@ class _Acc:
     pub: list[npt.NDArray[np.int64]] = field(default_factory=list)
     data: list[npt.NDArray[np.uint8]] = field(default_factory=list)
     lengths: list[npt.NDArray[np.int64]] = field(default_factory=list)
-    values: list[npt.NDArray[np.float64]] = field(default_factory=list)
+    values: list[ScalarValues] = field(default_factory=list)
     """Scalar topics read without their payloads: the values, decoded chunk by chunk."""
 
 
@@ -460,17 +474,29 @@ def _why(exc: BaseException) -> str:
     return text if len(text) < 120 else text[:117] + "..."
 
 
+def scalar_dtype(msg_type: str) -> str | None:
+    """Return the numpy dtype of a single-value std_msgs type's read values; None for any other type.
+
+    As the batch format's `value_dtype`: ``float64``, ``int64``, ``uint64`` (also Byte and Char) or ``bool``.
+    """
+    if msg_type not in SCALAR_DTYPES:
+        return None
+    name = msg_type.rsplit("/", 1)[1]
+    return "uint64" if name in ("Byte", "Char") else value_dtype(name)
+
+
 def _scalars(
     name: str, data: npt.NDArray[np.uint8], offsets: npt.NDArray[np.int64], lengths: npt.NDArray[np.int64]
-) -> npt.NDArray[np.float64] | None:
-    """Read single-value std_msgs payloads as float64 (both CDR byte orders), vectorised."""
+) -> ScalarValues | None:
+    """Read single-value std_msgs payloads as `scalar_dtype` says (both CDR byte orders), vectorised."""
     dtype = SCALAR_DTYPES.get(name)
-    if dtype is None:
+    out = scalar_dtype(name)
+    if dtype is None or out is None:
         return None
     dt = np.dtype(dtype)
     n = len(lengths)
     if n == 0:
-        return np.empty(0, np.float64)
+        return np.empty(0, out)
     starts = offsets[:-1]
     if int(lengths.min()) < 4 + dt.itemsize:
         return None
@@ -479,9 +505,8 @@ def _scalars(
     if not np.all(little):
         u8 = cols.copy()
         u8[~little] = u8[~little, ::-1]
-    values = np.ascontiguousarray(u8).view(dt).ravel().astype(np.float64)
-    if name.endswith("/Bool"):
-        values = (values != 0).astype(np.float64)
+    raw = np.ascontiguousarray(u8).view(dt).ravel()
+    values: ScalarValues = raw != 0 if out == "bool" else raw.astype(out)
     return values
 
 
