@@ -15,6 +15,7 @@ from dbglog.record import McapWriter, TopicData, read_recording
 from dbglog.record._inspect import echo_lines, tag_series, tags_table
 from dbglog.viewer._data._model import Binding, ValueKind
 from dbglog.viewer._data._replay import load_replay
+from dbglog.viewer._data._timeline import Timeline
 from dbglog.viewer._publishing._republish import messages_between, state_at
 
 T0 = 1_700_000_000_000_000_000
@@ -93,12 +94,21 @@ def test_a_replay_holds_and_binds_the_exact_integers(tmp_path: Path) -> None:
     assert source.types[TICKS] == "std_msgs/msg/UInt64"
     assert source.store.at(TICKS, (T0 + 1) * 1e-9).value == U64_MAX  # type: ignore[union-attr]
     assert len(times) == len(SIGNED)
-    # A binding on them is a number series over the whole file (its plotted values are float64).
-    ticks = Binding(TICKS)
+    # A binding on them is a number series over the whole file (its plotted values are float64); the value
+    # a widget shows, at the end and at a cursor, keeps every digit.
+    ticks, big = Binding(TICKS), Binding(TAG)
     source.bind(ticks)
+    source.bind(big)
     snap = source.snapshot(ticks)
     assert (snap.kind, snap.count) == (ValueKind.NUMBER, len(UNSIGNED))
-    assert type(snap.last) is int
+    assert (type(snap.last), snap.last) == (int, UNSIGNED[-1])
+    assert source.snapshot(big).last == SIGNED[-1]
+    timeline = Timeline(source)
+    for binding, expected in ((big, SIGNED), (ticks, UNSIGNED)):
+        held, _ = source.store.range(binding.topic, -math.inf, math.inf)
+        for at, value in zip(held.tolist(), expected, strict=True):
+            timeline.pause(at)
+            assert timeline.snapshot(binding).last == value, (binding.topic, at)
 
 
 def test_echo_and_tags_print_the_exact_integers(tmp_path: Path) -> None:

@@ -274,7 +274,8 @@ class Series:
                 t0 = max(t0, edge.time if edge is not None else t - past)  # never more than without `past`
             times, raw = store.range(self.key, t0, t)
             times, values = times[-self._capacity :], raw[-self._capacity :].astype(np.float64, copy=False)
-            last = typed_like(last_live, float(sample.value))
+            stored = sample.value
+            last = typed_like(last_live, stored if isinstance(stored, int) else float(stored))
         age = t - sample.time
         status, reason = (Status.ERROR, error) if error else judge_age(age, stale_after)
         before = store.at(self.key, t - RATE_WINDOW_S)  # the rate over the window before t, as live

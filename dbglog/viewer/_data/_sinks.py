@@ -222,7 +222,8 @@ def backfill(store: History, name: str, cls: Any, sink: Sink) -> bool:
             times, raw = store.range(name, -np.inf, np.inf)
             if not len(times) or sink.kind not in (ValueKind.NUMBER, ValueKind.BOOL):
                 return False
-            feed_numbers(sink, times, raw.astype(np.float64, copy=False), as_received(times))
+            newest = raw[-1].item() if raw.dtype.kind in "iu" else None  # every digit, beyond 2**53 too
+            feed_numbers(sink, times, raw.astype(np.float64, copy=False), as_received(times), newest=newest)
             return True
         times, payloads = store.payloads(name, -np.inf, np.inf)
         if not len(times):
@@ -261,9 +262,17 @@ def break_sink(sink: Sink, exc: Exception) -> None:
 
 
 def feed_numbers(
-    sink: Sink, times: npt.NDArray[np.float64], values: npt.NDArray[np.float64], now: float
+    sink: Sink,
+    times: npt.NDArray[np.float64],
+    values: npt.NDArray[np.float64],
+    now: float,
+    *,
+    newest: int | None = None,
 ) -> None:
-    """Push one binding's column of numbers decoded from raw CDR (transformed when it has transforms)."""
+    """Push one binding's column of numbers decoded from raw CDR (transformed when it has transforms).
+
+    `newest`: the last value exactly, when `values` rounded it (a 64-bit integer beyond 2**53).
+    """
     if not len(values):
         return
     if sink.chain is not None:
@@ -271,7 +280,8 @@ def feed_numbers(
         sink.series.push_numbers(times, out, float(out[-1]), now)
         _check_failures(sink, out, (float(times[-1]), float(values[-1]), {}))
     else:
-        sink.series.push_numbers(times, values, _typed_last(sink, values[-1]), now)
+        last = newest if newest is not None and sink.kind != ValueKind.BOOL else _typed_last(sink, values[-1])
+        sink.series.push_numbers(times, values, last, now)
 
 
 def _typed_last(sink: Sink, value: float) -> float | int | bool:

@@ -122,13 +122,16 @@ def _not_yet(snapshot: SeriesSnapshot) -> SeriesSnapshot:
     )
 
 
-def typed_like(example: object, value: float) -> float | int | bool:
-    """Give a stored float the Python type the live series' last value has (bools and ints stay so)."""
+def typed_like(example: object, value: float | int) -> float | int | bool:
+    """Give a stored number the Python type the live series' last value has (bools and ints stay so; an
+    integer from an integer history stays exact, beyond 2**53 too)."""
     if isinstance(example, bool):
         return bool(value)
+    if isinstance(value, int) and not isinstance(example, float):
+        return int(value)
     if isinstance(example, int) and float(value).is_integer():
         return int(value)
-    return value
+    return float(value)
 
 
 def _rate(times: np.ndarray, t: float, window: float = 5.0) -> float:
