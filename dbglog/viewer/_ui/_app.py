@@ -60,7 +60,6 @@ from dbglog.viewer._widgets import WidgetRegistry
 from dbglog.viewer._widgets._geometry import (
     Rect,
     free_spot,
-    overlapped,
     snap_rect,
 )
 from dbglog.viewer.widget_api import TimeRange, Widget
@@ -1207,7 +1206,6 @@ class ViewerApp:
         moving = drag.item if drag is not None else None
         still = [i for i in self.items if i is not moving]
         covers = tuple(i.rect for i in still)
-        over = overlapped(covers)  # these keep a fill of their own, or another would show through
         rects = [i.rect for i in self.items]
         self.paint.draw_grid(
             (w, h),
@@ -1215,14 +1213,13 @@ class ViewerApp:
             covers,
             self.doc.grid_size,
             self.doc.snap,
-            filled=over,
             toolbox_area=tw * th,
             settled=drag is None,
         )
         self.paint.draw_backdrop(Rect(ox, oy, w, h), Rect(tx, ty, tw, th))
-        unfilled = {id(i) for i, o in zip(still, over, strict=True) if not o and self.paint.on_panel}
+        bare = {id(i) for i, b in zip(still, self.paint.bare, strict=True) if b}
         for item in self.items:
-            self._bind_frame(item, filled=id(item) not in unfilled)
+            self._bind_frame(item, filled=id(item) not in bare)
 
     def _bind_frame(self, item: CanvasItem, *, filled: bool) -> None:
         """Give `item`'s frame its theme: selected or not, with a fill of its own or none (`CanvasPaint`)."""

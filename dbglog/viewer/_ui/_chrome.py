@@ -13,6 +13,7 @@ from dbglog.viewer._widgets._geometry import (
     Rect,
     canvas_extent,
     corner_fans,
+    overlapped,
     panels_on_clear,
     rects_outside,
     uncovered,
@@ -131,6 +132,8 @@ class CanvasPaint:
         """The viewport's client size in pixels, as last fitted."""
         self.on_panel = False
         """Whether the viewport is cleared to the panel colour (widget frames then go unfilled)."""
+        self.bare: tuple[bool, ...] = ()
+        """For each still frame last drawn (`draw_grid`'s `covers`), whether it goes without a fill."""
         self.panel_clear = True
         """Whether a dense dashboard may be drawn on a panel-coloured canvas (False: every frame fills
         itself, as before; `benchmarks/bench_timetravel.py` compares the two)."""
@@ -169,7 +172,6 @@ class CanvasPaint:
         grid_size: int,
         snap: bool,
         *,
-        filled: Sequence[bool] = (),
         toolbox_area: float = 0.0,
         settled: bool = True,
     ) -> None:
@@ -181,19 +183,17 @@ class CanvasPaint:
             covers: the frames that lie still (a dragged one aside).
             grid_size: the grid step in pixels.
             snap: whether widgets snap to it (the grid is brighter then).
-            filled: for each of `covers`, whether it keeps its own fill (over another widget); the others
-                have none while `on_panel` (then the canvas colour is painted around them).
             toolbox_area: pixels of canvas colour painted under the toolbox while `on_panel`.
             settled: no widget is being dragged: `on_panel` is decided again (a drag keeps it as it was,
                 rather than flip every frame's look while the widget moves).
         """
         view_w, view_h = view
         if view_w <= 0:
+            self.bare = (False,) * len(covers)
             return
         extent = canvas_extent(view_w, view_h, rects, theme.SCROLLBAR)
         w, h = int(extent[0]), int(extent[1])
-        flags = tuple(filled) if filled else (False,) * len(covers)
-        key = (w, h, *view, grid_size, snap, bool(rects), covers, flags, toolbox_area, self.panel_clear)
+        key = (w, h, *view, grid_size, snap, bool(rects), covers, toolbox_area, self.panel_clear)
         if key == self._grid_key:
             return
         self._grid_key = key
@@ -201,19 +201,21 @@ class CanvasPaint:
         dpg.delete_item(layer, children_only=True)
         dpg.configure_item(layer, width=max(1, w), height=max(1, h))
         area = Rect(0, 0, w, h)
-        on_panel = self.panel_clear and panels_on_clear(area, covers, flags, toolbox_area)
-        if not settled:
-            on_panel = self.on_panel
+        keeps = overlapped(covers)  # one over another keeps its fill, or the one below would show through
+        on_panel = self.on_panel  # a drag keeps the look
+        if settled:
+            on_panel = self.panel_clear and panels_on_clear(area, covers, keeps, toolbox_area)
         if on_panel != self.on_panel:
             self.on_panel = on_panel
             dpg.set_viewport_clear_color(theme.PANEL if on_panel else theme.CANVAS)
+        self.bare = tuple(on_panel and not k for k in keeps)
         if on_panel:
             for r in rects_outside(area, covers):
                 _fill(r, theme.CANVAS, layer)
-            for r, keeps_fill in zip(covers, flags, strict=True):
-                if not keeps_fill:
-                    for p1, p2, p3 in corner_fans(r, theme.FRAME_ROUNDING):
-                        dpg.draw_triangle(p1, p2, p3, color=theme.NO_FILL, fill=theme.CANVAS, parent=layer)
+        for r, bare in zip(covers, self.bare, strict=True):
+            if bare:
+                for p1, p2, p3 in corner_fans(r, theme.FRAME_ROUNDING):
+                    dpg.draw_triangle(p1, p2, p3, color=theme.NO_FILL, fill=theme.CANVAS, parent=layer)
         step = grid_size
         while w / step > 160 or h / step > 160:
             step *= 2
