@@ -49,3 +49,17 @@ def run_sdk(code: str, *, timeout: float = 90) -> subprocess.CompletedProcess[st
         cwd=ROOT,
         check=False,
     )
+
+
+def run_dbglog(
+    *args: str, timeout: float = 60, env: Mapping[str, str] | None = None
+) -> subprocess.CompletedProcess[str]:
+    """Run ``python -m dbglog ARGS`` to its end and return what it printed (text) and its exit code."""
+    return subprocess.run(
+        [sys.executable, "-m", "dbglog", *args],
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        check=False,
+        env=None if env is None else dict(env),
+    )

@@ -3,20 +3,14 @@
 from __future__ import annotations
 
 import subprocess
-import sys
 from pathlib import Path
 
 from dbglog.regex_bridge import Matcher, load_rules
+from tests._children import run_dbglog
 
 
 def _suggest(*args: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
-        [sys.executable, "-m", "dbglog", "bridge", "suggest", *args],
-        capture_output=True,
-        text=True,
-        timeout=60,
-        check=False,
-    )
+    return run_dbglog("bridge", "suggest", *args)
 
 
 def test_suggest_prints_a_rules_file_for_the_first_number_and_lists_the_others(tmp_path: Path) -> None:
@@ -89,12 +83,6 @@ def test_suggest_errors_are_clear() -> None:
 
 def test_bridge_refuses_a_line_or_suggest_options_without_suggest() -> None:
     """`dbglog bridge RULES.yaml LINE` or `--number` without suggest is exit 2 with the reason."""
-    done = subprocess.run(
-        [sys.executable, "-m", "dbglog", "bridge", "rules.yaml", "--number", "2"],
-        capture_output=True,
-        text=True,
-        timeout=60,
-        check=False,
-    )
+    done = run_dbglog("bridge", "rules.yaml", "--number", "2")
     assert done.returncode == 2
     assert "unexpected --number: only 'dbglog bridge suggest LINE'" in done.stderr

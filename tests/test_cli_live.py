@@ -16,6 +16,7 @@ from typing import IO
 import pytest
 from std_msgs.msg import Float64
 
+from tests._children import run_dbglog
 from tests._ros import RosPeer, wait_until
 
 TIMEOUT = 90
@@ -78,14 +79,7 @@ def robots() -> Iterator[Callable[..., Robot]]:
 
 
 def _dbglog(*args: str, env: dict[str, str] | None = None) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
-        [sys.executable, "-m", "dbglog", *args],
-        capture_output=True,
-        text=True,
-        timeout=TIMEOUT,
-        check=False,
-        env=env,
-    )
+    return run_dbglog(*args, timeout=TIMEOUT, env=env)
 
 
 def _table(stdout: str) -> dict[str, list[str]]:

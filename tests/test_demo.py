@@ -16,6 +16,7 @@ import pytest
 from dbglog._demo._cli import dashboard_path, rules_path
 from dbglog.viewer._document._dashboard import load_dashboard
 from dbglog.viewer._widgets import WidgetRegistry
+from tests._children import run_dbglog
 from tests._ros import wait_until
 from tests._xvfb import x_display
 
@@ -154,14 +155,7 @@ def test_demo_without_display_points_to_screenshot() -> None:
     """Without DISPLAY or WAYLAND_DISPLAY the demo says so, names --screenshot and starts nothing."""
     env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
     started = time.monotonic()
-    proc = subprocess.run(
-        [sys.executable, "-m", "dbglog", "demo"],
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=30,
-        check=False,
-    )
+    proc = run_dbglog("demo", timeout=30, env=env)
     assert proc.returncode == 2
     assert "no display" in proc.stderr
     assert "--screenshot" in proc.stderr

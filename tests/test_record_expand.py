@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import subprocess
-import sys
 from array import array
 from pathlib import Path
 from typing import Any
@@ -15,6 +13,7 @@ from mcap_ros2.decoder import DecoderFactory
 from dbglog._ros._batch import SLOT_FORMATS, encode_batch, pack_values, type_code
 from dbglog.record import McapWriter
 from dbglog.record._expand import BatchExpander
+from tests._children import run_dbglog
 
 T0 = 1_700_000_000_000_000_000
 
@@ -105,13 +104,7 @@ def test_write_fixed_takes_a_channel_per_message(tmp_path: Path) -> None:
 
 def test_record_rejects_a_queue_depth_below_one(tmp_path: Path) -> None:
     """--queue-depth 0 is refused with a clear message and exit code 2, before any file is made."""
-    done = subprocess.run(
-        [sys.executable, "-m", "dbglog", "record", "-o", str(tmp_path / "q.mcap"), "--queue-depth", "0"],
-        capture_output=True,
-        text=True,
-        timeout=60,
-        check=False,
-    )
+    done = run_dbglog("record", "-o", str(tmp_path / "q.mcap"), "--queue-depth", "0")
     assert done.returncode == 2
     assert "--queue-depth must be at least 1, not 0" in done.stderr
     assert not (tmp_path / "q.mcap").exists()

@@ -18,6 +18,7 @@ from typing import Any
 import pytest
 
 from dbglog._sched import CpuPolicy
+from tests._children import run_dbglog
 from tests._ros import wait_until
 
 pytestmark = pytest.mark.skipif(not hasattr(os, "SCHED_IDLE"), reason="SCHED_IDLE is Linux's")
@@ -124,12 +125,6 @@ def test_bridge_and_record_run_in_the_background_when_asked(tmp_path: Path, comm
 
 def test_a_bad_cpu_word_is_named() -> None:
     """`--cpu` says what it takes."""
-    done = subprocess.run(
-        [sys.executable, "-m", "dbglog", "bridge", "rules.yaml", "--cpu", "idle"],
-        capture_output=True,
-        text=True,
-        timeout=60,
-        check=False,
-    )
+    done = run_dbglog("bridge", "rules.yaml", "--cpu", "idle")
     assert done.returncode == 2
     assert "'idle' is not a CPU policy: use one of background, normal" in done.stderr

@@ -10,8 +10,6 @@ from __future__ import annotations
 import json
 import shutil
 import struct
-import subprocess
-import sys
 import time
 import warnings
 import zlib
@@ -39,7 +37,7 @@ from dbglog.viewer._widgets import WidgetRegistry
 from dbglog.viewer._widgets._geometry import Rect
 from dbglog.viewer._widgets._plot import PlotWidget
 from dbglog.viewer.widget_api import Widget
-from tests._children import run_scenario
+from tests._children import run_dbglog, run_scenario
 
 pytestmark = pytest.mark.gui
 
@@ -606,25 +604,17 @@ def test_ui_scenario(scenario: str, tmp_path: Path) -> None:
     run_scenario("test_ui", scenario, tmp_path)
 
 
-def _run_cli(*args: str, timeout: float = 60) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
-        [sys.executable, "-m", "dbglog", "view", *args],
-        capture_output=True,
-        text=True,
-        timeout=timeout,
-        check=False,
-    )
-
-
 def test_cli_unreadable_file_exits_nonzero_naming_it(tmp_path: Path) -> None:
     """`dbglog view` on a broken file prints the file and the problem and exits non-zero."""
     bad = tmp_path / "bad.json"
     bad.write_text('{"format": "dbglog-dashboard", "version": 7, "widgets": []}')
-    proc = _run_cli(str(bad))
+    proc = run_dbglog("view", str(bad))
     assert proc.returncode == 2
     assert str(bad) in proc.stderr
     assert "version 7 is newer" in proc.stderr
-    proc = _run_cli(str(tmp_path / "nowhere" / "missing.json"))  # a new file needs an existing folder
+    proc = run_dbglog(
+        "view", str(tmp_path / "nowhere" / "missing.json")
+    )  # a new file needs an existing folder
     assert proc.returncode == 2
     assert f"folder {tmp_path / 'nowhere'} does not exist" in proc.stderr
 
@@ -635,7 +625,7 @@ def test_cli_screenshot_of_legacy_dashboard(tmp_path: Path) -> None:
     shutil.copyfile(GOLDEN / "legacy_all_widgets.json", path)
     before = path.read_bytes()
     out = tmp_path / "shot.png"
-    proc = _run_cli(str(path), "--screenshot", str(out), "--after", "0.5", "--size", "1280x800")
+    proc = run_dbglog("view", str(path), "--screenshot", str(out), "--after", "0.5", "--size", "1280x800")
     assert proc.returncode == 0, proc.stderr
     assert path.read_bytes() == before
     img = read_png(out)
@@ -651,7 +641,8 @@ def test_cli_template_opens_an_untitled_copy(tmp_path: Path) -> None:
     shutil.copyfile(GOLDEN / "legacy_all_widgets.json", path)
     before = path.read_bytes()
     report = tmp_path / "report.json"
-    proc = _run_cli(
+    proc = run_dbglog(
+        "view",
         str(path),
         "--template",
         "--screenshot",
@@ -667,6 +658,6 @@ def test_cli_template_opens_an_untitled_copy(tmp_path: Path) -> None:
     assert data["modified"] is False
     assert len(data["widgets"]) == 7
     assert path.read_bytes() == before
-    refused = _run_cli("--template")
+    refused = run_dbglog("view", "--template")
     assert refused.returncode == 2
     assert "--template needs a dashboard file" in refused.stderr
