@@ -44,7 +44,6 @@ from dbglog.viewer._document._dashboard import (
     text_problem,
 )
 from dbglog.viewer._widgets import WidgetRegistry
-from tests._xvfb import x_display
 
 LOOKUP = WidgetRegistry.builtin().get
 DATA = Path(__file__).parent / "data" / "hostile"
@@ -757,14 +756,14 @@ def _corpus(folder: Path) -> dict[str, tuple[Path, int]]:
     return files
 
 
-def test_hostile_corpus_through_the_real_viewer(tmp_path: Path) -> None:
+def test_hostile_corpus_through_the_real_viewer(tmp_path: Path, display: str) -> None:
     """`dbglog view FILE --screenshot`: every hostile file exits 0 with messages or 2 with the reason, fast,
     no traceback, the file byte-identical afterwards; a cut or partial load opens untitled."""
     files = _corpus(tmp_path)
     hashes = {name: _sha(path) for name, (path, _) in files.items() if path.is_file()}
     out = tmp_path / "out"
     out.mkdir()
-    with x_display() as display, ThreadPoolExecutor(3) as pool:
+    with ThreadPoolExecutor(3) as pool:
         # The slow ones first, so the quick refusals fill the gaps.
         order = sorted(files, key=lambda name: files[name][1])
         done = pool.map(lambda name: _view(files[name][0], out, display), order)

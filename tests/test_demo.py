@@ -18,6 +18,7 @@ from dbglog.viewer._document._dashboard import load_dashboard
 from dbglog.viewer._widgets import WidgetRegistry
 from tests._children import run_dbglog
 from tests._ros import wait_until
+from tests._workers import private_display
 from tests._xvfb import x_display
 
 pytestmark = pytest.mark.gui
@@ -27,8 +28,8 @@ ROOT = Path(__file__).resolve().parent.parent
 
 @pytest.fixture(scope="module")
 def display() -> Iterator[dict[str, str]]:
-    """An environment with a display: the caller's, or a private Xvfb started for this module."""
-    with x_display() as name:
+    """An environment with a display: the caller's, or a private Xvfb (always one for parallel workers)."""
+    with x_display(private=private_display(os.environ)) as name:
         yield {**os.environ, "DISPLAY": name}
 
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import functools
 import math
+import os
 import re
 import sys
 import time
@@ -265,7 +266,19 @@ def run(args: argparse.Namespace) -> int:
             print(f"dbglog view: {args.dashboard}: {message}", file=sys.stderr)
 
     from dbglog.viewer._ui import ViewerApp
+    from dbglog.viewer._ui._display import x_display_problem
 
+    display_problem = x_display_problem(
+        os.environ.get("DISPLAY"), wayland=bool(os.environ.get("WAYLAND_DISPLAY"))
+    )
+    if display_problem is not None:
+        print(
+            f"dbglog view: error: {display_problem}.\n"
+            "  Without a screen, render on a virtual one and look at the picture:\n"
+            "    xvfb-run -a dbglog view [DASHBOARD] --screenshot view.png --after 5",
+            file=sys.stderr,
+        )
+        return 2
     source: DataSource
     republisher: Republisher | None = None
     if args.replay is not None:
