@@ -84,10 +84,9 @@ def cpu_policy_arg(text: str) -> CpuPolicy:
 
 
 def add_cpu_argument(parser: argparse.ArgumentParser, default: CpuPolicy, help_text: str) -> None:
-    """Declare a command's ``--cpu {background,normal}`` option."""
-    parser.add_argument(
-        "--cpu", type=cpu_policy_arg, default=default, metavar="{background,normal}", help=help_text
-    )
+    """Declare a command's ``--cpu`` option; its metavar lists every `CpuPolicy` (``{background,normal}``)."""
+    choices = "{" + ",".join(policy.value for policy in CpuPolicy) + "}"
+    parser.add_argument("--cpu", type=cpu_policy_arg, default=default, metavar=choices, help=help_text)
 
 
 def apply_cpu_argument(policy: CpuPolicy, prog: str) -> None:

@@ -5,6 +5,7 @@ Each case runs in a child process, so the test runner's own policy is never touc
 
 from __future__ import annotations
 
+import argparse
 import functools
 import os
 import shutil
@@ -17,7 +18,7 @@ from typing import Any
 
 import pytest
 
-from dbglog._sched import CpuPolicy
+from dbglog._sched import CpuPolicy, add_cpu_argument
 from tests._children import run_dbglog
 from tests._ros import wait_until
 
@@ -76,6 +77,13 @@ def test_a_policy_the_user_chose_stands() -> None:
 def test_the_policy_names_are_the_cli_words() -> None:
     """`--cpu` takes the enum's values."""
     assert [p.value for p in CpuPolicy] == ["background", "normal"]
+
+
+def test_the_cpu_option_shows_every_policy() -> None:
+    """`--cpu`'s usage lists the enum's values, as argparse shows choices."""
+    parser = argparse.ArgumentParser(prog="dbglog x")
+    add_cpu_argument(parser, CpuPolicy.NORMAL, "how")
+    assert "[--cpu {background,normal}]" in parser.format_usage()
 
 
 def policies_of(pid: int) -> dict[str, set[int]]:
