@@ -148,13 +148,13 @@ def test_a_store_made_later_starts_with_the_history_then_follows_live_lines() ->
     """The console opened after lines went by shows them (the engine's history), then each new line once."""
     run = f"later_{uuid.uuid4().hex[:6]}"
     with Engine(node_name=f"logs_engine_{run}") as engine:
-        binding = Binding("/rosout")
-        engine.bind(binding)
-        wait_until(
-            lambda: engine.snapshot(binding).msg_type is not None or bool(engine.stats().per_topic), TIMEOUT
-        )
+        # No wait before the loggers start: the engine subscribes /rosout when its first publisher appears
+        # (nothing publishes it before, so waiting for a type or a count here only ran out its timeout),
+        # and their transient-local /rosout publishers keep every line for it.
+        engine.bind(Binding("/rosout"))
         with _loggers(run, 2, 60, "past") as proc:
-            wait_until(lambda: engine.stats().per_topic.get("/rosout", 0) >= 120, TIMEOUT)
+            # The store is made only once the history holds every past line: they went by before it.
+            assert wait_until(lambda: engine.stats().per_topic.get("/rosout", 0) >= 120, TIMEOUT)
             store = engine.log_store("/rosout")
             assert store is engine.log_store("rosout")  # one store per topic
             past = _wait_lines(store, run, "past", 120)
