@@ -438,8 +438,10 @@ def test_click_moves_the_cursor_and_the_paused_console_ends_there(
     assert state["console"]["selected"] == [row["id"]]
     assert "up to" in state["console"]["status"]
     loggers.more(LINES)  # new lines while paused: the console stays at the cursor
-    time.sleep(1.0)
-    assert v.frames(3)["console"]["rows"][-1]["id"] == row["id"]
+    # Once the console has read them all (the frames their arrival asks for; paused, nothing else is drawn
+    # but a 10 s idle frame, which counting frames here waited out three times), it still ends at the row.
+    console = wait_console(v, lambda c: c["held"] >= 6 * LINES and "to read" not in c["status"])
+    assert console["rows"][-1]["id"] == row["id"]
     v.key("End")
     state = v.wait_for(
         lambda s: s["live"] and any(r["text"] == planner_line(2 * LINES - 1) for r in s["console"]["rows"])
