@@ -7,7 +7,6 @@ in the file (``mcap_ros2``'s dynamic decoder), so types not installed here are r
 
 from __future__ import annotations
 
-import math
 import os
 import re
 import sys
@@ -19,6 +18,7 @@ import numpy as np
 import numpy.typing as npt
 
 from dbglog._ros._batch import BATCH_TOPIC, BatchError, decode_batch
+from dbglog._ros._numbers import NumberType, as_number
 from dbglog._ros._tags import TAG_PREFIX
 from dbglog._ros._text import format_line
 from dbglog.record._reader import Recording, TopicData, read_recording
@@ -114,14 +114,13 @@ def _fmt(value: object, width: int = 24) -> str:
     return text if len(text) <= width else text[: width - 1] + "…"
 
 
-def _typed(std_type: str, value: float | int | bool) -> object:
-    """Return a value as its std_msgs type's Python type (an int stays exact)."""
+def _number_type(std_type: str) -> NumberType:
+    """The Python type a numeric std_msgs type's ``data`` has (``Int64`` -> int, ``Bool`` -> bool ...)."""
     if std_type == "Bool":
-        return bool(value)
-    integral = std_type.startswith(("Int", "UInt")) or std_type in ("Byte", "Char")
-    if integral and (not isinstance(value, float) or math.isfinite(value)):
-        return int(value)
-    return float(value)
+        return bool
+    if std_type.startswith(("Int", "UInt")) or std_type in ("Byte", "Char"):
+        return int
+    return float
 
 
 def _open(path: str | os.PathLike[str], warn: Callable[[str], None]) -> Recording:
@@ -154,7 +153,8 @@ def tags_table(
                 first, last = s.values[0], s.values[-1]
             else:
                 ends = s.values[[0, -1]].tolist()  # Python numbers: an int64 stays exact
-                first, last = _typed(s.std_type, ends[0]), _typed(s.std_type, ends[1])
+                want = _number_type(s.std_type)
+                first, last = as_number(ends[0], want), as_number(ends[1], want)
         name = TAG_PREFIX + tag if all_topics else tag
         rows.append(
             [
@@ -172,9 +172,9 @@ def tags_table(
                 continue
             first = last = None
             if topic.values is not None and len(topic):
-                std_type = topic.msg_type.rsplit("/", 1)[1]
+                want = _number_type(topic.msg_type.rsplit("/", 1)[1])
                 ends = topic.values[[0, -1]].tolist()  # Python numbers: an int64 stays exact
-                first, last = _typed(std_type, ends[0]), _typed(std_type, ends[1])
+                first, last = as_number(ends[0], want), as_number(ends[1], want)
             rows.append(
                 [name, topic.msg_type, f"{len(topic):,}", _rate(topic.times_ns), _fmt(first), _fmt(last)]
             )
@@ -240,10 +240,11 @@ def echo_lines(
             tags = ", ".join(tag_series(recording)) or "none"
             raise RecordingError(f"{recording.path}: no tag {target!r} in this recording (tags: {tags})")
         times = (series.times_ns / 1e9).tolist()
+        want = _number_type(series.std_type)
         values: list[Any] = (
             series.values
             if isinstance(series.values, list)
-            else [_typed(series.std_type, v) for v in series.values.tolist()]
+            else [as_number(v, want) for v in series.values.tolist()]
         )
         yield from _lines(times, values, stamp)
         return
@@ -255,8 +256,8 @@ def echo_lines(
         raise RecordingError(f"{recording.path}: no topic {topic} in this recording")
     times = (data.times_ns / 1e9).tolist()
     if data.values is not None and all(name == "data" for name, idx in fields) and len(fields) <= 1:
-        std_type = data.msg_type.rsplit("/", 1)[1]
-        yield from _lines(times, [_typed(std_type, v) for v in data.values.tolist()], stamp)
+        want = _number_type(data.msg_type.rsplit("/", 1)[1])
+        yield from _lines(times, [as_number(v, want) for v in data.values.tolist()], stamp)
         return
     decode = _decoder(data)
     for t, payload in zip(times, data.payloads(), strict=True):

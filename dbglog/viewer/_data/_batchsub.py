@@ -27,12 +27,13 @@ from dbglog._ros._batch import (
 )
 from dbglog._ros._cdr import read_string, string_payload
 from dbglog._ros._node import no_callback
+from dbglog._ros._numbers import as_number
 from dbglog._ros._qos import batch_qos
 from dbglog._ros._tags import topic_for_tag
 from dbglog.viewer._data._history import History
 from dbglog.viewer._data._model import Binding, ValueKind
 from dbglog.viewer._data._series import Series
-from dbglog.viewer._data._sinks import as_received
+from dbglog.viewer._data._sinks import as_received, number_type
 
 __all__ = ["BatchIngest", "BatchStats"]
 
@@ -308,11 +309,8 @@ class BatchIngest:
 
 def _typed(values: Any, sink: Any) -> list[Any]:
     """Numbers back as the field's Python type (bool, int or float), as typed messages hold them."""
-    if sink.kind == ValueKind.BOOL:
-        return [bool(v) for v in values.tolist()]
-    if sink.resolved.leaf_type in ("float", "double"):
-        return list(values.tolist())
-    return [int(v) for v in values.tolist()]
+    want = number_type(sink)
+    return [as_number(v, want) for v in values.tolist()]
 
 
 class _Sample:

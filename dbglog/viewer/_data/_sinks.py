@@ -21,6 +21,7 @@ import numpy.typing as npt
 from dbglog._regex._compile import CompiledRegex, RegexError, compile_regex, parse_number
 from dbglog._ros._cdr import decode_fixed
 from dbglog._ros._loglevels import node_matches
+from dbglog._ros._numbers import NumberType, as_number
 from dbglog.viewer._data._fields import FieldPathError, Resolved, parse_path, resolve
 from dbglog.viewer._data._history import History
 from dbglog.viewer._data._logstore import LOG_TYPE, level_of
@@ -37,6 +38,7 @@ __all__ = [
     "feed",
     "feed_numbers",
     "make_sink",
+    "number_type",
     "same_values",
     "scalar_plan",
 ]
@@ -280,18 +282,22 @@ def feed_numbers(
         sink.series.push_numbers(times, out, float(out[-1]), now)
         _check_failures(sink, out, (float(times[-1]), float(values[-1]), {}))
     else:
-        last = newest if newest is not None and sink.kind != ValueKind.BOOL else _typed_last(sink, values[-1])
+        last = (
+            newest
+            if newest is not None and sink.kind != ValueKind.BOOL
+            else as_number(values[-1], number_type(sink))
+        )
         sink.series.push_numbers(times, values, last, now)
 
 
-def _typed_last(sink: Sink, value: float) -> float | int | bool:
-    """Give the last numeric value its field's Python type back (int fields stay ints)."""
+def number_type(sink: Sink) -> NumberType:
+    """The Python type a numeric sink's field holds (bool, float for float and double, int otherwise)."""
     assert sink.resolved is not None
     if sink.kind == ValueKind.BOOL:
-        return bool(value)
+        return bool
     if sink.resolved.leaf_type in ("float", "double"):
-        return float(value)
-    return int(value)
+        return float
+    return int
 
 
 def _number_or_nan(get: Any, msg: Any) -> float:

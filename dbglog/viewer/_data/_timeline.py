@@ -20,6 +20,7 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 import numpy.typing as npt
 
+from dbglog._ros._numbers import NumberType, as_number
 from dbglog.viewer._data._fields import Scalar
 from dbglog.viewer._data._history import HistoryStats
 from dbglog.viewer._data._model import (
@@ -123,15 +124,16 @@ def _not_yet(snapshot: SeriesSnapshot) -> SeriesSnapshot:
 
 
 def typed_like(example: object, value: float | int) -> float | int | bool:
-    """Give a stored number the Python type the live series' last value has (bools and ints stay so; an
-    integer from an integer history stays exact, beyond 2**53 too)."""
+    """Give a stored number the Python type the live series' last value has (`as_number`: an integer
+    stays exact, beyond 2**53 too); without a number there, the stored number keeps its own."""
+    want: NumberType
     if isinstance(example, bool):
-        return bool(value)
-    if isinstance(value, int) and not isinstance(example, float):
-        return int(value)
-    if isinstance(example, int) and float(value).is_integer():
-        return int(value)
-    return float(value)
+        want = bool
+    elif isinstance(example, float):
+        want = float
+    else:
+        want = int if isinstance(example, int) or isinstance(value, int) else float
+    return as_number(value, want)
 
 
 def _rate(times: np.ndarray, t: float, window: float = 5.0) -> float:
