@@ -11,6 +11,7 @@ import sys
 import threading
 import time
 from collections.abc import Callable, Iterator
+from concurrent.futures import ThreadPoolExecutor
 from typing import IO
 
 import pytest
@@ -20,6 +21,8 @@ from tests._children import run_dbglog
 from tests._ros import RosPeer, wait_until
 
 TIMEOUT = 90
+_ANNOUNCE_PERIOD_S = 3.0
+"""How often a Fast DDS participant announces itself (a newcomer that missed its handshake finds it then)."""
 
 # A robot process: the dbglog SDK publishing `count` tags under `prefix` at `hz`; `once` tags once.
 _PUBLISHER = """
@@ -113,8 +116,19 @@ def test_tags_lists_every_tag_of_two_processes_every_run(robots: Callable[..., R
     """Two publisher processes with six tags each: every `dbglog tags` run lists all twelve with values."""
     fast, slow = robots("lv_fast", 6, 20.0), robots("lv_slow", 6, 2.0)
     _until_published(fast.tags[0], slow.tags[0])
-    for run in range(4):
-        out = _dbglog("tags")
+    # Each run is a newcomer that must find both publishers within its 4 s discovery horizon; they miss
+    # the handshake only sometimes, so several runs are checked. They overlap (one after another they took
+    # 4 x 5 s), each started a quarter of Fast DDS's 3 s announcement period after the one before: their
+    # starts fall at phases spread over that period, as sequential runs' starts did.
+    runs = 4
+    with ThreadPoolExecutor(runs) as pool:
+        started = []
+        for run in range(runs):
+            if run:
+                time.sleep(_ANNOUNCE_PERIOD_S / runs)
+            started.append(pool.submit(_dbglog, "tags"))
+        outs = [future.result() for future in started]
+    for run, out in enumerate(outs):
         assert out.returncode == 0, out.stderr
         rows = _table(out.stdout)
         missing = set(fast.tags + slow.tags) - set(rows)
