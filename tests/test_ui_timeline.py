@@ -108,6 +108,9 @@ class Probe:
                 "times": [s.last_time for s in snaps],
                 "shown": self.shown(item),
                 "updates": item.updates,
+                # A plot: frames whose lines the line worker drew (shown a frame later), the newest drawn.
+                "lines_later": getattr(item.widget, "lines_later", None),
+                "drawn_to": getattr(item.widget, "drawn_to", None),
             }
         note = next(i.widget for i in app.items if i.name == "Note")  # (a click brings a widget to the front)
         return {
@@ -369,6 +372,44 @@ def test_click_and_drag_on_the_bar_move_the_cursor_there(viewer: Callable[[], Vi
     button = state["button"]
     v.click(button[0] + button[2] / 2, button[1] + button[3] / 2)
     v.wait_for(lambda s: s["live"] and s["cursor"] is None)
+
+
+def test_a_continuous_drag_draws_plot_lines_while_rendering_and_settles_exact(
+    viewer: Callable[[], Viewer], feed: Feed
+) -> None:
+    """A hand's drag along the bar (a move every few ms, frames not waited for): the cursor moves frame after
+    frame, so the plot's lines are computed on the line worker during the render and shown a frame later;
+    once the pointer stops, the plot draws up to the very sample at the cursor, as a still frame does."""
+    v = viewer()
+    x, y = v.track_point(0.2)
+    v.click(x, y)
+    v.wait_for(lambda s: not s["live"])
+    before = v.item("Plot")["lines_later"]
+    far_x, end_x = v.track_point(0.65)[0], v.track_point(0.8)[0]
+    v.move(x, y)
+    v.xdo("mousedown", "1")
+    v.frames(3)
+    steps: list[str] = []
+    for i in range(1, 41):
+        steps += ["mousemove", "--window", v.window, str(round(x + (far_x - x) * i / 40)), str(round(y))]
+        steps += ["sleep", "0.005"]
+    # Last, a jump of seconds in one move: the lines of the frame before it are far from the cursor then.
+    steps += ["mousemove", "--window", v.window, str(round(end_x)), str(round(y))]
+    v.xdo(*steps)
+    v.frames(3)
+    v.xdo("mouseup", "1")
+    v.frames(3)
+    state = v.frames(3)
+    plot, count = state["items"]["Plot"], state["items"]["Count"]
+    seen = f"cursor {state['cursor']!r}, plot {plot}, dial {count}\n{v.output()}"
+    assert plot["lines_later"] > before, f"the plot's lines never went to the line worker: {seen}"
+    # Settled: the newest point drawn is the last sample at the cursor (no frame-old lines left).
+    assert plot["drawn_to"] == plot["times"][0] == count["times"][0] <= state["cursor"], seen
+    assert plot["shown"] == [float(count["values"][0])], seen
+    assert abs(_shown_count(count) - (feed.count_at(state["cursor"]) or 0)) <= 1, seen
+    settled = v.frames(3)["items"]["Plot"]
+    assert settled["lines_later"] == plot["lines_later"], f"lines deferred with the cursor still: {seen}"
+    v.shot("dragged-continuously")
 
 
 def test_arrows_step_one_message_of_the_selected_widget(viewer: Callable[[], Viewer], feed: Feed) -> None:

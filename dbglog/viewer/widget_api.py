@@ -309,7 +309,10 @@ class TimeRange:
     KEEP_MARGIN = 0.06
     """Held and paused, a cursor moved out of the range brings the range to it, this fraction inside."""
 
-    __slots__ = ("_hover_by", "cursor", "held", "hover", "length", "lives", "newest", "version")
+    MOVING_FRAMES = 2
+    """Frames in a row with the cursor moved before the cursor counts as `moving`."""
+
+    __slots__ = ("_hover_by", "cursor", "held", "hover", "length", "lives", "moves", "newest", "version")
 
     def __init__(self) -> None:
         self.newest: float | None = None
@@ -328,6 +331,14 @@ class TimeRange:
         """The source time under the pointer over one of the plots sharing the range (`point`), else None:
         the others show it too."""
         self._hover_by: object = None
+        self.moves = 0
+        """Frames in a row (`sync` calls) in which the paused cursor moved; 0 once it stays or goes live."""
+
+    @property
+    def moving(self) -> bool:
+        """Whether the paused cursor keeps moving, frame after frame (a drag of the timeline, a held arrow
+        key, playback): a widget may then show its heavy parts one frame late to keep the frames coming."""
+        return self.moves >= self.MOVING_FRAMES
 
     @property
     def following(self) -> bool:
@@ -385,6 +396,7 @@ class TimeRange:
         to it (the length kept)."""
         was, older = self.cursor, self.newest
         self.newest, self.cursor = newest, cursor
+        self.moves = self.moves + 1 if was is not None and cursor is not None and cursor != was else 0
         went_back = newest is not None and older is not None and newest < older
         if (was is not None and cursor is None) or went_back:
             self.go_live()
@@ -407,7 +419,7 @@ class TimeRange:
         """Return an independent range in the same state (a plot being unlinked keeps what it shows)."""
         other = TimeRange()
         other.newest, other.cursor, other.lives = self.newest, self.cursor, self.lives
-        other.length, other.held = self.length, self.held
+        other.length, other.held, other.moves = self.length, self.held, self.moves
         return other
 
 

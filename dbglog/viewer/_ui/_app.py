@@ -62,6 +62,7 @@ from dbglog.viewer._widgets._geometry import (
     free_spot,
     snap_rect,
 )
+from dbglog.viewer._widgets._plotlines import LINE_WORKER
 from dbglog.viewer.widget_api import TimeRange, Widget
 
 __all__ = ["PAYLOAD_TYPE", "ViewerApp", "keep_freed_memory"]
@@ -535,6 +536,7 @@ class ViewerApp:
     def _render(self, now: float) -> None:
         self._render_starts.append(now)
         t0 = time.perf_counter()
+        LINE_WORKER.start()  # plots' lines queued while the cursor moves: computed while this frame renders
         dpg.render_dearpygui_frame()
         self.rendered += 1
         self.pacer.rendered(now, time.perf_counter() - t0)

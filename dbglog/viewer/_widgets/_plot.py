@@ -12,13 +12,12 @@ the zoom and pan; `_timeaxis` reads them back and keeps the axis and the range i
 from __future__ import annotations
 
 from collections.abc import Sequence
-from itertools import pairwise
 
 import dearpygui.dearpygui as dpg
 import numpy as np
 
 from dbglog.viewer._widgets._common import SERIES_COLORS, clock_text, latest_number, text_size
-from dbglog.viewer._widgets._geometry import minmax_decimate, range_slice, simplify_line, spread
+from dbglog.viewer._widgets._geometry import spread
 from dbglog.viewer._widgets._plotfit import (
     ROW_H,
     ROW_MARGIN,
@@ -31,6 +30,7 @@ from dbglog.viewer._widgets._plotfit import (
     tag_columns,
     tag_digits,
 )
+from dbglog.viewer._widgets._plotlines import LINE_WORKER, LineJob, Lines, LineTask, plot_lines
 from dbglog.viewer._widgets._timeaxis import (
     AxisSync,
     HoverTracker,
@@ -188,6 +188,10 @@ class PlotWidget(Widget):
         """Points sent to the plot in the last update (for tests and the benchmark)."""
         self.drawn_from: float | None = None
         """The source time of the oldest point drawn (any series), None when none is drawn."""
+        self.drawn_to: float | None = None
+        """The source time of the newest point drawn (any series), None when none is drawn."""
+        self.lines_later = 0
+        """Frames whose lines went to the line worker, shown a frame later (the cursor kept moving)."""
         self.cursor_values: list[float | None] = []
         """Paused: each series' value at the cursor (what the legend and the value tags show); else empty."""
         self.hover_time: float | None = None
@@ -225,6 +229,7 @@ class PlotWidget(Widget):
         self._ticks: tuple[tuple[str, float], ...] | None = None
         self._info_text = ""
         self._data_key: object = None
+        self._lines_task: LineTask | None = None
         self._older: dict[Binding, tuple[object, tuple[np.ndarray, np.ndarray] | None]] = {}
         """Each series' history envelope before its snapshot (zoomed out), with the key it was made for."""
         self._marks_drawn: object = ...  # (nothing drawn yet)
@@ -353,6 +358,7 @@ class PlotWidget(Widget):
         self._labels = labels
         self._shown_labels = list(plan.labels)
         self._data_key, self._marks_drawn = None, ...
+        self._lines_task = None  # lines for the series as they were
         self._configured.clear()
         self.legend_plan = plan
         self._show_chip(labels)
@@ -545,7 +551,7 @@ class PlotWidget(Widget):
             dpg.set_axis_limits(self.x_axis, *limits)
         origin = sync.origin if sync.origin is not None else end
         self.view = (start, stop)
-        self._draw_series(snaps, start, stop, origin)
+        self._draw_series(snaps, start, stop, origin, at)
         self._draw_ticks(start, stop, origin)
         mine = None
         if hover_x is not None and hover_limits is not None and sync.shown is not None:
@@ -556,71 +562,56 @@ class PlotWidget(Widget):
         self._show_marks(snaps, at, hover, origin)
         self._show_info(rng, at, end, start, stop, hover)
 
-    def _draw_series(self, snaps: Sequence[SeriesSnapshot], start: float, stop: float, origin: float) -> None:
-        """Decimate each series over [start, stop] to the plot's width; fit the y axis to what shows."""
+    def _draw_series(
+        self, snaps: Sequence[SeriesSnapshot], start: float, stop: float, origin: float, at: float | None
+    ) -> None:
+        """Decimate each series over [start, stop] to the plot's width; fit the y axis to what shows.
+
+        While the shared cursor keeps moving (`TimeRange.moving`), the lines are computed on the viewer's
+        line worker during the render and shown one frame later (`_plotlines`), never past the cursor
+        `at`; else at once.
+        """
+        if self._lines_task is not None:  # the last frame's lines, computed while it rendered
+            task, self._lines_task = self._lines_task, None
+            self._show_lines(task.take().moved_to(origin, at))
         key = (tuple((s.count, s.last_time, len(s.times)) for s in snaps), start, stop, origin, self.width)
         if key == self._data_key:
             return
         self._data_key = key
         max_points = max(2, self.width - PLOT_MARGIN)
-        lo, hi = np.inf, -np.inf
-        drawn = 0
-        oldest = np.inf
-        lines: list[tuple[np.ndarray, np.ndarray]] = []
+        older = []
         for snap in snaps:
             n = min(len(snap.times), len(snap.values))
-            times, values = snap.times[len(snap.times) - n :], snap.values[len(snap.values) - n :]
-            inside, drawn_part = range_slice(times, start, stop)
-            x, y = minmax_decimate(times[drawn_part] - origin, values[drawn_part], max_points)
-            older = self._history_before(snap, start, stop, float(times[0]) if n else stop, max_points)
-            if older is not None and len(older[0]):  # zoomed out past the snapshot: the history's envelope
-                x = np.concatenate((older[0] - origin, x))
-                y = np.concatenate((older[1], y))
-                seen = older[1][older[0] >= start]
-                seen = seen[np.isfinite(seen)]
-                if len(seen):
-                    lo, hi = min(lo, float(seen.min())), max(hi, float(seen.max()))
-            lines.append((x, y))
-            if len(x):
-                oldest = min(oldest, float(x[0]) + origin)
-            shown = values[inside]
-            finite = shown[np.isfinite(shown)]
-            if len(finite):
-                lo, hi = min(lo, float(finite.min())), max(hi, float(finite.max()))
-        if self.prop("scale") == "fixed":
-            self._set_y_limits((self.num("y_min"), self.num("y_max")))
-        elif np.isfinite(lo):
-            pad = (hi - lo) * 0.08 or max(abs(hi) * 0.1, 0.5)
-            self._set_y_limits((lo - pad, hi + pad))
-        for tag, (x, y) in zip(self._series, self._simplified(lines, stop - start), strict=True):
-            # Contiguous float64 arrays go to Dear PyGui through the buffer protocol, without lists.
-            dpg.set_value(tag, [np.ascontiguousarray(x, np.float64), np.ascontiguousarray(y, np.float64)])
-            drawn += len(x)
-        self.points_drawn = drawn
-        self.drawn_from = oldest if drawn else None
-
-    def _simplified(
-        self, lines: list[tuple[np.ndarray, np.ndarray]], seconds: float
-    ) -> list[tuple[np.ndarray, np.ndarray]]:
-        """The lines less the points a straight segment passes within a fraction of a pixel of (see
-        `simplify_line`; every series in one call), scaled by upper bounds of the plot area's pixels."""
-        if self._limits is None or len(lines) == 0 or sum(len(x) for x, _ in lines) < 3:
-            return lines
-        y_lo, y_hi = self._limits
-        x_scale = self.width / seconds if seconds > 0 else 0.0
-        y_scale = self._plot_h / (y_hi - y_lo) if y_hi > y_lo else 0.0
-        ids = np.repeat(np.arange(len(lines)), [len(x) for x, _ in lines])
-        x, y, kept = simplify_line(
-            np.concatenate([x for x, _ in lines]),
-            np.concatenate([y for _, y in lines]),
-            x_scale,
-            y_scale,
-            groups=ids,
+            first = float(snap.times[len(snap.times) - n]) if n else stop
+            older.append(self._history_before(snap, start, stop, first, max_points))
+        fixed = (self.num("y_min"), self.num("y_max")) if self.prop("scale") == "fixed" else None
+        job = LineJob(
+            tuple(snaps),
+            tuple(older),
+            start,
+            stop,
+            origin,
+            max_points,
+            fixed,
+            self._limits,
+            self.width,
+            self._plot_h,
         )
-        if kept is None:
-            return lines
-        cuts = [0, *np.searchsorted(kept, np.arange(1, len(lines))).tolist(), len(kept)]
-        return [(x[a:b], y[a:b]) for a, b in pairwise(cuts)]
+        shared = self.context.time_range
+        if shared is not None and shared.moving:
+            self._lines_task = LINE_WORKER.submit(job)
+            self.lines_later += 1
+        else:
+            self._show_lines(plot_lines(job))
+
+    def _show_lines(self, lines: Lines) -> None:
+        """Hand the lines to ImPlot and the y limits with them."""
+        if lines.limits is not None:
+            self._set_y_limits(lines.limits)
+        for tag, (x, y) in zip(self._series, lines.lines, strict=True):
+            dpg.set_value(tag, [x, y])  # contiguous float64: through the buffer protocol, without lists
+        self.points_drawn = lines.drawn
+        self.drawn_from, self.drawn_to = lines.oldest, lines.newest
 
     def _history_before(
         self, snap: SeriesSnapshot, start: float, stop: float, first: float, max_points: int
