@@ -15,8 +15,10 @@ Run from the repository root: ``.venv/bin/python -m benchmarks.bench_timetravel`
   (``render_dearpygui_frame``: Dear ImGui/ImPlot and the GL rasteriser), with the process's CPU time per
   frame and the load average, since a shared machine moves the wall-clock figures. Last, the drag again in
   1 s blocks alternating the two looks of a dense dashboard (every widget frame filled, as before; the
-  canvas cleared to the panel colour, now): fps and CPU per frame side by side in this process. To compare
-  another checkout, copy this file into it and run it from there.
+  canvas cleared to the panel colour, now), then alternating the plots' lines computed at once on the UI
+  thread (before) and on the line worker while the frame renders (now): fps, the app's work and CPU per
+  frame side by side in this process. Seeks are clicks (drawn whole at once); only the drag moves the
+  cursor frame after frame. To compare another checkout, copy this file into it and run it from there.
 * **open**: a recording of 50 topics x 100 Hz for ``--minutes`` (written by ``bench_record``'s writer),
   opened for replay: the time until the first frame can be drawn (the end of the file, 20 bindings
   filled) and until the whole file is seekable, against loading it whole first.
@@ -214,6 +216,7 @@ def _redraw(args: argparse.Namespace) -> None:
     from dbglog.viewer._data._replay import ReplaySource
     from dbglog.viewer._ui import ViewerApp
     from dbglog.viewer._widgets import WidgetRegistry
+    from dbglog.viewer.widget_api import TimeRange
 
     store = History(clock=None, max_seconds=7200, max_bytes=2**40)
     names = [f"/bench/tt/t{k}" for k in range(args.topics)]
@@ -276,11 +279,15 @@ def _redraw(args: argparse.Namespace) -> None:
     app.timeline.seek(span[0] + 120)
     measure("baseline: one frame, cursor still (the drawing alone)", "")
     rng = random.Random(11)
+    # Each seek is a click: the whole frame is drawn at it (back to back, the seeks would count as a
+    # cursor moving frame after frame, whose plot lines are drawn during the render and shown a frame late).
+    moving_frames, TimeRange.MOVING_FRAMES = TimeRange.MOVING_FRAMES, 2**62
     measure(
         "seek to a random time + one frame (20 widgets redrawn)",
         "p95 ≤ 50 ms",
         [rng.uniform(span[0] + 120, span[1]) for _ in range(args.moves)],
     )
+    TimeRange.MOVING_FRAMES = moving_frames
     # A drag: the cursor +0.1 s a frame for 5 s, frames back to back (their times in a row of their own).
     t = span[0] + 120
     drag: list[float] = []
@@ -321,6 +328,44 @@ def _redraw(args: argparse.Namespace) -> None:
         for panel, label in (
             (False, "every widget frame filled (before)"),
             (True, "canvas cleared to the panel colour"),
+        )
+    ]
+    app.paint.panel_clear = True  # today's look for what follows
+    # The same drag with the plots' lines computed at once on the UI thread (before the line worker), and
+    # on the line worker while the frame renders (today), alternating 1 s blocks in this process.
+    lines: dict[bool, list[float]] = {True: [0, 0.0, 0.0, 0.0], False: [0, 0.0, 0.0, 0.0]}
+    for block in range(2 * args.fill_blocks):
+        on_worker = block % 2 == 1
+        TimeRange.MOVING_FRAMES = moving_frames if on_worker else 2**62
+        for _ in range(moving_frames + 1):  # the cursor counts as moving again (not counted)
+            t += 0.1
+            app.timeline.seek(t)
+            app.frame()
+        begin, cpu0, work = time.perf_counter(), time.process_time(), 0.0
+        while time.perf_counter() - begin < 1.0:
+            t += 0.1
+            app.timeline.seek(t)
+            app.frame()
+            work += app.last_work_s
+            lines[on_worker][0] += 1
+        lines[on_worker][1] += time.perf_counter() - begin
+        lines[on_worker][2] += time.process_time() - cpu0
+        lines[on_worker][3] += work
+    TimeRange.MOVING_FRAMES = moving_frames
+    fill_rows += [
+        [
+            f"drag, 1 s blocks alternating ({args.fill_blocks} each): {label}",
+            f"{lines[on][0] / lines[on][1]:.1f} fps",
+            "",
+            "",
+            f"{lines[on][3] / lines[on][0] * 1e3:.1f}",
+            "",
+            f"{lines[on][2] / lines[on][0] * 1e3:.1f}",
+            "",
+        ]
+        for on, label in (
+            (False, "plot lines computed at once (before)"),
+            (True, "plot lines on the line worker during the render"),
         )
     ]
     if args.shot:
