@@ -235,7 +235,11 @@ class Probe:
             i.name: {
                 "rect": [i.rect.x + ox, i.rect.y + oy, i.rect.w, i.rect.h],
                 "values": [json_value(s.last) for s in i.snapshots(timeline)],
+                "times": [s.last_time for s in i.snapshots(timeline)],
                 "topics": [b.topic for b in i.series],
+                # A plot: frames whose lines the line worker drew (shown a frame later), the newest drawn.
+                "lines_later": getattr(i.widget, "lines_later", None),
+                "drawn_to": getattr(i.widget, "drawn_to", None),
             }
             for i in app.items
         }
@@ -463,6 +467,40 @@ def test_play_speed_and_loop_by_mouse(viewer: Callable[[str], Viewer]) -> None:
     v.key("space")
     v.wait_for(lambda s: not s["playing"])
     assert shot.stat().st_size > 0
+
+
+def test_a_continuous_drag_in_a_replay_ends_drawn_at_the_cursor(viewer: Callable[[str], Viewer]) -> None:
+    """A hand's drag along the bar (a move every few ms, ending in a jump of seconds): the plots' lines go
+    to the line worker while the cursor moves, and once it stops they are the cursor's at once, though in a
+    replay nothing new arrives to redraw them."""
+    v = viewer("replay")
+    v.wait_for(lambda s: s["cursor"] is not None)
+    x, y = v.track_point(0.2)
+    far_x, end_x = v.track_point(0.65)[0], v.track_point(0.8)[0]
+    v.click(x, y)
+    v.wait_for(lambda s: s["cursor"] < T0 + 20)
+    before = v.state()["items"]["Plot"]["lines_later"]
+    v.move(x, y)
+    v.xdo("mousedown", "1")
+    v.frames(3)
+    steps: list[str] = []
+    for i in range(1, 41):
+        steps += ["mousemove", "--window", v.window, str(round(x + (far_x - x) * i / 40)), str(round(y))]
+        steps += ["sleep", "0.005"]
+    steps += ["mousemove", "--window", v.window, str(round(end_x)), str(round(y))]
+    v.xdo(*steps)
+    v.frames(3)
+    v.xdo("mouseup", "1")
+    v.frames(3)
+    state = v.frames(3)
+    t = state["cursor"]
+    plot = state["items"]["Plot"]
+    seen = f"cursor {t!r}, plot {plot}\n{v.output()}"
+    assert t > T0 + 40, seen
+    assert plot["lines_later"] > before, f"the plot's lines never went to the line worker: {seen}"
+    assert plot["values"] == [speed_at(t)], seen
+    # The newest point drawn is the recording's last sample at the cursor, not a frame-old one.
+    assert plot["drawn_to"] == plot["times"][0] <= t, seen
 
 
 # -- the File menu -------------------------------------------------------------------------------------------

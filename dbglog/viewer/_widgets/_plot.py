@@ -471,7 +471,8 @@ class PlotWidget(Widget):
 
     def redraw_key(self) -> object:
         """What, besides new data, redraws the plot: the range (zoom, pan, linked plots, the newest time while
-        following), the pointer over it, a double click, limits still being pushed to ImPlot."""
+        following), the pointer over it, a double click, limits still being pushed to ImPlot, lines from
+        the line worker to show (the cursor stopped after moving: nothing else may change)."""
         if not self.plot or not dpg.does_item_exist(self.plot):
             return None
         self._poll()
@@ -489,6 +490,7 @@ class PlotWidget(Widget):
             self._sync.forcing,
             self._visible and self._sync.due(self._frame),
             self.paused,
+            self.lines_later,  # a new task's lines, computed while the last frame rendered: shown in this one
         )
 
     # -- drawing -------------------------------------------------------------------------------------
