@@ -33,6 +33,26 @@ def _reset_dbglog_state() -> Iterator[None]:
         reset()
 
 
+@pytest.fixture(scope="session", autouse=True)
+def _worker_display() -> Iterator[None]:
+    """Parallel workers: a private Xvfb is ``$DISPLAY`` for the whole session, so the GUI children a test
+    starts with the inherited environment never share a screen with another worker or suite (CI's shared
+    xvfb-run display refused a viewer's connection now and then: "Failed to open display :99")."""
+    if not private_display(os.environ):
+        yield
+        return
+    before = os.environ.get("DISPLAY")
+    with x_display(private=True) as name:
+        os.environ["DISPLAY"] = name
+        try:
+            yield
+        finally:
+            if before is None:
+                os.environ.pop("DISPLAY", None)
+            else:
+                os.environ["DISPLAY"] = before
+
+
 @pytest.fixture(scope="module")
 def display() -> Iterator[str]:
     """The X display for GUI tests: the caller's, or a private Xvfb (always one for parallel workers)."""
