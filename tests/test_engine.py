@@ -565,3 +565,18 @@ def test_defaults_and_validation() -> None:
         Engine(stale_after=0)
     with pytest.raises(ValueError, match="queue_budget"):
         Engine(queue_budget=0)
+
+
+def test_a_slow_start_is_said_once_and_the_engine_still_starts() -> None:
+    """`start(slow=...)`: not running after `slow_after` (here at once: a ROS node takes tens of ms), the
+    callback says so once (dbglog view's note under --cpu background), and the start goes on waiting."""
+    said: list[float] = []
+    engine = Engine(stale_after=1.0)
+    began = time.monotonic()
+    engine.start(30.0, slow=lambda: said.append(time.monotonic() - began), slow_after=0.0)
+    try:
+        assert len(said) == 1
+        assert said[0] < 1.0
+        assert engine.identity is not None
+    finally:
+        engine.stop()

@@ -12,7 +12,7 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from dbglog._sched import CpuPolicy, add_cpu_argument, apply_cpu_argument
+from dbglog._sched import CpuPolicy, add_cpu_argument, apply_cpu_argument, in_background
 
 if TYPE_CHECKING:
     from dbglog.viewer._data._model import DataSource
@@ -36,6 +36,20 @@ HELP = (
     "Open the live dashboard viewer (drag widgets onto a canvas, bind them to topics, save dashboards), "
     "or replay a recording in it (--replay)."
 )
+
+
+ENGINE_START_S = 15.0
+"""Seconds the data engine may take to start (its ROS context and node)."""
+ENGINE_START_BACKGROUND_S = 120.0
+"""The same under ``--cpu background``, whose threads wait while other processes keep every CPU busy."""
+
+
+def _say_engine_waits() -> None:
+    print(
+        "dbglog view: note: still starting: with --cpu background the viewer waits while the machine is "
+        "busy (--cpu normal does not)",
+        file=sys.stderr,
+    )
 
 
 def size_arg(text: str) -> tuple[int, int]:
@@ -298,10 +312,18 @@ def run(args: argparse.Namespace) -> int:
             history_seconds=args.history,
             history_bytes=int(args.history_mb * 2**20),
         )
+        background = in_background()
         try:
-            engine.start()
+            # Under --cpu background the engine's thread gets a CPU only when nothing else wants one: on a
+            # busy machine it waits, which is no failure (say so, and wait longer).
+            engine.start(
+                ENGINE_START_BACKGROUND_S if background else ENGINE_START_S,
+                slow=_say_engine_waits if background else None,
+            )
         except RuntimeError as exc:
-            print(f"dbglog view: error: {exc}", file=sys.stderr)
+            hint = " (--cpu background: the machine is busy; --cpu normal does not wait)"
+            hint = hint if background else ""
+            print(f"dbglog view: error: {exc}{hint}", file=sys.stderr)
             return 1
         source = engine
     width, height = args.size

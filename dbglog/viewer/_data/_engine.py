@@ -16,6 +16,7 @@ import threading
 import time
 import weakref
 from collections import defaultdict
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from types import TracebackType
 from typing import Any, Self
@@ -264,8 +265,15 @@ class Engine(SeriesTimes):
 
     # --- lifecycle ----------------------------------------------------------------------------------
 
-    def start(self, timeout: float = 15.0) -> None:
+    def start(
+        self, timeout: float = 15.0, *, slow: Callable[[], None] | None = None, slow_after: float = 5.0
+    ) -> None:
         """Start the ROS thread (own context and node); returns once it is running.
+
+        Args:
+            timeout: seconds to wait for it.
+            slow: called once when it is not running after `slow_after` seconds (to say why it waits).
+            slow_after: seconds before `slow` is called.
 
         Raises:
             RuntimeError: ROS could not be initialised; the message gives rclpy's reason.
@@ -276,8 +284,13 @@ class Engine(SeriesTimes):
         self._ready.clear()
         self._thread = threading.Thread(target=self._run, name="dbglog-engine", daemon=True)
         self._thread.start()
-        if not self._ready.wait(timeout):
-            raise RuntimeError(f"the viewer engine did not start within {timeout} s")
+        first = min(timeout, slow_after) if slow is not None else timeout
+        ready = self._ready.wait(first)
+        if not ready and slow is not None and first < timeout:
+            slow()
+            ready = self._ready.wait(timeout - first)
+        if not ready:
+            raise RuntimeError(f"the viewer engine did not start within {timeout:g} s")
         if self._start_error is not None:
             self._thread.join(timeout=5)
             self._thread = None
