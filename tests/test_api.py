@@ -239,6 +239,7 @@ def test_ten_threads_on_one_new_tag_create_exactly_one_publisher(peer: RosPeer) 
     assert dbglog.stats().published == 10
 
 
+@pytest.mark.timeout(240)
 def test_ten_threads_times_ten_thousand_calls_all_counted(peer: RosPeer) -> None:
     """10 threads x 10k calls: every call counted and published, the last value of each arrives."""
     got = {i: peer.subscribe(f"/rosdashboard/mt/t{i}", Float64, LATCHED) for i in range(10)}
@@ -252,7 +253,13 @@ def test_ten_threads_times_ten_thousand_calls_all_counted(peer: RosPeer) -> None
         t.start()
     for t in threads:
         t.join(90)
+    # stats() first publishes what is still queued, for at most 30 s: with a reliable subscriber on each tag
+    # a loaded CI machine once needed longer for the 100k messages (45,056 published by then): ask again.
     s = dbglog.stats()
+    for _ in range(3):
+        if s.published + s.dropped >= s.calls:
+            break
+        s = dbglog.stats()
     assert (s.calls, s.published, s.dropped) == (100_000, 100_000, 0)
     for i in range(10):
         assert got[i].wait_for(100, timeout=20), i
