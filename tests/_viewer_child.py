@@ -157,6 +157,24 @@ class ViewerChild:
         self.xdo("mouseup", "1")
         self.frames(3)
 
+    def hand_drag(self, start: tuple[float, float], through_x: float, end_x: float) -> dict[str, Any]:
+        """Drag like a hand, frames not waited for: press at `start`, move along to `through_x` in 40 steps a
+        few ms apart, jump to `end_x` in one move, let go; return the state three frames after."""
+        x, y = start
+        self.move(x, y)
+        self.xdo("mousedown", "1")
+        self.frames(3)
+        steps: list[str] = []
+        for i in range(1, 41):
+            step_x = round(x + (through_x - x) * i / 40)
+            steps += ["mousemove", "--window", self.window, str(step_x), str(round(y)), "sleep", "0.005"]
+        steps += ["mousemove", "--window", self.window, str(round(end_x)), str(round(y))]
+        self.xdo(*steps)
+        self.frames(3)
+        self.xdo("mouseup", "1")
+        self.frames(3)
+        return self.frames(3)
+
     def key(self, *names: str) -> None:
         """Press keys (xdotool names: "Return", "ctrl+shift+s")."""
         for name in names:  # held for a few frames, as a hand does: the viewer sees the chord together

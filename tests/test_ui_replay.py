@@ -480,19 +480,7 @@ def test_a_continuous_drag_in_a_replay_ends_drawn_at_the_cursor(viewer: Callable
     v.click(x, y)
     v.wait_for(lambda s: s["cursor"] < T0 + 20)
     before = v.state()["items"]["Plot"]["lines_later"]
-    v.move(x, y)
-    v.xdo("mousedown", "1")
-    v.frames(3)
-    steps: list[str] = []
-    for i in range(1, 41):
-        steps += ["mousemove", "--window", v.window, str(round(x + (far_x - x) * i / 40)), str(round(y))]
-        steps += ["sleep", "0.005"]
-    steps += ["mousemove", "--window", v.window, str(round(end_x)), str(round(y))]
-    v.xdo(*steps)
-    v.frames(3)
-    v.xdo("mouseup", "1")
-    v.frames(3)
-    state = v.frames(3)
+    state = v.hand_drag((x, y), far_x, end_x)
     t = state["cursor"]
     plot = state["items"]["Plot"]
     seen = f"cursor {t!r}, plot {plot}\n{v.output()}"

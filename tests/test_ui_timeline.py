@@ -385,21 +385,9 @@ def test_a_continuous_drag_draws_plot_lines_while_rendering_and_settles_exact(
     v.click(x, y)
     v.wait_for(lambda s: not s["live"])
     before = v.item("Plot")["lines_later"]
-    far_x, end_x = v.track_point(0.65)[0], v.track_point(0.8)[0]
-    v.move(x, y)
-    v.xdo("mousedown", "1")
-    v.frames(3)
-    steps: list[str] = []
-    for i in range(1, 41):
-        steps += ["mousemove", "--window", v.window, str(round(x + (far_x - x) * i / 40)), str(round(y))]
-        steps += ["sleep", "0.005"]
-    # Last, a jump of seconds in one move: the lines of the frame before it are far from the cursor then.
-    steps += ["mousemove", "--window", v.window, str(round(end_x)), str(round(y))]
-    v.xdo(*steps)
-    v.frames(3)
-    v.xdo("mouseup", "1")
-    v.frames(3)
-    state = v.frames(3)
+    # Along to 0.65 of the bar, then a jump of seconds in one move: the lines of the frame before it are far
+    # from the cursor then.
+    state = v.hand_drag((x, y), v.track_point(0.65)[0], v.track_point(0.8)[0])
     plot, count = state["items"]["Plot"], state["items"]["Count"]
     seen = f"cursor {state['cursor']!r}, plot {plot}, dial {count}\n{v.output()}"
     assert plot["lines_later"] > before, f"the plot's lines never went to the line worker: {seen}"
