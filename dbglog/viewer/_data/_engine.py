@@ -155,6 +155,22 @@ def _normalize(topic: str) -> str:
     return topic if topic.startswith("/") else "/" + topic
 
 
+def wait_saying(
+    event: threading.Event, timeout: float, slow: Callable[[], None] | None, slow_after: float
+) -> bool:
+    """Wait up to `timeout` s for `event`; when it is not set after `slow_after` s, call `slow` once first.
+
+    Returns whether the event was set.
+    """
+    first = min(timeout, slow_after) if slow is not None else timeout
+    if event.wait(first):
+        return True
+    if slow is None or first >= timeout:
+        return False
+    slow()
+    return event.wait(timeout - first)
+
+
 class Engine(SeriesTimes):
     """Turn (topic, field, regex) bindings into live series; implements ``DataSource``.
 
@@ -284,12 +300,7 @@ class Engine(SeriesTimes):
         self._ready.clear()
         self._thread = threading.Thread(target=self._run, name="dbglog-engine", daemon=True)
         self._thread.start()
-        first = min(timeout, slow_after) if slow is not None else timeout
-        ready = self._ready.wait(first)
-        if not ready and slow is not None and first < timeout:
-            slow()
-            ready = self._ready.wait(timeout - first)
-        if not ready:
+        if not wait_saying(self._ready, timeout, slow, slow_after):
             raise RuntimeError(f"the viewer engine did not start within {timeout:g} s")
         if self._start_error is not None:
             self._thread.join(timeout=5)
