@@ -158,15 +158,16 @@ class ViewerChild:
         self.frames(3)
 
     def hand_drag(self, start: tuple[float, float], through_x: float, end_x: float) -> dict[str, Any]:
-        """Drag like a hand, frames not waited for: press at `start`, move along to `through_x` in 40 steps a
-        few ms apart, jump to `end_x` in one move, let go; return the state three frames after."""
+        """Drag like a hand, frames not waited for: press at `start`, move along to `through_x` in 120 steps a
+        few ms apart (denser than frames, and lasting several frames even on a loaded machine), jump to
+        `end_x` in one move, let go; return the state three frames after."""
         x, y = start
         self.move(x, y)
         self.xdo("mousedown", "1")
         self.frames(3)
         steps: list[str] = []
-        for i in range(1, 41):
-            step_x = round(x + (through_x - x) * i / 40)
+        for i in range(1, 121):
+            step_x = round(x + (through_x - x) * i / 120)
             steps += ["mousemove", "--window", self.window, str(step_x), str(round(y)), "sleep", "0.005"]
         steps += ["mousemove", "--window", self.window, str(round(end_x)), str(round(y))]
         self.xdo(*steps)
