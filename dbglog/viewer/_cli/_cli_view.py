@@ -44,12 +44,11 @@ ENGINE_START_BACKGROUND_S = 120.0
 """The same under ``--cpu background``, whose threads wait while other processes keep every CPU busy."""
 
 
+_BUSY = "with --cpu background the viewer waits while the machine is busy (--cpu normal does not)"
+
+
 def _say_engine_waits() -> None:
-    print(
-        "dbglog view: note: still starting: with --cpu background the viewer waits while the machine is "
-        "busy (--cpu normal does not)",
-        file=sys.stderr,
-    )
+    print(f"dbglog view: note: still starting: {_BUSY}", file=sys.stderr)
 
 
 def size_arg(text: str) -> tuple[int, int]:
@@ -321,8 +320,7 @@ def run(args: argparse.Namespace) -> int:
                 slow=_say_engine_waits if background else None,
             )
         except RuntimeError as exc:
-            hint = " (--cpu background: the machine is busy; --cpu normal does not wait)"
-            hint = hint if background else ""
+            hint = f"; {_BUSY}" if background else ""
             print(f"dbglog view: error: {exc}{hint}", file=sys.stderr)
             return 1
         source = engine

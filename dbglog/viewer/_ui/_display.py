@@ -11,7 +11,16 @@ import ctypes
 import ctypes.util
 import time
 
-__all__ = ["x_display_problem"]
+__all__ = ["load_xlib", "x_display_problem"]
+
+
+def load_xlib() -> ctypes.CDLL:
+    """Return Xlib (the libX11 GLFW links to; loading it again gives the same library).
+
+    Raises:
+        OSError: no libX11 here.
+    """
+    return ctypes.CDLL(ctypes.util.find_library("X11") or "libX11.so.6")
 
 
 def x_display_problem(
@@ -32,7 +41,7 @@ def x_display_problem(
             )
         return "no display: DISPLAY is not set"
     try:
-        x11 = ctypes.CDLL(ctypes.util.find_library("X11") or "libX11.so.6")
+        x11 = load_xlib()
     except OSError:
         return None  # no Xlib to ask: GLFW finds out for itself
     x11.XOpenDisplay.restype, x11.XOpenDisplay.argtypes = ctypes.c_void_p, [ctypes.c_char_p]

@@ -9,7 +9,6 @@ the slow idle frame (`idle_render_s`) that keeps a text cursor blinking. No Dear
 from __future__ import annotations
 
 import ctypes
-import ctypes.util
 import math
 import os
 import select
@@ -17,6 +16,8 @@ import socket
 import stat
 import time
 from dataclasses import dataclass
+
+from dbglog.viewer._ui._display import load_xlib
 
 __all__ = [
     "CPU_WAIT_SHOWN",
@@ -159,7 +160,7 @@ class XInput:
         try:
             glfw = ctypes.CDLL(library)  # already loaded: the same GLFW, with its open display
             get_display = glfw.glfwGetX11Display
-            x11 = ctypes.CDLL(ctypes.util.find_library("X11") or "libX11.so.6")
+            x11 = load_xlib()
         except (OSError, AttributeError):
             return None
         get_display.restype, get_display.argtypes = ctypes.c_void_p, []
