@@ -21,6 +21,7 @@ from enum import StrEnum
 from pathlib import Path
 
 __all__ = [
+    "CPU_ENV",
     "CpuPolicy",
     "CpuWaitMeter",
     "add_cpu_argument",
@@ -30,6 +31,15 @@ __all__ = [
     "in_background",
     "set_cpu_policy",
 ]
+
+
+CPU_ENV = "DBGLOG_CPU"
+"""The environment variable that sets the default of every command's ``--cpu`` (the option still wins):
+``DBGLOG_CPU=normal`` on a machine kept busy by other work, once in a shell profile."""
+
+
+_ENV_WARNED: set[str] = set()
+"""The bad `CPU_ENV` values already named on stderr."""
 
 
 class CpuPolicy(StrEnum):
@@ -84,8 +94,24 @@ def cpu_policy_arg(text: str) -> CpuPolicy:
 
 
 def add_cpu_argument(parser: argparse.ArgumentParser, default: CpuPolicy, help_text: str) -> None:
-    """Declare a command's ``--cpu`` option; its metavar lists every `CpuPolicy` (``{background,normal}``)."""
+    """Declare a command's ``--cpu`` option; its metavar lists every `CpuPolicy` (``{background,normal}``).
+
+    `default` is the command's own; ``$DBGLOG_CPU`` (`CPU_ENV`) replaces it when set. A value that is no
+    policy is named on stderr and the command's own default stands.
+    """
     choices = "{" + ",".join(policy.value for policy in CpuPolicy) + "}"
+    chosen = os.environ.get(CPU_ENV, "").strip()
+    if chosen:
+        try:
+            default = cpu_policy_arg(chosen)
+        except argparse.ArgumentTypeError as exc:
+            if chosen not in _ENV_WARNED:  # (every command's parser is built: say it once)
+                _ENV_WARNED.add(chosen)
+                print(
+                    f"dbglog: warning: {CPU_ENV}: {exc}; each command's own --cpu default stands",
+                    file=sys.stderr,
+                )
+    help_text += f"; {CPU_ENV} sets the default (now {default.value})"
     parser.add_argument("--cpu", type=cpu_policy_arg, default=default, metavar=choices, help=help_text)
 
 

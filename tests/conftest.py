@@ -19,6 +19,11 @@ if "DBGLOG_TEST_DOMAIN_FIXED" not in os.environ:
     os.environ["ROS_DOMAIN_ID"] = str(random.SystemRandom().randint(1, 100))
 os.environ["ROS_DOMAIN_ID"] = str(worker_domain(int(os.environ.get("ROS_DOMAIN_ID", "0")), os.environ))
 os.environ.setdefault("RMW_IMPLEMENTATION", "rmw_fastrtps_cpp")
+# Every `dbglog view` a test starts shares the CPU evenly (`--cpu normal`) unless the test is about the
+# policy (test_ui_cpu, test_sched): the suite keeps 2 cores saturated, and a viewer in the background
+# (SCHED_IDLE, the product's default) then gets almost no CPU: against three busy loops one did not show
+# its first value within 60 s, and CI's busiest moments made such viewers start late or fail.
+os.environ.setdefault("DBGLOG_CPU", "normal")  # (dbglog._sched.CPU_ENV: nothing of dbglog imported yet)
 
 
 @pytest.fixture(autouse=True)

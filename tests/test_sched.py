@@ -18,7 +18,7 @@ from typing import Any
 
 import pytest
 
-from dbglog._sched import CpuPolicy, add_cpu_argument
+from dbglog._sched import CPU_ENV, CpuPolicy, add_cpu_argument
 from tests._children import run_dbglog
 from tests._ros import wait_until
 
@@ -86,6 +86,33 @@ def test_the_cpu_option_shows_every_policy() -> None:
     assert "[--cpu {background,normal}]" in parser.format_usage()
 
 
+def test_dbglog_cpu_sets_the_default_and_the_option_still_wins(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``DBGLOG_CPU`` replaces a command's own default (and its help says which is in force); `--cpu`
+    given on the command line wins; a word that is no policy is named once and the command's default
+    stands."""
+
+    def parse(*argv: str) -> CpuPolicy:
+        parser = argparse.ArgumentParser(prog="dbglog x")
+        add_cpu_argument(parser, CpuPolicy.BACKGROUND, "how")
+        assert f"{CPU_ENV} sets the default" in parser.format_help()
+        policy: CpuPolicy = parser.parse_args(list(argv)).cpu
+        return policy
+
+    monkeypatch.delenv(CPU_ENV, raising=False)
+    assert parse() is CpuPolicy.BACKGROUND
+    monkeypatch.setenv(CPU_ENV, " Normal ")
+    assert parse() is CpuPolicy.NORMAL
+    assert parse("--cpu", "background") is CpuPolicy.BACKGROUND
+    monkeypatch.setenv(CPU_ENV, "idle")
+    monkeypatch.setattr("dbglog._sched._ENV_WARNED", set())
+    assert parse() is CpuPolicy.BACKGROUND
+    assert parse() is CpuPolicy.BACKGROUND
+    err = capsys.readouterr().err
+    assert err.count("DBGLOG_CPU: 'idle' is not a CPU policy: use one of background, normal") == 1, err
+
+
 def policies_of(pid: int) -> dict[str, set[int]]:
     """The scheduling policies of process `pid`'s threads, by thread name."""
     found: dict[str, set[int]] = {}
@@ -106,16 +133,23 @@ def middleware_up(proc: subprocess.Popen[Any]) -> bool:
 @pytest.mark.parametrize("command", ["bridge", "record"])
 def test_bridge_and_record_run_in_the_background_when_asked(tmp_path: Path, command: str) -> None:
     """`dbglog bridge` and `dbglog record` stay ordinary by default (a starved one would lose data); with
-    `--cpu background` every one of their threads, the middleware's included, is SCHED_IDLE."""
+    `--cpu background` (or ``DBGLOG_CPU=background``) every one of their threads, the middleware's
+    included, is SCHED_IDLE."""
     rules = tmp_path / "rules.yaml"
     rules.write_text("rules:\n  - tag: battery\n    pattern: 'battery=(\\d+)%'\n")
     base = {
         "bridge": ["bridge", str(rules), "--no-state"],
         "record": ["record", "battery", "-o", str(tmp_path / "out.mcap"), "--force"],
     }[command]
-    for extra, policy in (([], os.SCHED_OTHER), (["--cpu", "background"], os.SCHED_IDLE)):
+    plain = {k: v for k, v in os.environ.items() if k != CPU_ENV}  # (the suite sets it: see conftest)
+    for extra, env, policy in (
+        ([], plain, os.SCHED_OTHER),
+        (["--cpu", "background"], plain, os.SCHED_IDLE),
+        ([], {**plain, CPU_ENV: "background"}, os.SCHED_IDLE),
+    ):
         proc = subprocess.Popen(
             [sys.executable, "-m", "dbglog", *base, *extra],
+            env=env,
             stdout=subprocess.DEVNULL,
             stderr=subprocess.PIPE,
             text=True,
@@ -124,7 +158,7 @@ def test_bridge_and_record_run_in_the_background_when_asked(tmp_path: Path, comm
             assert wait_until(functools.partial(middleware_up, proc), timeout=30)
             assert proc.poll() is None, proc.communicate()[1]
             found = policies_of(proc.pid)
-            assert all(p == {policy} for p in found.values()), (extra, found)
+            assert all(p == {policy} for p in found.values()), (extra, env.get(CPU_ENV), found)
         finally:
             proc.send_signal(signal.SIGINT)
             _, err = proc.communicate(timeout=30)

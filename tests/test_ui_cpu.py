@@ -17,6 +17,7 @@ from pathlib import Path
 
 import pytest
 
+from dbglog._sched import CPU_ENV
 from tests._ros import wait_until
 from tests.test_sched import middleware_up, policies_of
 from tests.test_ui_canvas import ROOT, Viewer, item, viewer
@@ -46,7 +47,8 @@ def running_view(display: str, tmp_path: Path, *extra: str) -> Iterator[subproce
 
     path = tmp_path / "empty.json"
     save_dashboard(Dashboard([], 20, True), path)
-    env = {**os.environ, "DISPLAY": display}
+    # The product's own default policy (the suite sets DBGLOG_CPU=normal for every other test: conftest).
+    env = {**{k: v for k, v in os.environ.items() if k != CPU_ENV}, "DISPLAY": display}
     with (tmp_path / "view.log").open("w") as log:
         proc = subprocess.Popen(
             [sys.executable, "-m", "dbglog", "view", str(path), *extra],
