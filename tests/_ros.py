@@ -15,7 +15,7 @@ from rclpy.node import Node
 from rclpy.publisher import Publisher
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
-__all__ = ["RELIABLE_VOLATILE", "RosPeer", "wait_until"]
+__all__ = ["RELIABLE_VOLATILE", "RosPeer", "wait_quiet", "wait_until"]
 
 RELIABLE_VOLATILE = QoSProfile(
     depth=1000, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE
@@ -30,6 +30,23 @@ def wait_until(predicate: Callable[[], bool], timeout: float = 10.0, interval: f
             return True
         time.sleep(interval)
     return predicate()
+
+
+def wait_quiet(
+    read: Callable[[], object], quiet: float, timeout: float = 30.0, interval: float = 0.02
+) -> bool:
+    """Poll `read` until its value has not changed for `quiet` seconds (messages still in flight have
+    arrived, however loaded the machine) or `timeout` seconds pass; return whether it went quiet."""
+    deadline = time.monotonic() + timeout
+    last, since = read(), time.monotonic()
+    while time.monotonic() < deadline:
+        time.sleep(interval)
+        now, value = time.monotonic(), read()
+        if value != last:
+            last, since = value, now
+        elif now - since >= quiet:
+            return True
+    return False
 
 
 class Collector:

@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from tests._ros import RosPeer, wait_until
+from tests._ros import RosPeer, wait_quiet, wait_until
 from tests._viewer_child import ViewerChild, report_frame
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -435,7 +435,8 @@ def test_cli_republish_follows_the_keyboard(display: str, peer: RosPeer, tmp_pat
         key("space")
         assert wait_until(lambda: len(speed.values()) >= 2 + 15, 30), speed.values()
         key("space")
-        time.sleep(0.5)
+        # Paused: what was sent before the pause arrives (later on a loaded machine), then nothing more.
+        assert wait_quiet(lambda: len(speed.values()), 1.0), speed.values()
         played = speed.values()[1:]
         assert played == [0.5 * k for k in range(len(played))], played
         paused_at = clock_now()
@@ -444,7 +445,7 @@ def test_cli_republish_follows_the_keyboard(display: str, peer: RosPeer, tmp_pat
         assert speed.values()[1:] == played  # paused: nothing more
         key("Right")  # a step to the next message: the state there, once
         assert wait_until(lambda: len(speed.values()) > 1 + len(played), 10), speed.values()
-        time.sleep(0.3)
+        assert wait_quiet(lambda: len(speed.values()), 0.5), speed.values()
         assert speed.values()[1 + len(played) :] == [played[-1] + 0.5]
         proc.send_signal(signal.SIGINT)
         assert proc.wait(30) == 130  # as dbglog commands end on SIGINT
