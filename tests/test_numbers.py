@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from dbglog._ros._numbers import NumberType, as_number
+from dbglog._ros._numbers import NumberType, as_number, as_numbers
 
 
 @given(st.integers(min_value=-(2**200), max_value=2**200))
@@ -77,3 +77,24 @@ def test_the_result_has_the_wanted_type_for_a_number(want: NumberType) -> None:
     """A whole number of any type comes back as exactly the wanted type."""
     for value in (0, 7, 7.0, np.int64(7), np.float64(7.0)):
         assert type(as_number(value, want)) is want
+
+
+@pytest.mark.parametrize("want", [bool, int, float])
+@pytest.mark.parametrize(
+    "column",
+    [
+        np.array([0.0, 1.5, -2.0, math.nan, math.inf, 2.0**60]),
+        np.array([0, -3, 2**63 - 1, -(2**63)], dtype=np.int64),
+        np.array([0, 7, 2**64 - 1, 2**53 + 1], dtype=np.uint64),
+        np.array([True, False]),
+        np.array([], dtype=np.float64),
+    ],
+    ids=["float64", "int64", "uint64", "bool", "empty"],
+)
+def test_a_column_gives_what_each_value_gives(column: np.ndarray, want: NumberType) -> None:
+    """`as_numbers` of a column is `as_number` of each of its values, type and value alike (NaN as NaN),
+    whether the column already holds the wanted type (no call per value) or not."""
+    got = as_numbers(column, want)
+    expected = [as_number(v, want) for v in column.tolist()]
+    assert [type(g) for g in got] == [type(e) for e in expected]
+    assert [g if g == g else "nan" for g in got] == [e if e == e else "nan" for e in expected]

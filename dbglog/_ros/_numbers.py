@@ -7,7 +7,7 @@ from typing import TYPE_CHECKING, Any, TypeAlias
 if TYPE_CHECKING:
     import numpy as np
 
-__all__ = ["NumberType", "as_number"]
+__all__ = ["NumberType", "as_number", "as_numbers"]
 
 NumberType: TypeAlias = type[bool] | type[int] | type[float]
 """The Python type of a numeric field's value."""
@@ -28,3 +28,19 @@ def as_number(value: float | np.integer[Any] | np.bool_, want: NumberType) -> bo
     if want is int and (isinstance(value, int) or float(value).is_integer()):
         return int(value)
     return float(value)
+
+
+_KIND_TYPE: dict[str, NumberType] = {"f": float, "i": int, "u": int, "b": bool}
+"""The Python type ``tolist`` gives the items of a numpy array of each dtype kind."""
+
+
+def as_numbers(values: np.ndarray[Any, Any], want: NumberType) -> list[bool | int | float]:
+    """Return a 1-D numpy array's numbers as a list of `want`, each as `as_number` gives it.
+
+    A column that already holds `want` (float64 for a float field, int64 or uint64 for an int one) is
+    ``tolist`` alone: no call per value.
+    """
+    items: list[bool | int | float] = values.tolist()
+    if _KIND_TYPE.get(values.dtype.kind) is want:
+        return items
+    return [as_number(v, want) for v in items]

@@ -18,7 +18,7 @@ import numpy as np
 import numpy.typing as npt
 
 from dbglog._ros._batch import BATCH_TOPIC, BatchError, decode_batch
-from dbglog._ros._numbers import NumberType, as_number
+from dbglog._ros._numbers import NumberType, as_number, as_numbers
 from dbglog._ros._tags import TAG_PREFIX
 from dbglog._ros._text import format_line
 from dbglog.record._reader import Recording, TopicData, read_recording
@@ -242,9 +242,7 @@ def echo_lines(
         times = (series.times_ns / 1e9).tolist()
         want = _number_type(series.std_type)
         values: list[Any] = (
-            series.values
-            if isinstance(series.values, list)
-            else [as_number(v, want) for v in series.values.tolist()]
+            series.values if isinstance(series.values, list) else as_numbers(series.values, want)
         )
         yield from _lines(times, values, stamp)
         return
@@ -257,7 +255,7 @@ def echo_lines(
     times = (data.times_ns / 1e9).tolist()
     if data.values is not None and all(name == "data" for name, idx in fields) and len(fields) <= 1:
         want = _number_type(data.msg_type.rsplit("/", 1)[1])
-        yield from _lines(times, [as_number(v, want) for v in data.values.tolist()], stamp)
+        yield from _lines(times, as_numbers(data.values, want), stamp)
         return
     decode = _decoder(data)
     for t, payload in zip(times, data.payloads(), strict=True):

@@ -27,7 +27,7 @@ from dbglog._ros._batch import (
 )
 from dbglog._ros._cdr import read_string, string_payload
 from dbglog._ros._node import no_callback
-from dbglog._ros._numbers import as_number
+from dbglog._ros._numbers import as_numbers
 from dbglog._ros._qos import batch_qos
 from dbglog._ros._tags import topic_for_tag
 from dbglog.viewer._data._history import History
@@ -309,8 +309,7 @@ class BatchIngest:
 
 def _typed(values: Any, sink: Any) -> list[Any]:
     """Numbers back as the field's Python type (bool, int or float), as typed messages hold them."""
-    want = number_type(sink)
-    return [as_number(v, want) for v in values.tolist()]
+    return as_numbers(values, number_type(sink))
 
 
 class _Sample:
