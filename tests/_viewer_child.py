@@ -100,9 +100,9 @@ class ViewerChild:
         start = int(self.state().get(key, 0))
         return self.wait_for(lambda s: int(s.get(key, 0)) >= start + n)
 
-    def ready(self) -> dict[str, Any]:
-        """Wait for the first report and the window, and give the window the keyboard."""
-        state = self.wait_for(lambda s: s.get(self.frame_key, 0) >= 3)
+    def ready(self, timeout: float = WAIT_S) -> dict[str, Any]:
+        """Wait for the first report and the window (`timeout` seconds), and give the window the keyboard."""
+        state = self.wait_for(lambda s: s.get(self.frame_key, 0) >= 3, timeout)
         out = self.xdo("search", "--sync", "--pid", str(self.proc.pid))
         self.window = out.split()[0]
         self.xdo("windowfocus", "--sync", self.window)
