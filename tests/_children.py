@@ -3,13 +3,33 @@
 from __future__ import annotations
 
 import os
+import signal
 import subprocess
 import sys
 import textwrap
 from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
+
+from dbglog.viewer._cli._cli_view import ENGINE_START_BACKGROUND_S
 
 ROOT = Path(__file__).resolve().parent.parent
+
+BACKGROUND_START_S = ENGINE_START_BACKGROUND_S
+"""Seconds a dbglog process under ``--cpu background`` may take to start, as `dbglog view` allows its own
+engine: it runs only as fast as the CPUs others leave it, and CI's busiest moments leave it little."""
+
+
+def stop_child(proc: subprocess.Popen[Any], sig: int = signal.SIGINT, timeout: float = 30.0) -> str:
+    """Send `sig` and wait `timeout` s for the child to end, killing it if it does not (a starved or stuck
+    child must not outlive its test); return its stderr when piped, else ''."""
+    proc.send_signal(sig)
+    try:
+        err = proc.communicate(timeout=timeout)[1]
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        err = proc.communicate(timeout=10)[1]
+    return str(err or "")
 
 
 def run_scenario(

@@ -719,9 +719,6 @@ def _view(
         str(out_dir / f"{path.name}.png"),
     ]
     command += ["--after", "1", "--size", "800x600", "--report-json", str(report)]
-    # The CPU policy is not this test's subject (test_ui_cpu's is): three background viewers side by side
-    # waited minutes for a CPU at CI's busiest moments.
-    command += ["--cpu", "normal"]
     proc = subprocess.run(command, capture_output=True, text=True, timeout=240, check=False, env=env)
     return proc, (json.loads(report.read_text()) if report.exists() else None)
 

@@ -9,7 +9,6 @@ import argparse
 import functools
 import os
 import shutil
-import signal
 import subprocess
 import sys
 import textwrap
@@ -19,7 +18,7 @@ from typing import Any
 import pytest
 
 from dbglog._sched import CPU_ENV, CpuPolicy, add_cpu_argument
-from tests._children import run_dbglog
+from tests._children import BACKGROUND_START_S, run_dbglog, stop_child
 from tests._ros import wait_until
 
 pytestmark = pytest.mark.skipif(not hasattr(os, "SCHED_IDLE"), reason="SCHED_IDLE is Linux's")
@@ -155,28 +154,17 @@ def test_bridge_and_record_run_in_the_background_when_asked(tmp_path: Path, comm
             text=True,
         )
         try:
-            # In the background it starts only as fast as the CPUs others leave it (the viewer itself allows
-            # its engine 120 s there): CI's busiest moments leave it little.
             started = wait_until(
-                functools.partial(middleware_up, proc), timeout=120 if policy == os.SCHED_IDLE else 30
+                functools.partial(middleware_up, proc),
+                timeout=BACKGROUND_START_S if policy == os.SCHED_IDLE else 30,
             )
             assert started
             assert proc.poll() is None, proc.communicate()[1]
             found = policies_of(proc.pid)
             assert all(p == {policy} for p in found.values()), (extra, env.get(CPU_ENV), found)
         finally:
-            err = stop(proc)
+            err = stop_child(proc)
         assert "--cpu" not in err, err
-
-
-def stop(proc: subprocess.Popen[str]) -> str:
-    """End a dbglog command as Ctrl+C does, killing it if it does not end in 30 s; return its stderr."""
-    proc.send_signal(signal.SIGINT)
-    try:
-        return proc.communicate(timeout=30)[1]
-    except subprocess.TimeoutExpired:  # (a starved or stuck child must not outlive the test)
-        proc.kill()
-        return proc.communicate(timeout=10)[1]
 
 
 def test_a_bad_cpu_word_is_named() -> None:

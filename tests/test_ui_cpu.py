@@ -9,6 +9,7 @@ from __future__ import annotations
 import contextlib
 import functools
 import os
+import signal
 import subprocess
 import sys
 import time
@@ -18,6 +19,7 @@ from pathlib import Path
 import pytest
 
 from dbglog._sched import CPU_ENV
+from tests._children import BACKGROUND_START_S, stop_child
 from tests._ros import wait_until
 from tests.test_sched import middleware_up, policies_of
 from tests.test_ui_canvas import ROOT, Viewer, item, viewer
@@ -62,19 +64,14 @@ def running_view(display: str, tmp_path: Path, *extra: str) -> Iterator[subproce
                 ["xdotool", "search", "--sync", "--pid", str(proc.pid)],
                 env=env,
                 capture_output=True,
-                timeout=120,  # (in the background, as fast as the CPUs others leave it)
+                timeout=BACKGROUND_START_S,
                 check=False,
             )
             assert found.returncode == 0, (tmp_path / "view.log").read_text()
             yield proc
             assert proc.poll() is None, (tmp_path / "view.log").read_text()
         finally:
-            proc.terminate()
-            try:
-                proc.wait(15)
-            except subprocess.TimeoutExpired:  # (a starved or stuck child must not outlive the test)
-                proc.kill()
-                proc.wait(10)
+            stop_child(proc, signal.SIGTERM, 15)
 
 
 def test_idle_view_uses_a_few_percent_of_a_core(display: str, tmp_path: Path) -> None:
@@ -97,7 +94,9 @@ def test_view_runs_every_thread_in_the_background_unless_told_otherwise(
     extra = [] if cpu is None else ["--cpu", cpu]
     with running_view(display, tmp_path, *extra) as proc:
         # (the middleware's threads start with the engine's node)
-        assert wait_until(functools.partial(middleware_up, proc), timeout=120 if cpu is None else 30)
+        assert wait_until(
+            functools.partial(middleware_up, proc), timeout=BACKGROUND_START_S if cpu is None else 30
+        )
         threads = policies_of(proc.pid)
         assert any(name.startswith("dds.") for name in threads), threads
         assert len(threads) >= 3, threads
@@ -167,7 +166,7 @@ def test_a_background_viewer_starved_by_busy_cpus_says_so(viewer: Callable[[str]
     wait 89-94 % of its busy time before the busy loops below started.)
     """
     v = viewer("live-bg:20")
-    v.ready(timeout=120)  # in the background from its first step: as fast as the CPUs others leave it
+    v.ready(timeout=BACKGROUND_START_S)  # in the background from its first step
     # Busy loops on every CPU, at nice 19 so that the other tests running beside this one hardly notice
     # them: to a SCHED_IDLE viewer even a nice-19 task comes first.
     busy = [subprocess.Popen([sys.executable, "-c", BUSY_NICE_19]) for _ in range(os.cpu_count() or 2)]
