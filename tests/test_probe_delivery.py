@@ -23,7 +23,7 @@ from std_msgs.msg import Float64
 import dbglog
 from dbglog import DbglogWarning
 from dbglog._ros._batch import BATCH_TOPIC, is_sdk_node, sdk_node_name
-from dbglog._ros._qos import tag_qos
+from dbglog._ros._qos import subscription_qos
 from dbglog.api._public import RUNTIME
 from dbglog.viewer._data._engine import Engine
 from dbglog.viewer._data._model import Binding, SeriesSnapshot
@@ -304,13 +304,22 @@ def test_user_node_carries_the_batch_and_the_engine_reads_it(engine: Engine) -> 
 def test_plain_ros_subscriber_gets_every_sample_of_a_1khz_tag_in_order() -> None:
     """A plain rclpy subscriber on /rosdashboard/<tag> receives each sample as Float64, in order."""
     with RosPeer("probe_plain") as peer:
-        got = peer.subscribe("/rosdashboard/probe/plain", Float64, tag_qos())
+        # The tag's QoS with a reader queue deep enough for all 501: this subscriber's Python callbacks share
+        # the GIL with the 1 kHz loop and the SDK's thread, and a keep-last-100 reader whose callbacks fall
+        # 100 samples behind drops the oldest it holds (the reader's drop, not dbglog's). That is one possible
+        # cause of a CI failure here under load that did not reproduce; the message now says what arrived.
+        got = peer.subscribe(
+            "/rosdashboard/probe/plain", Float64, subscription_qos(1000, reliable=True, transient=True)
+        )
         dbglog.logfloat("probe/plain", -1.0)
         assert got.wait_for(1, TIMEOUT)
         thread = threading.Thread(target=_loop_1khz, args=(["probe/plain"], 500))
         thread.start()
         thread.join(30)
-        assert got.wait_for(501, TIMEOUT)
+        assert got.wait_for(501, TIMEOUT), (  # (the message, only on failure: what arrived by then)
+            len(got.values()),
+            sorted(set(range(-1, 500)) - {int(v) for v in got.values()})[:20],
+        )
         assert got.values() == [-1.0, *map(float, range(500))]
 
 
