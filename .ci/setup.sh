@@ -11,6 +11,8 @@ command -v Xvfb >/dev/null 2>&1 || need_apt+=(xvfb xauth)
   || ls /usr/lib/*/dri/*swrast* >/dev/null 2>&1 || need_apt+=(libgl1-mesa-dri)
 command -v ip >/dev/null 2>&1 || need_apt+=(iproute2)
 command -v xdotool >/dev/null 2>&1 || need_apt+=(xdotool)
+# A C compiler builds the SDK's hot path (dbglog/api/_hot.c); without one dbglog installs in pure Python.
+command -v cc >/dev/null 2>&1 || need_apt+=(gcc libc6-dev)
 if [ ${#need_apt[@]} -gt 0 ]; then
   echo "setup: installing system packages: ${need_apt[*]}"
   SUDO=""; [ "$(id -u)" -eq 0 ] || SUDO="sudo"
@@ -20,6 +22,16 @@ fi
 
 PY="${PYTHON:-python3.11}"
 command -v "$PY" >/dev/null 2>&1 || PY=python3
+# The C hot path needs the interpreter's headers: pyenv builds have them, a distribution's Python has
+# them in its -dev package.
+if ! "$PY" -c 'import os, sys, sysconfig; sys.exit(0 if os.path.exists(os.path.join(sysconfig.get_paths()["include"], "Python.h")) else 1)'; then
+  pydev="python$("$PY" -c 'import sys; print("%d.%d" % sys.version_info[:2])')-dev"
+  echo "setup: installing $pydev (Python.h, for dbglog's compiled hot path)"
+  SUDO=""; [ "$(id -u)" -eq 0 ] || SUDO="sudo"
+  $SUDO apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "$pydev" >/dev/null \
+    || echo "setup: could not install $pydev: dbglog's hot path will run in Python" >&2
+fi
 if [ ! -x "$VENV/bin/python" ]; then
   echo "setup: creating $VENV"
   "$PY" -m venv "$VENV"
@@ -32,7 +44,9 @@ fi
 # but is marked transitional.) The stamp records the mode, so a venv installed the old way is redone once.
 install_mode="editable+clone-pth"
 stamp="$VENV/.dbglog-installed"
-if [ ! -f "$stamp" ] || [ "$ROOT/pyproject.toml" -nt "$stamp" ] || [ "$(cat "$stamp")" != "$install_mode" ]; then
+# The editable install compiles dbglog/api/_hot.c in place: a changed source (or setup.py) installs again.
+if [ ! -f "$stamp" ] || [ "$ROOT/pyproject.toml" -nt "$stamp" ] || [ "$ROOT/setup.py" -nt "$stamp" ] \
+    || [ "$ROOT/dbglog/api/_hot.c" -nt "$stamp" ] || [ "$(cat "$stamp")" != "$install_mode" ]; then
   echo "setup: installing dbglog[ros,viewer,test] into $VENV"
   "$VENV/bin/python" -m pip install -q --upgrade pip >/dev/null
   "$VENV/bin/python" -m pip install -q -e "$ROOT[ros,viewer,test]"

@@ -189,7 +189,7 @@ def _make_calls(mode: str) -> Any:
 
             logfloat, logint, logbool, logstring = off.logfloat, off.logint, off.logbool, off.logstring
         else:
-            assert dbglog.enabled == (mode == "on"), (mode, dbglog.enabled)
+            assert dbglog.enabled == (mode in ("on", "py")), (mode, dbglog.enabled)
             if mode == "on":
                 dbglog.init()
             logfloat, logint, logbool, logstring = (
@@ -198,6 +198,10 @@ def _make_calls(mode: str) -> Any:
                 dbglog.logbool,
                 dbglog.logstring,
             )
+            if mode == "py":  # the same functions without their compiled hot path (docs/api.md)
+                logfloat, logint, logbool, logstring = (
+                    getattr(f, "slow", f) for f in (logfloat, logint, logbool, logstring)
+                )
     for tag in ftags:
         logfloat(tag, -1.0)
     for tag in itags:
@@ -299,10 +303,13 @@ def publisher(mode: str, seconds: float) -> None:
         dbglog.flush(5.0)
 
 
-_MIX_MODES = ("none", "nop", "off", "on")
+_MIX_MODES = ("none", "nop", "off", "on", "py")
 _MIX_BLOCK = 500
-"""Iterations per block of one mode in the interleaved run (0.5 s: the publisher thread's last flush of
-an "on" block, at most 10 ms later, spills into the next block's first 2 %)."""
+"""Iterations per block of one mode in the interleaved run (0.5 s)."""
+_MIX_SETTLE = 20
+"""The first iterations of each block that are run but not measured: the publisher thread's last flush
+of a dbglog block, at most 10 ms later, spills into the next block (two of the five modes are dbglog,
+so without this margin the blocks after them carried some of their cost)."""
 
 
 def set_thread_slice(microseconds: float) -> None:
@@ -344,10 +351,11 @@ def set_thread_slice(microseconds: float) -> None:
 
 
 def publisher_mixed(seconds: float, slice_us: float | None = None) -> None:
-    """The interleaved run: one process alternates blocks of no calls, the empty function and dbglog on.
+    """The interleaved run: one process alternates blocks of no calls, the empty function, dbglog off, and
+    dbglog on with its compiled hot path and with the Python one.
 
     Each block of `_MIX_BLOCK` iterations runs one mode, in a new random order every round, so the
-    machine's load (other processes, this VM's neighbours) falls on the three alike: the loop period's
+    machine's load (other processes, this VM's neighbours) falls on all of them alike: the loop period's
     p99 per mode compares dbglog with the same loop without calls *in the same minutes*, which
     separate runs on a shared 2-core machine cannot (their p99 drifts ±50 % run to run).
     """
@@ -374,18 +382,18 @@ def publisher_mixed(seconds: float, slice_us: float | None = None) -> None:
     k = 0
     on_iterations = 0
     deadline = time.monotonic()
-    previous: tuple[str, float] | None = None
+    previous: tuple[str, float, int] | None = None
     for _ in range(rounds):
         order = list(_MIX_MODES)
         rng.shuffle(order)
         for mode in order:
             step, out = steps[mode], calls[mode]
             timed: list[int] = []
-            for _ in range(_MIX_BLOCK):
+            for i in range(_MIX_BLOCK):
                 start = time.monotonic()
-                if previous is not None:
+                if previous is not None and previous[2] >= _MIX_SETTLE:
                     periods[previous[0]].append((start - previous[1]) * 1e6)
-                previous = (mode, start)
+                previous = (mode, start, i)
                 _work()
                 step(k, clock, timed)
                 k += 1
@@ -395,18 +403,20 @@ def publisher_mixed(seconds: float, slice_us: float | None = None) -> None:
                     q0, t0 = runq.ns(), time.monotonic()
                     time.sleep(rest)
                     over = (time.monotonic() - t0 - rest) * 1e6
-                    if over > _MIX_LATE_US:
+                    if over > _MIX_LATE_US and i >= _MIX_SETTLE:
                         late[mode].append((over, (runq.ns() - q0) / 1e3))
                 elif rest < -0.001:  # a missed deadline is skipped, as a ROS 2 timer does: no burst
                     deadline = time.monotonic()
-            out.extend(float(c) for c in timed)
-            on_iterations += _MIX_BLOCK if mode == "on" else 0
+            out.extend(float(c) for c in timed[_MIX_SETTLE * 10 :])
+            on_iterations += _MIX_BLOCK if mode in ("on", "py") else 0
     figures = {
         mode: {
             "period_p50_us": _pct(periods[mode], 0.5),
             "period_p99_us": _pct(periods[mode], 0.99),
             "call_p50_ns": _pct(calls[mode], 0.5),
             "call_p99_ns": _pct(calls[mode], 0.99),
+            "position_p50_ns": [_pct(calls[mode][i::10], 0.5) for i in range(10)],
+            "position_p90_ns": [_pct(calls[mode][i::10], 0.9) for i in range(10)],
             "iterations": len(periods[mode]),
             "late_wakeups": len(late[mode]),
             "late_runqueue_share": (
@@ -597,7 +607,8 @@ def run_interleaved(seconds: float, slice_us: float | None = None, cpu: str = "b
         assert _readline(pub, 60) == "measuring"
         _send(engine, "start")
         result: dict[str, Any] = json.loads(_readline(pub, seconds * 1.5 + 60))
-        _send(engine, f"report {1 + result['warmup'] + result['n']}")
+        primed = sum(m in ("on", "py") for m in _MIX_MODES)  # each dbglog mode's first call per tag
+        _send(engine, f"report {primed + result['warmup'] + result['n']}")
         result.update(json.loads(_readline(engine, 60)))
         _send(pub, "exit")
         pub.wait(30)
@@ -614,7 +625,13 @@ def _print_interleaved(
     sys.path.insert(0, str(ROOT))
     from benchmarks._common import print_table
 
-    names = {"none": "no calls", "nop": "empty function", "off": "dbglog off", "on": "dbglog on"}
+    names = {
+        "none": "no calls",
+        "nop": "empty function",
+        "off": "dbglog off",
+        "on": "dbglog on",
+        "py": "dbglog on, Python hot path",
+    }
     rows = []
     for mode in _MIX_MODES:
         p99 = [r["modes"][mode]["period_p99_us"] for r in runs]
@@ -651,6 +668,23 @@ def _print_interleaved(
             f"wake-ups > {_MIX_LATE_US:.0f} µs late (share waiting for a CPU)",
         ],
         rows,
+    )
+    print_table(
+        "Per call by position in the iteration, p50 / p90 µs, medians of the runs (1-6 logfloat, 7-8 logint, "
+        "9 logbool, 10 logstring throttled; 1, 7, 9 and 10 are the first call of their function)",
+        ["Calls", *(str(i) for i in range(1, 11))],
+        [
+            [
+                names[mode],
+                *(
+                    f"{statistics.median(r['modes'][mode]['position_p50_ns'][i] for r in runs) / 1e3:.1f} / "
+                    f"{statistics.median(r['modes'][mode]['position_p90_ns'][i] for r in runs) / 1e3:.1f}"
+                    for i in range(10)
+                ),
+            ]
+            for mode in _MIX_MODES
+            if mode != "none"
+        ],
     )
 
 

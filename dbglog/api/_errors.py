@@ -73,10 +73,11 @@ class Stats:
 class _Counter:
     """A counter whose increment is one C call (atomic under the GIL), readable without a lock."""
 
-    __slots__ = ("_count", "_lock", "_reads", "incr")
+    __slots__ = ("_count", "_lock", "_reads", "counter", "incr")
 
     def __init__(self) -> None:
-        self._count = itertools.count()
+        self._count = self.counter = itertools.count()
+        """The counter itself: the compiled hot path advances it (``incr`` is its bound ``__next__``)."""
         self.incr = self._count.__next__
         self._reads = 0
         self._lock = threading.Lock()

@@ -14,7 +14,7 @@ import sys
 import time
 from collections.abc import Mapping
 from types import FrameType
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from dbglog.api._convert import (
     KIND_DEFAULT,
@@ -677,3 +677,49 @@ def reset() -> None:
     RUNTIME.forget_tags()
     _LIMITER.clear()
     REPORTER.reset()
+
+
+# ----- the compiled hot path ----------------------------------------------------------------------
+
+HOT_PATH_ENV = "DBGLOG_PURE_PYTHON"
+"""Set to 1 to keep the Python functions above (the compiled path is then not even imported)."""
+
+
+def _compiled() -> Any:
+    """Return the compiled `HotCall` type, or None (not built on this machine, or switched off)."""
+    if os.environ.get(HOT_PATH_ENV, "") not in ("", "0"):
+        return None
+    try:
+        from dbglog.api._hot import HotCall
+    except ImportError:  # built without a compiler: the Python functions do the same, slower
+        return None
+    return HotCall
+
+
+_HotCall = _compiled()
+hot_path = "C" if _HotCall is not None else "Python"
+"""Which implementation runs the common case of logfloat/logint/logbool/logstring."""
+
+
+def _hot(slow: Any, kind: int, table: dict[object, Channel]) -> Any:
+    import functools
+
+    hot = _HotCall(
+        slow,
+        kind,
+        table,
+        _queue,
+        _PIPE,
+        REPORTER.calls.counter,
+        REPORTER.rate_limited.counter,
+        _LIMITER.clock,
+        MAX_STRING_CHARS,
+    )
+    return functools.update_wrapper(hot, slow)
+
+
+if not TYPE_CHECKING and _HotCall is not None:
+    logfloat = _hot(logfloat, 0, _fast_float)
+    logint = _hot(logint, 1, _fast_int)
+    logbool = _hot(logbool, 2, _fast_bool)
+    logstring = _hot(logstring, 3, _fast_str)

@@ -1,0 +1,26 @@
+"""The compiled hot path of dbglog's scalar logging functions (``_hot.c``)."""
+
+from collections import deque
+from collections.abc import Callable, Iterator
+from typing import Any
+
+class HotCall:
+    """A logging function whose common case runs in C (the Python function decides the rest)."""
+
+    slow: Callable[..., None]
+    __name__: str
+    __qualname__: str
+    __wrapped__: Callable[..., None]
+    def __init__(
+        self,
+        slow: Callable[..., None],
+        kind: int,
+        table: dict[object, Any],
+        queue: deque[Any],
+        pipe: Any,
+        calls: Iterator[int],
+        rate_limited: Iterator[int],
+        clock: Callable[[], float],
+        max_chars: int,
+    ) -> None: ...
+    def __call__(self, *args: Any, **kwargs: Any) -> None: ...

@@ -1,0 +1,9 @@
+"""The one compiled part of dbglog: the hot path of logfloat/logint/logbool/logstring (docs/api.md).
+
+Everything else is in pyproject.toml. The extension is optional: without a C compiler the install still
+succeeds and the same functions run in Python (``dbglog.api._public.hot_path`` says which).
+"""
+
+from setuptools import Extension, setup
+
+setup(ext_modules=[Extension("dbglog.api._hot", sources=["dbglog/api/_hot.c"], optional=True)])
