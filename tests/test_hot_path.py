@@ -23,7 +23,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import dbglog
-from dbglog.api import _public
+from dbglog.api import _native, _public
 from dbglog.api._convert import MAX_STRING_CHARS
 from dbglog.api._hot import HotCall
 from dbglog.api._public import REPORTER, RUNTIME
@@ -217,19 +217,33 @@ def test_the_c_path_leaks_no_reference() -> None:
     assert (sys.getrefcount(channel), sys.getrefcount(value), sys.getrefcount(tag)) == before
 
 
-def test_dbglog_pure_python_keeps_the_python_functions() -> None:
-    """``DBGLOG_PURE_PYTHON=1`` binds the Python functions and does not import the compiled module."""
-    code = (
-        "import sys, types, dbglog\n"
-        "from dbglog.api import _public\n"
-        "assert isinstance(dbglog.logfloat, types.FunctionType), type(dbglog.logfloat)\n"
-        "assert 'dbglog.api._hot' not in sys.modules\n"
-        "print(_public.hot_path)\n"
+_BOUND_PROBE = """
+import sys, dbglog
+names = ("log", "logfloat", "logint", "logbool", "logstring", "logdata")
+print(sorted({type(getattr(dbglog, n)).__name__ for n in names}), "dbglog.api._hot" in sys.modules)
+"""
+
+
+def _bound(**env: str) -> str:
+    out = subprocess.run(
+        [sys.executable, "-c", _BOUND_PROBE],
+        env={**os.environ, **env},
+        capture_output=True,
+        text=True,
+        timeout=60,
     )
-    env = {**os.environ, _public.HOT_PATH_ENV: "1"}
-    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=60)
     assert out.returncode == 0, out.stderr
-    assert out.stdout.strip() == "Python"
+    return out.stdout.strip()
+
+
+def test_dbglog_pure_python_keeps_the_python_functions_on_and_off() -> None:
+    """Switched on, the scalar functions are compiled (log and logdata stay Python); switched off, every
+    logging function is a compiled no-op; ``DBGLOG_PURE_PYTHON=1`` binds the Python functions either way
+    and does not import the compiled module."""
+    assert _bound(DBGLOG="on") == "['HotCall', 'function'] True"
+    assert _bound(DBGLOG="off") == "['NoOp'] True"
+    assert _bound(DBGLOG="on", **{_native.HOT_PATH_ENV: "1"}) == "['function'] False"
+    assert _bound(DBGLOG="off", **{_native.HOT_PATH_ENV: "1"}) == "['function'] False"
 
 
 def test_the_c_path_holds_back_by_the_callers_instruction_and_the_rate_limiters_clock() -> None:

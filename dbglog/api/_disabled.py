@@ -9,12 +9,15 @@ functions without keyword-only parameters (a keyword-only no-op costs twice an e
 no-op takes its options as ordinary parameters behind one guard parameter, ``_positional``: a third
 positional argument lands there and is refused, keywords fill the options. The keyword-only twin each
 no-op wraps (``__wrapped__``) is what ``inspect.signature`` and ``help()`` show; it is a no-op too.
+With the compiled module (``_hot.c``) the plain call returns in C and every other shape goes to these.
 """
 
 from __future__ import annotations
 
-from typing import Any, NoReturn
+import functools
+from typing import TYPE_CHECKING, Any, NoReturn
 
+from dbglog.api import _native
 from dbglog.api._errors import Stats
 
 __all__ = [
@@ -215,6 +218,20 @@ for _fast, _spec in (
 ):
     setattr(_fast, "__wrapped__", _spec)  # noqa: B010  (a function attribute mypy does not model)
 del _fast, _spec
+
+_NATIVE = _native.load()
+if not TYPE_CHECKING and _NATIVE is not None:
+    # With the compiled module, the plain call (the arguments, no option) returns in C: cheaper than any
+    # Python function. Every other call shape goes to the no-op above, which refuses what is refused on.
+    def _compiled(noop: Any, positional: int) -> Any:
+        return functools.update_wrapper(_NATIVE.NoOp(noop, positional), noop)
+
+    logfloat = _compiled(logfloat, 2)
+    logint = _compiled(logint, 2)
+    logbool = _compiled(logbool, 2)
+    logstring = _compiled(logstring, 2)
+    logdata = _compiled(logdata, 3)
+    log = _compiled(log, 2)
 
 
 def init(*, node: Any = None) -> None:

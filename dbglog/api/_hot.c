@@ -1,4 +1,5 @@
-/* The compiled hot path of logfloat/logint/logbool/logstring (see _hot.pyi and docs/api.md).
+/* The compiled hot path of logfloat/logint/logbool/logstring (see _hot.pyi and docs/api.md), and the
+ * switched-off functions' plain call (NoOp, at the end).
  *
  * A HotCall wraps one of those Python functions. A call to a known tag with a value of the exact
  * builtin type, no options or only a float `throttle` that holds the call back, does in C what the
@@ -457,6 +458,106 @@ static PyType_Spec hot_spec = {
     .slots = hot_slots,
 };
 
+/* ----- NoOp: a switched-off logging function ---------------------------------------------------- */
+
+typedef struct {
+    PyObject_HEAD
+    vectorcallfunc vectorcall;
+    PyObject *dict;
+    PyObject *slow;          /* the Python no-op: every other call shape (it refuses what is refused on) */
+    Py_ssize_t positional;   /* the call that returns here: exactly this many positional arguments */
+} NoOp;
+
+static int
+noop_traverse(NoOp *self, visitproc visit, void *arg)
+{
+    Py_VISIT(self->dict);
+    Py_VISIT(self->slow);
+    return 0;
+}
+
+static int
+noop_clear(NoOp *self)
+{
+    Py_CLEAR(self->dict);
+    Py_CLEAR(self->slow);
+    return 0;
+}
+
+static void
+noop_dealloc(NoOp *self)
+{
+    PyObject_GC_UnTrack(self);
+    noop_clear(self);
+    Py_TYPE(self)->tp_free((PyObject *)self);
+}
+
+static PyObject *
+noop_vectorcall(NoOp *self, PyObject *const *args, size_t nargsf, PyObject *kwnames)
+{
+    if (PyVectorcall_NARGS(nargsf) == self->positional && (kwnames == NULL || PyTuple_GET_SIZE(kwnames) == 0)) {
+        Py_RETURN_NONE;
+    }
+    return PyObject_Vectorcall(self->slow, args, nargsf, kwnames);
+}
+
+static PyObject *
+noop_call(NoOp *self, PyObject *args, PyObject *kwargs)
+{
+    return PyObject_Call(self->slow, args, kwargs);
+}
+
+static PyObject *
+noop_new(PyTypeObject *type, PyObject *args, PyObject *kwargs)
+{
+    static char *names[] = {"slow", "positional", NULL};
+    PyObject *slow;
+    Py_ssize_t positional;
+    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "On:NoOp", names, &slow, &positional)) {
+        return NULL;
+    }
+    if (!PyCallable_Check(slow) || positional < 0) {
+        PyErr_SetString(PyExc_TypeError, "NoOp: slow must be callable and positional >= 0");
+        return NULL;
+    }
+    NoOp *self = (NoOp *)type->tp_alloc(type, 0);
+    if (self == NULL) {
+        return NULL;
+    }
+    self->vectorcall = (vectorcallfunc)noop_vectorcall;
+    self->dict = NULL;
+    self->slow = Py_NewRef(slow);
+    self->positional = positional;
+    return (PyObject *)self;
+}
+
+static PyMemberDef noop_members[] = {
+    {"__dictoffset__", T_PYSSIZET, offsetof(NoOp, dict), READONLY, NULL},
+    {"__vectorcalloffset__", T_PYSSIZET, offsetof(NoOp, vectorcall), READONLY, NULL},
+    {"slow", T_OBJECT_EX, offsetof(NoOp, slow), READONLY, "the Python no-op this one falls back to"},
+    {NULL},
+};
+
+static PyType_Slot noop_slots[] = {
+    {Py_tp_doc, "A switched-off logging function: the plain call returns at once, any other shape goes to "
+                "the Python no-op (which refuses what the switched-on function refuses)."},
+    {Py_tp_new, noop_new},
+    {Py_tp_dealloc, noop_dealloc},
+    {Py_tp_traverse, noop_traverse},
+    {Py_tp_clear, noop_clear},
+    {Py_tp_call, noop_call},
+    {Py_tp_members, noop_members},
+    {Py_tp_getset, hot_getset},
+    {0, NULL},
+};
+
+static PyType_Spec noop_spec = {
+    .name = "dbglog.api._hot.NoOp",
+    .basicsize = sizeof(NoOp),
+    .flags = Py_TPFLAGS_DEFAULT | Py_TPFLAGS_HAVE_GC | Py_TPFLAGS_HAVE_VECTORCALL | Py_TPFLAGS_IMMUTABLETYPE,
+    .slots = noop_slots,
+};
+
 static int
 hot_exec(PyObject *module)
 {
@@ -481,6 +582,15 @@ hot_exec(PyObject *module)
     }
     int rc = PyModule_AddObjectRef(module, "HotCall", type);
     Py_DECREF(type);
+    if (rc < 0) {
+        return -1;
+    }
+    type = PyType_FromModuleAndSpec(module, &noop_spec, NULL);
+    if (type == NULL) {
+        return -1;
+    }
+    rc = PyModule_AddObjectRef(module, "NoOp", type);
+    Py_DECREF(type);
     return rc;
 }
 
@@ -492,7 +602,7 @@ static PyModuleDef_Slot hot_module_slots[] = {
 static struct PyModuleDef hot_module = {
     PyModuleDef_HEAD_INIT,
     .m_name = "dbglog.api._hot",
-    .m_doc = "The compiled hot path of dbglog's scalar logging functions.",
+    .m_doc = "The compiled hot path of dbglog's scalar logging functions, and its switched-off no-ops.",
     .m_size = 0,
     .m_slots = hot_module_slots,
 };

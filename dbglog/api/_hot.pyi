@@ -1,4 +1,4 @@
-"""The compiled hot path of dbglog's scalar logging functions (``_hot.c``)."""
+"""The compiled hot path of dbglog's scalar logging functions and its switched-off no-ops (``_hot.c``)."""
 
 from collections import deque
 from collections.abc import Callable, Iterator
@@ -23,4 +23,15 @@ class HotCall:
         clock: Callable[[], float],
         max_chars: int,
     ) -> None: ...
+    def __call__(self, *args: Any, **kwargs: Any) -> None: ...
+
+class NoOp:
+    """A switched-off logging function: the plain call returns at once, any other shape goes to the
+    Python no-op (which refuses what the switched-on function refuses)."""
+
+    slow: Callable[..., None]
+    __name__: str
+    __qualname__: str
+    __wrapped__: Callable[..., None]
+    def __init__(self, slow: Callable[..., None], positional: int) -> None: ...
     def __call__(self, *args: Any, **kwargs: Any) -> None: ...

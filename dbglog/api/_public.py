@@ -8,6 +8,7 @@ sends them (see ``_pipe``). ``logfloat``/``logint`` to a known tag only append t
 from __future__ import annotations
 
 import contextlib
+import functools
 import math
 import os
 import sys
@@ -16,6 +17,7 @@ from collections.abc import Mapping
 from types import FrameType
 from typing import TYPE_CHECKING, Any
 
+from dbglog.api import _native
 from dbglog.api._convert import (
     KIND_DEFAULT,
     MAX_STRING_CHARS,
@@ -681,30 +683,14 @@ def reset() -> None:
 
 # ----- the compiled hot path ----------------------------------------------------------------------
 
-HOT_PATH_ENV = "DBGLOG_PURE_PYTHON"
-"""Set to 1 to keep the Python functions above (the compiled path is then not even imported)."""
-
-
-def _compiled() -> Any:
-    """Return the compiled `HotCall` type, or None (not built on this machine, or switched off)."""
-    if os.environ.get(HOT_PATH_ENV, "") not in ("", "0"):
-        return None
-    try:
-        from dbglog.api._hot import HotCall
-    except ImportError:  # built without a compiler: the Python functions do the same, slower
-        return None
-    return HotCall
-
-
-_HotCall = _compiled()
-hot_path = "C" if _HotCall is not None else "Python"
+_NATIVE = _native.load()
+hot_path = "C" if _NATIVE is not None else "Python"
 """Which implementation runs the common case of logfloat/logint/logbool/logstring."""
 
 
-def _hot(slow: Any, kind: int, table: dict[object, Channel]) -> Any:
-    import functools
-
-    hot = _HotCall(
+def _hot(native: Any, slow: Any, kind: int, table: dict[object, Channel]) -> Any:
+    """Wrap `slow` in the compiled hot path (`kind`: 0 float, 1 int, 2 bool, 3 str; `table`: known tags)."""
+    hot = native.HotCall(
         slow,
         kind,
         table,
@@ -718,8 +704,8 @@ def _hot(slow: Any, kind: int, table: dict[object, Channel]) -> Any:
     return functools.update_wrapper(hot, slow)
 
 
-if not TYPE_CHECKING and _HotCall is not None:
-    logfloat = _hot(logfloat, 0, _fast_float)
-    logint = _hot(logint, 1, _fast_int)
-    logbool = _hot(logbool, 2, _fast_bool)
-    logstring = _hot(logstring, 3, _fast_str)
+if not TYPE_CHECKING and _NATIVE is not None:
+    logfloat = _hot(_NATIVE, logfloat, 0, _fast_float)
+    logint = _hot(_NATIVE, logint, 1, _fast_int)
+    logbool = _hot(_NATIVE, logbool, 2, _fast_bool)
+    logstring = _hot(_NATIVE, logstring, 3, _fast_str)
