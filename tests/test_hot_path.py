@@ -19,6 +19,7 @@ from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
+import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -27,6 +28,7 @@ from dbglog.api import _native, _public
 from dbglog.api._convert import MAX_STRING_CHARS
 from dbglog.api._hot import HotCall
 from dbglog.api._public import REPORTER, RUNTIME
+from dbglog.api._rate import SiteState
 
 FUNCTIONS = ("logfloat", "logint", "logbool", "logstring")
 LONG = "x" * (MAX_STRING_CHARS + 1)
@@ -201,6 +203,22 @@ def test_the_c_path_never_raises_into_the_caller() -> None:
     assert slow_calls == [(["t"], 1.0)]
 
 
+def test_slots_the_c_path_reads_in_place_still_fail_over_to_the_python_function() -> None:
+    """A pipe whose slotted ``capacity`` was never set, or a channel of another type than the one given:
+    the Python function's call (the C path reports nothing and raises nothing)."""
+    slow_calls: list[object] = []
+    pipe = _SlotPipe(10)
+    del pipe.capacity
+    hot = HotCall(lambda *a, **k: slow_calls.append(a), 0, {"t": "ch"}, deque(), pipe, count(), count(),
+                  time.monotonic, 10, channel_type=_SlotChannel, site_type=SiteState)  # fmt: skip
+    hot("t", 1.0)
+    assert slow_calls == [("t", 1.0)]
+    pipe.capacity = 10
+    hot("t", 2.0)  # queued in C
+    hot("t", 3.0, throttle=1.0)  # "ch" is a str, not a _SlotChannel: read generically, no rate_site
+    assert slow_calls == [("t", 1.0), ("t", 3.0)]
+
+
 def test_the_c_path_leaks_no_reference() -> None:
     """Ten thousand queued calls and a cleared queue leave the channel, the value and the tag as before."""
     channel = object()
@@ -246,12 +264,31 @@ def test_dbglog_pure_python_keeps_the_python_functions_on_and_off() -> None:
     assert _bound(DBGLOG="off", **{_native.HOT_PATH_ENV: "1"}) == "['function'] False"
 
 
-def test_the_c_path_holds_back_by_the_callers_instruction_and_the_rate_limiters_clock() -> None:
+class _SlotChannel:
+    __slots__ = ("rate_site",)
+
+    def __init__(self) -> None:
+        self.rate_site: object = None
+
+
+class _SlotPipe:
+    __slots__ = ("capacity", "sleeping", "wake")
+
+    def __init__(self, capacity: int) -> None:
+        self.capacity = capacity
+        self.sleeping = False
+        self.wake: Callable[[], None] = lambda: None
+
+
+@pytest.mark.parametrize("slots", [False, True], ids=["attributes", "slots"])
+def test_the_c_path_holds_back_by_the_callers_instruction_and_the_rate_limiters_clock(slots: bool) -> None:
     """A throttled call is held back in C only from the instruction the Python path recorded (the
-    caller's code object and ``f_lasti``, read without a frame object), timed by the limiter's clock."""
+    caller's code object and ``f_lasti``, read without a frame object), timed by the limiter's clock;
+    the same whether the channel, the site state and the pipe keep these in ``__slots__`` (read in place
+    when their types are given) or in a ``__dict__``."""
     now = [100.0]
-    state = SimpleNamespace(calls=1, last_pass=-math.inf)
-    channel = SimpleNamespace(rate_site=None)
+    state: Any = SiteState(calls=1) if slots else SimpleNamespace(calls=1, last_pass=-math.inf)
+    channel: Any = _SlotChannel() if slots else SimpleNamespace(rate_site=None)
     passed: list[float] = []
 
     def slow(tag: str, value: float, **options: object) -> None:  # what _public._rate records
@@ -261,8 +298,9 @@ def test_the_c_path_holds_back_by_the_callers_instruction_and_the_rate_limiters_
         passed.append(value)
 
     calls, limited = count(), count()
-    pipe = SimpleNamespace(capacity=100, sleeping=False, wake=lambda: None)
-    hot = HotCall(slow, 0, {"t": channel}, deque(), pipe, calls, limited, lambda: now[0], 10)
+    pipe: Any = _SlotPipe(100) if slots else SimpleNamespace(capacity=100, sleeping=False, wake=lambda: None)
+    types: dict[str, Any] = {"channel_type": _SlotChannel, "site_type": SiteState} if slots else {}
+    hot = HotCall(slow, 0, {"t": channel}, deque(), pipe, calls, limited, lambda: now[0], 10, **types)
     for i in range(3):  # one instruction: the first call passes (Python), the next two are held back (C)
         hot("t", float(i), throttle=1.0)
     hot("t", 9.0, throttle=1.0)  # another instruction: the Python path decides

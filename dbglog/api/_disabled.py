@@ -9,7 +9,8 @@ functions without keyword-only parameters (a keyword-only no-op costs twice an e
 no-op takes its options as ordinary parameters behind one guard parameter, ``_positional``: a third
 positional argument lands there and is refused, keywords fill the options. The keyword-only twin each
 no-op wraps (``__wrapped__``) is what ``inspect.signature`` and ``help()`` show; it is a no-op too.
-With the compiled module (``_hot.c``) the plain call returns in C and every other shape goes to these.
+With the compiled module (``_hot.c``) a call with the positional arguments and keyword options returns in
+C, and every other shape goes to these.
 """
 
 from __future__ import annotations
@@ -221,17 +222,20 @@ del _fast, _spec
 
 _NATIVE = _native.load()
 if not TYPE_CHECKING and _NATIVE is not None:
-    # With the compiled module, the plain call (the arguments, no option) returns in C: cheaper than any
-    # Python function. Every other call shape goes to the no-op above, which refuses what is refused on.
-    def _compiled(noop: Any, positional: int) -> Any:
-        return functools.update_wrapper(_NATIVE.NoOp(noop, positional), noop)
+    # With the compiled module, a call with the positional arguments and keyword options returns in C:
+    # cheaper than any Python function. Every other call shape goes to the no-op above, which refuses
+    # what is refused switched on.
+    _OPTIONS = ("once", "throttle", "skip_first")
 
-    logfloat = _compiled(logfloat, 2)
-    logint = _compiled(logint, 2)
-    logbool = _compiled(logbool, 2)
-    logstring = _compiled(logstring, 2)
-    logdata = _compiled(logdata, 3)
-    log = _compiled(log, 2)
+    def _compiled(noop: Any, positional: int, options: tuple[str, ...]) -> Any:
+        return functools.update_wrapper(_NATIVE.NoOp(noop, positional, options), noop)
+
+    logfloat = _compiled(logfloat, 2, ("msg_type", *_OPTIONS))
+    logint = _compiled(logint, 2, ("msg_type", *_OPTIONS))
+    logbool = _compiled(logbool, 2, ("msg_type", *_OPTIONS))
+    logstring = _compiled(logstring, 2, ("msg_type", *_OPTIONS))
+    logdata = _compiled(logdata, 3, _OPTIONS)
+    log = _compiled(log, 2, _OPTIONS)
 
 
 def init(*, node: Any = None) -> None:

@@ -29,6 +29,16 @@
 
 enum { KIND_FLOAT = 0, KIND_INT = 1, KIND_BOOL = 2, KIND_STR = 3 };
 
+/* An attribute read (and written) straight in its object's slot when the object is exactly of the type
+ * whose ``__slots__`` hold it, as CPython's own attribute specialization does; otherwise, or when the
+ * attribute is not such a slot, through PyObject_GetAttr/SetAttr. The generic lookup's code and the type's
+ * method cache are cold at a loop's first call: this is a type check and a load. */
+typedef struct {
+    PyTypeObject *type; /* strong; NULL: the generic path only */
+    Py_ssize_t offset;
+    PyObject *name;     /* interned, module-lifetime */
+} Slot;
+
 typedef struct {
     PyObject_HEAD
     vectorcallfunc vectorcall;
@@ -41,6 +51,9 @@ typedef struct {
     PyObject *calls;       /* itertools.count: the calls counter */
     PyObject *rate_limited;/* itertools.count: the rate-limited counter */
     PyObject *clock;       /* the rate limiter's clock (time.monotonic) */
+    Slot capacity, sleeping; /* the pipe's */
+    Slot rate_site;          /* a channel's */
+    Slot last_pass, site_calls; /* a call site's rate state */
     int kind;
     int monotonic;         /* the clock is time.monotonic: read CLOCK_MONOTONIC here */
     Py_ssize_t max_chars;  /* logstring: longer texts take the Python path (it cuts them) */
@@ -61,6 +74,11 @@ hot_traverse(HotCall *self, visitproc visit, void *arg)
     Py_VISIT(self->calls);
     Py_VISIT(self->rate_limited);
     Py_VISIT(self->clock);
+    Py_VISIT(self->capacity.type);
+    Py_VISIT(self->sleeping.type);
+    Py_VISIT(self->rate_site.type);
+    Py_VISIT(self->last_pass.type);
+    Py_VISIT(self->site_calls.type);
     return 0;
 }
 
@@ -76,6 +94,11 @@ hot_clear(HotCall *self)
     Py_CLEAR(self->calls);
     Py_CLEAR(self->rate_limited);
     Py_CLEAR(self->clock);
+    Py_CLEAR(self->capacity.type);
+    Py_CLEAR(self->sleeping.type);
+    Py_CLEAR(self->rate_site.type);
+    Py_CLEAR(self->last_pass.type);
+    Py_CLEAR(self->site_calls.type);
     return 0;
 }
 
@@ -100,6 +123,60 @@ count_one(PyObject *counter)
     }
     Py_DECREF(n);
     return 0;
+}
+
+/* Find `name` as an object slot of `type` (None or anything else: the generic path). */
+static void
+slot_find(Slot *slot, PyObject *type, PyObject *name)
+{
+    slot->type = NULL;
+    slot->offset = 0;
+    slot->name = name;
+    if (type == NULL || !PyType_Check(type)) {
+        return;
+    }
+    PyObject *descr = PyObject_GetAttr(type, name); /* on a class, a slot's member descriptor itself */
+    if (descr == NULL) {
+        PyErr_Clear();
+        return;
+    }
+    if (Py_IS_TYPE(descr, &PyMemberDescr_Type)) {
+        PyMemberDef *member = ((PyMemberDescrObject *)descr)->d_member;
+        if (member->type == T_OBJECT_EX && member->offset > 0) {
+            slot->type = (PyTypeObject *)Py_NewRef(type);
+            slot->offset = member->offset;
+        }
+    }
+    Py_DECREF(descr);
+}
+
+/* `obj`'s attribute (a new reference), or NULL with an exception set. */
+static PyObject *
+slot_get(const Slot *slot, PyObject *obj)
+{
+    if (slot->type != NULL && Py_TYPE(obj) == slot->type) {
+        PyObject *value = *(PyObject **)((char *)obj + slot->offset);
+        if (value == NULL) {
+            PyErr_SetObject(PyExc_AttributeError, slot->name);
+            return NULL;
+        }
+        return Py_NewRef(value);
+    }
+    return PyObject_GetAttr(obj, slot->name);
+}
+
+/* Set `obj`'s attribute to `value`: 0, or -1 with an exception set. */
+static int
+slot_set(const Slot *slot, PyObject *obj, PyObject *value)
+{
+    if (slot->type != NULL && Py_TYPE(obj) == slot->type) {
+        PyObject **where = (PyObject **)((char *)obj + slot->offset);
+        PyObject *old = *where;
+        *where = Py_NewRef(value);
+        Py_XDECREF(old);
+        return 0;
+    }
+    return PyObject_SetAttr(obj, slot->name, value);
 }
 
 /* 1 when `value` is what this function queues without a check in Python, 0 otherwise. */
@@ -133,20 +210,22 @@ value_fits(HotCall *self, PyObject *value)
     return 0;
 }
 
-/* The pipe's `attr` as a truth value: 1, 0, or -1 with an exception set. */
+/* An attribute as a truth value: 1, 0, or -1 with an exception set. */
 static int
-attr_true(PyObject *obj, PyObject *attr)
+slot_true(const Slot *slot, PyObject *obj)
 {
-    PyObject *v = PyObject_GetAttr(obj, attr);
+    PyObject *v = slot_get(slot, obj);
     if (v == NULL) {
         return -1;
     }
-    int truth = PyObject_IsTrue(v);
+    int truth = v == Py_True ? 1 : (v == Py_False ? 0 : PyObject_IsTrue(v));
     Py_DECREF(v);
     return truth;
 }
 
-/* Append (channel, value, now) and wake the thread if it sleeps: 0, or -1 with an exception set. */
+/* Append (channel, value, now), count the call and wake the thread if it sleeps. 0; -1 with an exception
+ * set when nothing was queued (the Python function then takes the call); a failure after the append (the
+ * count, the wake) is cleared: the sample is queued, and the next call wakes the thread. */
 static int
 enqueue(HotCall *self, PyObject *ch, PyObject *value)
 {
@@ -175,16 +254,13 @@ enqueue(HotCall *self, PyObject *ch, PyObject *value)
         return -1;
     }
     Py_DECREF(done);
-    int sleeping = attr_true(self->pipe, s_sleeping);
-    if (sleeping < 0) {
-        return -1;
-    }
-    if (sleeping) {
+    int sleeping = count_one(self->calls) < 0 ? -1 : slot_true(&self->sleeping, self->pipe);
+    if (sleeping > 0) {
         PyObject *woke = PyObject_CallMethodNoArgs(self->pipe, s_wake);
-        if (woke == NULL) {
-            return -1;
-        }
-        Py_DECREF(woke);
+        Py_XDECREF(woke);
+    }
+    if (PyErr_Occurred()) {
+        PyErr_Clear();
     }
     return 0;
 }
@@ -219,21 +295,33 @@ caller_site(PyObject **code, long *lasti)
 #endif
 }
 
-/* The rate limiter's clock: time.monotonic read in C when that is the clock, else a call. */
-static PyObject *
-clock_now(HotCall *self)
+/* The rate limiter's clock into `now`: time.monotonic read in C when that is the clock, else a call.
+ * 1; 0 when it gave no float; -1 with an exception set. */
+static int
+clock_now(HotCall *self, double *now)
 {
     if (self->monotonic) {
         struct timespec ts;
         if (clock_gettime(CLOCK_MONOTONIC, &ts) == 0) {
-            return PyFloat_FromDouble((double)((long long)ts.tv_sec * 1000000000LL + ts.tv_nsec) / 1e9);
+            *now = (double)((long long)ts.tv_sec * 1000000000LL + ts.tv_nsec) / 1e9;
+            return 1;
         }
     }
-    return PyObject_CallNoArgs(self->clock);
+    PyObject *value = PyObject_CallNoArgs(self->clock);
+    if (value == NULL) {
+        return -1;
+    }
+    int ok = PyFloat_CheckExact(value);
+    if (ok) {
+        *now = PyFloat_AS_DOUBLE(value);
+    }
+    Py_DECREF(value);
+    return ok;
 }
 
 /* A throttled call from the instruction that last rate-controlled the tag, within its period: count it
- * as rate-limited and return 1; 0 when the Python path must decide; -1 with an exception set. */
+ * as rate-limited and return 1; 0 when the Python path must decide (an error too: it is cleared, and
+ * nothing was counted). */
 static int
 held_back(HotCall *self, PyObject *ch, PyObject *throttle)
 {
@@ -246,45 +334,47 @@ held_back(HotCall *self, PyObject *ch, PyObject *throttle)
     if (!caller_site(&code, &lasti)) {
         return 0;
     }
-    PyObject *known = PyObject_GetAttr(ch, s_rate_site);
+    PyObject *known = slot_get(&self->rate_site, ch);
     if (known == NULL) {
-        return -1;
+        PyErr_Clear();
+        return 0;
     }
     int result = 0;
     if (PyTuple_CheckExact(known) && PyTuple_GET_SIZE(known) >= 3 && code == PyTuple_GET_ITEM(known, 0)) {
         long known_lasti = PyLong_AsLong(PyTuple_GET_ITEM(known, 1));
         if (known_lasti == -1 && PyErr_Occurred()) {
-            result = -1;
+            PyErr_Clear();
         } else if (known_lasti == lasti) {
             result = 2; /* the same instruction: compare the time */
         }
     }
     if (result != 2) {
         Py_DECREF(known);
-        return result;
+        return 0;
     }
     PyObject *state = PyTuple_GET_ITEM(known, 2);
     Py_INCREF(state);
     Py_DECREF(known);
     result = 0;
-    PyObject *last = PyObject_GetAttr(state, s_last_pass);
-    PyObject *now = last == NULL ? NULL : clock_now(self);
-    if (now == NULL) {
-        result = -1;
-    } else if (PyFloat_CheckExact(now) && PyFloat_CheckExact(last)
-               && PyFloat_AS_DOUBLE(now) - PyFloat_AS_DOUBLE(last) < period) {
-        PyObject *calls = PyObject_GetAttr(state, s_calls);
+    PyObject *last = slot_get(&self->last_pass, state);
+    double now = 0.0;
+    int timed = last == NULL ? -1 : clock_now(self, &now);
+    if (timed > 0 && PyFloat_CheckExact(last) && now - PyFloat_AS_DOUBLE(last) < period) {
+        PyObject *calls = slot_get(&self->site_calls, state);
         PyObject *more = calls == NULL ? NULL : PyNumber_Add(calls, one);
-        if (more == NULL || PyObject_SetAttr(state, s_calls, more) < 0 || count_one(self->calls) < 0
-            || count_one(self->rate_limited) < 0) {
-            result = -1;
-        } else {
+        if (more != NULL && slot_set(&self->site_calls, state, more) == 0) {
+            /* Counted from here on: the call ends here whatever happens next. */
             result = 1;
+            if (count_one(self->calls) < 0 || count_one(self->rate_limited) < 0) {
+                PyErr_Clear();
+            }
         }
         Py_XDECREF(calls);
         Py_XDECREF(more);
     }
-    Py_XDECREF(now);
+    if (PyErr_Occurred()) {
+        PyErr_Clear();
+    }
     Py_XDECREF(last);
     Py_DECREF(state);
     return result;
@@ -330,17 +420,14 @@ hot_vectorcall(HotCall *self, PyObject *const *args, size_t nargsf, PyObject *kw
         /* Held back before the queue is looked at (the queue and the pipe are what the publisher thread
          * writes: cache lines another core holds). A full queue changes nothing here: the Python path
          * counts a held-back call as rate-limited too. */
-        int status = held_back(self, ch, throttle);
+        int held = held_back(self, ch, throttle);
         Py_DECREF(ch);
-        if (status == 0) {
+        if (!held) {
             goto slow;
-        }
-        if (status < 0) {
-            PyErr_Clear();
         }
         Py_RETURN_NONE;
     }
-    PyObject *cap = PyObject_GetAttr(self->pipe, s_capacity);
+    PyObject *cap = slot_get(&self->capacity, self->pipe);
     if (cap == NULL) {
         Py_DECREF(ch);
         PyErr_Clear();
@@ -354,13 +441,11 @@ hot_vectorcall(HotCall *self, PyObject *const *args, size_t nargsf, PyObject *kw
         PyErr_Clear();
         goto slow;
     }
-    int status = count_one(self->calls);
-    if (status == 0) {
-        status = enqueue(self, ch, value);
-    }
+    int status = enqueue(self, ch, value);
     Py_DECREF(ch);
-    if (status < 0) { /* never reaches the caller: nothing in the C path is the user's to see */
+    if (status < 0) { /* nothing queued, nothing counted: the Python function takes the call */
         PyErr_Clear();
+        goto slow;
     }
     Py_RETURN_NONE;
 slow:
@@ -376,13 +461,15 @@ hot_call(HotCall *self, PyObject *args, PyObject *kwargs)
 static PyObject *
 hot_new(PyTypeObject *type, PyObject *args, PyObject *kwargs)
 {
-    static char *names[] = {"slow",  "kind",         "table", "queue",     "pipe",
-                            "calls", "rate_limited", "clock", "max_chars", NULL};
+    static char *names[] = {"slow",  "kind",         "table", "queue",     "pipe",         "calls",
+                            "rate_limited", "clock", "max_chars", "channel_type", "site_type", NULL};
     PyObject *slow, *table, *queue, *pipe, *calls, *rate_limited, *clock;
+    PyObject *channel_type = NULL, *site_type = NULL;
     int kind;
     Py_ssize_t max_chars;
-    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "OiO!OOOOOn:HotCall", names, &slow, &kind, &PyDict_Type,
-                                     &table, &queue, &pipe, &calls, &rate_limited, &clock, &max_chars)) {
+    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "OiO!OOOOOn|$OO:HotCall", names, &slow, &kind, &PyDict_Type,
+                                     &table, &queue, &pipe, &calls, &rate_limited, &clock, &max_chars,
+                                     &channel_type, &site_type)) {
         return NULL;
     }
     if (kind < KIND_FLOAT || kind > KIND_STR) {
@@ -415,6 +502,11 @@ hot_new(PyTypeObject *type, PyObject *args, PyObject *kwargs)
     self->kind = kind;
     self->max_chars = max_chars;
     self->monotonic = 0;
+    slot_find(&self->capacity, (PyObject *)Py_TYPE(pipe), s_capacity);
+    slot_find(&self->sleeping, (PyObject *)Py_TYPE(pipe), s_sleeping);
+    slot_find(&self->rate_site, channel_type, s_rate_site);
+    slot_find(&self->last_pass, site_type, s_last_pass);
+    slot_find(&self->site_calls, site_type, s_calls);
     PyObject *time_module = PyImport_ImportModule("time");
     PyObject *monotonic = time_module == NULL ? NULL : PyObject_GetAttrString(time_module, "monotonic");
     Py_XDECREF(time_module);
@@ -465,14 +557,16 @@ typedef struct {
     vectorcallfunc vectorcall;
     PyObject *dict;
     PyObject *slow;          /* the Python no-op: every other call shape (it refuses what is refused on) */
-    Py_ssize_t positional;   /* the call that returns here: exactly this many positional arguments */
-} NoOp;
+    PyObject *options;       /* tuple of the keyword-only option names (interned) */
+    Py_ssize_t positional;   /* the call that returns here: exactly this many positional arguments... */
+} NoOp;                      /* ...and keywords among `options` only */
 
 static int
 noop_traverse(NoOp *self, visitproc visit, void *arg)
 {
     Py_VISIT(self->dict);
     Py_VISIT(self->slow);
+    Py_VISIT(self->options);
     return 0;
 }
 
@@ -481,6 +575,7 @@ noop_clear(NoOp *self)
 {
     Py_CLEAR(self->dict);
     Py_CLEAR(self->slow);
+    Py_CLEAR(self->options);
     return 0;
 }
 
@@ -495,10 +590,22 @@ noop_dealloc(NoOp *self)
 static PyObject *
 noop_vectorcall(NoOp *self, PyObject *const *args, size_t nargsf, PyObject *kwnames)
 {
-    if (PyVectorcall_NARGS(nargsf) == self->positional && (kwnames == NULL || PyTuple_GET_SIZE(kwnames) == 0)) {
-        Py_RETURN_NONE;
+    if (PyVectorcall_NARGS(nargsf) != self->positional) {
+        return PyObject_Vectorcall(self->slow, args, nargsf, kwnames);
     }
-    return PyObject_Vectorcall(self->slow, args, nargsf, kwnames);
+    Py_ssize_t nkw = kwnames == NULL ? 0 : PyTuple_GET_SIZE(kwnames);
+    Py_ssize_t nopt = PyTuple_GET_SIZE(self->options);
+    for (Py_ssize_t i = 0; i < nkw; i++) { /* keyword names are interned: compared by identity */
+        PyObject *name = PyTuple_GET_ITEM(kwnames, i);
+        Py_ssize_t j = 0;
+        while (j < nopt && PyTuple_GET_ITEM(self->options, j) != name) {
+            j++;
+        }
+        if (j == nopt) { /* not an option, or a name not interned: the Python no-op decides */
+            return PyObject_Vectorcall(self->slow, args, nargsf, kwnames);
+        }
+    }
+    Py_RETURN_NONE;
 }
 
 static PyObject *
@@ -510,11 +617,18 @@ noop_call(NoOp *self, PyObject *args, PyObject *kwargs)
 static PyObject *
 noop_new(PyTypeObject *type, PyObject *args, PyObject *kwargs)
 {
-    static char *names[] = {"slow", "positional", NULL};
-    PyObject *slow;
+    static char *names[] = {"slow", "positional", "options", NULL};
+    PyObject *slow, *options;
     Py_ssize_t positional;
-    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "On:NoOp", names, &slow, &positional)) {
+    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "OnO!:NoOp", names, &slow, &positional, &PyTuple_Type,
+                                     &options)) {
         return NULL;
+    }
+    for (Py_ssize_t i = 0; i < PyTuple_GET_SIZE(options); i++) {
+        if (!PyUnicode_CheckExact(PyTuple_GET_ITEM(options, i))) {
+            PyErr_SetString(PyExc_TypeError, "NoOp: options must be a tuple of str");
+            return NULL;
+        }
     }
     if (!PyCallable_Check(slow) || positional < 0) {
         PyErr_SetString(PyExc_TypeError, "NoOp: slow must be callable and positional >= 0");
@@ -528,6 +642,16 @@ noop_new(PyTypeObject *type, PyObject *args, PyObject *kwargs)
     self->dict = NULL;
     self->slow = Py_NewRef(slow);
     self->positional = positional;
+    self->options = PyTuple_New(PyTuple_GET_SIZE(options));
+    if (self->options == NULL) {
+        Py_DECREF(self);
+        return NULL;
+    }
+    for (Py_ssize_t i = 0; i < PyTuple_GET_SIZE(options); i++) {
+        PyObject *name = Py_NewRef(PyTuple_GET_ITEM(options, i));
+        PyUnicode_InternInPlace(&name);
+        PyTuple_SET_ITEM(self->options, i, name);
+    }
     return (PyObject *)self;
 }
 
@@ -539,8 +663,9 @@ static PyMemberDef noop_members[] = {
 };
 
 static PyType_Slot noop_slots[] = {
-    {Py_tp_doc, "A switched-off logging function: the plain call returns at once, any other shape goes to "
-                "the Python no-op (which refuses what the switched-on function refuses)."},
+    {Py_tp_doc, "A switched-off logging function: a call with its positional arguments and keyword options "
+                "returns at once, any other shape goes to the Python no-op (which refuses what the "
+                "switched-on function refuses)."},
     {Py_tp_new, noop_new},
     {Py_tp_dealloc, noop_dealloc},
     {Py_tp_traverse, noop_traverse},

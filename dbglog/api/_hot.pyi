@@ -22,16 +22,19 @@ class HotCall:
         rate_limited: Iterator[int],
         clock: Callable[[], float],
         max_chars: int,
+        *,
+        channel_type: type | None = None,
+        site_type: type | None = None,
     ) -> None: ...
     def __call__(self, *args: Any, **kwargs: Any) -> None: ...
 
 class NoOp:
-    """A switched-off logging function: the plain call returns at once, any other shape goes to the
-    Python no-op (which refuses what the switched-on function refuses)."""
+    """A switched-off logging function: a call with its positional arguments and keyword options
+    returns at once, any other shape goes to the Python no-op (which refuses what is refused on)."""
 
     slow: Callable[..., None]
     __name__: str
     __qualname__: str
     __wrapped__: Callable[..., None]
-    def __init__(self, slow: Callable[..., None], positional: int) -> None: ...
+    def __init__(self, slow: Callable[..., None], positional: int, options: tuple[str, ...]) -> None: ...
     def __call__(self, *args: Any, **kwargs: Any) -> None: ...

@@ -66,6 +66,21 @@ Item = tuple["Channel", object, int]
 class Pipe:
     """The queue between the logging calls and the publisher thread."""
 
+    # Slots: the compiled hot path reads `capacity` and `sleeping` straight from them (dbglog/api/_hot.c).
+    __slots__ = (
+        "_event",
+        "_pid",
+        "_thread",
+        "capacity",
+        "lock",
+        "pending",
+        "queue",
+        "runtime",
+        "seq",
+        "sleeping",
+        "writer",
+    )
+
     def __init__(self, runtime: Runtime) -> None:
         self.runtime = runtime
         self.queue: deque[Item] = deque()

@@ -35,7 +35,7 @@ from dbglog.api._convert import (
     type_name,
 )
 from dbglog.api._errors import _API_DIR, DbglogError, DbglogWarning, Reporter, Stats, safe_repr
-from dbglog.api._rate import RateLimiter, check_throttle
+from dbglog.api._rate import RateLimiter, SiteState, check_throttle
 from dbglog.api._runtime import Channel, Runtime
 
 __all__ = [
@@ -700,6 +700,8 @@ def _hot(native: Any, slow: Any, kind: int, table: dict[object, Channel]) -> Any
         REPORTER.rate_limited.counter,
         _LIMITER.clock,
         MAX_STRING_CHARS,
+        channel_type=Channel,
+        site_type=SiteState,
     )
     return functools.update_wrapper(hot, slow)
 

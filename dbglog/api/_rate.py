@@ -9,7 +9,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from types import CodeType
 
-__all__ = ["RateLimiter", "check_throttle"]
+__all__ = ["RateLimiter", "SiteState", "check_throttle"]
 
 Site = tuple[str, int]
 """(file name, line number) of the user's call."""
