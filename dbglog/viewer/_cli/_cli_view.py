@@ -38,10 +38,9 @@ HELP = (
 )
 
 
-ENGINE_START_S = 15.0
-"""Seconds the data engine may take to start (its ROS context and node)."""
 ENGINE_START_BACKGROUND_S = 120.0
-"""The same under ``--cpu background``, whose threads wait while other processes keep every CPU busy."""
+"""Seconds the data engine may take to start (its ROS context and node) under ``--cpu background``, whose
+threads wait while other processes keep every CPU busy (otherwise: ``Engine.start``'s own timeout)."""
 
 
 _BUSY = "with --cpu background the viewer waits while the machine is busy (--cpu normal does not)"
@@ -315,10 +314,10 @@ def run(args: argparse.Namespace) -> int:
         try:
             # Under --cpu background the engine's thread gets a CPU only when nothing else wants one: on a
             # busy machine it waits, which is no failure (say so, and wait longer).
-            engine.start(
-                ENGINE_START_BACKGROUND_S if background else ENGINE_START_S,
-                slow=_say_engine_waits if background else None,
-            )
+            if background:
+                engine.start(ENGINE_START_BACKGROUND_S, slow=_say_engine_waits)
+            else:
+                engine.start()
         except RuntimeError as exc:
             hint = f"; {_BUSY}" if background else ""
             print(f"dbglog view: error: {exc}{hint}", file=sys.stderr)
