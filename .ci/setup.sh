@@ -5,6 +5,12 @@ set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 VENV="${DBGLOG_VENV:-$ROOT/.venv}"
 
+apt_install() {  # apt_install PACKAGE...: quietly, as root or through sudo
+  local sudo=""; [ "$(id -u)" -eq 0 ] || sudo="sudo"
+  $sudo apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "$@" >/dev/null
+}
+
 need_apt=()
 command -v Xvfb >/dev/null 2>&1 || need_apt+=(xvfb xauth)
 [ -e /usr/lib/x86_64-linux-gnu/dri/swrast_dri.so ] || [ -e /usr/lib/x86_64-linux-gnu/dri/llvmpipe_dri.so ] \
@@ -15,22 +21,17 @@ command -v xdotool >/dev/null 2>&1 || need_apt+=(xdotool)
 command -v cc >/dev/null 2>&1 || need_apt+=(gcc libc6-dev)
 if [ ${#need_apt[@]} -gt 0 ]; then
   echo "setup: installing system packages: ${need_apt[*]}"
-  SUDO=""; [ "$(id -u)" -eq 0 ] || SUDO="sudo"
-  $SUDO apt-get update -qq
-  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${need_apt[@]}" >/dev/null
+  apt_install "${need_apt[@]}"
 fi
 
 PY="${PYTHON:-python3.11}"
 command -v "$PY" >/dev/null 2>&1 || PY=python3
 # The C hot path needs the interpreter's headers: pyenv builds have them, a distribution's Python has
-# them in its -dev package.
+# them in its -dev package (optional: without it dbglog installs in pure Python).
 if ! "$PY" -c 'import os, sys, sysconfig; sys.exit(0 if os.path.exists(os.path.join(sysconfig.get_paths()["include"], "Python.h")) else 1)'; then
   pydev="python$("$PY" -c 'import sys; print("%d.%d" % sys.version_info[:2])')-dev"
   echo "setup: installing $pydev (Python.h, for dbglog's compiled hot path)"
-  SUDO=""; [ "$(id -u)" -eq 0 ] || SUDO="sudo"
-  $SUDO apt-get update -qq
-  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "$pydev" >/dev/null \
-    || echo "setup: could not install $pydev: dbglog's hot path will run in Python" >&2
+  apt_install "$pydev" || echo "setup: could not install $pydev: dbglog's hot path will run in Python" >&2
 fi
 if [ ! -x "$VENV/bin/python" ]; then
   echo "setup: creating $VENV"

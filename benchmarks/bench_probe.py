@@ -189,7 +189,7 @@ def _make_calls(mode: str) -> Any:
 
             logfloat, logint, logbool, logstring = off.logfloat, off.logint, off.logbool, off.logstring
         else:
-            assert dbglog.enabled == (mode in ("on", "py")), (mode, dbglog.enabled)
+            assert dbglog.enabled == (mode in _DBGLOG_MODES), (mode, dbglog.enabled)
             if mode == "on":
                 dbglog.init()
             logfloat, logint, logbool, logstring = (
@@ -304,6 +304,8 @@ def publisher(mode: str, seconds: float) -> None:
 
 
 _MIX_MODES = ("none", "nop", "off", "on", "py")
+_DBGLOG_MODES = ("on", "py")
+"""The modes that publish: dbglog on, through its compiled hot path and through the Python one."""
 _MIX_BLOCK = 500
 """Iterations per block of one mode in the interleaved run (0.5 s)."""
 _MIX_SETTLE = 20
@@ -408,7 +410,7 @@ def publisher_mixed(seconds: float, slice_us: float | None = None) -> None:
                 elif rest < -0.001:  # a missed deadline is skipped, as a ROS 2 timer does: no burst
                     deadline = time.monotonic()
             out.extend(float(c) for c in timed[_MIX_SETTLE * 10 :])
-            on_iterations += _MIX_BLOCK if mode in ("on", "py") else 0
+            on_iterations += _MIX_BLOCK if mode in _DBGLOG_MODES else 0
     figures = {
         mode: {
             "period_p50_us": _pct(periods[mode], 0.5),
@@ -607,7 +609,7 @@ def run_interleaved(seconds: float, slice_us: float | None = None, cpu: str = "b
         assert _readline(pub, 60) == "measuring"
         _send(engine, "start")
         result: dict[str, Any] = json.loads(_readline(pub, seconds * 1.5 + 60))
-        primed = sum(m in ("on", "py") for m in _MIX_MODES)  # each dbglog mode's first call per tag
+        primed = len(_DBGLOG_MODES)  # each dbglog mode's first call per tag
         _send(engine, f"report {primed + result['warmup'] + result['n']}")
         result.update(json.loads(_readline(engine, 60)))
         _send(pub, "exit")

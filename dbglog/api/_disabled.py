@@ -225,17 +225,19 @@ if not TYPE_CHECKING and _NATIVE is not None:
     # With the compiled module, a call with the positional arguments and keyword options returns in C:
     # cheaper than any Python function. Every other call shape goes to the no-op above, which refuses
     # what is refused switched on.
-    _OPTIONS = ("once", "throttle", "skip_first")
+    def _compiled(noop: Any) -> Any:
+        """`noop` as a `NoOp`: its arity and option names are those of the signature it wraps."""
+        code = noop.__wrapped__.__code__
+        positional, options = code.co_argcount, code.co_kwonlyargcount
+        names = code.co_varnames[positional : positional + options]
+        return functools.update_wrapper(_NATIVE.NoOp(noop, positional, names), noop)
 
-    def _compiled(noop: Any, positional: int, options: tuple[str, ...]) -> Any:
-        return functools.update_wrapper(_NATIVE.NoOp(noop, positional, options), noop)
-
-    logfloat = _compiled(logfloat, 2, ("msg_type", *_OPTIONS))
-    logint = _compiled(logint, 2, ("msg_type", *_OPTIONS))
-    logbool = _compiled(logbool, 2, ("msg_type", *_OPTIONS))
-    logstring = _compiled(logstring, 2, ("msg_type", *_OPTIONS))
-    logdata = _compiled(logdata, 3, _OPTIONS)
-    log = _compiled(log, 2, _OPTIONS)
+    logfloat = _compiled(logfloat)
+    logint = _compiled(logint)
+    logbool = _compiled(logbool)
+    logstring = _compiled(logstring)
+    logdata = _compiled(logdata)
+    log = _compiled(log)
 
 
 def init(*, node: Any = None) -> None:

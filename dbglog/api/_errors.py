@@ -73,19 +73,19 @@ class Stats:
 class _Counter:
     """A counter whose increment is one C call (atomic under the GIL), readable without a lock."""
 
-    __slots__ = ("_count", "_lock", "_reads", "counter", "incr")
+    __slots__ = ("_lock", "_reads", "counter", "incr")
 
     def __init__(self) -> None:
-        self._count = self.counter = itertools.count()
+        self.counter = itertools.count()
         """The counter itself: the compiled hot path advances it (``incr`` is its bound ``__next__``)."""
-        self.incr = self._count.__next__
+        self.incr = self.counter.__next__
         self._reads = 0
         self._lock = threading.Lock()
 
     def reset(self) -> None:
         """Start again from zero (the bound `incr` stays valid)."""
         with self._lock:
-            self._reads = next(self._count) + 1
+            self._reads = next(self.counter) + 1
 
     def add(self, n: int) -> None:
         """Count `n` at once (one lock instead of `n` increments)."""
@@ -95,7 +95,7 @@ class _Counter:
     def value(self) -> int:
         """Return how many times `incr` has been called."""
         with self._lock:
-            n = next(self._count) - self._reads
+            n = next(self.counter) - self._reads
             self._reads += 1
             return n
 

@@ -453,12 +453,6 @@ slow:
 }
 
 static PyObject *
-hot_call(HotCall *self, PyObject *args, PyObject *kwargs)
-{
-    return PyObject_Call(self->slow, args, kwargs);
-}
-
-static PyObject *
 hot_new(PyTypeObject *type, PyObject *args, PyObject *kwargs)
 {
     static char *names[] = {"slow",  "kind",         "table", "queue",     "pipe",         "calls",
@@ -537,7 +531,7 @@ static PyType_Slot hot_slots[] = {
     {Py_tp_dealloc, hot_dealloc},
     {Py_tp_traverse, hot_traverse},
     {Py_tp_clear, hot_clear},
-    {Py_tp_call, hot_call},
+    {Py_tp_call, PyVectorcall_Call}, /* every call, however made, takes the vectorcall above */
     {Py_tp_members, hot_members},
     {Py_tp_getset, hot_getset},
     {0, NULL},
@@ -609,12 +603,6 @@ noop_vectorcall(NoOp *self, PyObject *const *args, size_t nargsf, PyObject *kwna
 }
 
 static PyObject *
-noop_call(NoOp *self, PyObject *args, PyObject *kwargs)
-{
-    return PyObject_Call(self->slow, args, kwargs);
-}
-
-static PyObject *
 noop_new(PyTypeObject *type, PyObject *args, PyObject *kwargs)
 {
     static char *names[] = {"slow", "positional", "options", NULL};
@@ -670,7 +658,7 @@ static PyType_Slot noop_slots[] = {
     {Py_tp_dealloc, noop_dealloc},
     {Py_tp_traverse, noop_traverse},
     {Py_tp_clear, noop_clear},
-    {Py_tp_call, noop_call},
+    {Py_tp_call, PyVectorcall_Call},
     {Py_tp_members, noop_members},
     {Py_tp_getset, hot_getset},
     {0, NULL},
