@@ -45,9 +45,10 @@ fi
 # but is marked transitional.) The stamp records the mode, so a venv installed the old way is redone once.
 install_mode="editable+clone-pth"
 stamp="$VENV/.dbglog-installed"
-# The editable install compiles dbglog/api/_hot.c in place: a changed source (or setup.py) installs again.
+# The editable install compiles dbglog/api/*.c in place: a changed source (or setup.py) installs again.
 if [ ! -f "$stamp" ] || [ "$ROOT/pyproject.toml" -nt "$stamp" ] || [ "$ROOT/setup.py" -nt "$stamp" ] \
-    || [ "$ROOT/dbglog/api/_hot.c" -nt "$stamp" ] || [ "$(cat "$stamp")" != "$install_mode" ]; then
+    || [ -n "$(find "$ROOT/dbglog/api" -name '*.[ch]' -newer "$stamp")" ] \
+    || [ "$(cat "$stamp")" != "$install_mode" ]; then
   echo "setup: installing dbglog[ros,viewer,test] into $VENV"
   "$VENV/bin/python" -m pip install -q --upgrade pip >/dev/null
   "$VENV/bin/python" -m pip install -q -e "$ROOT[ros,viewer,test]"

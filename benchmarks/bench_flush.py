@@ -1,14 +1,17 @@
 """Where dbglog's publisher thread spends its CPU per flush: the GIL time a 1 kHz loop can run into.
 
-Run: ``.venv/bin/python benchmarks/bench_flush.py [--seconds 14]`` (prints a Markdown table).
+Run: ``.venv/bin/python benchmarks/bench_flush.py [--seconds 14] [--repeats 3]`` (prints Markdown tables).
 
-The process logs 10 tags at 1 kHz as ``bench_probe.py``'s loop does (8 floats and an int per
-iteration, a string throttled to 10 Hz; the loop sleeps 1 ms between iterations), no subscriber. After
-the tags' first 5 s (when every sample also goes on its tag's topic) it sums the publisher thread's CPU
-time (``time.thread_time_ns``) in each step of a flush. Everything but the batch's DDS write (which
-runs without the GIL, ``dbglog/_ros/_nogil.py``) holds the GIL: a loop that wakes at a random moment
-finds the thread holding it for that share of the time, and a loop period's p99 cannot stay clear of a
-share above 1 %.
+Each run is a child process that logs 10 tags at 1 kHz as ``bench_probe.py``'s loop does (8 floats and
+an int per iteration, a string throttled to 10 Hz; the loop sleeps 1 ms between iterations), no
+subscriber. After the tags' first 5 s (when every sample also goes on its tag's topic) it sums the
+publisher thread's CPU time (``time.thread_time_ns``) in each step of a flush. Everything but the
+batch's DDS write (which runs without the GIL, ``dbglog/_ros/_nogil.py``) holds the GIL: a loop that
+wakes at a random moment finds the thread holding it for that share of the time.
+
+Runs alternate the compiled flush (``dbglog/api/_flush.c``) and its Python version (the child under
+``DBGLOG_PURE_PYTHON=1``, what an install without a C compiler runs); the tables give each step's
+median over the repeats, side by side.
 """
 
 from __future__ import annotations
@@ -16,7 +19,10 @@ from __future__ import annotations
 import argparse
 import collections
 import functools
+import json
 import os
+import statistics
+import subprocess
 import sys
 import time
 from collections.abc import Callable
@@ -31,6 +37,10 @@ from benchmarks._common import local_ros_env, print_table  # noqa: E402
 
 _SETTLE_S = 7.0
 """Seconds before measuring: the tags' first 5 s publish every sample on their own topics too."""
+_WHOLE = "a whole flush"
+_WRITE = "  its DDS write (without the GIL)"
+_IMPLS = {"C": "0", "Python": "1"}
+"""Each flush implementation and the child's DBGLOG_PURE_PYTHON."""
 
 
 class _Meter:
@@ -58,30 +68,26 @@ class _Meter:
         setattr(owner, name, timed)
 
 
-def main() -> None:
-    """Log, measure the flushes, print the table."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--seconds", type=float, default=14.0, help="run time, the first 7 s unmeasured")
-    args = parser.parse_args()
+def child(seconds: float) -> None:
+    """Log, measure the flushes, print one JSON line: per step, CPU ns and calls; flushes; seconds."""
     local_ros_env(int.from_bytes(os.urandom(1)) % 100 + 101)
     import dbglog
     from dbglog.api import _pipe
-    from dbglog.api._public import RUNTIME, hot_path
+    from dbglog.api._public import RUNTIME
     from dbglog.api._runtime import Channel
 
     meter = _Meter()
-    meter.wrap(_pipe.Pipe, "_flush_once", "a whole flush")
-    meter.wrap(_pipe.Pipe, "_publish_batch", "building and publishing the batch")
-    meter.wrap(_pipe, "encode_batch", "  its CDR encoding (encode_batch)")
-    meter.wrap(_pipe, "pack_values", "  its values packed (pack_values)")
+    meter.wrap(_pipe.Pipe, "_flush_once", _WHOLE)
+    meter.wrap(_pipe, "take", "taking the samples off the queue (take)")
+    meter.wrap(_pipe, "pack_batch_of", "grouping and encoding the batch (pack_batch)")
     meter.wrap(_pipe.Pipe, "_publish_pending", "each unwatched tag's newest value on its topic")
     meter.wrap(Channel, "listened", "subscriber counts (Channel.listened)")
     dbglog.init()
-    meter.wrap(RUNTIME, "batch_publish", "  its DDS write (without the GIL)")
+    meter.wrap(RUNTIME, "batch_publish", _WRITE)
     floats = [f"bench_flush/f{i}" for i in range(8)]
     start = time.monotonic()
     k = 0
-    while (now := time.monotonic()) < start + args.seconds:
+    while (now := time.monotonic()) < start + seconds:
         meter.on = now - start > _SETTLE_S
         for tag in floats:
             dbglog.logfloat(tag, float(k))
@@ -90,21 +96,73 @@ def main() -> None:
         k += 1
         time.sleep(0.001)
     meter.on = False
-    flushes = meter.calls["a whole flush"]
-    measured = args.seconds - _SETTLE_S
-    rows = [
-        [label, f"{ns / flushes / 1e3:.1f}", f"{meter.calls[label] / flushes:.2f}"]
-        for label, ns in meter.ns.most_common()
-    ]
-    held = meter.ns["a whole flush"] - meter.ns["  its DDS write (without the GIL)"]
+    print(json.dumps({"ns": meter.ns, "calls": meter.calls, "seconds": seconds - _SETTLE_S}))
+    dbglog.shutdown()
+
+
+def _run(impl: str, seconds: float) -> dict[str, Any]:
+    env = {**os.environ, "DBGLOG_PURE_PYTHON": _IMPLS[impl]}
+    out = subprocess.run(
+        [sys.executable, __file__, "--child", "--seconds", str(seconds)],
+        env=env,
+        capture_output=True,
+        text=True,
+        check=True,
+        timeout=seconds + 60,
+    ).stdout
+    result: dict[str, Any] = json.loads(out.strip().splitlines()[-1])
+    return result
+
+
+def main() -> None:
+    """Alternate C and Python runs, print the per-step medians side by side."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seconds", type=float, default=14.0, help="run time, the first 7 s unmeasured")
+    parser.add_argument("--repeats", type=int, default=3, help="runs of each implementation, alternating")
+    parser.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    if args.child:
+        child(args.seconds)
+        return
+    runs: dict[str, list[dict[str, Any]]] = {impl: [] for impl in _IMPLS}
+    for _ in range(args.repeats):
+        for impl in _IMPLS:
+            runs[impl].append(_run(impl, args.seconds))
+
+    def per_flush(run: dict[str, Any], label: str, key: str) -> float:
+        return float(run[key].get(label, 0)) / max(1, int(run["calls"][_WHOLE]))
+
+    def held_share(run: dict[str, Any]) -> float:
+        ns = run["ns"]
+        return float(ns[_WHOLE] - ns.get(_WRITE, 0)) / (float(run["seconds"]) * 1e9)
+
+    labels = list(dict.fromkeys(label for impl in _IMPLS for run in runs[impl] for label in run["ns"]))
+    labels.sort(key=lambda label: -statistics.median(per_flush(r, label, "ns") for r in runs["C"]))
+    rows: list[list[object]] = []
+    for label in labels:
+        row: list[object] = [label]
+        for impl in _IMPLS:
+            row.append(f"{statistics.median(per_flush(r, label, 'ns') for r in runs[impl]) / 1e3:.1f}")
+        row.append(f"{statistics.median(per_flush(r, label, 'calls') for r in runs['C']):.2f}")
+        rows.append(row)
+    flushes = {
+        impl: statistics.median(r["calls"][_WHOLE] / r["seconds"] for r in runs[impl]) for impl in _IMPLS
+    }
+    held = {impl: [held_share(r) for r in runs[impl]] for impl in _IMPLS}
+    rows.append(
+        [
+            "**the GIL held, share of the time** (whole flush less the DDS write), each run",
+            *(", ".join(f"{h:.2%}" for h in held[impl]) for impl in _IMPLS),
+            "",
+        ]
+    )
     print_table(
-        f"dbglog's publisher thread, 10 tags at 1 kHz, no subscriber ({hot_path} hot path): "
-        f"{flushes} flushes in {measured:.0f} s; the GIL held {held / flushes / 1e3:.0f} µs a flush, "
-        f"{held / (measured * 1e9):.2%} of the time",
-        ["step", "thread CPU µs per flush", "calls per flush"],
+        f"dbglog's publisher thread, 10 tags at 1 kHz, no subscriber: medians of {args.repeats} runs of "
+        f"{args.seconds - _SETTLE_S:.0f} s measured, alternating ({flushes['C']:.0f} / "
+        f"{flushes['Python']:.0f} flushes a second)",
+        ["step", "thread CPU µs per flush, C", "Python", "calls per flush"],
         rows,
     )
-    dbglog.shutdown()
 
 
 if __name__ == "__main__":

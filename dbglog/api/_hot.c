@@ -27,6 +27,8 @@
 #include <string.h>
 #include <time.h>
 
+#include "_flush.h"
+
 enum { KIND_FLOAT = 0, KIND_INT = 1, KIND_BOOL = 2, KIND_STR = 3 };
 
 /* An attribute read (and written) straight in its object's slot when the object is exactly of the type
@@ -685,7 +687,7 @@ hot_exec(PyObject *module)
     INTERN(s_last_pass, "last_pass");
     INTERN(s_calls, "calls");
     INTERN(s_throttle, "throttle");
-    if ((one = PyLong_FromLong(1)) == NULL) {
+    if ((one = PyLong_FromLong(1)) == NULL || flush_init() < 0) {
         return -1;
     }
 #undef INTERN
@@ -715,8 +717,10 @@ static PyModuleDef_Slot hot_module_slots[] = {
 static struct PyModuleDef hot_module = {
     PyModuleDef_HEAD_INIT,
     .m_name = "dbglog.api._hot",
-    .m_doc = "The compiled hot path of dbglog's scalar logging functions, and its switched-off no-ops.",
+    .m_doc = "The compiled hot path of dbglog's scalar logging functions, its switched-off no-ops, and the "
+             "publisher thread's per-sample work (_flush.c).",
     .m_size = 0,
+    .m_methods = flush_methods,
     .m_slots = hot_module_slots,
 };
 

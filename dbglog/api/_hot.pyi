@@ -1,4 +1,5 @@
-"""The compiled hot path of dbglog's scalar logging functions and its switched-off no-ops (``_hot.c``)."""
+"""The compiled hot path of dbglog's scalar logging functions, its switched-off no-ops (``_hot.c``), and
+the publisher thread's per-sample work (``_flush.c``)."""
 
 from collections import deque
 from collections.abc import Callable, Iterator
@@ -38,3 +39,11 @@ class NoOp:
     __wrapped__: Callable[..., None]
     def __init__(self, slow: Callable[..., None], positional: int, options: tuple[str, ...]) -> None: ...
     def __call__(self, *args: Any, **kwargs: Any) -> None: ...
+
+def take(queue: deque[Any], limit: int, /) -> list[Any]:
+    """Pop up to `limit` samples from the queue's left end (fewer if it empties meanwhile)."""
+
+def pack_batch(
+    items: list[Any], writer: int | None, seq: int, breathe_ns: int, /
+) -> tuple[list[Any], list[object], bytes | None]:
+    """The samples' channels (first seen first), each one's last value, and the batch message's bytes."""

@@ -17,12 +17,13 @@ from collections import deque
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
-from dbglog._ros._batch import SLOT_FORMATS, encode_batch, pack_values
+from dbglog._ros._batch import SLOT_FORMATS, encode_batch, pack_values, type_code
+from dbglog.api._native import load
 
 if TYPE_CHECKING:
     from dbglog.api._runtime import Channel, Runtime
 
-__all__ = ["FLUSH_PERIOD", "LISTEN_CHECK_S", "QUEUE_CAPACITY", "Pipe"]
+__all__ = ["FLUSH_PERIOD", "LISTEN_CHECK_S", "QUEUE_CAPACITY", "Pipe", "pack_batch", "take_items"]
 
 QUEUE_CAPACITY = 100_000
 """Queued samples at most (about 10 s at 10k samples/s, ~15 MB); more are dropped and counted."""
@@ -42,14 +43,14 @@ _PACK_CHUNK = 512
 """Samples whose values are packed in one C call (~15-25 µs holding the GIL) in a batch's values column."""
 
 
-def _breathe(since: int) -> int:
-    """Let other threads take the GIL if this one has held it `_YIELD_NS` since `since`; the new mark.
+def _breathe(since: int, limit_ns: int = _YIELD_NS) -> int:
+    """Let other threads take the GIL if this one has held it `limit_ns` since `since`; the new mark.
 
     Marks are ``time.perf_counter_ns()``. Only the publisher thread breathes: a flush on the caller's
     thread (``flush()``, shutdown) must not sleep.
     """
     now = time.perf_counter_ns()
-    if now - since <= _YIELD_NS:
+    if now - since <= limit_ns:
         return since
     time.sleep(_YIELD_S)
     return time.perf_counter_ns()
@@ -61,6 +62,8 @@ _NEWEST_EVERY = 0.1
 """Seconds between two publishes of the newest value on the topic of a tag nobody subscribes to."""
 
 Item = tuple["Channel", object, int]
+_STRING = type_code("String")
+_FLOAT32 = type_code("Float32")
 
 
 class Pipe:
@@ -184,14 +187,11 @@ class Pipe:
         """Take up to `_MAX_BATCH` samples: one batch message, then each sample on its tag's topic.
 
         With `yield_gil` (the publisher thread) no stretch of it holds the GIL much longer than
-        `_YIELD_NS` (`_breathe`): a caller's loop that wakes up meanwhile gets it within that.
+        `_YIELD_NS` (`_breathe`): a caller's loop that wakes up meanwhile gets it within that. The
+        per-sample work (`take`, `pack_batch`) runs in C when the compiled module is there.
         """
         mark = time.perf_counter_ns()  # the GIL held since (about) now: the thread just woke up
-        queue = self.queue
-        popleft = queue.popleft
-        items: list[Item] = []
-        for _ in range(min(len(queue), _MAX_BATCH)):
-            items.append(popleft())
+        items = take(self.queue, _MAX_BATCH)
         if not items:
             return 0
         runtime = self.runtime
@@ -199,11 +199,24 @@ class Pipe:
             for _ in items:
                 runtime.reporter.count("shut_down")
             return len(items)
-        chans, vals, times = zip(*items, strict=True)
-        order = list(dict.fromkeys(chans))
+        publish = runtime.batch_publish
+        try:
+            order, newest, message = pack_batch_of(
+                items, None if publish is None else self.writer, self.seq, _YIELD_NS if yield_gil else 0
+            )
+        except Exception as exc:  # a value that fits no slot: each sample goes on its topic, as checked
+            self._batch_failed("encoding", len(items), exc)
+            order, newest, message = list(dict.fromkeys(ch for ch, _, _ in items)), [], None
         if yield_gil:
             mark = _breathe(mark)
-        batched = self._publish_batch(order, chans, vals, times, yield_gil=yield_gil)
+        batched = False
+        if publish is not None and message is not None:
+            self.seq += 1
+            try:
+                publish(message)  # without the GIL (dbglog/_ros/_nogil.py)
+                batched = True
+            except Exception as exc:
+                self._batch_failed("publishing", len(items), exc)
         if yield_gil:
             time.sleep(_YIELD_S)
             mark = time.perf_counter_ns()
@@ -220,7 +233,7 @@ class Pipe:
         pending = self.pending
         if not watched:  # only the viewer listens (it reads the batch): each tag's newest on its topic
             published.add(len(items))
-            pending.update(zip(chans, vals, strict=True))
+            pending.update(zip(order, newest, strict=True))
             self._publish_pending(now, yield_gil=yield_gil)
             return len(items)
         if not pending.keys().isdisjoint(watched):  # a subscriber came: its tag's older newest first
@@ -251,6 +264,17 @@ class Pipe:
         self._publish_pending(now, yield_gil=yield_gil)
         return len(items)
 
+    def _batch_failed(self, step: str, samples: int, exc: Exception) -> None:
+        """Warn (once) that a batch could not be encoded or published: its samples go on their topics."""
+        with contextlib.suppress(Exception):  # strict mode raises here: not the user's thread
+            self.runtime.reporter.warn(
+                "publish_failed",
+                "batch",
+                f"dbglog: {step} a batch of {samples} samples failed ({type(exc).__name__}: {exc}); "
+                "the viewer misses them, ROS tools still get them",
+                exc,
+            )
+
     def _publish_pending(
         self, now: float, *, force: bool = False, only: set[Channel] | None = None, yield_gil: bool = False
     ) -> None:
@@ -276,66 +300,64 @@ class Pipe:
             if yield_gil:
                 mark = _breathe(mark)
 
-    def _publish_batch(
-        self,
-        order: list[Channel],
-        chans: tuple[Channel, ...],
-        vals: tuple[object, ...],
-        times: tuple[int, ...],
-        *,
-        yield_gil: bool = False,
-    ) -> bool:
-        """Publish one batch message of the samples (columns built by C loops); False if it failed."""
-        publish = self.runtime.batch_publish
-        if publish is None:
-            return False
-        mark = time.perf_counter_ns()
-        lookup = {c: i for i, c in enumerate(order)}
-        tags = [(c.code, c.tag_bytes) for c in order]
-        index = array("H", map(lookup.__getitem__, chans))
-        strings: list[bytes] = []
-        odd = {c for c in order if c.text or c.convert is not None}
-        numbers: Any = vals
-        if odd:  # texts become their number in `strings`, Float32 values are rounded like the topic's
-            numbers = list(vals)
-            for i in [i for i, c in enumerate(chans) if c in odd]:
-                ch = chans[i]
-                if ch.text:
-                    strings.append(str(numbers[i]).encode("utf-8", "replace"))
-                    numbers[i] = len(strings) - 1
-                elif ch.convert is not None:
-                    numbers[i] = ch.convert(numbers[i])
-        # Each value in its tag's slot (f64, i64 or u64: integers exact), packed by C loops.
-        kinds = {c: SLOT_FORMATS[c.code] for c in order}
-        if len(set(kinds.values())) == 1:
-            slots = kinds[order[0]] * len(chans)
-        else:
-            slots = "".join(map(kinds.__getitem__, chans))
-        parts: list[bytes] = []
-        for i in range(0, len(chans), _PACK_CHUNK):  # a backlog in pieces: `_breathe` between them
-            if yield_gil:
-                mark = _breathe(mark)
-            parts.append(pack_values(slots[i : i + _PACK_CHUNK], numbers[i : i + _PACK_CHUNK]))
-        values = b"".join(parts)
-        if yield_gil:
-            mark = _breathe(mark)
-        message = encode_batch(self.writer, self.seq, tags, index, array("q", times), values, strings)
-        if yield_gil:
-            _breathe(mark)
-        self.seq += 1
-        try:
-            publish(message)
-            return True
-        except Exception as exc:
-            with contextlib.suppress(Exception):  # strict mode raises here: not the user's thread
-                self.runtime.reporter.warn(
-                    "publish_failed",
-                    "batch",
-                    f"dbglog: publishing a batch of {len(chans)} samples failed "
-                    f"({type(exc).__name__}: {exc}); the viewer misses them, ROS tools still get them",
-                    exc,
-                )
-            return False
+
+def take_items(queue: deque[Item], limit: int) -> list[Item]:
+    """Pop up to `limit` samples from the queue's left end (fewer if it empties meanwhile)."""
+    popleft = queue.popleft
+    items: list[Item] = []
+    with contextlib.suppress(IndexError):  # emptied meanwhile (a reset)
+        for _ in range(min(len(queue), limit)):
+            items.append(popleft())
+    return items
+
+
+def pack_batch(
+    items: list[Item], writer: int | None, seq: int, breathe_ns: int
+) -> tuple[list[Channel], list[object], bytes | None]:
+    """Return the samples' channels (first seen first), each one's last value, and the batch message.
+
+    The message is `encode_batch`'s CDR bytes of the samples (None when `writer` is None). With
+    `breathe_ns` the GIL is let go between chunks once held that long (`_breathe`). The compiled
+    module's ``pack_batch`` returns the same, byte for byte (tests/test_flush_c.py).
+
+    Raises:
+        struct.error, TypeError, OverflowError, ValueError: a value does not fit its tag's slot.
+    """
+    mark = time.perf_counter_ns()
+    chans: tuple[Channel, ...] = ()
+    vals: tuple[object, ...] = ()
+    times: tuple[int, ...] = ()
+    if items:
+        chans, vals, times = zip(*items, strict=True)
+    last = dict(zip(chans, vals, strict=True))  # first seen first, the last value
+    order = list(last)
+    newest = list(last.values())
+    if writer is None:
+        return order, newest, None
+    lookup = {c: i for i, c in enumerate(order)}
+    codes = [c.code for c in order]
+    index = array("H", map(lookup.__getitem__, chans))
+    strings: list[bytes] = []
+    numbers: Any = vals
+    if _STRING in codes or _FLOAT32 in codes:  # texts become their number, Float32 values are rounded
+        numbers = list(vals)
+        for i, code in enumerate(map(codes.__getitem__, index)):
+            if code == _STRING:
+                strings.append(str(numbers[i]).encode("utf-8", "replace"))
+                numbers[i] = len(strings) - 1
+            elif code == _FLOAT32:
+                numbers[i] = _float32(numbers[i])
+    # Each value in its tag's slot (f64, i64 or u64: integers exact), packed by C loops.
+    kinds = [SLOT_FORMATS[code] for code in codes]
+    slots = kinds[0] * len(chans) if len(set(kinds)) == 1 else "".join(map(kinds.__getitem__, index))
+    parts: list[bytes] = []
+    for i in range(0, len(chans), _PACK_CHUNK):  # a backlog in pieces: `_breathe` between them
+        if breathe_ns:
+            mark = _breathe(mark, breathe_ns)
+        parts.append(pack_values(slots[i : i + _PACK_CHUNK], numbers[i : i + _PACK_CHUNK]))
+    tags = [(c.code, c.tag_bytes) for c in order]
+    message = encode_batch(writer, seq, tags, index, array("q", times), b"".join(parts), strings)
+    return order, newest, message
 
 
 _pack_f = struct.Struct("<f").pack
@@ -348,6 +370,11 @@ def _float32(value: Any) -> float:
     return result
 
 
-def batch_converter(std_type: str) -> Callable[[Any], float] | None:
-    """Return the per-sample conversion of a std_msgs scalar type's values for the batch, if any."""
-    return _float32 if std_type == "Float32" else None
+_native = load()
+take: Callable[[deque[Item], int], list[Item]] = take_items if _native is None else _native.take
+"""`take_items`, in C when the compiled module is there."""
+Packed = tuple[list["Channel"], list[object], bytes | None]
+pack_batch_of: Callable[[list[Item], int | None, int, int], Packed] = (
+    pack_batch if _native is None else _native.pack_batch
+)
+"""`pack_batch`, in C when the compiled module is there."""

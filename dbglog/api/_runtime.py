@@ -30,7 +30,7 @@ from dbglog.api._convert import (
     type_name,
 )
 from dbglog.api._errors import Reporter, safe_repr
-from dbglog.api._pipe import LISTEN_CHECK_S, Pipe, batch_converter
+from dbglog.api._pipe import LISTEN_CHECK_S, Pipe
 from dbglog.api._rate import Known
 
 __all__ = ["MAX_TAGS", "Channel", "Runtime"]
@@ -59,7 +59,6 @@ class Channel:
         "alive",
         "checked",
         "code",
-        "convert",
         "created",
         "encode",
         "listening",
@@ -73,7 +72,6 @@ class Channel:
         "spec",
         "tag",
         "tag_bytes",
-        "text",
         "topic",
     )
 
@@ -100,9 +98,7 @@ class Channel:
         )
         """Scalar std_msgs values go through the queue and the batch; other messages are sent at once."""
         self.code = type_code(spec.name) if self.queued and spec is not None else 0
-        self.convert = batch_converter(spec.name) if self.queued and spec is not None else None
-        """Per-sample conversion of the value for the batch (Float32 rounding), if any."""
-        self.text = spec is not None and spec.kind == "str"
+        """The tag's type code in a batch (`SCALAR_TYPES`): its value slot, Float32 rounding, String texts."""
         self.newest_sent = -math.inf
         """When the tag's newest value last went on its topic while nobody subscribed (publisher thread)."""
         self.rate_site: Known | None = None
