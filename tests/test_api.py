@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import functools
 import threading
+import time
 from collections.abc import Callable, Iterator
 from typing import Any
 
@@ -277,6 +278,29 @@ def test_other_type_on_a_tag_warns_once_and_is_dropped(peer: RosPeer) -> None:
     assert got.wait_for(2)
     assert got.values() == [1.0, 2.0]
     assert dbglog.stats().dropped_by_reason == {"type_conflict": 2}
+
+
+def test_a_batch_that_cannot_be_encoded_goes_out_sample_by_sample(peer: RosPeer) -> None:
+    """A queued value that fits no batch slot (only a bug could queue one) costs only itself: the
+    batch's other samples still reach their topics, and the failure is said once."""
+    good = peer.subscribe("/rosdashboard/t_unbatched", Float64, LATCHED)
+    dbglog.logfloat("t_unbatched", 0.0)
+    dbglog.logint("t_unbatchable", 1)
+    assert dbglog.flush(10.0)
+    assert good.wait_for(1)
+    with RUNTIME.pipe.lock:  # the three in one batch
+        dbglog.logfloat("t_unbatched", 1.0)
+        RUNTIME.pipe.queue.append((RUNTIME.channels["t_unbatchable"], 2.5, time.time_ns()))
+        dbglog.logfloat("t_unbatched", 2.0)
+    with pytest.warns(DbglogWarning) as rec:
+        assert dbglog.flush(10.0)
+    said = [str(w.message) for w in rec]
+    assert len(said) == 2
+    assert said[0].startswith("dbglog: encoding a batch of 3 samples failed (")
+    assert "publishing on /rosdashboard/t_unbatchable failed" in said[1]
+    assert good.wait_for(3)
+    assert good.values() == [0.0, 1.0, 2.0]
+    assert dbglog.stats().dropped_by_reason == {"publish_failed": 1}
 
 
 def test_invalid_tag_is_renamed_with_one_warning_at_the_callers_line(peer: RosPeer) -> None:

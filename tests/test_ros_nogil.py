@@ -13,18 +13,20 @@ from tests._ros import RosPeer
 
 
 def test_bytes_published_without_the_gil_arrive_in_order_like_rclpys() -> None:
-    """Every message reaches a subscriber in another participant, in order, interleaved with rclpy's own."""
+    """Every message reaches a subscriber in another participant, in order, interleaved with rclpy's own
+    (the handle held around each write or not)."""
     with RosPeer("nogil_pub") as a, RosPeer("nogil_sub") as b:
         got = b.subscribe("/nogil/x", Float64)
         pub = a.publisher("/nogil/x", Float64)
-        publish = unlocked_publish(pub)
-        assert publish is not None
+        guarded, unguarded = unlocked_publish(pub), unlocked_publish(pub, guarded=False)
+        assert guarded is not None
+        assert unguarded is not None
         assert a.wait_for_subscribers(pub)
-        for i in range(200):
+        for i in range(300):
             data = serialize_message(Float64(data=float(i)))
-            (publish if i % 2 else pub.publish)(data)
-        assert got.wait_for(200)
-        assert got.values() == [float(i) for i in range(200)]
+            (pub.publish, guarded, unguarded)[i % 3](data)
+        assert got.wait_for(300)
+        assert got.values() == [float(i) for i in range(300)]
 
 
 def test_a_batch_sized_message_on_the_batch_qos_arrives_whole() -> None:

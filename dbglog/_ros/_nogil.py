@@ -12,6 +12,7 @@ in use) around the call, exactly as ``Publisher.publish`` does. No import of rcl
 from __future__ import annotations
 
 import ctypes
+import functools
 import logging
 from collections.abc import Callable
 from typing import Any
@@ -44,6 +45,7 @@ class _SerializedMessage(ctypes.Structure):
     ]
 
 
+@functools.cache
 def _rcl() -> tuple[Any, Any]:
     """Return rcl's publish of serialized bytes and rcutils' error reset, from the libraries rclpy loaded."""
     # By soname: the libraries already loaded by rclpy's extension are the ones returned.
@@ -56,12 +58,13 @@ def _rcl() -> tuple[Any, Any]:
     return write, reset
 
 
-def unlocked_publish(publisher: Any) -> Callable[[bytes], None] | None:
+def unlocked_publish(publisher: Any, *, guarded: bool = True) -> Callable[[bytes], None] | None:
     """Return a function that publishes serialized bytes on `publisher` with the GIL released.
 
     `publisher` is an ``rclpy.publisher.Publisher``. None when this rclpy or its ``librcl`` cannot be
     reached this way (the caller keeps ``publisher.publish``). A failed write falls back to
-    ``publisher.publish`` once, which raises rclpy's own error.
+    ``publisher.publish`` once, which raises rclpy's own error. Not `guarded`, the publisher's handle
+    is not held around each write: only for a publisher that nobody destroys while it may be in use.
     """
     try:
         write, reset = _rcl()
@@ -73,6 +76,17 @@ def unlocked_publish(publisher: Any) -> Callable[[bytes], None] | None:
         _log.debug("dbglog: publishing with the GIL held (%s: %s)", type(exc).__name__, exc)
         return None
     fallback = publisher.publish
+    if not guarded:
+        pointer = handle.pointer
+
+        def publish_unguarded(data: bytes) -> None:
+            """Publish `data` (one serialized message) on the publisher."""
+            message = _SerializedMessage(data, len(data), len(data))
+            if write(pointer, ctypes.byref(message), None) != 0:  # ctypes drops the GIL for this call
+                reset()
+                fallback(data)
+
+        return publish_unguarded
 
     def publish(data: bytes) -> None:
         """Publish `data` (one serialized message) on the publisher."""

@@ -21,6 +21,7 @@ from typing import Any, Literal
 
 from dbglog._ros._batch import BATCH_TOPIC, SCALAR_TYPES, sdk_node_name, type_code
 from dbglog._ros._cdr import scalar_encoder
+from dbglog._ros._nogil import unlocked_publish
 from dbglog._ros._qos import batch_qos, tag_qos
 from dbglog._ros._tags import TAG_PREFIX, sanitize_tag, tag_problem, topic_for_tag
 from dbglog.api._convert import (
@@ -275,10 +276,11 @@ class Runtime:
         spec = scalar_spec(msg_class)
         raw = spec is not None and spec.kind != "str" and _cdr_round_trips(msg_class, spec)
         ch = Channel(tag, msg_class, publisher, spec, raw)
-        if ch.encode is not None and self._user_node is None:
-            # dbglog's own node: nobody else can destroy these publishers, and this runtime destroys
-            # them only under pipe.lock, so the thread may skip rclpy's per-call handle guard (2x faster).
-            ch.publish_raw = getattr(publisher.handle, "publish_raw", ch.publish)
+        if ch.encode is not None:
+            # The DDS write without the GIL, as the batch's (dbglog/_ros/_nogil.py). dbglog's own node:
+            # nobody else can destroy these publishers, and this runtime destroys them only under
+            # pipe.lock, so the thread may skip rclpy's per-call handle guard.
+            ch.publish_raw = unlocked_publish(publisher, guarded=self._user_node is not None) or ch.publish
         self.channels[tag] = ch
         return ch
 
@@ -439,8 +441,6 @@ class Runtime:
             node = self._user_node if self._user_node is not None else self._node
             try:
                 from std_msgs.msg import UInt8MultiArray
-
-                from dbglog._ros._nogil import unlocked_publish
 
                 self._batch_publisher = node.create_publisher(UInt8MultiArray, BATCH_TOPIC, batch_qos())
                 # The DDS write without the GIL: the caller's threads run meanwhile (dbglog/_ros/_nogil.py).
