@@ -11,8 +11,8 @@ setup(
     ext_modules=[
         Extension(
             "dbglog.api._hot",
-            sources=["dbglog/api/_hot.c", "dbglog/api/_flush.c"],
-            depends=["dbglog/api/_flush.h"],
+            sources=["dbglog/api/_hot.c", "dbglog/api/_flush.c", "dbglog/api/_writer.c"],
+            depends=["dbglog/api/_parts.h"],
             optional=True,
         )
     ]

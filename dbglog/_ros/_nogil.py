@@ -17,7 +17,7 @@ import logging
 from collections.abc import Callable
 from typing import Any
 
-__all__ = ["unlocked_publish"]
+__all__ = ["publisher_address", "rcl_addresses", "unlocked_publish"]
 
 _log = logging.getLogger("dbglog.ros")
 
@@ -56,6 +56,33 @@ def _rcl() -> tuple[Any, Any]:
     reset.argtypes = []
     reset.restype = None
     return write, reset
+
+
+def rcl_addresses() -> tuple[int, int] | None:
+    """Return the addresses of ``rcl_publish_serialized_message`` and ``rcutils_reset_error``, or None.
+
+    For dbglog's compiled writer thread (``dbglog/api/_writer.c``), which calls them without Python.
+    """
+    try:
+        write, reset = _rcl()
+        addresses = (ctypes.cast(write, ctypes.c_void_p).value, ctypes.cast(reset, ctypes.c_void_p).value)
+    except Exception as exc:  # another rclpy, no librcl by that name
+        _log.debug("dbglog: no rcl functions for the writer thread (%s: %s)", type(exc).__name__, exc)
+        return None
+    if addresses[0] is None or addresses[1] is None:
+        return None
+    return addresses[0], addresses[1]
+
+
+def publisher_address(publisher: Any) -> int | None:
+    """Return the address of `publisher`'s ``rcl_publisher_t`` (an ``rclpy`` Publisher), or None."""
+    try:
+        handle = publisher.handle
+        with handle:
+            pointer = handle.pointer
+    except Exception:
+        return None
+    return int(pointer) if pointer else None
 
 
 def unlocked_publish(publisher: Any, *, guarded: bool = True) -> Callable[[bytes], None] | None:

@@ -15,7 +15,7 @@
 #include <string.h>
 #include <time.h>
 
-#include "_flush.h"
+#include "_parts.h"
 
 enum { CODE_FLOAT32 = 1, CODE_LAST_SIGNED = 5, CODE_STRING = 11, N_CODES = 12 };
 enum { BREATHE_EVERY = 256 };   /* samples between two looks at the clock */

@@ -27,7 +27,7 @@
 #include <string.h>
 #include <time.h>
 
-#include "_flush.h"
+#include "_parts.h"
 
 enum { KIND_FLOAT = 0, KIND_INT = 1, KIND_BOOL = 2, KIND_STR = 3 };
 
@@ -687,7 +687,7 @@ hot_exec(PyObject *module)
     INTERN(s_last_pass, "last_pass");
     INTERN(s_calls, "calls");
     INTERN(s_throttle, "throttle");
-    if ((one = PyLong_FromLong(1)) == NULL || flush_init() < 0) {
+    if ((one = PyLong_FromLong(1)) == NULL || flush_init() < 0 || writer_add_type(module) < 0) {
         return -1;
     }
 #undef INTERN

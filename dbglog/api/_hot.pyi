@@ -47,3 +47,20 @@ def pack_batch(
     items: list[Any], writer: int | None, seq: int, breathe_ns: int, /
 ) -> tuple[list[Any], list[object], bytes | None]:
     """The samples' channels (first seen first), each one's last value, and the batch message's bytes."""
+
+class Writer:
+    """A thread that writes serialized messages with rcl, in order, without the GIL (``_writer.c``)."""
+
+    policy_error: str | None
+    native_id: int
+    def __init__(self, publish: int, reset: int, background: bool, capacity: int) -> None: ...
+    def submit(self, publisher: int, data: bytes, /) -> None:
+        """Queue a copy of `data` for the rcl publisher at that address."""
+    def drain(self, timeout: float, /) -> bool:
+        """Wait until everything submitted is written; False when `timeout` ran out."""
+    def discard(self) -> int:
+        """Drop what is queued and not yet being written; how many messages."""
+    def stop(self) -> None:
+        """Write what is queued, then end the thread."""
+    def stats(self) -> dict[str, Any]:
+        """Messages written and refused by rcl, bytes queued, whether one is being written."""

@@ -173,6 +173,8 @@ class Pipe:
                     self._flush_once(yield_gil=True)
                 idle_since = time.monotonic()
                 backlog = len(queue) >= _MAX_BATCH
+            with contextlib.suppress(Exception):  # strict mode raises in warn: not the user's thread
+                self.runtime.note_writer()
             idle = time.monotonic() - idle_since > _IDLE_AFTER
             if self.pending:  # all of them before going to sleep
                 with self.lock, contextlib.suppress(Exception):

@@ -10,6 +10,7 @@ from __future__ import annotations
 import atexit
 import contextlib
 import ctypes
+import functools
 import math
 import os
 import sys
@@ -21,9 +22,10 @@ from typing import Any, Literal
 
 from dbglog._ros._batch import BATCH_TOPIC, SCALAR_TYPES, sdk_node_name, type_code
 from dbglog._ros._cdr import scalar_encoder
-from dbglog._ros._nogil import unlocked_publish
+from dbglog._ros._nogil import publisher_address, rcl_addresses, unlocked_publish
 from dbglog._ros._qos import batch_qos, tag_qos
 from dbglog._ros._tags import TAG_PREFIX, sanitize_tag, tag_problem, topic_for_tag
+from dbglog._sched import CPU_ENV, CpuPolicy
 from dbglog.api._convert import (
     ScalarSpec,
     encode_scalar,
@@ -31,6 +33,7 @@ from dbglog.api._convert import (
     type_name,
 )
 from dbglog.api._errors import Reporter, safe_repr
+from dbglog.api._native import load
 from dbglog.api._pipe import LISTEN_CHECK_S, Pipe
 from dbglog.api._rate import Known
 
@@ -47,6 +50,11 @@ _FORKED_MESSAGE = (
     "survive a fork; dbglog drops values in the child (start workers with multiprocessing's "
     "'spawn' or 'forkserver' method to log from them)"
 )
+_WRITER_CAPACITY = 16 << 20
+"""Bytes of messages the writer thread holds at most; more wait on the publisher thread (the pipe's
+queue then fills, and drops are counted at the calls)."""
+_WRITER_LAST_WRITE_S = 1.0
+"""Seconds a write already under way gets to end before its publishers are leaked instead of destroyed."""
 _NEW_TAG_S = 5.0
 """A tag sends every sample on its topic for this long after its publisher is created, so a subscriber
 that is still being matched (discovery takes a moment) misses nothing."""
@@ -185,6 +193,9 @@ class Runtime:
         """The queue of scalar samples and the thread that publishes them."""
         self.batch_publish: Callable[[bytes], None] | None = None
         self._batch_publisher: Any = None
+        self._writer: Any = None
+        """The compiled writer thread (`_new_writer`) of dbglog's own node's messages, or None."""
+        self._writer_failed = 0
         self.state: State = "idle"
         self._context: Any = None
         self._node: Any = None
@@ -277,12 +288,65 @@ class Runtime:
         raw = spec is not None and spec.kind != "str" and _cdr_round_trips(msg_class, spec)
         ch = Channel(tag, msg_class, publisher, spec, raw)
         if ch.encode is not None:
-            # The DDS write without the GIL, as the batch's (dbglog/_ros/_nogil.py). dbglog's own node:
-            # nobody else can destroy these publishers, and this runtime destroys them only under
-            # pipe.lock, so the thread may skip rclpy's per-call handle guard.
-            ch.publish_raw = unlocked_publish(publisher, guarded=self._user_node is not None) or ch.publish
+            # The DDS write without the GIL, as the batch's: on the writer thread, or through ctypes
+            # (dbglog/_ros/_nogil.py). dbglog's own node: nobody else can destroy these publishers, and this
+            # runtime destroys them only under pipe.lock, so the thread may skip rclpy's per-call guard.
+            ch.publish_raw = self._raw_publish(publisher) or ch.publish
         self.channels[tag] = ch
         return ch
+
+    def _new_writer(self) -> Any:
+        """Start the compiled writer thread, under ``SCHED_IDLE`` unless ``DBGLOG_CPU=normal``; or None.
+
+        None without the compiled module or rcl's functions: the publisher thread then writes itself.
+        """
+        native, addresses = load(), rcl_addresses()
+        if native is None or addresses is None:
+            return None
+        background = os.environ.get(CPU_ENV, "").strip() != CpuPolicy.NORMAL.value
+        try:
+            return native.Writer(*addresses, background, _WRITER_CAPACITY)
+        except Exception:  # no thread to be had: the publisher thread writes itself
+            return None
+
+    def _raw_publish(self, publisher: Any) -> Callable[[bytes], None] | None:
+        """Return the function that writes serialized bytes on `publisher` without the GIL, or None.
+
+        dbglog's own node: through the writer thread, or on the calling thread through ctypes without
+        rclpy's per-call handle guard (nobody else destroys these publishers, and this runtime destroys
+        them only under the pipe's lock, after the writer thread wrote everything). A user's node: ctypes
+        with the guard.
+        """
+        own = self._user_node is None
+        address = publisher_address(publisher) if own and self._writer is not None else None
+        if address is not None:
+            return functools.partial(self._writer.submit, address)
+        return unlocked_publish(publisher, guarded=not own)
+
+    def note_writer(self) -> None:
+        """Warn (once) when the writer thread's rcl writes failed since the last look (publisher thread)."""
+        writer = self._writer
+        if writer is None:
+            return
+        failed = writer.stats()["failed"]
+        if failed > self._writer_failed:
+            self.reporter.warn(
+                "publish_failed",
+                "writer",
+                f"dbglog: the middleware refused {failed - self._writer_failed} message(s) "
+                "(rcl_publish_serialized_message failed); their samples are lost",
+                None,
+            )
+            self._writer_failed = failed
+
+    def _writer_idle(self, timeout: float) -> bool:
+        """Wait until the writer thread wrote what it holds (dropping it after `timeout`); False if still
+        writing then: the publishers it writes on must not be destroyed."""
+        writer = self._writer
+        if writer is None or writer.drain(timeout):
+            return True
+        writer.discard()
+        return bool(writer.drain(_WRITER_LAST_WRITE_S))
 
     def remember_fast_path(self, given: str, ch: Channel) -> None:
         """Let the hot path of logfloat/logint/logbool/logstring queue `given`'s values for `ch`."""
@@ -443,8 +507,10 @@ class Runtime:
                 from std_msgs.msg import UInt8MultiArray
 
                 self._batch_publisher = node.create_publisher(UInt8MultiArray, BATCH_TOPIC, batch_qos())
-                # The DDS write without the GIL: the caller's threads run meanwhile (dbglog/_ros/_nogil.py).
-                self.batch_publish = unlocked_publish(self._batch_publisher) or self._batch_publisher.publish
+                if self._user_node is None and self._writer is None:
+                    self._writer = self._new_writer()
+                # The DDS write without the GIL: the caller's threads run meanwhile.
+                self.batch_publish = self._raw_publish(self._batch_publisher) or self._batch_publisher.publish
             except Exception as exc:
                 self._batch_publisher = self.batch_publish = None
                 self.reporter.warn(
@@ -483,6 +549,8 @@ class Runtime:
         ok = self.pipe.drain(timeout)
         if self.state != "ready":
             return ok
+        if self._writer is not None:
+            ok = bool(self._writer.drain(max(0.0, deadline - time.monotonic()))) and ok
         from rclpy.duration import Duration
 
         publishers = [ch.publisher for ch in list(self.channels.values())]
@@ -521,6 +589,11 @@ class Runtime:
         self._node = self._context = None
         if not destroy:
             return
+        if not self._writer_idle(_EXIT_FLUSH_SECONDS):  # a write under way on these publishers
+            for obj in (*channels, batch, node, context):
+                if obj is not None:
+                    _leak(obj)
+            return
         owner = self._user_node if self._user_node is not None else node
         # Each may fail when the node or context is already gone: nothing is left to release then.
         for publisher in [ch.publisher for ch in channels] + ([batch] if batch is not None else []):
@@ -552,6 +625,7 @@ class Runtime:
     def _after_fork_in_child(self) -> None:
         # Locks may have been held by another thread at the fork: start with fresh ones.
         self._lock = threading.RLock()
+        self._writer = None  # the parent's thread: its object does nothing here (a new one on start)
         self.reporter.after_fork()
         self.pipe.after_fork_in_child()
         if self.state == "ready":

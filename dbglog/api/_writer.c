@@ -1,0 +1,436 @@
+/* Writer: a thread of its own that hands serialized messages to rcl, never touching Python (see
+ * _hot.pyi and docs/api.md, "The writer thread").
+ *
+ * The publisher thread (Python) builds each message with the GIL held and `submit`s a copy of its
+ * bytes with the rcl publisher's address; this thread calls rcl_publish_serialized_message for each,
+ * in order. It holds no GIL, ever, so it may run under SCHED_IDLE (`background`): a robot's thread
+ * that wakes up preempts it at once, instead of waiting in the run queue while a DDS write finishes,
+ * and no lock or GIL the robot needs is held at that priority. rcl's functions come as addresses from
+ * ctypes (dbglog/_ros/_nogil.py): the extension is built without ROS headers.
+ */
+#define PY_SSIZE_T_CLEAN
+#include <Python.h>
+#include <errno.h>
+#include <pthread.h>
+#include <sched.h>
+#include <stdint.h>
+#include <string.h>
+#include <sys/syscall.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "_parts.h"
+
+#if PY_VERSION_HEX < 0x030D0000
+#define Py_IsFinalizing _Py_IsFinalizing
+#endif
+
+/* rcutils_uint8_array_t (rcl_serialized_message_t): the bytes, their length and capacity, and an
+ * allocator that rcl never calls to publish. */
+typedef struct {
+    void *allocate, *deallocate, *reallocate, *zero_allocate, *state;
+} Allocator;
+
+typedef struct {
+    uint8_t *buffer;
+    size_t buffer_length;
+    size_t buffer_capacity;
+    Allocator allocator;
+} SerializedMessage;
+
+typedef int32_t (*rcl_publish_fn)(const void *publisher, const SerializedMessage *message, void *allocation);
+typedef void (*reset_fn)(void);
+
+typedef struct Job {
+    struct Job *next;
+    const void *publisher;
+    size_t size;
+    uint8_t data[];
+} Job;
+
+typedef struct {
+    PyObject_HEAD
+    pthread_mutex_t mutex;
+    pthread_cond_t work;   /* a job was queued, or stop */
+    pthread_cond_t done;   /* a job was written: room, or idle */
+    pthread_t thread;
+    Job *head, *tail;
+    size_t queued_bytes;
+    size_t capacity;       /* bytes queued at most before `submit` waits */
+    int busy;              /* a job is being written */
+    int stopping;
+    int started;
+    int ready;             /* the thread has applied its policy */
+    int background;        /* SCHED_IDLE asked */
+    int policy_error;      /* errno of sched_setscheduler, 0 when it took (or was not asked) */
+    long native_id;        /* the thread's id (gettid) */
+    unsigned long long written, failed;
+    rcl_publish_fn publish;
+    reset_fn reset;
+    pid_t pid;             /* the process that started the thread (a fork's child has none) */
+} Writer;
+
+static void *
+writer_main(void *arg)
+{
+    Writer *w = arg;
+    pthread_mutex_lock(&w->mutex);
+    if (w->background) {
+        struct sched_param param = {0};
+        w->policy_error = sched_setscheduler(0, SCHED_IDLE, &param) == 0 ? 0 : errno;
+    }
+    w->native_id = (long)syscall(SYS_gettid);
+    w->ready = 1;
+    pthread_cond_broadcast(&w->done);
+    for (;;) {
+        while (w->head == NULL && !w->stopping) {
+            pthread_cond_wait(&w->work, &w->mutex);
+        }
+        if (w->head == NULL) {
+            break;
+        }
+        Job *job = w->head;
+        w->head = job->next;
+        if (w->head == NULL) {
+            w->tail = NULL;
+        }
+        w->busy = 1;
+        pthread_mutex_unlock(&w->mutex);
+        SerializedMessage message = {job->data, job->size, job->size, {0}};
+        int32_t ret = w->publish(job->publisher, &message, NULL);
+        if (ret != 0) {
+            w->reset(); /* rcl's error state is per thread: this one's */
+        }
+        size_t size = job->size;
+        free(job);
+        pthread_mutex_lock(&w->mutex);
+        w->busy = 0;
+        w->queued_bytes -= size;
+        if (ret == 0) {
+            w->written++;
+        }
+        else {
+            w->failed++;
+        }
+        pthread_cond_broadcast(&w->done);
+    }
+    pthread_mutex_unlock(&w->mutex);
+    return NULL;
+}
+
+/* Absolute CLOCK_MONOTONIC time `seconds` from now (the condition variables use that clock). */
+static struct timespec
+deadline_in(double seconds)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    if (seconds < 0) {
+        seconds = 0;
+    }
+    if (seconds > 1e6) {
+        seconds = 1e6;
+    }
+    time_t whole = (time_t)seconds;
+    long ns = ts.tv_nsec + (long)((seconds - (double)whole) * 1e9);
+    ts.tv_sec += whole + ns / 1000000000L;
+    ts.tv_nsec = ns % 1000000000L;
+    return ts;
+}
+
+static PyObject *
+writer_new(PyTypeObject *type, PyObject *args, PyObject *kwargs)
+{
+    static char *names[] = {"publish", "reset", "background", "capacity", NULL};
+    unsigned long long publish, reset;
+    int background;
+    Py_ssize_t capacity;
+    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "KKpn:Writer", names, &publish, &reset, &background,
+                                     &capacity)) {
+        return NULL;
+    }
+    if (publish == 0 || reset == 0 || capacity <= 0) {
+        PyErr_SetString(PyExc_ValueError, "Writer: the rcl functions' addresses and a capacity are needed");
+        return NULL;
+    }
+    Writer *w = (Writer *)type->tp_alloc(type, 0);
+    if (w == NULL) {
+        return NULL;
+    }
+    w->publish = (rcl_publish_fn)(uintptr_t)publish;
+    w->reset = (reset_fn)(uintptr_t)reset;
+    w->background = background;
+    w->capacity = (size_t)capacity;
+    w->pid = getpid();
+    pthread_condattr_t attr;
+    pthread_condattr_init(&attr);
+    pthread_condattr_setclock(&attr, CLOCK_MONOTONIC);
+    if (pthread_mutex_init(&w->mutex, NULL) != 0 || pthread_cond_init(&w->work, &attr) != 0
+        || pthread_cond_init(&w->done, &attr) != 0) {
+        pthread_condattr_destroy(&attr);
+        Py_DECREF(w);
+        PyErr_SetString(PyExc_OSError, "Writer: cannot make its lock");
+        return NULL;
+    }
+    pthread_condattr_destroy(&attr);
+    int rc = pthread_create(&w->thread, NULL, writer_main, w);
+    if (rc != 0) {
+        Py_DECREF(w);
+        errno = rc;
+        return PyErr_SetFromErrno(PyExc_OSError);
+    }
+    w->started = 1;
+    Py_BEGIN_ALLOW_THREADS /* until its policy is applied: `policy_error` is final from here on */
+    pthread_mutex_lock(&w->mutex);
+    while (!w->ready) {
+        pthread_cond_wait(&w->done, &w->mutex);
+    }
+    pthread_mutex_unlock(&w->mutex);
+    Py_END_ALLOW_THREADS
+    return (PyObject *)w;
+}
+
+/* Stop the thread after what is queued, and wait for it (without the GIL). */
+static void
+writer_join(Writer *w)
+{
+    if (!w->started || w->pid != getpid()) {
+        return; /* a fork's child: the thread is the parent's, its lock may be held forever */
+    }
+    if (Py_IsFinalizing()) {
+        return; /* the interpreter is going: the thread ends with the process (the exit drained it) */
+    }
+    pthread_mutex_lock(&w->mutex);
+    w->stopping = 1;
+    pthread_cond_broadcast(&w->work);
+    pthread_mutex_unlock(&w->mutex);
+    Py_BEGIN_ALLOW_THREADS
+    pthread_join(w->thread, NULL);
+    Py_END_ALLOW_THREADS
+    w->started = 0;
+}
+
+static void
+writer_dealloc(Writer *w)
+{
+    writer_join(w);
+    if (w->pid == getpid() && !w->started) {
+        for (Job *job = w->head; job != NULL;) {
+            Job *next = job->next;
+            free(job);
+            job = next;
+        }
+        pthread_mutex_destroy(&w->mutex);
+        pthread_cond_destroy(&w->work);
+        pthread_cond_destroy(&w->done);
+    }
+    PyTypeObject *type = Py_TYPE(w);
+    type->tp_free((PyObject *)w);
+    Py_DECREF(type);
+}
+
+static PyObject *
+writer_submit(Writer *w, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 2) {
+        PyErr_Format(PyExc_TypeError, "submit() takes 2 arguments (%zd given)", nargs);
+        return NULL;
+    }
+    void *publisher = PyLong_AsVoidPtr(args[0]);
+    if (publisher == NULL) {
+        if (!PyErr_Occurred()) {
+            PyErr_SetString(PyExc_ValueError, "submit: a NULL publisher");
+        }
+        return NULL;
+    }
+    Py_buffer view;
+    if (PyObject_GetBuffer(args[1], &view, PyBUF_SIMPLE) < 0) {
+        return NULL;
+    }
+    Job *job = malloc(sizeof(Job) + (size_t)view.len);
+    if (job == NULL) {
+        PyBuffer_Release(&view);
+        return PyErr_NoMemory();
+    }
+    job->next = NULL;
+    job->publisher = publisher;
+    job->size = (size_t)view.len;
+    memcpy(job->data, view.buf, (size_t)view.len);
+    PyBuffer_Release(&view);
+    if (w->pid != getpid() || !w->started) {
+        free(job);
+        PyErr_SetString(PyExc_RuntimeError, "dbglog's writer thread is stopped (or belongs to the parent process)");
+        return NULL;
+    }
+    pthread_mutex_lock(&w->mutex);
+    /* Full: wait for room without the GIL (the calling threads keep queueing into the pipe). The mutex
+     * is never held while the GIL is awaited: a thread holding the GIL may be waiting for the mutex. */
+    while (w->queued_bytes != 0 && w->queued_bytes + job->size > w->capacity && !w->stopping) {
+        pthread_mutex_unlock(&w->mutex);
+        Py_BEGIN_ALLOW_THREADS
+        pthread_mutex_lock(&w->mutex);
+        while (w->queued_bytes != 0 && w->queued_bytes + job->size > w->capacity && !w->stopping) {
+            pthread_cond_wait(&w->done, &w->mutex);
+        }
+        pthread_mutex_unlock(&w->mutex);
+        Py_END_ALLOW_THREADS
+        pthread_mutex_lock(&w->mutex);
+    }
+    if (w->stopping) {
+        pthread_mutex_unlock(&w->mutex);
+        free(job);
+        PyErr_SetString(PyExc_RuntimeError, "dbglog's writer thread is stopped");
+        return NULL;
+    }
+    if (w->tail != NULL) {
+        w->tail->next = job;
+    }
+    else {
+        w->head = job;
+    }
+    w->tail = job;
+    w->queued_bytes += job->size;
+    pthread_cond_signal(&w->work);
+    pthread_mutex_unlock(&w->mutex);
+    Py_RETURN_NONE;
+}
+
+static PyObject *
+writer_drain(Writer *w, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 1) {
+        PyErr_Format(PyExc_TypeError, "drain() takes 1 argument (%zd given)", nargs);
+        return NULL;
+    }
+    double timeout = PyFloat_AsDouble(args[0]);
+    if (timeout == -1.0 && PyErr_Occurred()) {
+        return NULL;
+    }
+    if (w->pid != getpid() || !w->started) {
+        Py_RETURN_TRUE; /* nothing of this process's is being written */
+    }
+    int idle;
+    Py_BEGIN_ALLOW_THREADS
+    struct timespec until = deadline_in(timeout);
+    pthread_mutex_lock(&w->mutex);
+    int rc = 0;
+    while ((w->head != NULL || w->busy) && rc != ETIMEDOUT) {
+        rc = pthread_cond_timedwait(&w->done, &w->mutex, &until);
+    }
+    idle = w->head == NULL && !w->busy;
+    pthread_mutex_unlock(&w->mutex);
+    Py_END_ALLOW_THREADS
+    return PyBool_FromLong(idle);
+}
+
+static PyObject *
+writer_discard(Writer *w, PyObject *Py_UNUSED(ignored))
+{
+    if (w->pid != getpid() || !w->started) {
+        return PyLong_FromLong(0);
+    }
+    pthread_mutex_lock(&w->mutex);
+    Job *job = w->head;
+    w->head = w->tail = NULL;
+    long n = 0;
+    while (job != NULL) {
+        Job *next = job->next;
+        w->queued_bytes -= job->size;
+        free(job);
+        job = next;
+        n++;
+    }
+    pthread_cond_broadcast(&w->done);
+    pthread_mutex_unlock(&w->mutex);
+    return PyLong_FromLong(n);
+}
+
+static PyObject *
+writer_stop(Writer *w, PyObject *Py_UNUSED(ignored))
+{
+    writer_join(w);
+    Py_RETURN_NONE;
+}
+
+static PyObject *
+writer_stats(Writer *w, PyObject *Py_UNUSED(ignored))
+{
+    unsigned long long written = 0, failed = 0;
+    Py_ssize_t queued = 0;
+    int busy = 0;
+    if (w->pid == getpid()) {
+        pthread_mutex_lock(&w->mutex);
+        written = w->written;
+        failed = w->failed;
+        queued = (Py_ssize_t)w->queued_bytes;
+        busy = w->busy;
+        pthread_mutex_unlock(&w->mutex);
+    }
+    return Py_BuildValue("{sKsKsnsO}", "written", written, "failed", failed, "queued_bytes", queued, "busy",
+                         busy ? Py_True : Py_False);
+}
+
+static PyObject *
+writer_policy_error(Writer *w, void *Py_UNUSED(closure))
+{
+    int err = w->policy_error; /* set before `ready`, which Writer() waited for */
+    if (err == 0) {
+        Py_RETURN_NONE;
+    }
+    return PyUnicode_FromString(strerror(err));
+}
+
+static PyMethodDef writer_methods[] = {
+    {"submit", (PyCFunction)(void (*)(void))writer_submit, METH_FASTCALL,
+     "submit(publisher, data): queue a copy of `data` for the rcl publisher at that address (waits, "
+     "without the GIL, while `capacity` bytes are queued). Raises RuntimeError once stopped."},
+    {"drain", (PyCFunction)(void (*)(void))writer_drain, METH_FASTCALL,
+     "drain(timeout) -> bool: wait until everything submitted is written; False when `timeout` ran out."},
+    {"discard", (PyCFunction)writer_discard, METH_NOARGS,
+     "discard() -> int: drop what is queued and not yet being written; how many messages."},
+    {"stop", (PyCFunction)writer_stop, METH_NOARGS, "stop(): write what is queued, then end the thread."},
+    {"stats", (PyCFunction)writer_stats, METH_NOARGS,
+     "stats() -> dict: messages written and refused by rcl, bytes queued, whether one is being written."},
+    {NULL, NULL, 0, NULL},
+};
+
+static PyObject *
+writer_native_id(Writer *w, void *Py_UNUSED(closure))
+{
+    return PyLong_FromLong(w->native_id); /* set before `ready` */
+}
+
+static PyGetSetDef writer_getset[] = {
+    {"native_id", (getter)writer_native_id, NULL, "The writer thread's id (as threading.get_native_id).", NULL},
+    {"policy_error", (getter)writer_policy_error, NULL,
+     "Why SCHED_IDLE was refused (strerror), or None: taken, or not asked.", NULL},
+    {NULL},
+};
+
+static PyType_Slot writer_slots[] = {
+    {Py_tp_new, writer_new},
+    {Py_tp_dealloc, writer_dealloc},
+    {Py_tp_methods, writer_methods},
+    {Py_tp_getset, writer_getset},
+    {Py_tp_doc, "Writer(publish, reset, background, capacity): a thread that writes serialized messages "
+                "with rcl, in order, without the GIL."},
+    {0, NULL},
+};
+
+static PyType_Spec writer_spec = {
+    .name = "dbglog.api._hot.Writer",
+    .basicsize = sizeof(Writer),
+    .flags = Py_TPFLAGS_DEFAULT,
+    .slots = writer_slots,
+};
+
+int
+writer_add_type(PyObject *module)
+{
+    PyObject *type = PyType_FromModuleAndSpec(module, &writer_spec, NULL);
+    if (type == NULL) {
+        return -1;
+    }
+    int rc = PyModule_AddObjectRef(module, "Writer", type);
+    Py_DECREF(type);
+    return rc;
+}
