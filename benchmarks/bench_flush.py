@@ -6,8 +6,10 @@ Each run is a child process that logs 10 tags at 1 kHz as ``bench_probe.py``'s l
 an int per iteration, a string throttled to 10 Hz; the loop sleeps 1 ms between iterations), no
 subscriber. After the tags' first 5 s (when every sample also goes on its tag's topic) it sums the
 publisher thread's CPU time (``time.thread_time_ns``) in each step of a flush. Everything but the
-batch's DDS write (which runs without the GIL, ``dbglog/_ros/_nogil.py``) holds the GIL: a loop that
-wakes at a random moment finds the thread holding it for that share of the time.
+batch's DDS write holds the GIL: a loop that wakes at a random moment finds the thread holding it for
+that share of the time. With the compiled module the DDS writes happen on the writer thread
+(``dbglog/api/_writer.c``, no GIL, ``SCHED_IDLE``): the "DDS write" step is then only the hand-over of a
+copy, and the writer thread's own CPU time is a row of its own.
 
 Runs alternate the compiled flush (``dbglog/api/_flush.c``) and its Python version (the child under
 ``DBGLOG_PURE_PYTHON=1``, what an install without a C compiler runs); the tables give each step's
@@ -38,7 +40,8 @@ from benchmarks._common import local_ros_env, print_table  # noqa: E402
 _SETTLE_S = 7.0
 """Seconds before measuring: the tags' first 5 s publish every sample on their own topics too."""
 _WHOLE = "a whole flush"
-_WRITE = "  its DDS write (without the GIL)"
+_WRITE = "  its DDS write (without the GIL), or its hand-over to the writer thread"
+_WRITER = "the writer thread (no GIL): all DDS writes, per flush"
 _IMPLS = {"C": "0", "Python": "1"}
 """Each flush implementation and the child's DBGLOG_PURE_PYTHON."""
 
@@ -68,6 +71,12 @@ class _Meter:
         setattr(owner, name, timed)
 
 
+def _thread_cpu_ns(native_id: int) -> int:
+    """CPU time of one thread of this process (``/proc``'s schedstat: ns on a CPU)."""
+    with open(f"/proc/self/task/{native_id}/schedstat") as f:
+        return int(f.read().split()[0])
+
+
 def child(seconds: float) -> None:
     """Log, measure the flushes, print one JSON line: per step, CPU ns and calls; flushes; seconds."""
     local_ros_env(int.from_bytes(os.urandom(1)) % 100 + 101)
@@ -87,7 +96,10 @@ def child(seconds: float) -> None:
     floats = [f"bench_flush/f{i}" for i in range(8)]
     start = time.monotonic()
     k = 0
+    writer_cpu = 0
     while (now := time.monotonic()) < start + seconds:
+        if not meter.on and now - start > _SETTLE_S and RUNTIME._writer is not None:
+            writer_cpu = _thread_cpu_ns(RUNTIME._writer.native_id)
         meter.on = now - start > _SETTLE_S
         for tag in floats:
             dbglog.logfloat(tag, float(k))
@@ -96,6 +108,10 @@ def child(seconds: float) -> None:
         k += 1
         time.sleep(0.001)
     meter.on = False
+    writer = RUNTIME._writer
+    if writer is not None:
+        meter.ns[_WRITER] = _thread_cpu_ns(writer.native_id) - writer_cpu
+        meter.calls[_WRITER] = meter.calls[_WHOLE]
     print(json.dumps({"ns": meter.ns, "calls": meter.calls, "seconds": seconds - _SETTLE_S}))
     dbglog.shutdown()
 
@@ -134,7 +150,7 @@ def main() -> None:
 
     def held_share(run: dict[str, Any]) -> float:
         ns = run["ns"]
-        return float(ns[_WHOLE] - ns.get(_WRITE, 0)) / (float(run["seconds"]) * 1e9)
+        return float(ns[_WHOLE] - (0 if _WRITER in ns else ns.get(_WRITE, 0))) / (float(run["seconds"]) * 1e9)
 
     labels = list(dict.fromkeys(label for impl in _IMPLS for run in runs[impl] for label in run["ns"]))
     labels.sort(key=lambda label: -statistics.median(per_flush(r, label, "ns") for r in runs["C"]))
@@ -151,7 +167,7 @@ def main() -> None:
     held = {impl: [held_share(r) for r in runs[impl]] for impl in _IMPLS}
     rows.append(
         [
-            "**the GIL held, share of the time** (whole flush less the DDS write), each run",
+            "**the GIL held, share of the time** (whole flush, less a DDS write on this thread), each run",
             *(", ".join(f"{h:.2%}" for h in held[impl]) for impl in _IMPLS),
             "",
         ]

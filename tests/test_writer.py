@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import os
+import subprocess
+import sys
 import threading
 import time
 from pathlib import Path
@@ -60,7 +62,13 @@ def test_messages_arrive_in_order_across_publishers() -> None:
         assert got_big.wait_for(10)
         assert got_x.values() == [float(i) for i in range(300)]
         assert [bytes(v) for v in got_big.values()] == [payload[: 1000 + i] for i in range(0, 300, 30)]
-        assert writer.stats() == {"written": 310, "failed": 0, "queued_bytes": 0, "busy": False}
+        assert writer.stats() == {
+            "written": 310,
+            "failed": 0,
+            "queued_bytes": 0,
+            "busy": False,
+            "oldest_s": 0.0,
+        }
         writer.stop()
 
 
@@ -188,3 +196,75 @@ def test_the_sdk_writes_through_its_writer_thread() -> None:
     assert writer.stats()["queued_bytes"] == 0
     normal = os.environ.get("DBGLOG_CPU", "").strip() == "normal"
     assert _policies()[writer.native_id] == (0 if normal else SCHED_IDLE)
+
+
+_POLICY_SCRIPT = """
+import dbglog
+from pathlib import Path
+from dbglog.api._public import RUNTIME
+dbglog.logfloat("writer/policy", 1.0)
+assert dbglog.flush(10.0)
+stat = Path(f"/proc/self/task/{RUNTIME._writer.native_id}/stat").read_text()
+print("policy", stat.rsplit(")", 1)[1].split()[38])
+"""
+
+
+@pytest.mark.parametrize(
+    ("value", "policy", "said"),
+    [("normal", 0, False), ("background", SCHED_IDLE, False), ("fast", SCHED_IDLE, True)],
+)
+def test_dbglog_cpu_sets_the_writer_threads_policy(value: str, policy: int, said: bool) -> None:
+    """``DBGLOG_CPU`` as the viewer reads it: a value that is no policy is named, and the default stands."""
+    env = {**os.environ, "DBGLOG_CPU": value}
+    proc = subprocess.run(
+        [sys.executable, "-c", _POLICY_SCRIPT],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=False,
+    )
+    assert proc.returncode == 0, proc.stderr
+    assert f"policy {policy}" in proc.stdout
+    assert ("DBGLOG_CPU: 'fast' is not a CPU policy" in proc.stderr) == said, proc.stderr
+
+
+_STARVED_SCRIPT = """
+import os, subprocess, sys, time
+os.sched_setaffinity(0, {0})  # this process and 3 busy ones share one CPU: the rest of the machine is free
+hogs = [
+    subprocess.Popen([sys.executable, "-c", "import os\\nos.sched_setaffinity(0, {0})\\nwhile True: pass"])
+    for _ in range(3)
+]
+try:
+    import dbglog
+    from dbglog.api import _runtime
+    _runtime._WRITER_STARVED_S = 0.2  # (1 s in use: a test need not wait that long)
+    end = time.monotonic() + 4.0
+    while time.monotonic() < end:
+        dbglog.logfloat("writer/starved", 1.0)
+        time.sleep(0.001)
+finally:
+    for hog in hogs:
+        hog.kill()
+        hog.wait()
+print("done", flush=True)
+"""
+
+
+def test_a_starved_writer_thread_is_said_with_the_way_out() -> None:
+    """In the background, a writer kept off its CPU by ordinary work (busy processes on the one CPU it may
+    use) is named once, with DBGLOG_CPU=normal as the way out; its messages go out once it runs."""
+    env = {**os.environ, "DBGLOG_CPU": "background"}
+    proc = subprocess.run(
+        [sys.executable, "-c", _STARVED_SCRIPT],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=90,
+        check=False,
+    )
+    assert proc.returncode == 0, proc.stderr
+    assert "done" in proc.stdout
+    assert proc.stderr.count("its writer thread runs in the background (SCHED_IDLE)") == 1, proc.stderr
+    assert "Set DBGLOG_CPU=normal" in proc.stderr

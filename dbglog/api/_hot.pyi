@@ -63,4 +63,4 @@ class Writer:
     def stop(self) -> None:
         """Write what is queued, then end the thread."""
     def stats(self) -> dict[str, Any]:
-        """Messages written and refused by rcl, bytes queued, whether one is being written."""
+        """Messages written and refused by rcl, bytes queued, one being written, the oldest's wait (s)."""

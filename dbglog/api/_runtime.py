@@ -25,7 +25,7 @@ from dbglog._ros._cdr import scalar_encoder
 from dbglog._ros._nogil import publisher_address, rcl_addresses, unlocked_publish
 from dbglog._ros._qos import batch_qos, tag_qos
 from dbglog._ros._tags import TAG_PREFIX, sanitize_tag, tag_problem, topic_for_tag
-from dbglog._sched import CPU_ENV, CpuPolicy
+from dbglog._sched import CPU_ENV, CpuPolicy, cpu_policy_arg
 from dbglog.api._convert import (
     ScalarSpec,
     encode_scalar,
@@ -53,6 +53,8 @@ _FORKED_MESSAGE = (
 _WRITER_CAPACITY = 16 << 20
 """Bytes of messages the writer thread holds at most; more wait on the publisher thread (the pipe's
 queue then fills, and drops are counted at the calls)."""
+_WRITER_STARVED_S = 1.0
+"""A message older than this in the writer thread: it is starved (said once)."""
 _WRITER_LAST_WRITE_S = 1.0
 """Seconds a write already under way gets to end before its publishers are leaked instead of destroyed."""
 _NEW_TAG_S = 5.0
@@ -303,7 +305,19 @@ class Runtime:
         native, addresses = load(), rcl_addresses()
         if native is None or addresses is None:
             return None
-        background = os.environ.get(CPU_ENV, "").strip() != CpuPolicy.NORMAL.value
+        chosen = os.environ.get(CPU_ENV, "").strip()
+        background = True
+        if chosen:
+            try:
+                background = cpu_policy_arg(chosen) is CpuPolicy.BACKGROUND
+            except Exception as exc:  # argparse's error: said once, the default stands
+                with contextlib.suppress(Exception):  # strict mode raises: not at a start-up
+                    self.reporter.warn(
+                        "bad_option",
+                        CPU_ENV,
+                        f"dbglog: {CPU_ENV}: {exc}; the writer thread runs in the background",
+                        None,
+                    )
         try:
             return native.Writer(*addresses, background, _WRITER_CAPACITY)
         except Exception:  # no thread to be had: the publisher thread writes itself
@@ -324,11 +338,22 @@ class Runtime:
         return unlocked_publish(publisher, guarded=not own)
 
     def note_writer(self) -> None:
-        """Warn (once) when the writer thread's rcl writes failed since the last look (publisher thread)."""
+        """Warn (once each) when the writer thread's rcl writes failed since the last look, or when it is
+        starved by other work (publisher thread)."""
         writer = self._writer
         if writer is None:
             return
-        failed = writer.stats()["failed"]
+        stats = writer.stats()
+        if stats["oldest_s"] > _WRITER_STARVED_S:
+            self.reporter.warn(
+                "queue_full",
+                "writer_starved",
+                f"dbglog: its writer thread runs in the background (SCHED_IDLE) and other work keeps the "
+                f"CPUs busy: a message has waited {stats['oldest_s']:.1f} s to be published, so viewers see "
+                f"the values late. Set {CPU_ENV}=normal to make it an ordinary thread (docs/api.md)",
+                None,
+            )
+        failed = stats["failed"]
         if failed > self._writer_failed:
             self.reporter.warn(
                 "publish_failed",

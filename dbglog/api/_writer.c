@@ -44,6 +44,7 @@ typedef void (*reset_fn)(void);
 typedef struct Job {
     struct Job *next;
     const void *publisher;
+    int64_t submitted;     /* CLOCK_MONOTONIC ns */
     size_t size;
     uint8_t data[];
 } Job;
@@ -58,6 +59,7 @@ typedef struct {
     size_t queued_bytes;
     size_t capacity;       /* bytes queued at most before `submit` waits */
     int busy;              /* a job is being written */
+    int64_t busy_submitted; /* when the job being written was submitted */
     int stopping;
     int started;
     int ready;             /* the thread has applied its policy */
@@ -95,6 +97,7 @@ writer_main(void *arg)
             w->tail = NULL;
         }
         w->busy = 1;
+        w->busy_submitted = job->submitted;
         pthread_mutex_unlock(&w->mutex);
         SerializedMessage message = {job->data, job->size, job->size, {0}};
         int32_t ret = w->publish(job->publisher, &message, NULL);
@@ -116,6 +119,14 @@ writer_main(void *arg)
     }
     pthread_mutex_unlock(&w->mutex);
     return NULL;
+}
+
+static int64_t
+monotonic_ns(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (int64_t)ts.tv_sec * 1000000000 + ts.tv_nsec;
 }
 
 /* Absolute CLOCK_MONOTONIC time `seconds` from now (the condition variables use that clock). */
@@ -253,6 +264,7 @@ writer_submit(Writer *w, PyObject *const *args, Py_ssize_t nargs)
     }
     job->next = NULL;
     job->publisher = publisher;
+    job->submitted = monotonic_ns();
     job->size = (size_t)view.len;
     memcpy(job->data, view.buf, (size_t)view.len);
     PyBuffer_Release(&view);
@@ -357,16 +369,19 @@ writer_stats(Writer *w, PyObject *Py_UNUSED(ignored))
     unsigned long long written = 0, failed = 0;
     Py_ssize_t queued = 0;
     int busy = 0;
+    double waiting = 0.0;
     if (w->pid == getpid()) {
         pthread_mutex_lock(&w->mutex);
         written = w->written;
         failed = w->failed;
         queued = (Py_ssize_t)w->queued_bytes;
         busy = w->busy;
+        int64_t oldest = busy ? w->busy_submitted : (w->head != NULL ? w->head->submitted : 0);
         pthread_mutex_unlock(&w->mutex);
+        waiting = oldest ? (double)(monotonic_ns() - oldest) / 1e9 : 0.0;
     }
-    return Py_BuildValue("{sKsKsnsO}", "written", written, "failed", failed, "queued_bytes", queued, "busy",
-                         busy ? Py_True : Py_False);
+    return Py_BuildValue("{sKsKsnsOsd}", "written", written, "failed", failed, "queued_bytes", queued, "busy",
+                         busy ? Py_True : Py_False, "oldest_s", waiting);
 }
 
 static PyObject *
@@ -389,7 +404,8 @@ static PyMethodDef writer_methods[] = {
      "discard() -> int: drop what is queued and not yet being written; how many messages."},
     {"stop", (PyCFunction)writer_stop, METH_NOARGS, "stop(): write what is queued, then end the thread."},
     {"stats", (PyCFunction)writer_stats, METH_NOARGS,
-     "stats() -> dict: messages written and refused by rcl, bytes queued, whether one is being written."},
+     "stats() -> dict: messages written and refused by rcl, bytes queued, whether one is being written, "
+     "and how long the oldest message not yet written has waited (s)."},
     {NULL, NULL, 0, NULL},
 };
 
