@@ -198,6 +198,16 @@ def test_the_sdk_writes_through_its_writer_thread() -> None:
     assert _policies()[writer.native_id] == (0 if normal else SCHED_IDLE)
 
 
+def _run(script: str, cpu: str) -> subprocess.CompletedProcess[str]:
+    """Run `script` in a fresh interpreter with ``DBGLOG_CPU=cpu``; it must succeed."""
+    env = {**os.environ, "DBGLOG_CPU": cpu}
+    proc = subprocess.run(
+        [sys.executable, "-c", script], env=env, capture_output=True, text=True, timeout=90, check=False
+    )
+    assert proc.returncode == 0, proc.stderr
+    return proc
+
+
 _POLICY_SCRIPT = """
 import dbglog
 from pathlib import Path
@@ -215,16 +225,7 @@ print("policy", stat.rsplit(")", 1)[1].split()[38])
 )
 def test_dbglog_cpu_sets_the_writer_threads_policy(value: str, policy: int, said: bool) -> None:
     """``DBGLOG_CPU`` as the viewer reads it: a value that is no policy is named, and the default stands."""
-    env = {**os.environ, "DBGLOG_CPU": value}
-    proc = subprocess.run(
-        [sys.executable, "-c", _POLICY_SCRIPT],
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=60,
-        check=False,
-    )
-    assert proc.returncode == 0, proc.stderr
+    proc = _run(_POLICY_SCRIPT, value)
     assert f"policy {policy}" in proc.stdout
     assert ("DBGLOG_CPU: 'fast' is not a CPU policy" in proc.stderr) == said, proc.stderr
 
@@ -255,16 +256,7 @@ print("done", flush=True)
 def test_a_starved_writer_thread_is_said_with_the_way_out() -> None:
     """In the background, a writer kept off its CPU by ordinary work (busy processes on the one CPU it may
     use) is named once, with DBGLOG_CPU=normal as the way out; its messages go out once it runs."""
-    env = {**os.environ, "DBGLOG_CPU": "background"}
-    proc = subprocess.run(
-        [sys.executable, "-c", _STARVED_SCRIPT],
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=90,
-        check=False,
-    )
-    assert proc.returncode == 0, proc.stderr
+    proc = _run(_STARVED_SCRIPT, "background")
     assert "done" in proc.stdout
     assert proc.stderr.count("its writer thread runs in the background (SCHED_IDLE)") == 1, proc.stderr
     assert "Set DBGLOG_CPU=normal" in proc.stderr
