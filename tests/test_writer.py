@@ -232,15 +232,17 @@ def test_dbglog_cpu_sets_the_writer_threads_policy(value: str, policy: int, said
 
 _STARVED_SCRIPT = """
 import os, subprocess, sys, time
-os.sched_setaffinity(0, {0})  # this process and 3 busy ones share one CPU: the rest of the machine is free
+os.sched_setaffinity(0, {0})  # this process and 6 busy ones share one CPU: the rest of the machine is free
 hogs = [
     subprocess.Popen([sys.executable, "-c", "import os\\nos.sched_setaffinity(0, {0})\\nwhile True: pass"])
-    for _ in range(3)
+    for _ in range(6)
 ]
 try:
     import dbglog
     from dbglog.api import _runtime
     _runtime._WRITER_STARVED_S = 0.2  # (1 s in use: a test need not wait that long)
+    _runtime._WRITER_CAPACITY = 1  # one message at a time: full as soon as it is starved
+    _runtime._WRITER_FULL_WAIT_S = 0.02
     end = time.monotonic() + 4.0
     while time.monotonic() < end:
         dbglog.logfloat("writer/starved", 1.0)
@@ -249,14 +251,20 @@ finally:
     for hog in hogs:
         hog.kill()
         hog.wait()
-print("done", flush=True)
+print("done", dbglog.stats().dropped_by_reason.get("queue_full", 0), flush=True)
 """
 
 
 def test_a_starved_writer_thread_is_said_with_the_way_out() -> None:
     """In the background, a writer kept off its CPU by ordinary work (busy processes on the one CPU it may
-    use) is named once, with DBGLOG_CPU=normal as the way out; its messages go out once it runs."""
+    use) is named once, with DBGLOG_CPU=normal as the way out. Full (here one message), it makes the
+    publisher thread wait a moment (1 s in use, 20 ms here), then the samples are dropped, counted and
+    said once: the process still ends at once."""
+    started = time.monotonic()
     proc = _run(_STARVED_SCRIPT, "background")
-    assert "done" in proc.stdout
+    assert time.monotonic() - started < 30
+    dropped = int(proc.stdout.split("done")[1].split()[0])
+    assert dropped > 0, proc.stderr
+    assert proc.stderr.count("values are dropped until it catches up") == 1, proc.stderr
     assert proc.stderr.count("its writer thread runs in the background (SCHED_IDLE)") == 1, proc.stderr
     assert "Set DBGLOG_CPU=normal" in proc.stderr

@@ -53,9 +53,11 @@ class Writer:
 
     policy_error: str | None
     native_id: int
-    def __init__(self, publish: int, reset: int, background: bool, capacity: int) -> None: ...
+    def __init__(
+        self, publish: int, reset: int, background: bool, capacity: int, full_wait: float = 1.0
+    ) -> None: ...
     def submit(self, publisher: int, data: bytes, /) -> None:
-        """Queue a copy of `data` for the rcl publisher at that address."""
+        """Queue a copy of `data` for the rcl publisher at that address (BufferError: full `full_wait` s)."""
     def drain(self, timeout: float, /) -> bool:
         """Wait until everything submitted is written; False when `timeout` ran out."""
     def discard(self) -> int:

@@ -220,8 +220,11 @@ class Pipe:
         if publish is not None and message is not None:
             self.seq += 1
             try:
-                publish(message)  # without the GIL (dbglog/_ros/_nogil.py)
+                publish(message)  # without the GIL (dbglog/_ros/_nogil.py, dbglog/api/_writer.c)
                 batched = True
+            except BufferError as exc:  # the writer thread cannot keep up: drop, count, say it once
+                self._writer_full(len(items), exc)
+                return len(items)
             except Exception as exc:
                 self._batch_failed("publishing", len(items), exc)
         if yield_gil:
@@ -257,6 +260,8 @@ class Pipe:
                 if encode is not None and ch.alive:
                     try:
                         ch.publish_raw(encode(value))
+                    except BufferError as exc:  # the writer is full: not around it (the order)
+                        self._writer_full(1, exc)
                     except Exception:  # the general path retries, recovers and reports
                         if send(ch, value):
                             sent += 1
@@ -270,6 +275,20 @@ class Pipe:
             published.add(sent)
         self._publish_pending(now, yield_gil=yield_gil)
         return len(items)
+
+    def _writer_full(self, samples: int, exc: BufferError) -> None:
+        """Count `samples` dropped because the writer thread is full; say it once."""
+        reporter = self.runtime.reporter
+        for _ in range(samples):
+            reporter.count("queue_full")
+        with contextlib.suppress(Exception):  # strict mode raises here: not the user's thread
+            reporter.warn(
+                "queue_full",
+                "writer_full",
+                f"dbglog: {exc}; values are dropped until it catches up (DBGLOG_CPU=normal, if other "
+                "work keeps it off the CPUs)",
+                exc,
+            )
 
     def _batch_failed(self, step: str, samples: int, exc: Exception) -> None:
         """Warn (once) that a batch could not be encoded or published: its samples go on their topics."""

@@ -53,6 +53,9 @@ _FORKED_MESSAGE = (
 _WRITER_CAPACITY = 16 << 20
 """Bytes of messages the writer thread holds at most; more wait on the publisher thread (the pipe's
 queue then fills, and drops are counted at the calls)."""
+_WRITER_FULL_WAIT_S = 1.0
+"""Seconds the publisher thread waits for room in a full writer before it drops (and then, until a message
+is written, drops at once): it holds the pipe's lock meanwhile, which `shutdown()` needs."""
 _WRITER_STARVED_S = 1.0
 """A message older than this in the writer thread: it is starved (said once)."""
 _WRITER_LAST_WRITE_S = 1.0
@@ -319,7 +322,7 @@ class Runtime:
                         None,
                     )
         try:
-            return native.Writer(*addresses, background, _WRITER_CAPACITY)
+            return native.Writer(*addresses, background, _WRITER_CAPACITY, _WRITER_FULL_WAIT_S)
         except Exception:  # no thread to be had: the publisher thread writes itself
             return None
 

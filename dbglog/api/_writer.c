@@ -59,6 +59,10 @@ typedef struct {
     size_t queued_bytes;
     size_t capacity;       /* bytes queued at most before `submit` waits */
     int busy;              /* a job is being written */
+    int refusing;          /* full, and a submit already waited `full_wait` in vain: refuse at once */
+    double full_wait;      /* seconds `submit` waits for room before it refuses (BufferError); until a
+                            * message is written later submits are refused at once, so the publisher
+                            * thread never holds its lock for long */
     int64_t busy_submitted; /* when the job being written was submitted */
     int stopping;
     int started;
@@ -108,6 +112,7 @@ writer_main(void *arg)
         free(job);
         pthread_mutex_lock(&w->mutex);
         w->busy = 0;
+        w->refusing = 0;
         w->queued_bytes -= size;
         if (ret == 0) {
             w->written++;
@@ -151,12 +156,13 @@ deadline_in(double seconds)
 static PyObject *
 writer_new(PyTypeObject *type, PyObject *args, PyObject *kwargs)
 {
-    static char *names[] = {"publish", "reset", "background", "capacity", NULL};
+    static char *names[] = {"publish", "reset", "background", "capacity", "full_wait", NULL};
     unsigned long long publish, reset;
     int background;
     Py_ssize_t capacity;
-    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "KKpn:Writer", names, &publish, &reset, &background,
-                                     &capacity)) {
+    double full_wait = 1.0;
+    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "KKpn|d:Writer", names, &publish, &reset, &background,
+                                     &capacity, &full_wait)) {
         return NULL;
     }
     if (publish == 0 || reset == 0 || capacity <= 0) {
@@ -171,6 +177,7 @@ writer_new(PyTypeObject *type, PyObject *args, PyObject *kwargs)
     w->reset = (reset_fn)(uintptr_t)reset;
     w->background = background;
     w->capacity = (size_t)capacity;
+    w->full_wait = full_wait;
     w->pid = getpid();
     pthread_condattr_t attr;
     pthread_condattr_init(&attr);
@@ -274,19 +281,33 @@ writer_submit(Writer *w, PyObject *const *args, Py_ssize_t nargs)
         return NULL;
     }
     pthread_mutex_lock(&w->mutex);
-    /* Full: wait for room without the GIL (the calling threads keep queueing into the pipe). The mutex
-     * is never held while the GIL is awaited: a thread holding the GIL may be waiting for the mutex. */
-    while (w->queued_bytes != 0 && w->queued_bytes + job->size > w->capacity && !w->stopping) {
+    /* Full: wait for room without the GIL (the calling threads keep queueing into the pipe), at most
+     * `full_wait`. The mutex is never held while the GIL is awaited: a thread holding the GIL may be
+     * waiting for the mutex. */
+#define FULL (w->queued_bytes != 0 && w->queued_bytes + job->size > w->capacity && !w->stopping)
+    if (FULL && !w->refusing) {
+        struct timespec until = deadline_in(w->full_wait);
+        int rc = 0;
         pthread_mutex_unlock(&w->mutex);
         Py_BEGIN_ALLOW_THREADS
         pthread_mutex_lock(&w->mutex);
-        while (w->queued_bytes != 0 && w->queued_bytes + job->size > w->capacity && !w->stopping) {
-            pthread_cond_wait(&w->done, &w->mutex);
+        while (FULL && rc != ETIMEDOUT) {
+            rc = pthread_cond_timedwait(&w->done, &w->mutex, &until);
         }
         pthread_mutex_unlock(&w->mutex);
         Py_END_ALLOW_THREADS
         pthread_mutex_lock(&w->mutex);
     }
+    if (FULL) {
+        w->refusing = 1;
+        size_t queued = w->queued_bytes;
+        pthread_mutex_unlock(&w->mutex);
+        free(job);
+        PyErr_Format(PyExc_BufferError,
+                     "dbglog's writer thread still holds %zu bytes of messages it could not write", queued);
+        return NULL;
+    }
+#undef FULL
     if (w->stopping) {
         pthread_mutex_unlock(&w->mutex);
         free(job);
@@ -396,8 +417,9 @@ writer_policy_error(Writer *w, void *Py_UNUSED(closure))
 
 static PyMethodDef writer_methods[] = {
     {"submit", (PyCFunction)(void (*)(void))writer_submit, METH_FASTCALL,
-     "submit(publisher, data): queue a copy of `data` for the rcl publisher at that address (waits, "
-     "without the GIL, while `capacity` bytes are queued). Raises RuntimeError once stopped."},
+     "submit(publisher, data): queue a copy of `data` for the rcl publisher at that address. While "
+     "`capacity` bytes are queued it waits without the GIL, at most `full_wait` s, then raises "
+     "BufferError (at once until a message is written). Raises RuntimeError once stopped."},
     {"drain", (PyCFunction)(void (*)(void))writer_drain, METH_FASTCALL,
      "drain(timeout) -> bool: wait until everything submitted is written; False when `timeout` ran out."},
     {"discard", (PyCFunction)writer_discard, METH_NOARGS,
@@ -427,7 +449,7 @@ static PyType_Slot writer_slots[] = {
     {Py_tp_dealloc, writer_dealloc},
     {Py_tp_methods, writer_methods},
     {Py_tp_getset, writer_getset},
-    {Py_tp_doc, "Writer(publish, reset, background, capacity): a thread that writes serialized messages "
+    {Py_tp_doc, "Writer(publish, reset, background, capacity, full_wait=1.0): a thread that writes serialized messages "
                 "with rcl, in order, without the GIL."},
     {0, NULL},
 };
