@@ -28,6 +28,7 @@ __all__ = [
     "apply_cpu_argument",
     "cpu_policy_arg",
     "cpu_times_ns",
+    "env_cpu_policy",
     "in_background",
     "set_cpu_policy",
 ]
@@ -93,6 +94,18 @@ def cpu_policy_arg(text: str) -> CpuPolicy:
         raise argparse.ArgumentTypeError(f"{text!r} is not a CPU policy: use one of {names}") from None
 
 
+def env_cpu_policy(default: CpuPolicy) -> tuple[CpuPolicy, str | None]:
+    """Return the policy ``$DBGLOG_CPU`` (`CPU_ENV`) chooses, else `default`; and, when its value is no
+    policy, what is wrong with it (`default` then stands)."""
+    chosen = os.environ.get(CPU_ENV, "").strip()
+    if not chosen:
+        return default, None
+    try:
+        return cpu_policy_arg(chosen), None
+    except argparse.ArgumentTypeError as exc:
+        return default, f"{CPU_ENV}: {exc}"
+
+
 def add_cpu_argument(parser: argparse.ArgumentParser, default: CpuPolicy, help_text: str) -> None:
     """Declare a command's ``--cpu`` option; its metavar lists every `CpuPolicy` (``{background,normal}``).
 
@@ -100,17 +113,10 @@ def add_cpu_argument(parser: argparse.ArgumentParser, default: CpuPolicy, help_t
     policy is named on stderr and the command's own default stands.
     """
     choices = "{" + ",".join(policy.value for policy in CpuPolicy) + "}"
-    chosen = os.environ.get(CPU_ENV, "").strip()
-    if chosen:
-        try:
-            default = cpu_policy_arg(chosen)
-        except argparse.ArgumentTypeError as exc:
-            if chosen not in _ENV_WARNED:  # (every command's parser is built: say it once)
-                _ENV_WARNED.add(chosen)
-                print(
-                    f"dbglog: warning: {CPU_ENV}: {exc}; each command's own --cpu default stands",
-                    file=sys.stderr,
-                )
+    default, problem = env_cpu_policy(default)
+    if problem is not None and problem not in _ENV_WARNED:  # (every command's parser is built: say it once)
+        _ENV_WARNED.add(problem)
+        print(f"dbglog: warning: {problem}; each command's own --cpu default stands", file=sys.stderr)
     help_text += f"; {CPU_ENV} sets the default (now {default.value})"
     parser.add_argument("--cpu", type=cpu_policy_arg, default=default, metavar=choices, help=help_text)
 

@@ -95,31 +95,22 @@ def unlocked_publish(publisher: Any, *, guarded: bool = True) -> Callable[[bytes
     """
     try:
         write, reset = _rcl()
-        handle = publisher.handle
-        with handle:
-            if not handle.pointer:
-                return None
     except Exception as exc:  # another rclpy, no librcl by that name: rclpy's publish it is
         _log.debug("dbglog: publishing with the GIL held (%s: %s)", type(exc).__name__, exc)
         return None
-    fallback = publisher.publish
-    if not guarded:
-        pointer = handle.pointer
-
-        def publish_unguarded(data: bytes) -> None:
-            """Publish `data` (one serialized message) on the publisher."""
-            message = _SerializedMessage(data, len(data), len(data))
-            if write(pointer, ctypes.byref(message), None) != 0:  # ctypes drops the GIL for this call
-                reset()
-                fallback(data)
-
-        return publish_unguarded
+    pointer = publisher_address(publisher)
+    if pointer is None:
+        return None
+    handle, fallback = publisher.handle, publisher.publish
 
     def publish(data: bytes) -> None:
         """Publish `data` (one serialized message) on the publisher."""
         message = _SerializedMessage(data, len(data), len(data))  # its own: callers may be concurrent
-        with handle:  # rclpy destroys no entity while its handle is held
-            ret = write(handle.pointer, ctypes.byref(message), None)  # ctypes drops the GIL for this call
+        if guarded:
+            with handle:  # rclpy destroys no entity while its handle is held
+                ret = write(handle.pointer, ctypes.byref(message), None)  # ctypes drops the GIL for this
+        else:
+            ret = write(pointer, ctypes.byref(message), None)
         if ret != 0:
             reset()
             fallback(data)

@@ -34,14 +34,6 @@ flush_init(void)
     return 0;
 }
 
-static int64_t
-now_ns(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (int64_t)ts.tv_sec * 1000000000 + ts.tv_nsec;
-}
-
 /* Let other threads take the GIL if this one has held it `limit` ns since *mark (0: never). */
 static void
 breathe(int64_t *mark, int64_t limit)
@@ -49,7 +41,7 @@ breathe(int64_t *mark, int64_t limit)
     if (limit <= 0) {
         return;
     }
-    int64_t now = now_ns();
+    int64_t now = monotonic_ns();
     if (now - *mark <= limit) {
         return;
     }
@@ -57,14 +49,13 @@ breathe(int64_t *mark, int64_t limit)
     Py_BEGIN_ALLOW_THREADS
     nanosleep(&pause, NULL);
     Py_END_ALLOW_THREADS
-    *mark = now_ns();
+    *mark = monotonic_ns();
 }
 
 static PyObject *
 take(PyObject *module, PyObject *const *args, Py_ssize_t nargs)
 {
-    if (nargs != 2) {
-        PyErr_Format(PyExc_TypeError, "take() takes 2 arguments (%zd given)", nargs);
+    if (expect_args("take", nargs, 2) < 0) {
         return NULL;
     }
     Py_ssize_t limit = PyLong_AsSsize_t(args[1]);
@@ -217,8 +208,7 @@ lookup(Entry *table, size_t mask, PyObject *key, size_t *at)
 static PyObject *
 pack_batch(PyObject *module, PyObject *const *args, Py_ssize_t nargs)
 {
-    if (nargs != 4) {
-        PyErr_Format(PyExc_TypeError, "pack_batch() takes 4 arguments (%zd given)", nargs);
+    if (expect_args("pack_batch", nargs, 4) < 0) {
         return NULL;
     }
     PyObject *items = args[0];
@@ -242,7 +232,7 @@ pack_batch(PyObject *module, PyObject *const *args, Py_ssize_t nargs)
     if (limit == -1 && PyErr_Occurred()) {
         return NULL;
     }
-    int64_t mark = now_ns();
+    int64_t mark = monotonic_ns();
     Py_ssize_t n = PyList_GET_SIZE(items);
     size_t cap = 8;
     while (cap < 2 * (size_t)n) {

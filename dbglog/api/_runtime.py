@@ -25,7 +25,7 @@ from dbglog._ros._cdr import scalar_encoder
 from dbglog._ros._nogil import publisher_address, rcl_addresses, unlocked_publish
 from dbglog._ros._qos import batch_qos, tag_qos
 from dbglog._ros._tags import TAG_PREFIX, sanitize_tag, tag_problem, topic_for_tag
-from dbglog._sched import CPU_ENV, CpuPolicy, cpu_policy_arg
+from dbglog._sched import CPU_ENV, CpuPolicy, env_cpu_policy
 from dbglog.api._convert import (
     ScalarSpec,
     encode_scalar,
@@ -308,19 +308,12 @@ class Runtime:
         native, addresses = load(), rcl_addresses()
         if native is None or addresses is None:
             return None
-        chosen = os.environ.get(CPU_ENV, "").strip()
-        background = True
-        if chosen:
-            try:
-                background = cpu_policy_arg(chosen) is CpuPolicy.BACKGROUND
-            except Exception as exc:  # argparse's error: said once, the default stands
-                with contextlib.suppress(Exception):  # strict mode raises: not at a start-up
-                    self.reporter.warn(
-                        "bad_option",
-                        CPU_ENV,
-                        f"dbglog: {CPU_ENV}: {exc}; the writer thread runs in the background",
-                        None,
-                    )
+        policy, problem = env_cpu_policy(CpuPolicy.BACKGROUND)
+        if problem is not None:
+            message = f"dbglog: {problem}; the writer thread runs in the background"
+            with contextlib.suppress(Exception):  # strict mode raises: not at a start-up
+                self.reporter.warn("bad_option", CPU_ENV, message, None)
+        background = policy is CpuPolicy.BACKGROUND
         try:
             return native.Writer(*addresses, background, _WRITER_CAPACITY, _WRITER_FULL_WAIT_S)
         except Exception:  # no thread to be had: the publisher thread writes itself

@@ -126,30 +126,13 @@ writer_main(void *arg)
     return NULL;
 }
 
-static int64_t
-monotonic_ns(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (int64_t)ts.tv_sec * 1000000000 + ts.tv_nsec;
-}
-
-/* Absolute CLOCK_MONOTONIC time `seconds` from now (the condition variables use that clock). */
+/* Absolute CLOCK_MONOTONIC time `seconds` (0 to 10^6) from now (the condition variables use that clock). */
 static struct timespec
 deadline_in(double seconds)
 {
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    if (seconds < 0) {
-        seconds = 0;
-    }
-    if (seconds > 1e6) {
-        seconds = 1e6;
-    }
-    time_t whole = (time_t)seconds;
-    long ns = ts.tv_nsec + (long)((seconds - (double)whole) * 1e9);
-    ts.tv_sec += whole + ns / 1000000000L;
-    ts.tv_nsec = ns % 1000000000L;
+    seconds = seconds < 0 ? 0 : (seconds > 1e6 ? 1e6 : seconds);
+    int64_t at = monotonic_ns() + (int64_t)(seconds * 1e9);
+    struct timespec ts = {(time_t)(at / 1000000000), (long)(at % 1000000000)};
     return ts;
 }
 
@@ -249,8 +232,7 @@ writer_dealloc(Writer *w)
 static PyObject *
 writer_submit(Writer *w, PyObject *const *args, Py_ssize_t nargs)
 {
-    if (nargs != 2) {
-        PyErr_Format(PyExc_TypeError, "submit() takes 2 arguments (%zd given)", nargs);
+    if (expect_args("submit", nargs, 2) < 0) {
         return NULL;
     }
     void *publisher = PyLong_AsVoidPtr(args[0]);
@@ -330,8 +312,7 @@ writer_submit(Writer *w, PyObject *const *args, Py_ssize_t nargs)
 static PyObject *
 writer_drain(Writer *w, PyObject *const *args, Py_ssize_t nargs)
 {
-    if (nargs != 1) {
-        PyErr_Format(PyExc_TypeError, "drain() takes 1 argument (%zd given)", nargs);
+    if (expect_args("drain", nargs, 1) < 0) {
         return NULL;
     }
     double timeout = PyFloat_AsDouble(args[0]);
