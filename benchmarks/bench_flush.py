@@ -8,7 +8,7 @@ subscriber. After the tags' first 5 s (when every sample also goes on its tag's 
 publisher thread's CPU time (``time.thread_time_ns``) in each step of a flush. Everything but the
 batch's DDS write holds the GIL: a loop that wakes at a random moment finds the thread holding it for
 that share of the time. With the compiled module the DDS writes happen on the writer thread
-(``dbglog/api/_writer.c``, no GIL, ``SCHED_IDLE``): the "DDS write" step is then only the hand-over of a
+(``dbglog/api/_writer.c``, no GIL, an ordinary thread): the "DDS write" step is then only the hand-over of a
 copy, and the writer thread's own CPU time is a row of its own.
 
 Runs alternate the compiled flush (``dbglog/api/_flush.c``) and its Python version (the child under

@@ -352,7 +352,7 @@ def set_thread_slice(microseconds: float) -> None:
         )
 
 
-def publisher_mixed(seconds: float, slice_us: float | None = None) -> None:
+def publisher_mixed(seconds: float, slice_us: float | None = None, writer: str = "ordinary") -> None:
     """The interleaved run: one process alternates blocks of no calls, the empty function, dbglog off, and
     dbglog on with its compiled hot path and with the Python one.
 
@@ -360,6 +360,9 @@ def publisher_mixed(seconds: float, slice_us: float | None = None) -> None:
     machine's load (other processes, this VM's neighbours) falls on all of them alike: the loop period's
     p99 per mode compares dbglog with the same loop without calls *in the same minutes*, which
     separate runs on a shared 2-core machine cannot (their p99 drifts ±50 % run to run).
+
+    `writer` ``idle`` puts dbglog's writer thread under ``SCHED_IDLE`` once it exists (what session 14
+    shipped; docs/api.md says why it is an ordinary thread now).
     """
     steps = {mode: _make_calls(mode) for mode in _MIX_MODES}
     if slice_us is not None:
@@ -373,6 +376,12 @@ def publisher_mixed(seconds: float, slice_us: float | None = None) -> None:
         steps["on"](-2, clock, [])
         warmup += 1
         time.sleep(0.001)
+    if writer == "idle":
+        from dbglog.api._public import RUNTIME
+
+        if RUNTIME._writer is None:
+            raise SystemExit("bench_probe: --writer idle, but dbglog has no writer thread here")
+        os.sched_setscheduler(RUNTIME._writer.native_id, os.SCHED_IDLE, os.sched_param(0))
     print("measuring", flush=True)
     rounds = max(1, int(seconds * 1000) // (_MIX_BLOCK * len(_MIX_MODES)))
     periods: dict[str, list[float]] = {m: [] for m in _MIX_MODES}
@@ -587,13 +596,16 @@ def _echo_result(echo: subprocess.Popen[str], lines: list[str], n: int) -> dict[
     return {"echo_count": len(values), "echo_ordered": values == [float(k) for k in range(len(values))]}
 
 
-def run_interleaved(seconds: float, slice_us: float | None = None, cpu: str = "background") -> dict[str, Any]:
-    """One interleaved publisher (`publisher_mixed`) with a real viewer engine attached (sharing the CPU as
-    ``dbglog view --cpu`` `cpu` does); its figures."""
+def run_interleaved(
+    seconds: float, slice_us: float | None = None, cpu: str = "background", writer: str = "ordinary"
+) -> dict[str, Any]:
+    """One interleaved publisher (`publisher_mixed`, dbglog's writer thread `writer`) with a real viewer
+    engine attached (sharing the CPU as ``dbglog view --cpu`` `cpu` does); its figures."""
     domain = random.randint(101, 200)
     sliced = [] if slice_us is None else ["--loop-slice-us", str(slice_us)]
     pub = _spawn(
-        ["--role", "publisher", "--mode", "mix", "--seconds", str(seconds), *sliced], _env(ROOT, "on", domain)
+        ["--role", "publisher", "--mode", "mix", "--seconds", str(seconds), "--writer", writer, *sliced],
+        _env(ROOT, "on", domain),
     )
     engine = None
     try:
@@ -622,7 +634,7 @@ def run_interleaved(seconds: float, slice_us: float | None = None, cpu: str = "b
 
 
 def _print_interleaved(
-    runs: list[dict[str, Any]], seconds: float, loop: str = "", cpu: str = "background"
+    runs: list[dict[str, Any]], seconds: float, loop: str = "", cpu: str = "background", writer: str = ""
 ) -> None:
     sys.path.insert(0, str(ROOT))
     from benchmarks._common import print_table
@@ -656,7 +668,7 @@ def _print_interleaved(
         f"{r['min_count']}/{r['expected']}{'' if r['ordered'] else ' (out of order!)'}" for r in runs
     ]
     print_table(
-        f"Interleaved 1 kHz loop{loop} with a viewer attached (--cpu {cpu}): blocks of {_MIX_BLOCK} "
+        f"Interleaved 1 kHz loop{loop}{writer} with a viewer attached (--cpu {cpu}): blocks of {_MIX_BLOCK} "
         f"iterations per mode, random order, {seconds:.0f} s per run, {len(runs)} runs (medians, ranges); "
         "samples of the dbglog "
         f"blocks in the viewer (min per tag / sent): {', '.join(delivered)}",
@@ -766,11 +778,20 @@ def main() -> None:
         help="how the viewer engine shares the CPU (dbglog view --cpu; default background, as dbglog view "
         "does); both: with --interleaved, runs alternate the two",
     )
+    parser.add_argument(
+        "--writer",
+        choices=["ordinary", "idle", "both"],
+        default="ordinary",
+        help="with --interleaved: dbglog's writer thread as shipped (ordinary) or under SCHED_IDLE (session "
+        "14's); both: runs alternate the two",
+    )
     args = parser.parse_args()
     if args.viewer_cpu == "both" and not args.interleaved and args.role == "main":
         parser.error("--viewer-cpu both needs --interleaved (separate runs take one policy)")
+    if args.writer == "both" and args.role != "main":
+        parser.error("--writer both is for the main role")
     if args.role == "publisher" and args.mode == "mix":
-        publisher_mixed(args.seconds, args.loop_slice_us)
+        publisher_mixed(args.seconds, args.loop_slice_us, args.writer)
         return
     if args.role == "publisher":
         publisher(args.mode, args.seconds)
@@ -778,18 +799,20 @@ def main() -> None:
     cpus = ["background", "normal"] if args.viewer_cpu == "both" else [args.viewer_cpu]
     if args.interleaved:
         slices: list[float | None] = [None] if args.loop_slice_us is None else [None, args.loop_slice_us]
-        arms = [(slice_us, cpu) for cpu in cpus for slice_us in slices]
-        by_arm: dict[tuple[float | None, str], list[dict[str, Any]]] = {arm: [] for arm in arms}
+        writers = ["ordinary", "idle"] if args.writer == "both" else [args.writer]
+        arms = [(slice_us, cpu, writer) for writer in writers for cpu in cpus for slice_us in slices]
+        by_arm: dict[tuple[float | None, str, str], list[dict[str, Any]]] = {arm: [] for arm in arms}
         for rep in range(args.repeats):
             for arm in arms if rep % 2 == 0 else arms[::-1]:
                 res = run_interleaved(args.seconds, *arm)
                 by_arm[arm].append(res)
-                note = f"# interleaved repeat {rep} slice {arm[0]} viewer cpu {arm[1]}: {json.dumps(res)}"
-                print(note, file=sys.stderr, flush=True)
-        for (slice_us, cpu), runs in by_arm.items():
+                note = f"# interleaved repeat {rep} slice {arm[0]} viewer cpu {arm[1]} writer {arm[2]}: "
+                print(note + json.dumps(res), file=sys.stderr, flush=True)
+        for (slice_us, cpu, writer), runs in by_arm.items():
             slice_text = "the default" if slice_us is None else f"{slice_us:g} µs"
             loop = "" if args.loop_slice_us is None else f" (its thread's slice: {slice_text})"
-            _print_interleaved(runs, args.seconds, loop, cpu)
+            label = f", dbglog's writer thread {writer}" if len(writers) > 1 else ""
+            _print_interleaved(runs, args.seconds, loop, cpu, label)
         return
     if args.role == "subscriber":
         subscriber(args.expect, args.history, args.viewer_cpu)

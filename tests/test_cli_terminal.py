@@ -21,33 +21,54 @@ from tests._ros import RosPeer
 TIMEOUT = 60
 
 
-@pytest.fixture(scope="module")
-def robot() -> Iterator[None]:
-    """A node publishing three tags and a Twist topic at 20 Hz until the module ends."""
-    stop = threading.Event()
-    with RosPeer("cli_robot") as peer:
-        prox = peer.publisher("/rosdashboard/cli_proximity", Float64, tag_qos())
-        state = peer.publisher("/rosdashboard/cli_state", String, tag_qos())
-        bumper = peer.publisher("/rosdashboard/cli_bumper", Bool, tag_qos())
-        cmd = peer.publisher("/cli_turtle/cmd_vel", Twist)
+class _Robot:
+    """The module's publishing node, and what to say of it when an echo gets nothing."""
 
-        def loop() -> None:
-            i = 0
-            while not stop.is_set():
+    def __init__(self, peer: RosPeer) -> None:
+        self.publishers = {
+            "/rosdashboard/cli_proximity": peer.publisher("/rosdashboard/cli_proximity", Float64, tag_qos()),
+            "/rosdashboard/cli_state": peer.publisher("/rosdashboard/cli_state", String, tag_qos()),
+            "/rosdashboard/cli_bumper": peer.publisher("/rosdashboard/cli_bumper", Bool, tag_qos()),
+            "/cli_turtle/cmd_vel": peer.publisher("/cli_turtle/cmd_vel", Twist),
+        }
+        self.rounds = 0
+        self.error: BaseException | None = None
+        self.thread = threading.Thread(target=self._loop, daemon=True)
+        self.stop = threading.Event()
+
+    def _loop(self) -> None:
+        prox, state, bumper, cmd = self.publishers.values()
+        try:
+            while not self.stop.is_set():
+                i = self.rounds
                 prox.publish(Float64(data=0.25 + i))
                 state.publish(String(data=f"mode=run step {i}"))
                 bumper.publish(Bool(data=i % 2 == 0))
                 twist = Twist()
                 twist.linear.x, twist.angular.z = 0.5, -1.0
                 cmd.publish(twist)
-                i += 1
+                self.rounds += 1
                 time.sleep(0.05)
+        except BaseException as exc:
+            self.error = exc
+            raise
 
-        thread = threading.Thread(target=loop, daemon=True)
-        thread.start()
-        yield
-        stop.set()
-        thread.join()
+    def state(self) -> str:
+        """The loop's rounds, whether it runs, and how many subscriptions each publisher is matched with."""
+        matched = {topic: pub.get_subscription_count() for topic, pub in self.publishers.items()}
+        alive = "running" if self.thread.is_alive() else f"stopped ({self.error!r})"
+        return f"the robot's loop: {self.rounds} rounds, {alive}; matched subscriptions {matched}"
+
+
+@pytest.fixture(scope="module")
+def robot() -> Iterator[_Robot]:
+    """A node publishing three tags and a Twist topic at 20 Hz until the module ends."""
+    with RosPeer("cli_robot") as peer:
+        node = _Robot(peer)
+        node.thread.start()
+        yield node
+        node.stop.set()
+        node.thread.join()
 
 
 def _dbglog(*args: str, timeout: float = TIMEOUT) -> subprocess.CompletedProcess[str]:
@@ -56,10 +77,10 @@ def _dbglog(*args: str, timeout: float = TIMEOUT) -> subprocess.CompletedProcess
     )
 
 
-def test_tags_prints_a_table_once(robot: None) -> None:
+def test_tags_prints_a_table_once(robot: _Robot) -> None:
     """`dbglog tags` lists each tag with type, rate, last value and live status, then exits 0."""
     out = _dbglog("tags")
-    assert out.returncode == 0, out.stderr
+    assert out.returncode == 0, out.stderr + robot.state()
     lines = out.stdout.splitlines()
     assert lines[0].split() == ["tag", "type", "rate", "last", "value", "status"]
     rows = {line.split()[0]: line for line in lines[2:]}
@@ -72,16 +93,16 @@ def test_tags_prints_a_table_once(robot: None) -> None:
     assert "/cli_turtle/cmd_vel" not in out.stdout
 
 
-def test_tags_all_lists_every_topic(robot: None) -> None:
+def test_tags_all_lists_every_topic(robot: _Robot) -> None:
     """`dbglog tags --all` lists plain topics too, by full name."""
     out = _dbglog("tags", "--all")
-    assert out.returncode == 0, out.stderr
+    assert out.returncode == 0, out.stderr + robot.state()
     assert "/cli_turtle/cmd_vel" in out.stdout
     assert "geometry_msgs/msg/Twist" in out.stdout
     assert "/rosdashboard/cli_proximity" in out.stdout
 
 
-def test_tags_watch_refreshes_until_interrupted(robot: None) -> None:
+def test_tags_watch_refreshes_until_interrupted(robot: _Robot) -> None:
     """`dbglog tags --watch` prints the table again and again."""
     with subprocess.Popen(
         [sys.executable, "-m", "dbglog", "tags", "--watch", "--wait", "2", "--interval", "0.3"],
@@ -101,34 +122,34 @@ def test_tags_watch_refreshes_until_interrupted(robot: None) -> None:
     assert tables >= 3
 
 
-def test_echo_a_tag_prints_count_values(robot: None) -> None:
+def test_echo_a_tag_prints_count_values(robot: _Robot) -> None:
     """`dbglog echo TAG --count 3` prints three numbers, one per line, and exits 0."""
     out = _dbglog("echo", "cli_proximity", "--count", "3", "--timeout", "20")
-    assert out.returncode == 0, out.stderr
+    assert out.returncode == 0, out.stderr + robot.state()
     values = [float(v) for v in out.stdout.split()]
     assert len(values) == 3
     assert all(v % 1 == 0.25 for v in values)
 
 
-def test_echo_topic_field_and_rqt_style(robot: None) -> None:
+def test_echo_topic_field_and_rqt_style(robot: _Robot) -> None:
     """A topic with a dotted field path, or with slashes rqt-style, prints that field."""
     dotted = _dbglog("echo", "/cli_turtle/cmd_vel.linear.x", "-n", "2", "--timeout", "20")
-    assert dotted.returncode == 0, dotted.stderr
+    assert dotted.returncode == 0, dotted.stderr + robot.state()
     assert dotted.stdout.split() == ["0.5", "0.5"]
     slashed = _dbglog("echo", "/cli_turtle/cmd_vel/angular/z", "-n", "1", "--timeout", "20")
-    assert slashed.returncode == 0, slashed.stderr
+    assert slashed.returncode == 0, slashed.stderr + robot.state()
     assert slashed.stdout.split() == ["-1.0"]
 
 
-def test_echo_regex_on_a_text_tag(robot: None) -> None:
+def test_echo_regex_on_a_text_tag(robot: _Robot) -> None:
     """--regex turns a text tag's capture group into numbers."""
     out = _dbglog("echo", "cli_state", "--regex", r"step (\d+)", "-n", "2", "--timeout", "20")
-    assert out.returncode == 0, out.stderr
+    assert out.returncode == 0, out.stderr + robot.state()
     first, second = (float(v) for v in out.stdout.split())
     assert second >= first
 
 
-def test_echo_missing_topic_times_out_saying_why(robot: None) -> None:
+def test_echo_missing_topic_times_out_saying_why(robot: _Robot) -> None:
     """A topic that does not exist makes --timeout exit 1 with the reason on stderr."""
     out = _dbglog("echo", "/cli_no_such_topic", "--timeout", "2")
     assert out.returncode == 1
@@ -136,7 +157,7 @@ def test_echo_missing_topic_times_out_saying_why(robot: None) -> None:
     assert "/cli_no_such_topic does not exist on the ROS graph" in out.stderr
 
 
-def test_echo_bad_field_exits_with_the_reason(robot: None) -> None:
+def test_echo_bad_field_exits_with_the_reason(robot: _Robot) -> None:
     """A field that is not in the type exits 1 naming the fields that exist."""
     out = _dbglog("echo", "/cli_turtle/cmd_vel.linear.w", "--timeout", "20")
     assert out.returncode == 1

@@ -51,11 +51,8 @@ def pack_batch(
 class Writer:
     """A thread that writes serialized messages with rcl, in order, without the GIL (``_writer.c``)."""
 
-    policy_error: str | None
     native_id: int
-    def __init__(
-        self, publish: int, reset: int, background: bool, capacity: int, full_wait: float = 1.0
-    ) -> None: ...
+    def __init__(self, publish: int, reset: int, capacity: int, full_wait: float = 1.0) -> None: ...
     def submit(self, publisher: int, data: bytes, /) -> None:
         """Queue a copy of `data` for the rcl publisher at that address (BufferError: full `full_wait` s)."""
     def drain(self, timeout: float, /) -> bool:

@@ -285,8 +285,8 @@ class Pipe:
             reporter.warn(
                 "queue_full",
                 "writer_full",
-                f"dbglog: {exc}; values are dropped until it catches up (DBGLOG_CPU=normal, if other "
-                "work keeps it off the CPUs)",
+                f"dbglog: {exc}; values are dropped until it catches up (other work keeps it off the CPUs, "
+                "or the middleware does not take the messages)",
                 exc,
             )
 

@@ -25,7 +25,6 @@ from dbglog._ros._cdr import scalar_encoder
 from dbglog._ros._nogil import publisher_address, rcl_addresses, unlocked_publish
 from dbglog._ros._qos import batch_qos, tag_qos
 from dbglog._ros._tags import TAG_PREFIX, sanitize_tag, tag_problem, topic_for_tag
-from dbglog._sched import CPU_ENV, CpuPolicy, env_cpu_policy
 from dbglog.api._convert import (
     ScalarSpec,
     encode_scalar,
@@ -301,21 +300,16 @@ class Runtime:
         return ch
 
     def _new_writer(self) -> Any:
-        """Start the compiled writer thread, under ``SCHED_IDLE`` unless ``DBGLOG_CPU=normal``; or None.
+        """Start the compiled writer thread (an ordinary thread: docs/api.md says why not ``SCHED_IDLE``);
+        or None.
 
         None without the compiled module or rcl's functions: the publisher thread then writes itself.
         """
         native, addresses = load(), rcl_addresses()
         if native is None or addresses is None:
             return None
-        policy, problem = env_cpu_policy(CpuPolicy.BACKGROUND)
-        if problem is not None:
-            message = f"dbglog: {problem}; the writer thread runs in the background"
-            with contextlib.suppress(Exception):  # strict mode raises: not at a start-up
-                self.reporter.warn("bad_option", CPU_ENV, message, None)
-        background = policy is CpuPolicy.BACKGROUND
         try:
-            return native.Writer(*addresses, background, _WRITER_CAPACITY, _WRITER_FULL_WAIT_S)
+            return native.Writer(*addresses, _WRITER_CAPACITY, _WRITER_FULL_WAIT_S)
         except Exception:  # no thread to be had: the publisher thread writes itself
             return None
 
@@ -344,9 +338,8 @@ class Runtime:
             self.reporter.warn(
                 "queue_full",
                 "writer_starved",
-                f"dbglog: its writer thread runs in the background (SCHED_IDLE) and other work keeps the "
-                f"CPUs busy: a message has waited {stats['oldest_s']:.1f} s to be published, so viewers see "
-                f"the values late. Set {CPU_ENV}=normal to make it an ordinary thread (docs/api.md)",
+                f"dbglog: other work keeps the CPUs busy: a message has waited {stats['oldest_s']:.1f} s in "
+                "dbglog's writer thread to be published, so viewers see the values late (docs/api.md)",
                 None,
             )
         failed = stats["failed"]

@@ -3,16 +3,16 @@
  *
  * The publisher thread (Python) builds each message with the GIL held and `submit`s a copy of its
  * bytes with the rcl publisher's address; this thread calls rcl_publish_serialized_message for each,
- * in order. It holds no GIL, ever, so it may run under SCHED_IDLE (`background`): a robot's thread
- * that wakes up preempts it at once, instead of waiting in the run queue while a DDS write finishes,
- * and no lock or GIL the robot needs is held at that priority. rcl's functions come as addresses from
- * ctypes (dbglog/_ros/_nogil.py): the extension is built without ROS headers.
+ * in order. It holds no GIL, ever, so the robot's Python threads never wait for a DDS write. It is an
+ * ordinary thread: under SCHED_IDLE, a write preempted inside Fast DDS's shared-memory push kept that
+ * port's interprocess mutex, and on a busy machine every other publisher to the same subscriber waited
+ * for it (docs/api.md, "Why the writer thread is an ordinary thread"). rcl's functions come as addresses
+ * from ctypes (dbglog/_ros/_nogil.py): the extension is built without ROS headers.
  */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
 #include <errno.h>
 #include <pthread.h>
-#include <sched.h>
 #include <stdint.h>
 #include <string.h>
 #include <sys/syscall.h>
@@ -66,9 +66,7 @@ typedef struct {
     int64_t busy_submitted; /* when the job being written was submitted */
     int stopping;
     int started;
-    int ready;             /* the thread has applied its policy */
-    int background;        /* SCHED_IDLE asked */
-    int policy_error;      /* errno of sched_setscheduler, 0 when it took (or was not asked) */
+    int ready;             /* the thread has set `native_id` */
     long native_id;        /* the thread's id (gettid) */
     unsigned long long written, failed;
     rcl_publish_fn publish;
@@ -81,10 +79,6 @@ writer_main(void *arg)
 {
     Writer *w = arg;
     pthread_mutex_lock(&w->mutex);
-    if (w->background) {
-        struct sched_param param = {0};
-        w->policy_error = sched_setscheduler(0, SCHED_IDLE, &param) == 0 ? 0 : errno;
-    }
     w->native_id = (long)syscall(SYS_gettid);
     w->ready = 1;
     pthread_cond_broadcast(&w->done);
@@ -139,13 +133,12 @@ deadline_in(double seconds)
 static PyObject *
 writer_new(PyTypeObject *type, PyObject *args, PyObject *kwargs)
 {
-    static char *names[] = {"publish", "reset", "background", "capacity", "full_wait", NULL};
+    static char *names[] = {"publish", "reset", "capacity", "full_wait", NULL};
     unsigned long long publish, reset;
-    int background;
     Py_ssize_t capacity;
     double full_wait = 1.0;
-    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "KKpn|d:Writer", names, &publish, &reset, &background,
-                                     &capacity, &full_wait)) {
+    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "KKn|d:Writer", names, &publish, &reset, &capacity,
+                                     &full_wait)) {
         return NULL;
     }
     if (publish == 0 || reset == 0 || capacity <= 0) {
@@ -158,7 +151,6 @@ writer_new(PyTypeObject *type, PyObject *args, PyObject *kwargs)
     }
     w->publish = (rcl_publish_fn)(uintptr_t)publish;
     w->reset = (reset_fn)(uintptr_t)reset;
-    w->background = background;
     w->capacity = (size_t)capacity;
     w->full_wait = full_wait;
     w->pid = getpid();
@@ -180,7 +172,7 @@ writer_new(PyTypeObject *type, PyObject *args, PyObject *kwargs)
         return PyErr_SetFromErrno(PyExc_OSError);
     }
     w->started = 1;
-    Py_BEGIN_ALLOW_THREADS /* until its policy is applied: `policy_error` is final from here on */
+    Py_BEGIN_ALLOW_THREADS /* until it has set `native_id` */
     pthread_mutex_lock(&w->mutex);
     while (!w->ready) {
         pthread_cond_wait(&w->done, &w->mutex);
@@ -386,16 +378,6 @@ writer_stats(Writer *w, PyObject *Py_UNUSED(ignored))
                          busy ? Py_True : Py_False, "oldest_s", waiting);
 }
 
-static PyObject *
-writer_policy_error(Writer *w, void *Py_UNUSED(closure))
-{
-    int err = w->policy_error; /* set before `ready`, which Writer() waited for */
-    if (err == 0) {
-        Py_RETURN_NONE;
-    }
-    return PyUnicode_FromString(strerror(err));
-}
-
 static PyMethodDef writer_methods[] = {
     {"submit", (PyCFunction)(void (*)(void))writer_submit, METH_FASTCALL,
      "submit(publisher, data): queue a copy of `data` for the rcl publisher at that address. While "
@@ -420,8 +402,6 @@ writer_native_id(Writer *w, void *Py_UNUSED(closure))
 
 static PyGetSetDef writer_getset[] = {
     {"native_id", (getter)writer_native_id, NULL, "The writer thread's id (as threading.get_native_id).", NULL},
-    {"policy_error", (getter)writer_policy_error, NULL,
-     "Why SCHED_IDLE was refused (strerror), or None: taken, or not asked.", NULL},
     {NULL},
 };
 
@@ -430,7 +410,7 @@ static PyType_Slot writer_slots[] = {
     {Py_tp_dealloc, writer_dealloc},
     {Py_tp_methods, writer_methods},
     {Py_tp_getset, writer_getset},
-    {Py_tp_doc, "Writer(publish, reset, background, capacity, full_wait=1.0): a thread that writes serialized messages "
+    {Py_tp_doc, "Writer(publish, reset, capacity, full_wait=1.0): a thread that writes serialized messages "
                 "with rcl, in order, without the GIL."},
     {0, NULL},
 };
