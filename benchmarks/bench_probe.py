@@ -790,6 +790,8 @@ def main() -> None:
         parser.error("--viewer-cpu both needs --interleaved (separate runs take one policy)")
     if args.writer == "both" and args.role != "main":
         parser.error("--writer both is for the main role")
+    if args.writer != "ordinary" and args.role == "main" and not args.interleaved:
+        parser.error("--writer idle/both needs --interleaved (separate runs keep the writer as shipped)")
     if args.role == "publisher" and args.mode == "mix":
         publisher_mixed(args.seconds, args.loop_slice_us, args.writer)
         return
