@@ -16,6 +16,7 @@ from std_msgs.msg import Bool, Float64, String
 from dbglog._ros._qos import tag_qos
 from dbglog.viewer._cli._cli_echo import format_line, split_target
 from dbglog.viewer._cli._cli_tags import format_table, format_value
+from dbglog.viewer._data._engine import matched_reason
 from tests._ros import RosPeer
 
 TIMEOUT = 60
@@ -31,6 +32,8 @@ class _Robot:
             "/rosdashboard/cli_bumper": peer.publisher("/rosdashboard/cli_bumper", Bool, tag_qos()),
             "/cli_turtle/cmd_vel": peer.publisher("/cli_turtle/cmd_vel", Twist),
         }
+        self.silent = peer.publisher("/cli_silent", Float64)
+        """A publisher that never publishes."""
         self.rounds = 0
         self.error: BaseException | None = None
         self.thread = threading.Thread(target=self._loop, daemon=True)
@@ -157,6 +160,15 @@ def test_echo_missing_topic_times_out_saying_why(robot: _Robot) -> None:
     assert "/cli_no_such_topic does not exist on the ROS graph" in out.stderr
 
 
+def test_echo_of_a_silent_publisher_says_it_is_matched(robot: _Robot) -> None:
+    """A topic whose publisher never publishes: echo times out saying DDS matched it with that publisher,
+    so the silence is the publisher's (not discovery's, nor an incompatible QoS)."""
+    out = _dbglog("echo", "/cli_silent", "--timeout", "15")
+    assert out.returncode == 1
+    assert out.stdout == ""
+    assert "subscribed and matched with its publisher; no message yet" in out.stderr, out.stderr
+
+
 def test_echo_bad_field_exits_with_the_reason(robot: _Robot) -> None:
     """A field that is not in the type exits 1 naming the fields that exist."""
     out = _dbglog("echo", "/cli_turtle/cmd_vel.linear.w", "--timeout", "20")
@@ -173,6 +185,15 @@ def test_split_target_rules() -> None:
     assert split_target("/turtle1/pose/x", set()) is None
     assert split_target("/turtle1/pose/x", {"/turtle1/pose"}) == ("/turtle1/pose", "x")
     assert split_target("/a/b/c/d", {"/a/b"}) == ("/a/b", "c.d")
+
+
+def test_matched_reason_says_how_far_discovery_got() -> None:
+    """The waiting reason of a subscribed topic names how many of its publishers DDS matched."""
+    assert "not matched with its publisher yet" in matched_reason(0, 1)
+    assert "incompatible" in matched_reason(0, 2)
+    assert matched_reason(1, 3) == "subscribed; no message yet (matched with 1 of its 3 publishers)"
+    assert matched_reason(1, 1) == "subscribed and matched with its publisher; no message yet"
+    assert matched_reason(3, 3) == "subscribed and matched with all 3 of its publishers; no message yet"
 
 
 def test_formatting_helpers() -> None:

@@ -150,6 +150,19 @@ class _TopicSub:
     """The subscription's KEEP_LAST queue depth."""
 
 
+def matched_reason(matched: int, publishers: int) -> str:
+    """Say why a subscribed topic shows nothing yet, from how many of its publishers DDS matched."""
+    if matched <= 0:
+        return (
+            "subscribed; no message yet (not matched with its publisher yet: discovery under way, or the "
+            "publisher's QoS is incompatible)"
+        )
+    if matched < publishers:
+        return f"subscribed; no message yet (matched with {matched} of its {publishers} publishers)"
+    whom = "its publisher" if publishers == 1 else f"all {publishers} of its publishers"
+    return f"subscribed and matched with {whom}; no message yet"
+
+
 def _normalize(topic: str) -> str:
     topic = topic.strip()
     return topic if topic.startswith("/") else "/" + topic
@@ -642,6 +655,11 @@ class Engine(SeriesTimes):
         if topic is not None and topic.msg_type in pub_types:
             if (topic.reliable and best_effort) or (topic.transient and not transient):
                 self._subscribe(node, name, topic.msg_type, bindings, not best_effort, transient, topic)
+            elif topic.taken == 0:  # nothing arrived on it yet: say whether DDS matched its publishers
+                reason = matched_reason(topic.sub.get_publisher_count(), len(infos))
+                for series in bindings.values():
+                    if series.count == 0:
+                        series.set_waiting(reason)
             return
         if len(pub_types) > 1:
             for series in bindings.values():
