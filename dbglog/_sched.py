@@ -28,7 +28,6 @@ __all__ = [
     "apply_cpu_argument",
     "cpu_policy_arg",
     "cpu_times_ns",
-    "env_cpu_policy",
     "in_background",
     "set_cpu_policy",
 ]
@@ -94,7 +93,7 @@ def cpu_policy_arg(text: str) -> CpuPolicy:
         raise argparse.ArgumentTypeError(f"{text!r} is not a CPU policy: use one of {names}") from None
 
 
-def env_cpu_policy(default: CpuPolicy) -> tuple[CpuPolicy, str | None]:
+def _env_cpu_policy(default: CpuPolicy) -> tuple[CpuPolicy, str | None]:
     """Return the policy ``$DBGLOG_CPU`` (`CPU_ENV`) chooses, else `default`; and, when its value is no
     policy, what is wrong with it (`default` then stands)."""
     chosen = os.environ.get(CPU_ENV, "").strip()
@@ -113,7 +112,7 @@ def add_cpu_argument(parser: argparse.ArgumentParser, default: CpuPolicy, help_t
     policy is named on stderr and the command's own default stands.
     """
     choices = "{" + ",".join(policy.value for policy in CpuPolicy) + "}"
-    default, problem = env_cpu_policy(default)
+    default, problem = _env_cpu_policy(default)
     if problem is not None and problem not in _ENV_WARNED:  # (every command's parser is built: say it once)
         _ENV_WARNED.add(problem)
         print(f"dbglog: warning: {problem}; each command's own --cpu default stands", file=sys.stderr)

@@ -20,6 +20,18 @@ BACKGROUND_START_S = ENGINE_START_BACKGROUND_S
 engine: it runs only as fast as the CPUs others leave it, and CI's busiest moments leave it little."""
 
 
+def busy_loop(seconds: float, *, nice: int = 0, cpu: int | None = None) -> str:
+    """A Python script that keeps one CPU busy for `seconds`, at `nice`, pinned to `cpu` if given; it ends by
+    itself, so a test killed meanwhile leaves no busy process behind."""
+    lines = ["import os, time"]
+    if nice:
+        lines.append(f"os.nice({nice})")
+    if cpu is not None:
+        lines.append(f"os.sched_setaffinity(0, {{{cpu}}})")
+    lines += [f"end = time.time() + {seconds}", "while time.time() < end: pass"]
+    return "\n".join(lines)
+
+
 def stop_child(proc: subprocess.Popen[Any], sig: int = signal.SIGINT, timeout: float = 30.0) -> str:
     """Send `sig` and wait `timeout` s for the child to end, killing it if it does not (a starved or stuck
     child must not outlive its test); return its stderr when piped, else ''."""

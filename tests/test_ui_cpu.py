@@ -19,7 +19,7 @@ from pathlib import Path
 import pytest
 
 from dbglog._sched import CPU_ENV
-from tests._children import BACKGROUND_START_S, stop_child
+from tests._children import BACKGROUND_START_S, busy_loop, stop_child
 from tests._ros import wait_until
 from tests.test_sched import middleware_up, policies_of
 from tests.test_ui_canvas import ROOT, Viewer, item, viewer
@@ -146,7 +146,7 @@ def test_idle_viewer_renders_rarely_and_answers_a_click_at_once(viewer: Callable
     assert latency <= 0.5, f"the click took {latency:.2f} s to select"
 
 
-BUSY_NICE_19 = "import os, time\nos.nice(19)\nend = time.time() + 40\nwhile time.time() < end: pass"
+BUSY_NICE_19 = busy_loop(40, nice=19)
 """A busy loop for 40 s at the lowest priority of the ordinary policy."""
 
 

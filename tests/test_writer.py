@@ -20,6 +20,7 @@ from dbglog._ros._nogil import publisher_address, rcl_addresses
 from dbglog._ros._qos import batch_qos
 from dbglog.api._hot import Writer
 from dbglog.api._public import RUNTIME
+from tests._children import busy_loop
 from tests._ros import RosPeer, wait_until
 
 
@@ -190,9 +191,9 @@ def test_the_sdk_writes_through_its_writer_thread() -> None:
     assert _policies()[writer.native_id] == 0
 
 
-def _run(script: str, cpu: str) -> subprocess.CompletedProcess[str]:
-    """Run `script` in a fresh interpreter with ``DBGLOG_CPU=cpu``; it must succeed."""
-    env = {**os.environ, "DBGLOG_CPU": cpu}
+def _run(script: str, cpu: str | None = None) -> subprocess.CompletedProcess[str]:
+    """Run `script` in a fresh interpreter (with ``DBGLOG_CPU=cpu`` when given); it must succeed."""
+    env = {**os.environ, "DBGLOG_CPU": cpu} if cpu is not None else dict(os.environ)
     proc = subprocess.run(
         [sys.executable, "-c", script], env=env, capture_output=True, text=True, timeout=90, check=False
     )
@@ -220,11 +221,10 @@ def test_dbglog_cpu_leaves_the_writer_thread_ordinary(value: str) -> None:
     assert "DBGLOG_CPU" not in proc.stderr, proc.stderr
 
 
-_HOG = "import os, time\\nos.sched_setaffinity(0, {0})\\nend = time.time() + 60\\nwhile time.time() < end: 0"
 _STARVED_SCRIPT = f"""
 import os, subprocess, sys, time
 os.sched_setaffinity(0, {{0}})  # this process and 6 busy ones share one CPU: the rest of the machine is free
-hogs = [subprocess.Popen([sys.executable, "-c", "{_HOG}"]) for _ in range(6)]
+hogs = [subprocess.Popen([sys.executable, "-c", {busy_loop(60, cpu=0)!r}]) for _ in range(6)]
 try:
     import dbglog
     from dbglog.api import _runtime
@@ -252,7 +252,7 @@ def test_a_starved_writer_thread_is_said_once() -> None:
     named once. Full (here one message), it makes the publisher thread wait a moment (1 s in use, 20 ms
     here), then the samples are dropped, counted and said once: the process still ends at once."""
     started = time.monotonic()
-    proc = _run(_STARVED_SCRIPT, "normal")
+    proc = _run(_STARVED_SCRIPT)
     assert time.monotonic() - started < 30
     dropped = int(proc.stdout.split("done")[1].split()[0])
     assert dropped > 0, proc.stderr
