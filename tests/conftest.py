@@ -42,7 +42,8 @@ def _reset_dbglog_state() -> Iterator[None]:
 def _worker_display() -> Iterator[None]:
     """Parallel workers: a private Xvfb is ``$DISPLAY`` for the whole session, so the GUI children a test
     starts with the inherited environment never share a screen with another worker or suite (CI's shared
-    xvfb-run display refused a viewer's connection now and then: "Failed to open display :99")."""
+    xvfb-run display refused a viewer's connection now and then: "Failed to open display :99", most likely
+    the server's reset after its last client, which the private servers turn off)."""
     if not private_display(os.environ):
         yield
         return
