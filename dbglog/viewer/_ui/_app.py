@@ -154,6 +154,8 @@ class ViewerApp:
         """Seconds the last frame spent before `render_dearpygui_frame` (input, snapshots, widget updates)."""
         self.pacer = Pacer(fps, min(fps, data_fps))
         """When `run` renders: the frame cap, and no frames while nothing changes."""
+        self.idle_render_s = IDLE_RENDER_S
+        """Seconds between two frames while nothing changes and no dialog is open (a safety net)."""
         self.rendered = 0
         """Frames rendered so far (the benchmark and the CPU test read this)."""
         self._x_fd: int | None = None
@@ -161,6 +163,10 @@ class ViewerApp:
         self._input_now = False
         """Whether the last rendered frame saw the user at work (`_input_seen`)."""
         self._mouse_seen: tuple[float, float] = (-1.0, -1.0)
+        self._key_at = 0.0
+        """When Dear PyGui last reported a key going down or up (its callback thread writes it)."""
+        self._key_poked = 0.0
+        """The `_key_at` the loop last answered with a burst of frames."""
         self._mods_seen: dict[int, float] = {}
         """Modifier key -> when a rendered frame last saw it down (`held`)."""
         self._view_key: tuple[object, ...] = ()
@@ -376,6 +382,10 @@ class ViewerApp:
             dpg.add_key_press_handler(dpg.mvKey_End, callback=lambda *_: queue(self.on_end_key))
             dpg.add_key_press_handler(dpg.mvKey_Home, callback=lambda *_: queue(self.on_home_key))
             dpg.add_mouse_wheel_handler(callback=lambda _s, delta: self.pointer_input.on_wheel(delta))
+            # Any key (key 0): Dear ImGui hands typed keys to a frame one event at a time (its input
+            # trickling), so keys read from X in one go are used over several frames: see `_look`.
+            dpg.add_key_press_handler(0, callback=lambda *_: self._note_key())
+            dpg.add_key_release_handler(0, callback=lambda *_: self._note_key())
         self._update_title()
 
     def _build_menus(self) -> None:
@@ -433,6 +443,12 @@ class ViewerApp:
         A frame is rendered only when something changed (new data for a widget, an edit, a dialog), while
         the user is doing something (and for a second after), or now and then while idle; in between the
         loop sleeps, woken early by input on the X connection.
+
+        Dear ImGui takes at most about one key event a frame (a key down, its character, its release:
+        three frames a typed letter), so the keys GLFW read from X together are used over many frames, with
+        nothing left on the X connection to wake the loop. Each key a frame uses keeps the loop at the cap
+        (`_note_key`, `_look`): at 15 frames a second, a word typed at 60 ms a key had its last letters
+        waiting 20 s for the idle frames before.
         """
         deadline = None if seconds is None else time.monotonic() + seconds
         pacer = self.pacer
@@ -459,8 +475,16 @@ class ViewerApp:
             elif (self._x_input is not None and self._x_input.pending()) or wait_readable(self._x_fd, wait):
                 pacer.poke(time.monotonic())  # input for the window: render it at once, and keep up
 
+    def _note_key(self) -> None:
+        """Dear PyGui's callback thread: a frame used a key event (no Dear PyGui call here)."""
+        self._key_at = time.monotonic()
+
     def _look(self) -> None:
         """Between frames: run the hooks and see whether anything on screen would change (no drawing)."""
+        key_at = self._key_at
+        if key_at != self._key_poked:  # a key was used: Dear ImGui may hold more of them
+            self._key_poked = key_at
+            self.pacer.poke(time.monotonic())
         for hook in self.frame_hooks:
             hook()
         playing = self.timeline.playing
@@ -506,7 +530,7 @@ class ViewerApp:
         self._update_status()
         # With a dialog open a text cursor may blink: idle frames come more often then.
         dialog_open = self.dialog is not None or self.file_request is not None
-        self.pacer.idle_render_s = DIALOG_IDLE_RENDER_S if dialog_open else IDLE_RENDER_S
+        self.pacer.idle_render_s = DIALOG_IDLE_RENDER_S if dialog_open else self.idle_render_s
         self._poke_if_view_changed()
 
     def _poke_if_view_changed(self) -> None:
