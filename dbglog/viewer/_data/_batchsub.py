@@ -32,7 +32,7 @@ from dbglog._ros._qos import batch_qos
 from dbglog._ros._tags import topic_for_tag
 from dbglog.viewer._data._history import History
 from dbglog.viewer._data._model import Binding, ValueKind
-from dbglog.viewer._data._series import Series
+from dbglog.viewer._data._series import NO_MESSAGE_YET, Series
 from dbglog.viewer._data._sinks import as_received, number_type
 
 __all__ = ["BatchIngest", "BatchStats"]
@@ -180,7 +180,7 @@ class BatchIngest:
                 self._newest[binding] = max(self._newest.get(binding, held), held)
             series.set_type(msg_type, sink.kind)
             if series.count == 0:
-                series.set_waiting("subscribed; no message yet")
+                series.set_waiting(NO_MESSAGE_YET)
             past = self._past(name, self._newest.get(binding))
             if past is not None:  # received "as long ago" as its newest sample is old: its age is true
                 self._push(sink, [past], as_received(past[0]))

@@ -39,7 +39,7 @@ from dbglog.viewer._data._fields import (
 from dbglog.viewer._data._history import DEFAULT_MAX_BYTES, DEFAULT_MAX_SECONDS, History
 from dbglog.viewer._data._logstore import LogStore
 from dbglog.viewer._data._model import Binding, FieldInfo, SeriesSnapshot, Status, TopicInfo
-from dbglog.viewer._data._series import Series, SeriesTimes
+from dbglog.viewer._data._series import NO_MESSAGE_YET, Series, SeriesTimes
 from dbglog.viewer._data._sinks import (
     Sink,
     backfill,
@@ -154,11 +154,11 @@ def matched_reason(matched: int, publishers: int) -> str:
     """Say why a subscribed topic shows nothing yet, from how many of its publishers DDS matched."""
     if matched <= 0:
         return (
-            "subscribed; no message yet (not matched with its publisher yet: discovery under way, or the "
+            f"{NO_MESSAGE_YET} (not matched with its publisher yet: discovery under way, or the "
             "publisher's QoS is incompatible)"
         )
     if matched < publishers:
-        return f"subscribed; no message yet (matched with {matched} of its {publishers} publishers)"
+        return f"{NO_MESSAGE_YET} (matched with {matched} of its {publishers} publishers)"
     whom = "its publisher" if publishers == 1 else f"all {publishers} of its publishers"
     return f"subscribed and matched with {whom}; no message yet"
 
@@ -551,7 +551,7 @@ class Engine(SeriesTimes):
                 topic.sinks[binding] = sink
                 if sink.kind is not None:
                     series.set_type(topic.msg_type, sink.kind)
-                    series.set_waiting("subscribed; no message yet")
+                    series.set_waiting(NO_MESSAGE_YET)
                     backfill(
                         self.store, topic.name, topic.cls, sink
                     )  # the new widget starts with the topic's past
@@ -748,7 +748,7 @@ class Engine(SeriesTimes):
                 )
             else:
                 series.set_type(msg_type, sink.kind)
-                series.set_waiting("subscribed; no message yet")
+                series.set_waiting(NO_MESSAGE_YET)
                 if backfill(self.store, topic.name, topic.cls, sink):
                     sink.skip_until_ns = topic.held_until_ns
         topic.fast = self._fast_plan(topic)
