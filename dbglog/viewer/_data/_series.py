@@ -25,9 +25,9 @@ from dbglog.viewer._data._timeline import NOT_YET, cut_at, typed_like
 __all__ = ["NO_MESSAGE_YET", "RATE_WINDOW_S", "Series", "SeriesTimes"]
 
 RATE_WINDOW_S = 5.0
+"""The message rate is measured over at most this many recent seconds."""
 NO_MESSAGE_YET = "subscribed; no message yet"
 """A subscribed series' waiting reason until its first value (the engine refines it from DDS matching)."""
-"""The message rate is measured over at most this many recent seconds."""
 _CHECKPOINT_EVERY_S = 0.1
 _RATE_SETTLE_S = 0.2
 """The rate ignores the first moments of a series: a latched history arrives as one burst."""
