@@ -3,12 +3,12 @@
 from __future__ import annotations
 
 import ctypes
-import ctypes.util
 import os
 
 import pytest
 from std_msgs.msg import Float64
 
+from dbglog.viewer._ui._display import load_xlib
 from tests._ros import RosPeer
 from tests._workers import MAX_DOMAIN, private_display, worker_domain, worker_index
 from tests._xvfb import x_display
@@ -50,7 +50,7 @@ def test_two_peers_exchange_messages() -> None:
 
 def test_private_display_takes_a_connection_right_after_the_last_one_closed() -> None:
     """A private Xvfb never resets between clients, so each test's first connection is accepted at once."""
-    x = ctypes.CDLL(ctypes.util.find_library("X11") or "libX11.so.6")
+    x = load_xlib()
     x.XOpenDisplay.restype, x.XOpenDisplay.argtypes = ctypes.c_void_p, [ctypes.c_char_p]
     x.XCloseDisplay.argtypes = [ctypes.c_void_p]
     with x_display(private=True) as name:
