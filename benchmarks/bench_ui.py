@@ -19,7 +19,8 @@ load average are printed, since all of them move the figures.
 
 A second table (``--loop run``, the default ``--scenarios`` include it) runs the viewer as ``dbglog view``
 does, through ``ViewerApp.run`` with its frame cap (``--fps``) and its idle skipping, and reports the viewer
-process's CPU: empty and idle, 20 widgets idle, 20 widgets paused in a replay's history (``--replay-minutes``
+process's CPU: empty and idle, empty and idle beside a graph of ``--crowd`` topics (its engine polls the
+graph), 20 widgets idle, 20 widgets paused in a replay's history (``--replay-minutes``
 of 50 topics x 100 Hz; the *replay* rows), 20 widgets live. ``--compare TREE`` runs the same rows, with the
 same caps, with the ``dbglog`` package of another checkout (e.g. ``git worktree add /tmp/old HEAD~1``)
 beside this one.
@@ -77,6 +78,25 @@ def _publisher(args: argparse.Namespace) -> None:
         ticks += 1
     print(json.dumps({"sent": ticks * len(pubs), "seconds": time.monotonic() - start}), flush=True)
     node.destroy_node()
+    rclpy.shutdown(context=context)
+
+
+def _crowd(args: argparse.Namespace) -> None:
+    """Hold `--crowd` topics on the graph (publishers that send nothing), as a robot's many nodes do."""
+    import rclpy
+    from rclpy.context import Context
+    from rclpy.node import Node
+    from std_msgs.msg import Float64
+
+    context = Context()
+    rclpy.init(context=context)
+    nodes = [Node(f"bench_ui_crowd_{n}", context=context) for n in range(max(1, args.crowd // 10))]
+    for i in range(args.crowd):
+        nodes[i % len(nodes)].create_publisher(Float64, f"/bench/crowd/t{i}", 10)
+    print("up", flush=True)
+    time.sleep(args.duration)
+    for node in nodes:
+        node.destroy_node()
     rclpy.shutdown(context=context)
 
 
@@ -171,7 +191,7 @@ def _ui(args: argparse.Namespace) -> None:
                 store.append_numbers(name, t, np.sin(t * (0.1 + k * 0.01)))
         source = ReplaySource(store, dict.fromkeys(names, "std_msgs/msg/Float64"))
         recording = True
-    elif args.source == "engine":
+    elif args.source in ("engine", "crowd"):
         from dbglog.viewer import Engine
 
         engine = Engine(stale_after=2.0)
@@ -194,7 +214,7 @@ def _ui(args: argparse.Namespace) -> None:
     dpg.set_viewport_vsync(args.vsync)
     app.set_snap(False)
     cell_w, cell_h = (width - 220) // 5, (height - 90) // 4
-    for n, (kind, topics) in enumerate(_layout() if args.source != "empty" else []):
+    for n, (kind, topics) in enumerate(_layout() if args.source not in ("empty", "crowd") else []):
         item = app.add_widget(kind, 0, 0)
         assert item is not None
         rect = type(item.rect)  # the viewer's Rect, wherever this checkout keeps it
@@ -303,6 +323,25 @@ def _measure(
             text=True,
         )
         time.sleep(1.0)
+    if source == "crowd":
+        pub = subprocess.Popen(
+            [
+                sys.executable,
+                "-m",
+                "benchmarks.bench_ui",
+                "--role",
+                "crowd",
+                "--crowd",
+                str(args.crowd),
+                "--duration",
+                str(args.warmup + args.duration + 30),
+            ],
+            cwd=_ROOT,
+            stdout=subprocess.PIPE,
+            text=True,
+        )
+        assert pub.stdout is not None
+        pub.stdout.readline()  # "up": every publisher exists
     cmd = [
         sys.executable,
         "-m",
@@ -388,12 +427,17 @@ def _fmt(value: float, spec: str = ".1f") -> str:
 def main(argv: list[str] | None = None) -> int:
     """Run the benchmark (or one of its child roles)."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0] if __doc__ else None)
-    parser.add_argument("--role", choices=("main", "publisher", "ui"), default="main")
-    parser.add_argument("--source", choices=("empty", "static", "engine", "replay"), default="engine")
+    parser.add_argument("--role", choices=("main", "publisher", "crowd", "ui"), default="main")
+    parser.add_argument(
+        "--source", choices=("empty", "static", "engine", "replay", "crowd"), default="engine"
+    )
     parser.add_argument("--width", type=int, default=1440)
     parser.add_argument("--height", type=int, default=900)
     parser.add_argument("--topics", type=int, default=50)
     parser.add_argument("--rate", type=float, default=100.0, help="messages per second per topic")
+    parser.add_argument(
+        "--crowd", type=int, default=300, help="topics on the graph beside the crowd-run row (default 300)"
+    )
     parser.add_argument("--duration", type=float, default=8.0, help="measured seconds per repeat")
     parser.add_argument("--warmup", type=float, default=3.0)
     parser.add_argument("--repeats", type=int, default=3)
@@ -403,10 +447,10 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument(
         "--scenarios",
-        default="empty,static,replay,engine,engine-vsync,empty-run,static-run,replay-run,engine-run",
+        default="empty,static,replay,engine,engine-vsync,empty-run,crowd-run,static-run,replay-run,engine-run",
         help="comma-separated subset of empty, static, replay, engine, engine-vsync (frames rendered back to "
-        "back) and empty-run, static-run, replay-run, engine-run (the viewer's own loop, as `dbglog view` "
-        "runs it)",
+        "back) and empty-run, crowd-run, static-run, replay-run, engine-run (the viewer's own loop, as "
+        "`dbglog view` runs it)",
     )
     parser.add_argument("--fps", type=float, default=60.0, help="frame cap of the -run rows (default 60)")
     parser.add_argument(
@@ -427,6 +471,9 @@ def main(argv: list[str] | None = None) -> int:
     if args.role == "publisher":
         _publisher(args)
         return 0
+    if args.role == "crowd":
+        _crowd(args)
+        return 0
     if args.role == "ui":
         _ui(args)
         return 0
@@ -437,6 +484,7 @@ def main(argv: list[str] | None = None) -> int:
         "engine": ("engine", False, "20 widgets live: 50 topics x 100 Hz, vsync off"),
         "engine-vsync": ("engine", True, "20 widgets live, vsync on (for reference)"),
         "empty-run": ("empty", False, "empty dashboard, nothing changing"),
+        "crowd-run": ("crowd", False, f"empty dashboard beside a {args.crowd}-topic graph, nothing changing"),
         "static-run": ("static", False, "20 widgets, nothing changing"),
         "replay-run": ("replay", False, "20 widgets paused in a replay's history, nothing changing"),
         "engine-run": ("engine", False, "20 widgets live: 50 topics x 100 Hz"),
