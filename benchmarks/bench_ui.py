@@ -292,6 +292,12 @@ def _pct(values: list[float], q: float) -> float:
     return ordered[min(len(ordered) - 1, int(q * len(ordered)))]
 
 
+def _role(role: str, *options: object) -> subprocess.Popen[str]:
+    """Start this benchmark as a child in `role` with `options` (its output piped)."""
+    cmd = [sys.executable, "-m", "benchmarks.bench_ui", "--role", role, *map(str, options)]
+    return subprocess.Popen(cmd, cwd=_ROOT, stdout=subprocess.PIPE, text=True)
+
+
 def _measure(
     source: str,
     args: argparse.Namespace,
@@ -304,42 +310,11 @@ def _measure(
     """Run one UI child (and a publisher for the live source); return its frame statistics."""
     pub = None
     if source == "engine":
-        pub = subprocess.Popen(
-            [
-                sys.executable,
-                "-m",
-                "benchmarks.bench_ui",
-                "--role",
-                "publisher",
-                "--topics",
-                str(args.topics),
-                "--rate",
-                str(args.rate),
-                "--duration",
-                str(args.warmup + args.duration + 8),
-            ],
-            cwd=_ROOT,
-            stdout=subprocess.PIPE,
-            text=True,
-        )
+        duration = args.warmup + args.duration + 8
+        pub = _role("publisher", "--topics", args.topics, "--rate", args.rate, "--duration", duration)
         time.sleep(1.0)
     if source == "crowd":
-        pub = subprocess.Popen(
-            [
-                sys.executable,
-                "-m",
-                "benchmarks.bench_ui",
-                "--role",
-                "crowd",
-                "--crowd",
-                str(args.crowd),
-                "--duration",
-                str(args.warmup + args.duration + 30),
-            ],
-            cwd=_ROOT,
-            stdout=subprocess.PIPE,
-            text=True,
-        )
+        pub = _role("crowd", "--crowd", args.crowd, "--duration", args.warmup + args.duration + 30)
         assert pub.stdout is not None
         pub.stdout.readline()  # "up": every publisher exists
     cmd = [
