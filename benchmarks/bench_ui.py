@@ -313,7 +313,7 @@ def _measure(
         duration = args.warmup + args.duration + 8
         pub = _role("publisher", "--topics", args.topics, "--rate", args.rate, "--duration", duration)
         time.sleep(1.0)
-    if source == "crowd":
+    elif source == "crowd":
         pub = _role("crowd", "--crowd", args.crowd, "--duration", args.warmup + args.duration + 30)
         assert pub.stdout is not None
         pub.stdout.readline()  # "up": every publisher exists

@@ -270,8 +270,10 @@ class Engine(SeriesTimes):
         self._types: dict[str, tuple[str, ...]] = {}
         self._counts: dict[str, tuple[int, int]] = {}
         """Each graph topic's (publishers, subscribers other than the engine's), as last counted."""
-        self._counted: tuple[list[tuple[str, list[str]]], float] = ([], -_RECOUNT_S)
-        """The graph's names and types when every topic was last counted, and when (monotonic)."""
+        self._counted_graph: list[tuple[str, list[str]]] = []
+        """The graph's topic names and types when every topic was last counted."""
+        self._counted_at = -_RECOUNT_S
+        """When every topic was last counted (monotonic seconds)."""
         self._dirty = threading.Event()
         self._running = False
         self._thread: threading.Thread | None = None
@@ -603,9 +605,9 @@ class Engine(SeriesTimes):
         self._graph_queries += 2  # the topic list, the batch topic's publishers
         wanted = self._wanted()
         now = time.monotonic()
-        if names_types != self._counted[0] or now - self._counted[1] >= _RECOUNT_S:
+        if names_types != self._counted_graph or now - self._counted_at >= _RECOUNT_S:
             self._count_endpoints(node, names_types)
-            self._counted = (names_types, now)
+            self._counted_graph, self._counted_at = names_types, now
         topics: list[TopicInfo] = []
         types: dict[str, tuple[str, ...]] = {}
         publishers: dict[str, list[Any]] = {}
