@@ -20,6 +20,7 @@ from sensor_msgs.msg import LaserScan
 from std_msgs.msg import Bool, Float64, Float64MultiArray, MultiArrayDimension, String
 
 from dbglog._ros._qos import tag_qos
+from dbglog.viewer._data import _engine as engine_module
 from dbglog.viewer._data._engine import _RECOUNT_S, Engine, _stretch, queue_depth_for, wait_saying
 from dbglog.viewer._data._model import Binding, SeriesSnapshot, Status, ValueKind
 from dbglog.viewer._data._series import NO_MESSAGE_YET
@@ -475,20 +476,37 @@ def test_discovery_lists_topics_and_follows_nodes(engine: Engine) -> None:
 
 
 def test_a_new_publisher_on_a_listed_topic_is_counted_within_the_recount_period(engine: Engine) -> None:
-    """A publisher that joins or leaves a topic already on the graph (its name and type unchanged) shows
-    in topics() within the engine's recount period."""
+    """A publisher that a node already on the graph adds to a topic already on it (nodes, names and types
+    unchanged) shows in topics() within the engine's recount period, and goes when it is destroyed."""
     topic = _topic("recount")
-    with RosPeer("recount_listener") as listener:
-        listener.subscribe(topic, String)
+    with RosPeer("recount_peer") as peer:
+        peer.subscribe(topic, String)
         assert wait_until(lambda: _publishers(engine, topic) is not None, TIMEOUT)
         assert _publishers(engine, topic) == 0, "a subscriber only"
-        with RosPeer("recount_talker") as talker:
-            talker.publisher(topic, String)
-            t0 = time.monotonic()
-            assert wait_until(lambda: _publishers(engine, topic) == 1, TIMEOUT)
-            print(f"publisher counted after {time.monotonic() - t0:.2f} s")
-            assert time.monotonic() - t0 <= _RECOUNT_S + 3.0, "within the recount period (and discovery)"
+        pub = peer.publisher(topic, String)
+        t0 = time.monotonic()
+        assert wait_until(lambda: _publishers(engine, topic) == 1, TIMEOUT)
+        print(f"publisher counted after {time.monotonic() - t0:.2f} s")
+        assert time.monotonic() - t0 <= _RECOUNT_S + 3.0, "within the recount period (and discovery)"
+        peer.node.destroy_publisher(pub)
         assert wait_until(lambda: _publishers(engine, topic) == 0, TIMEOUT), "the publisher left"
+
+
+def test_a_new_node_publishing_on_a_listed_topic_is_counted_at_the_next_poll(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A node that starts publishing on a topic already listed (a robot's node started after `dbglog echo`)
+    changes the graph's node list: its publisher is counted at the next poll, not after the recount period
+    (here an hour), and so is its leaving."""
+    monkeypatch.setattr(engine_module, "_RECOUNT_S", 3600.0)
+    topic = _topic("new_node")
+    with Engine(graph_period=0.1) as engine, RosPeer("new_node_listener") as listener:
+        listener.subscribe(topic, String)
+        assert wait_until(lambda: _publishers(engine, topic) == 0, TIMEOUT)
+        with RosPeer("new_node_talker") as talker:
+            talker.publisher(topic, String)
+            assert wait_until(lambda: _publishers(engine, topic) == 1, TIMEOUT)
+        assert wait_until(lambda: _publishers(engine, topic) == 0, TIMEOUT), "the node left"
 
 
 def _publishers(engine: Engine, topic: str) -> int | None:
@@ -503,7 +521,7 @@ CROWD = 300
 def test_a_crowded_steady_graph_is_counted_every_few_seconds_not_on_every_poll() -> None:
     """The engine counts the endpoints of every graph topic (tens of µs each) only when the graph's topics
     change and every recount period: beside a steady 300-topic graph an idle viewer's engine asked rmw
-    over 600 questions every graph poll (14 ms, 5 % of a core at 4 polls a second), now about three."""
+    over 600 questions every graph poll (14 ms, 5 % of a core at 4 polls a second), now about four."""
     names = [_topic(f"crowd/t{k}") for k in range(CROWD)]
     with RosPeer("crowd") as crowd, Engine(graph_period=0.1) as engine:
         for name in names:
@@ -520,7 +538,7 @@ def test_a_crowded_steady_graph_is_counted_every_few_seconds_not_on_every_poll()
         graph = len(engine.topics())
         print(f"{polls} polls of a {graph}-topic graph: {queries} queries")
         assert polls >= 10, "graph_period 0.1 s"
-        per_poll = 3  # the topic list, the batch writers, the wanted topic's publishers
+        per_poll = 4  # the topic and node lists, the batch writers, the wanted topic's publishers
         assert queries - per_poll * polls <= 3 * 2 * graph, "at most a few full counts in 2.5 s"
         assert _publishers(engine, names[-1]) == 1
 

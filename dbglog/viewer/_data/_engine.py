@@ -70,12 +70,19 @@ _VARIABLE_DEPTH = 100
 _SUGGEST_AFTER_S = 3.0
 """A wanted topic still without a publisher this long is probably misspelled: say what the graph has."""
 _RECOUNT_S = 2.0
-"""While the graph's topic names and types stay the same, every topic's endpoints are counted this often.
+"""While the graph's nodes, topic names and types stay the same, every topic's endpoints are counted this
+often.
 
 Counting costs about 30 µs a topic (rmw's graph cache), so a graph poll that counted every topic of a
-300-topic robot cost 14 ms, four times a second: 5 % of a core for an idle viewer. A topic that comes or
-goes, or changes type, changes the names and types and is counted at the next poll; the topics a widget
-shows have their publishers looked at on every poll (``_follow``)."""
+300-topic robot cost 14 ms, four times a second: 5 % of a core for an idle viewer. A node or topic that
+comes or goes, or a topic that changes type, is counted at the next poll (the node list costs ~13 µs: a
+robot's node starting to publish on a topic that was already listed is seen at once); the topics a widget
+shows have their publishers looked at on every poll (``_follow``). What waits for the period is only an
+endpoint added to or removed from a node that stays."""
+_SETTLE_S = 1.0
+"""After the graph's nodes, names or types change, every topic is counted at once and once more this much
+later: rmw learns a node and its endpoints in separate discovery messages, so a count right after the node
+list changed can miss the endpoints that follow it (or still hold those of a node that left)."""
 _EVERY_NODE_TOPICS = frozenset({"/parameter_events"})
 """Topics every rclpy node publishes, the engine's own included: they don't make the graph non-empty."""
 LOG_TYPE = "rcl_interfaces/msg/Log"
@@ -270,8 +277,10 @@ class Engine(SeriesTimes):
         self._types: dict[str, tuple[str, ...]] = {}
         self._counts: dict[str, tuple[int, int]] = {}
         """Each graph topic's (publishers, subscribers other than the engine's), as last counted."""
-        self._counted_graph: list[tuple[str, list[str]]] = []
-        """The graph's topic names and types when every topic was last counted."""
+        self._graph_seen: tuple[list[tuple[str, list[str]]], list[tuple[str, str]]] = ([], [])
+        """The graph's topic names and types, and its nodes, at the last poll."""
+        self._graph_changed_at = 0.0
+        """When the last poll found them changed (monotonic seconds)."""
         self._counted_at = -_RECOUNT_S
         """When every topic was last counted (monotonic seconds)."""
         self._dirty = threading.Event()
@@ -604,10 +613,7 @@ class Engine(SeriesTimes):
         self._graph_polls += 1
         self._graph_queries += 2  # the topic list, the batch topic's publishers
         wanted = self._wanted()
-        now = time.monotonic()
-        if names_types != self._counted_graph or now - self._counted_at >= _RECOUNT_S:
-            self._count_endpoints(node, names_types)
-            self._counted_graph, self._counted_at = names_types, now
+        self._count_endpoints(node, names_types)
         topics: list[TopicInfo] = []
         types: dict[str, tuple[str, ...]] = {}
         publishers: dict[str, list[Any]] = {}
@@ -638,7 +644,21 @@ class Engine(SeriesTimes):
                     series.set_error(f"internal error on {name}: {exc}")
 
     def _count_endpoints(self, node: Any, names_types: list[tuple[str, list[str]]]) -> None:
-        """Count the publishers and the subscribers other than the engine's of every graph topic."""
+        """Count the publishers and the subscribers other than the engine's of every graph topic, when the
+        graph changed, once more when discovery has settled, and every ``_RECOUNT_S``."""
+        now = time.monotonic()
+        graph = (names_types, sorted(node.get_node_names_and_namespaces()))
+        self._graph_queries += 1
+        if graph != self._graph_seen:
+            self._graph_seen, self._graph_changed_at = graph, now
+        changed = self._graph_changed_at
+        if not (
+            self._counted_at < changed  # not counted since the change
+            or self._counted_at < changed + _SETTLE_S <= now  # discovery has settled since
+            or now - self._counted_at >= _RECOUNT_S
+        ):
+            return
+        self._counted_at = now
         counts = {}
         for name, _ in names_types:
             own = 1 if name in self._subs else 0
