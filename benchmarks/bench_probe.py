@@ -361,7 +361,7 @@ def publisher_mixed(seconds: float, slice_us: float | None = None, writer: str =
     p99 per mode compares dbglog with the same loop without calls *in the same minutes*, which
     separate runs on a shared 2-core machine cannot (their p99 drifts ±50 % run to run).
 
-    `writer` ``idle`` puts dbglog's writer thread under ``SCHED_IDLE`` once it exists (what session 14
+    `writer` ``idle`` puts dbglog's writer thread under ``SCHED_IDLE`` once it exists (what 567eb5d
     shipped; docs/api.md says why it is an ordinary thread now).
     """
     steps = {mode: _make_calls(mode) for mode in _MIX_MODES}
@@ -782,8 +782,8 @@ def main() -> None:
         "--writer",
         choices=["ordinary", "idle", "both"],
         default="ordinary",
-        help="with --interleaved: dbglog's writer thread as shipped (ordinary) or under SCHED_IDLE (session "
-        "14's); both: runs alternate the two",
+        help="with --interleaved: dbglog's writer thread as shipped (ordinary) or under SCHED_IDLE (as "
+        "567eb5d had it); both: runs alternate the two",
     )
     args = parser.parse_args()
     if args.viewer_cpu == "both" and not args.interleaved and args.role == "main":

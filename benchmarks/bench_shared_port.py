@@ -15,7 +15,7 @@ Each run, on one ROS domain of its own:
 - a *subscriber* process (plain rclpy) takes that heartbeat and 10 dbglog tags;
 - a *dbglog* process logs those 10 tags at 1 kHz (every sample also goes on its tag's topic, which the
   subscriber takes), its writer thread ordinary (as dbglog ships it) or put under ``SCHED_IDLE`` from
-  inside the process (what session 14 shipped);
+  inside the process (what 567eb5d shipped);
 - `hogs` busy processes keep the CPUs saturated (a build, say).
 
 It reports the heartbeat as the subscriber received it: the longest gap and the gaps over 200 ms (at
@@ -208,7 +208,7 @@ def main() -> None:
                 runs[policy].append(run(args.seconds, args.hogs, policy, args.party, Path(tmp)))
                 print(f"{policy}: {runs[policy][-1]}", file=sys.stderr, flush=True)
     if args.party == "writer":
-        names = {"ordinary": "ordinary (as shipped)", "idle": "SCHED_IDLE (session 14)"}
+        names = {"ordinary": "ordinary (as shipped)", "idle": "SCHED_IDLE (as 567eb5d had it)"}
         title = "Another node's 100 Hz heartbeat at a subscriber that also takes dbglog's tags"
         what = "dbglog's writer thread"
     else:
