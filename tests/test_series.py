@@ -35,6 +35,81 @@ def test_ring_keeps_the_latest_values_in_order(batches: list[int], capacity: int
     assert snap.last == sent[-1]
 
 
+_BATCHES = st.lists(
+    st.lists(st.integers(min_value=0, max_value=40), min_size=1, max_size=12), min_size=1, max_size=25
+)
+
+
+def _by_time(sent: list[tuple[float, float]]) -> list[tuple[float, float]]:
+    """Every sample sent, ordered by source time, ties in arrival order (a stable sort)."""
+    return sorted(sent, key=lambda s: s[0])
+
+
+@given(_BATCHES, st.integers(1, 40))
+def test_ring_is_ordered_by_source_time_whatever_the_arrival_order(
+    batches: list[list[int]], capacity: int
+) -> None:
+    """Batches with late and unsorted source times (two publishers of one tag): the snapshot holds the
+    `capacity` newest samples by source time, oldest first, ties in arrival order; the series' value is
+    that of its newest sample."""
+    series = Series(B, capacity)
+    series.set_type("std_msgs/msg/Float64", ValueKind.NUMBER)
+    sent: list[tuple[float, float]] = []
+    for batch in batches:
+        times = [float(t) for t in batch]
+        values = [float(len(sent) + i) for i in range(len(batch))]  # the arrival rank: ties are told apart
+        sent.extend(zip(times, values, strict=True))
+        series.push_numbers(np.asarray(times), np.asarray(values), values[-1], now=1.0)
+        want = _by_time(sent)[-capacity:]
+        snap = series.snapshot(2.0, now=1.0)
+        assert list(zip(snap.times.tolist(), snap.values.tolist(), strict=True)) == want
+        assert (snap.last_time, snap.last) == want[-1]
+    assert series.count == len(sent)
+
+
+def test_a_late_batch_keeps_the_newest_value_and_its_type() -> None:
+    """An Int64 series: a batch older than the newest sample does not change the value shown; a batch
+    whose newest sample arrives first in it gives that sample's value, as an int."""
+    series = Series(B, 10)
+    series.set_type("std_msgs/msg/Int64", ValueKind.NUMBER)
+    series.push_numbers(np.array([10.0, 11.0]), np.array([1.0, 2.0]), 2, now=1.0)
+    series.push_numbers(np.array([5.0]), np.array([7.0]), 7, now=1.0)
+    snap = series.snapshot(2.0, now=1.0)
+    assert (snap.last, snap.last_time, snap.times.tolist()) == (2, 11.0, [5.0, 10.0, 11.0])
+    series.push_numbers(np.array([13.0, 12.0]), np.array([9.0, 8.0]), 8, now=1.0)
+    snap = series.snapshot(2.0, now=1.0)
+    assert (snap.last, snap.last_time) == (9, 13.0)
+    assert type(snap.last) is int
+    assert snap.values.tolist() == [7.0, 1.0, 2.0, 8.0, 9.0]
+
+
+@given(_BATCHES)
+def test_texts_are_ordered_by_source_time_whatever_the_arrival_order(batches: list[list[int]]) -> None:
+    """A text series' history (the String widget's) is ordered by source time, ties in arrival order."""
+    series = Series(B, 30)
+    series.set_type("std_msgs/msg/String", ValueKind.TEXT)
+    sent: list[tuple[float, str]] = []
+    for batch in batches:
+        times = [float(t) for t in batch]
+        texts = [f"m{len(sent) + i}" for i in range(len(batch))]
+        sent.extend(zip(times, texts, strict=True))
+        series.push_texts(times, texts, now=1.0)
+    want = sorted(sent, key=lambda s: s[0])[-30:]
+    snap = series.snapshot(2.0, now=1.0)
+    assert list(zip(snap.times.tolist(), snap.texts, strict=True)) == want
+    assert (snap.last_time, snap.last) == want[-1]
+
+
+def test_an_older_array_does_not_replace_the_newest() -> None:
+    """An array message older than the one shown is counted but does not replace it."""
+    series = Series(B, 10)
+    series.set_type("sensor_msgs/msg/LaserScan", ValueKind.ARRAY)
+    series.push_array(1, (1.0,), 7.0, now=1.0)
+    series.push_array(1, (2.0,), 6.0, now=1.0)
+    snap = series.snapshot(2.0, now=1.0)
+    assert (snap.last, snap.last_time, snap.count) == ((1.0,), 7.0, 2)
+
+
 def test_status_moves_waiting_live_stale_error() -> None:
     """WAITING before data, LIVE while fresh, STALE after the stale time, ERROR until the next value."""
     series = Series(B, 10)

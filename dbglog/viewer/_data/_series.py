@@ -1,13 +1,17 @@
 """One binding's series: a bounded numpy ring of (source time, value), its last value, rate and status.
 
 The engine's ROS thread pushes whole batches; any thread takes a snapshot. Both hold the series' own
-lock only for array copies, never across ROS calls. With a `History` (the engine's), every value the
+lock only for array copies, never across ROS calls. The ring is ordered by source time, whatever the
+arrival order (two publishers of one tag, a late batch): a batch older than the newest sample held is
+merged in place (docs/history.md, "The live ring"). With a `History` (the engine's), every value the
 series takes is also kept there under the series' own key, time-indexed within the viewer's history
 budget: that is what `snapshot_at` answers from when the dashboard travels back in time.
 """
 
 from __future__ import annotations
 
+import itertools
+import math
 import threading
 import time
 from collections import deque
@@ -32,8 +36,27 @@ _CHECKPOINT_EVERY_S = 0.1
 _RATE_SETTLE_S = 0.2
 """The rate ignores the first moments of a series: a latched history arrives as one burst."""
 _MAX_TEXTS = 1000
+_SMALL = 16
+"""A batch up to this size is checked for order in plain Python (cheaper than numpy calls)."""
 _MIN_WINDOW_S = 60.0
 """A series at a past time carries at least this many seconds of samples before it (plots need a past)."""
+
+
+def _in_order(times: npt.NDArray[np.float64], newest: float) -> bool:
+    """Whether a batch is sorted and not older than `newest` (the common case: appended as it is)."""
+    if not times[0] >= newest:
+        return False
+    n = len(times)
+    if n <= _SMALL:
+        return n == 1 or all(a <= b for a, b in itertools.pairwise(times.tolist()))
+    return not bool((times[1:] < times[:-1]).any())
+
+
+def _unsorted(times: npt.NDArray[np.float64]) -> bool:
+    """Whether a batch's source times go back somewhere."""
+    if len(times) <= _SMALL:
+        return any(a > b for a, b in itertools.pairwise(times.tolist()))
+    return bool((times[1:] < times[:-1]).any())
 
 
 class Series:
@@ -111,42 +134,127 @@ class Series:
     def push_numbers(
         self, times: npt.NDArray[np.float64], values: npt.NDArray[np.float64], last: Scalar, now: float
     ) -> None:
-        """Append a batch of numeric (or 0/1 bool) values with their source times."""
+        """Take a batch of numeric (or 0/1 bool) values with their source times, in arrival order.
+
+        `last` is the batch's last value with its type kept (an int stays exact). The ring stays ordered
+        by source time: a sorted batch not older than the newest sample held is appended; any other is
+        merged in place (`_merge`). The series' value is that of its newest sample by source time.
+        """
         n = len(values)
         if n == 0:
             return
         with self._lock:
-            if n >= self._capacity:
-                self._times[:] = times[-self._capacity :]
-                self._values[:] = values[-self._capacity :]
-                self._pos = 0
-                self._filled = self._capacity
+            newest = self._newest_number()
+            if _in_order(times, newest):
+                self._write(times, values)
+                self._landed(n, last, float(times[-1]), now)
             else:
-                end = self._pos + n
-                if end <= self._capacity:
-                    self._times[self._pos : end] = times
-                    self._values[self._pos : end] = values
+                at = self._merge(times, values)
+                if at is None:  # older than the newest held: the value shown stays
+                    self._landed(n, self._last, self._last_time, now)
                 else:
-                    first = self._capacity - self._pos
-                    self._times[self._pos :] = times[:first]
-                    self._values[self._pos :] = values[:first]
-                    self._times[: n - first] = times[first:]
-                    self._values[: n - first] = values[first:]
-                self._pos = end % self._capacity
-                self._filled = min(self._filled + n, self._capacity)
-            self._landed(n, last, float(times[-1]), now)
+                    value = last if at == n - 1 else typed_like(last, float(values[at]))
+                    self._landed(n, value, float(times[at]), now)
         store = self.store
         if store is not None and self.key is self.own_key:
             store.append_numbers(self.key, times, values)
 
+    def _newest_number(self) -> float:
+        """The source time of the ring's newest sample (-inf when empty)."""
+        if not self._filled:
+            return -math.inf
+        return float(self._times[self._pos - 1])  # (index -1 when pos is 0: the ring's last slot)
+
+    def _write(self, times: npt.NDArray[np.float64], values: npt.NDArray[np.float64]) -> None:
+        """Append sorted samples after the newest (the oldest beyond the capacity go)."""
+        n = len(values)
+        cap = self._capacity
+        if n >= cap:
+            self._times[:] = times[-cap:]
+            self._values[:] = values[-cap:]
+            self._pos = 0
+            self._filled = cap
+            return
+        end = self._pos + n
+        if end <= cap:
+            self._times[self._pos : end] = times
+            self._values[self._pos : end] = values
+        else:
+            first = cap - self._pos
+            self._times[self._pos :] = times[:first]
+            self._values[self._pos :] = values[:first]
+            self._times[: n - first] = times[first:]
+            self._values[: n - first] = values[first:]
+        self._pos = end % cap
+        self._filled = min(self._filled + n, cap)
+
+    def _merge(self, times: npt.NDArray[np.float64], values: npt.NDArray[np.float64]) -> int | None:
+        """Sort a batch into the ring: only the held samples newer than its oldest are rewritten.
+
+        Returns the batch index of its newest sample when that is the newest of the series now (ties: the
+        later arrival), None when the series' newest sample is one held before.
+        """
+        newest_at = len(times) - 1
+        if _unsorted(times):
+            order = np.argsort(times, kind="stable")  # ties keep arrival order
+            times, values, newest_at = times[order], values[order], int(order[-1])
+        cap, filled = self._capacity, self._filled
+        start = self._pos if filled == cap else 0
+        if filled == cap:  # a full ring: what is older than all it holds would fall off at once
+            old = int(np.searchsorted(times, self._times[start], side="left"))
+            if old == len(times):
+                return None
+            times, values = times[old:], values[old:]
+        # The held samples after the batch's oldest (those at its time stay first): the ring's logical
+        # positions j.. (physical: from start + j, wrapping past the end).
+        t0 = times[0]
+        if start and t0 >= self._times[0]:
+            j = cap - start + int(np.searchsorted(self._times[: self._pos], t0, side="right"))
+        else:
+            j = int(np.searchsorted(self._times[start : start + filled], t0, side="right"))
+        k = filled - j
+        p = (start + j) % cap
+        if p + k <= cap:
+            held_t, held_v = self._times[p : p + k], self._values[p : p + k]
+        else:
+            held_t = np.concatenate((self._times[p:], self._times[: p + k - cap]))
+            held_v = np.concatenate((self._values[p:], self._values[: p + k - cap]))
+        newest = k == 0 or times[-1] >= held_t[-1]
+        merged_t = np.concatenate((held_t, times))
+        keep = np.argsort(merged_t, kind="stable")  # what was held first stays first for equal times
+        merged_v = np.concatenate((held_v, values))[keep]
+        self._pos, self._filled = p, j  # drop the held tail, write it back merged
+        self._write(merged_t[keep], merged_v)
+        return newest_at if newest else None
+
     def push_texts(self, times: Sequence[float], texts: Sequence[str], now: float) -> None:
-        """Append a batch of text values."""
+        """Take a batch of text values (arrival order); the texts held stay ordered by source time."""
         if not texts:
             return
         with self._lock:
-            self._texts.extend(texts)
-            self._text_times.extend(times)
-            self._landed(len(texts), texts[-1], times[-1], now)
+            held_t, held = self._text_times, self._texts
+            ordered = all(a <= b for a, b in itertools.pairwise(times))
+            if ordered and (not held_t or times[0] >= held_t[-1]):
+                held.extend(texts)
+                held_t.extend(times)
+                self._landed(len(texts), texts[-1], times[-1], now)
+            else:
+                order = sorted(range(len(times)), key=times.__getitem__)  # stable: ties in arrival order
+                late_t, late = [times[i] for i in order], [texts[i] for i in order]
+                back_t: list[float] = []
+                back: list[str] = []
+                while held_t and held_t[-1] > late_t[0]:  # the held texts newer than the batch's oldest
+                    back_t.append(held_t.pop())
+                    back.append(held.pop())
+                back_t.reverse()
+                back.reverse()
+                pairs = sorted(zip(back_t + late_t, back + late, strict=True), key=lambda p: p[0])
+                held_t.extend(t for t, _ in pairs)
+                held.extend(x for _, x in pairs)
+                if not back_t or late_t[-1] >= back_t[-1]:  # the batch has the newest (ties: it came later)
+                    self._landed(len(texts), late[-1], late_t[-1], now)
+                else:
+                    self._landed(len(texts), self._last, self._last_time, now)
         store = self.store
         if store is not None and self.key is self.own_key:
             store.append_payloads(self.key, times, [t.encode("utf-8", "replace") for t in texts])
@@ -155,13 +263,16 @@ class Series:
         """Record `count` array messages; only the latest array is kept."""
         if count:
             with self._lock:
-                self._landed(count, last, last_time, now)
+                if self._last_time is not None and last_time < self._last_time:  # an older array: not shown
+                    self._landed(count, self._last, self._last_time, now)
+                else:
+                    self._landed(count, last, last_time, now)
             store = self.store
             if store is not None and self.key is self.own_key:
                 blob = np.asarray(last, dtype=np.float64).tobytes()  # only the latest array is kept
                 store.append_payloads(self.key, [last_time], [blob])
 
-    def _landed(self, n: int, last: Scalar, last_time: float, now: float) -> None:
+    def _landed(self, n: int, last: Scalar | None, last_time: float | None, now: float) -> None:
         if self._first_rx is None:
             self._first_rx = now
         if now - self._first_rx >= _RATE_SETTLE_S and (
