@@ -9,8 +9,16 @@ import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
-from dbglog.viewer._widgets._common import knob_radii, knob_scale_radius, scale_label_inner
+from dbglog.viewer._widgets._common import (
+    format_value,
+    knob_radii,
+    knob_scale_radius,
+    nonfinite_text,
+    scale_label_inner,
+)
 from dbglog.viewer._widgets._geometry import (
+    GAP_BLOCK,
+    LONE_GAP_S,
     Part,
     Rect,
     arc_step,
@@ -19,6 +27,7 @@ from dbglog.viewer._widgets._geometry import (
     corner_fans,
     format_tick,
     free_spot,
+    gap_mask,
     gauge_angle,
     hit_test,
     led_on,
@@ -37,6 +46,7 @@ from dbglog.viewer._widgets._geometry import (
     snap_rect,
     thermo_fill,
     uncovered,
+    usual_intervals,
     value_fraction,
     window_slice,
 )
@@ -230,6 +240,87 @@ def test_minmax_decimate_nan_bucket_and_uneven_length() -> None:
     assert dy[np.isfinite(dy)].min() == -5.0
     assert dy.max() == 1000.0
     assert np.all(np.diff(dx) >= 0)
+
+
+def _gaps_at(times: np.ndarray, first_index: int = 0, at_least: float = 0.0) -> list[int]:
+    """The intervals `gap_mask` calls gaps (index i: between sample i and i + 1)."""
+    return np.flatnonzero(gap_mask(times, first_index, at_least=at_least)).tolist()
+
+
+def test_a_publisher_killed_for_twenty_seconds_is_one_gap() -> None:
+    """100 Hz with jitter, 20 s of nothing, 100 Hz again: the silence is the only gap."""
+    rng = np.random.default_rng(1)
+    before = np.cumsum(rng.uniform(0.006, 0.014, 500))
+    after = before[-1] + 20.0 + np.cumsum(rng.uniform(0.006, 0.014, 500))
+    assert _gaps_at(np.concatenate((before, after))) == [499]
+
+
+def test_a_change_of_rate_is_not_a_gap() -> None:
+    """100 Hz, then 1 Hz (a mode change): the first long interval is the new usual one, not a gap."""
+    fast = np.arange(300) * 0.01
+    slow = fast[-1] + 1.0 + np.arange(60) * 1.0
+    assert _gaps_at(np.concatenate((fast, slow))) == []
+
+
+def test_a_bursty_tag_is_drawn_through_its_pauses() -> None:
+    """Five samples 1 ms apart every second (silences one interval in five): no gaps; a tag stopped for a
+    minute among its bursts: that minute is one."""
+    bursts = (np.arange(60)[:, None] + np.arange(5)[None, :] * 0.001).ravel()
+    assert _gaps_at(bursts) == []
+    stopped = np.concatenate((bursts, bursts + 120.0))
+    assert _gaps_at(stopped) == [299]
+
+
+def test_a_tag_logged_again_minutes_later() -> None:
+    """A regular tag that stops, then one sample minutes later: a gap (the median of recent intervals,
+    not the last one); two samples alone minutes apart: a gap; a few a second apart: joined."""
+    regular = np.arange(100) * 0.1
+    assert _gaps_at(np.append(regular, regular[-1] + 180.0)) == [99]
+    assert _gaps_at(np.array([0.0, 180.0])) == [0]
+    assert LONE_GAP_S < 180.0
+    assert _gaps_at(np.array([0.0, 1.0, 2.0, 3.0])) == []
+
+
+def test_samples_sharing_a_time_do_not_make_every_interval_a_gap() -> None:
+    """Ten samples per stamp every 10 ms (zero intervals left out of the usual one): no gaps."""
+    times = np.repeat(np.arange(200) * 0.01, 10)
+    assert _gaps_at(times) == []
+
+
+def test_gaps_too_narrow_to_see_are_not_drawn() -> None:
+    """`at_least`: a gap shorter than it (two pixel columns of a plot) is not one."""
+    times = np.concatenate((np.arange(100) * 0.01, 1.5 + np.arange(100) * 0.01))
+    assert _gaps_at(times) == [99]
+    assert _gaps_at(times, at_least=0.4) == [99]  # (the gap: 0.51 s)
+    assert _gaps_at(times, at_least=0.6) == []
+
+
+def test_the_usual_interval_stays_put_as_a_series_slides() -> None:
+    """Blocks aligned on the samples' numbers: any slice with two blocks of context either side judges its
+    middle as the whole series does (a plot following live data does not flicker)."""
+    rng = np.random.default_rng(7)
+    d = rng.choice([0.01, 0.01, 0.01, 0.012, 0.3, 0.05], size=2000)
+    d[rng.integers(0, 2000, 20)] = 2.0
+    times = np.cumsum(d)
+    whole = gap_mask(times)
+    usual = usual_intervals(times)
+    for a in (0, 17, 64, 333, 1000):
+        b = a + 500
+        ca, cb = max(0, a - 2 * GAP_BLOCK), min(len(times), b + 2 * GAP_BLOCK)
+        part = gap_mask(times[ca:cb], ca)[a - ca : b - ca - 1]
+        assert part.tolist() == whole[a : b - 1].tolist(), a
+        alone = usual_intervals(times[ca:cb], ca)[a - ca : b - ca - 1]
+        np.testing.assert_array_equal(alone, usual[a : b - 1])
+
+
+def test_numbers_that_are_not_finite_read_as_such() -> None:
+    """Every widget's readout says NaN, +inf, -inf (not a dash, not 'nan'); a dash is for no value."""
+    assert [nonfinite_text(v) for v in (math.nan, math.inf, -math.inf, 0.0)] == ["NaN", "+inf", "-inf", None]
+    assert format_value(math.nan, 1, "m") == "NaN"
+    assert format_value(math.inf, 2) == "+inf"
+    assert format_value(-math.inf, 0, "m/s") == "-inf"
+    assert format_value(None, 1) == "\u2014"
+    assert format_value(1.25, 1, "m") == "1.2 m"
 
 
 def test_rects_around_cover_outer_minus_hole() -> None:

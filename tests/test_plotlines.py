@@ -8,14 +8,23 @@ import numpy as np
 import pytest
 
 from dbglog.viewer._data._model import Binding, SeriesSnapshot, Status, ValueKind
-from dbglog.viewer._widgets._plotlines import LineJob, LineTask, LineWorker, plot_lines
+from dbglog.viewer._widgets._plotlines import LineJob, LineTask, LineWorker, plot_lines, stepped
 from dbglog.viewer.widget_api import TimeRange
 
 
-def _snap(times: np.ndarray, values: np.ndarray, name: str = "/a") -> SeriesSnapshot:
+def _snap(
+    times: np.ndarray, values: np.ndarray, name: str = "/a", last: float | int | bool | None = None
+) -> SeriesSnapshot:
+    kind = ValueKind.BOOL if isinstance(last, bool) else ValueKind.NUMBER
     return SeriesSnapshot(
-        Binding(name), Status.LIVE, kind=ValueKind.NUMBER, times=times, values=values, count=len(times)
+        Binding(name), Status.LIVE, kind=kind, times=times, values=values, count=len(times), last=last
     )
+
+
+def _segments(x: np.ndarray, y: np.ndarray) -> list[tuple[float, float]]:
+    """The x spans of the line's drawn segments (a NaN in y ends one)."""
+    ok = ~np.isnan(y)
+    return [(float(x[i]), float(x[i + 1])) for i in range(len(x) - 1) if ok[i] and ok[i + 1]]
 
 
 def _job(*snaps: SeriesSnapshot, start: float = 0.0, stop: float = 10.0, **kw: object) -> LineJob:
@@ -44,8 +53,9 @@ def test_lines_are_decimated_relative_to_origin_with_the_y_axis_fitted() -> None
         assert x.flags.c_contiguous
         assert y.flags.c_contiguous
         assert len(x) <= 2 * 200 + 2
-        assert x[0] <= -10.0 + 1e-9  # one sample beyond the start: the line runs to the plot's edge
         assert x[-1] > -10.0 / 200  # to the last pixel column
+    assert lines.lines[0][0][0] <= -10.0 + 1e-9  # one sample beyond the start: the line runs to the edge
+    assert lines.lines[1][0][0] > -5.0 - 0.01  # NaN is no point of the line: it starts after them
     lo, hi = -1.0, 3.0
     assert lines.limits is not None
     assert lines.limits == pytest.approx((lo - 0.08 * (hi - lo), hi + 0.08 * (hi - lo)), abs=1e-3)
@@ -89,6 +99,92 @@ def test_lines_moved_back_end_at_the_cursor() -> None:
     np.testing.assert_allclose(y, lines.lines[0][1][: len(y)])
     assert lines.moved_to(10.0, until=10.0) is lines  # nothing past the cursor: the same lines
     assert lines.moved_to(10.0, until=-1.0).drawn == 0
+
+
+def test_a_gap_in_the_data_is_drawn_as_a_gap() -> None:
+    """A publisher killed for 20 s: no segment of the line spans the silence; zoomed out so far that the
+    silence is under two pixel columns, the line goes on (a hole nobody sees is not drawn)."""
+    before = np.arange(0.0, 20.0, 0.01)
+    after = np.arange(40.0, 60.0, 0.01)
+    t = np.concatenate((before, after))
+    lines = plot_lines(_job(_snap(t, np.sin(t)), start=0.0, stop=60.0, origin=0.0, max_points=600))
+    x, y = lines.lines[0]
+    assert np.isnan(y).sum() == 1
+    assert all(b - a < 1.0 for a, b in _segments(x, y)), "no segment across the silence"
+    assert x[0] <= 0.0
+    assert x[-1] >= 59.9
+    far = plot_lines(_job(_snap(t, np.sin(t)), start=-20000.0, stop=60.0, origin=0.0, max_points=600))
+    assert not np.isnan(far.lines[0][1]).any()
+
+
+def test_nan_breaks_the_line_and_infinities_stand_at_the_edges_marked() -> None:
+    """NaN: a gap in the line; +inf and -inf: the line runs to the top and the bottom edge of the y range
+    fitted to the finite values, each marked; no RuntimeWarning (warnings are errors in the tests)."""
+    t = np.arange(0.0, 10.0, 0.1)
+    v = np.sin(t)
+    v[30:33] = np.nan
+    v[50], v[70] = np.inf, -np.inf
+    lines = plot_lines(_job(_snap(t, v), start=0.0, stop=10.0, origin=0.0, max_points=1000))
+    assert lines.limits is not None
+    lo, hi = lines.limits
+    assert -1.2 < lo < -0.9, lines.limits
+    assert 0.9 < hi < 1.2, lines.limits
+    x, y = lines.lines[0]
+    assert not np.isinf(y).any()
+    assert all(b <= 2.9 + 1e-9 or a >= 3.3 - 1e-9 for a, b in _segments(x, y)), "nothing across the NaN"
+    assert y[np.isclose(x, 5.0)].tolist() == [hi]
+    assert y[np.isclose(x, 7.0)].tolist() == [lo]
+    (marks,) = lines.marks
+    np.testing.assert_allclose(marks.above, [5.0])
+    np.testing.assert_allclose(marks.below, [7.0])
+    assert len(marks.lone[0]) == 0
+    moved = lines.moved_to(1.0, until=6.0)
+    np.testing.assert_allclose(moved.marks[0].above, [4.0])
+    assert len(moved.marks[0].below) == 0
+
+
+def test_a_sample_alone_between_gaps_is_marked() -> None:
+    """A regular tag, silent, one sample, silent again, then regular: that sample is a dot of its own."""
+    t = np.concatenate((np.arange(0.0, 10.0, 0.1), [20.0], np.arange(30.0, 40.0, 0.1)))
+    lines = plot_lines(_job(_snap(t, np.cos(t)), start=0.0, stop=40.0, origin=0.0, max_points=1000))
+    (marks,) = lines.marks
+    assert marks.lone[0].tolist() == [20.0]
+    assert marks.lone[1].tolist() == [np.cos(20.0)]
+
+
+def test_integers_and_bools_are_drawn_as_steps_floats_as_lines() -> None:
+    """An Int tag (its value an int) and a Bool hold each value until the next sample; a Float64 is a line."""
+    t = np.array([0.0, 1.0, 2.0, 3.0])
+    v = np.array([0.0, 5.0, 5.0, 2.0])
+    counter, flag, level = _snap(t, v, last=2), _snap(t, v > 1, "/b", last=True), _snap(t, v, "/c", last=2.0)
+    assert (stepped(counter), stepped(flag), stepped(level)) == (True, True, False)
+    lines = plot_lines(_job(counter, level, start=0.0, stop=3.0, origin=0.0, max_points=100))
+    (sx, sy), (lx, ly) = lines.lines
+    dx, dy = np.diff(sx), np.diff(sy)
+    assert np.all((dx == 0) | (dy == 0)), "only flat and upright segments"
+    flat = [(sx[i], sx[i + 1], sy[i]) for i in range(len(sx) - 1) if dy[i] == 0 and dx[i] > 0]
+    assert [next(y for a, b, y in flat if a < q < b) for q in (0.5, 1.5, 2.5)] == [0.0, 5.0, 5.0]
+    assert (sx[-1], sy[-1]) == (3.0, 2.0)
+    assert (lx.tolist(), ly.tolist()) == (t.tolist(), v.tolist())
+
+
+def test_the_y_axis_fits_where_the_line_crosses_the_range_edges() -> None:
+    """Zoomed (a box) between samples: the y range holds the line where it leaves the range, not only
+    the samples inside it (a segment to a spike just outside ran off the top)."""
+    t = np.arange(0.0, 10.0, 1.0)
+    v = np.zeros(10)
+    v[6] = 1000.0
+    lines = plot_lines(_job(_snap(t, v), start=2.2, stop=5.5, origin=5.5))
+    assert lines.limits is not None
+    assert lines.limits[0] < 0.0, lines.limits
+    assert lines.limits[1] >= 500.0, lines.limits
+    between = plot_lines(_job(_snap(t, v), start=5.25, stop=5.75, origin=5.75))
+    assert between.limits is not None
+    assert between.limits[0] <= 250.0, between.limits
+    assert between.limits[1] >= 750.0, between.limits
+    held = plot_lines(_job(_snap(t, v, last=0), start=5.25, stop=5.75, origin=5.75))
+    assert held.limits is not None
+    assert held.limits[0] < 0.0 < held.limits[1] < 1000.0, "a step holds 0 until the spike's sample"
 
 
 def test_a_task_not_started_is_computed_by_whoever_takes_it() -> None:

@@ -56,10 +56,24 @@ def clock_text(t: float) -> str:
     return time.strftime("%H:%M:%S", time.localtime(seconds)) + f".{millis:03d}"
 
 
+def nonfinite_text(value: float) -> str | None:
+    """Return how a number that is not finite reads everywhere in the viewer: ``NaN``, ``+inf``, ``-inf``;
+    None for a finite one."""
+    if math.isnan(value):
+        return "NaN"
+    if math.isinf(value):
+        return "+inf" if value > 0 else "-inf"
+    return None
+
+
 def format_value(value: float | None, decimals: int, unit: str = "") -> str:
-    """Format a gauge readout: fixed decimals, the unit after a thin space; a dash when there is no value."""
-    if value is None or math.isnan(value):
+    """Format a gauge readout: fixed decimals, the unit after a space; a dash when there is no value,
+    ``NaN`` / ``+inf`` / ``-inf`` (without the unit) for a value that is not a finite number."""
+    if value is None:
         return "\u2014"
+    odd = nonfinite_text(value)
+    if odd is not None:
+        return odd
     text = f"{value:.{max(0, decimals)}f}"
     return f"{text} {unit}".rstrip()
 

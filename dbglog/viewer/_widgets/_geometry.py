@@ -23,10 +23,12 @@ __all__ = [
     "corner_fans",
     "format_tick",
     "free_spot",
+    "gap_mask",
     "gauge_angle",
     "hit_test",
     "led_on",
     "minmax_decimate",
+    "minmax_indices",
     "nice_ticks",
     "normalize_heading",
     "overlapped",
@@ -43,11 +45,23 @@ __all__ = [
     "spread",
     "thermo_fill",
     "uncovered",
+    "usual_intervals",
     "value_fraction",
     "window_slice",
 ]
 
 FloatArray = npt.NDArray[np.float64]
+
+GAP_FACTOR = 10.0
+"""An interval between two samples is a gap when it is longer than this many times the usual interval."""
+GAP_BLOCK = 32
+"""The usual interval is judged over blocks of this many consecutive intervals (see `usual_intervals`)."""
+GAP_QUANTILE = 0.9
+"""... as this quantile of a block's intervals: a silence one interval in ten or more often is usual."""
+GAP_MIN_INTERVALS = 8
+"""A block with fewer intervals than this (a series' first samples) does not judge."""
+LONE_GAP_S = 2.0
+"""Where no block judges: an interval longer than this (the viewer's default stale time) is a gap."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -385,6 +399,58 @@ def range_slice(times: FloatArray, start: float, end: float) -> tuple[slice, sli
     return slice(lo, hi), slice(max(0, lo - 1), min(len(times), hi + 1))
 
 
+def usual_intervals(times: FloatArray, first_index: int = 0) -> FloatArray:
+    """Return, for each interval between consecutive sorted `times`, the series' usual interval there.
+
+    The intervals are cut into blocks of `GAP_BLOCK` (aligned on the samples' absolute numbers, the first
+    being `first_index`, so a block stays the same as the series slides); a block's usual interval is its
+    `GAP_QUANTILE` quantile, zero intervals (samples sharing a time) left out. An interval's usual interval
+    is the largest of its block's and the two neighbouring blocks': a change of rate is not a gap, and a
+    silence that recurs one interval in ten or more often (a bursty tag) is usual. NaN where none of the
+    three blocks holds `GAP_MIN_INTERVALS` intervals.
+    """
+    d = np.diff(times)
+    n = len(d)
+    if n == 0:
+        return np.empty(0)
+    lead = first_index % GAP_BLOCK
+    blocks = -(-(lead + n) // GAP_BLOCK)
+    buf = np.full(blocks * GAP_BLOCK, np.nan)
+    buf[lead : lead + n] = np.where(d > 0, d, np.nan)
+    ordered = np.sort(buf.reshape(blocks, GAP_BLOCK), axis=1)  # NaN last
+    counts = GAP_BLOCK - np.count_nonzero(np.isnan(ordered), axis=1)
+    pick = np.maximum(0, np.floor(GAP_QUANTILE * (counts - 1))).astype(np.intp)
+    q = ordered[np.arange(blocks), pick]
+    q[counts < GAP_MIN_INTERVALS] = np.nan
+    usual = q.copy()
+    usual[1:] = np.fmax(usual[1:], q[:-1])  # fmax: NaN (no judgement) never wins
+    usual[:-1] = np.fmax(usual[:-1], q[1:])
+    return np.repeat(usual, GAP_BLOCK)[lead : lead + n]
+
+
+def gap_mask(times: FloatArray, first_index: int = 0, *, at_least: float = 0.0) -> npt.NDArray[np.bool_]:
+    """Return, for each interval between consecutive sorted `times`, whether it is a gap in the data.
+
+    A gap is an interval longer than `GAP_FACTOR` times the usual interval there (`usual_intervals`);
+    where too few samples tell the usual interval, longer than `LONE_GAP_S`; and in any case longer than
+    `at_least` seconds (a plot: two pixel columns, so that a gap it draws is seen). A plot draws a gap as
+    a gap, not as a line across it (the widget was STALE meanwhile).
+    """
+    d = np.diff(times)
+    if not len(d):
+        return np.zeros(0, dtype=bool)
+    top = float(d.max())
+    if top <= at_least:  # the common case, cheaply: nothing long enough to be drawn as a gap
+        return np.zeros(len(d), dtype=bool)
+    low = float(np.min(d, where=d > 0, initial=np.inf))  # every usual interval is at least this
+    if top <= GAP_FACTOR * low and top <= LONE_GAP_S:
+        return np.zeros(len(d), dtype=bool)
+    usual = usual_intervals(times, first_index)
+    known = ~np.isnan(usual)
+    gaps = np.where(known, d > GAP_FACTOR * np.where(known, usual, 0.0), d > LONE_GAP_S)
+    return gaps & (d > at_least)
+
+
 def minmax_decimate(x: FloatArray, y: FloatArray, max_points: int) -> tuple[FloatArray, FloatArray]:
     """Reduce a line to at most `max_points` points, keeping each bucket's minimum and maximum in order.
 
@@ -392,9 +458,17 @@ def minmax_decimate(x: FloatArray, y: FloatArray, max_points: int) -> tuple[Floa
     point), so a plot whose ``max_points`` is its width in pixels looks the same as the full data.
     Buckets are equal runs of consecutive samples; NaNs never win a bucket unless it holds nothing else.
     """
-    n = len(x)
-    if n <= max_points or max_points < 2:
+    if len(x) <= max_points or max_points < 2:
         return x, y
+    order = minmax_indices(y, max_points)
+    return x[order], y[order]
+
+
+def minmax_indices(y: FloatArray, max_points: int) -> npt.NDArray[np.intp]:
+    """Return the indices of the points `minmax_decimate` keeps (all of them when they fit), in order."""
+    n = len(y)
+    if n <= max_points or max_points < 2:
+        return np.arange(n)
     size = -(-n // (max_points // 2))  # samples per bucket, rounded up: at most max_points // 2 buckets
     buckets = -(-n // size)
     pad = buckets * size - n
@@ -412,11 +486,11 @@ def minmax_decimate(x: FloatArray, y: FloatArray, max_points: int) -> tuple[Floa
     base = np.arange(0, buckets * size, size)
     i_min = base + lows.argmin(axis=1)
     i_max = base + highs.argmax(axis=1)
-    order = np.empty(buckets * 2, dtype=np.int64)
+    order = np.empty(buckets * 2, dtype=np.intp)
     np.minimum(i_min, i_max, out=order[0::2])
     np.maximum(i_min, i_max, out=order[1::2])
     np.minimum(order, n - 1, out=order)
-    return x[order], y[order]
+    return order
 
 
 def arc_step(radius: float, max_error: float = 0.1) -> float:

@@ -16,7 +16,7 @@ from collections.abc import Sequence
 import dearpygui.dearpygui as dpg
 import numpy as np
 
-from dbglog.viewer._widgets._common import SERIES_COLORS, clock_text, latest_number, text_size
+from dbglog.viewer._widgets._common import SERIES_COLORS, clock_text, latest_number, nonfinite_text, text_size
 from dbglog.viewer._widgets._geometry import spread
 from dbglog.viewer._widgets._plotfit import (
     ROW_H,
@@ -59,6 +59,7 @@ __all__ = [
     "PlotWidget",
     "reading",
     "series_label",
+    "tag_height",
 ]
 
 PLOT_MARGIN = 48
@@ -71,6 +72,12 @@ HOVER_COLOR = (220, 226, 236, 190)
 """The hover line: a light, thin grey that reads over every series colour."""
 SELECT_COLOR = (86, 166, 240, 255)
 """A box zoom being dragged (the viewer's accent blue)."""
+LONE_SIZE = 2.5
+"""The radius of the dot marking a sample alone between gaps (the line is 2 px wide)."""
+EDGE_SIZE = 4.0
+"""The size of the triangle marking a +inf (at the top) or -inf (at the bottom) sample."""
+EDGE_INSET = 0.03
+"""The infinity marks stand this fraction of the y range inside the edge (a whole triangle shows)."""
 TAG_GAP = 18
 """Pixels between two value tags at the cursor (close values are spread apart to stay readable)."""
 TAG_SIDE = 6
@@ -100,10 +107,25 @@ GESTURES_TIP = (
 
 
 def reading(value: float | None, digits: int = 6) -> str:
-    """Return a series' value at the cursor as the legend and the value tag show it (6 significant digits)."""
-    if value is None or not np.isfinite(value):
+    """Return a series' value at the cursor as the legend and the value tag show it (6 significant digits;
+    ``NaN``, ``+inf``, ``-inf`` as such; a dash for no value)."""
+    if value is None:
         return "\u2014"
-    return f"{value:.{digits}g}"
+    odd = nonfinite_text(value)
+    return odd if odd is not None else f"{value:.{digits}g}"
+
+
+def tag_height(value: float, limits: Limits | None) -> float:
+    """Where a value's tag stands on the y axis: at the value; +inf at the top, -inf at the bottom and NaN
+    half way (with the limits shown; else 0)."""
+    if np.isfinite(value):
+        return value
+    if limits is None:
+        return 0.0
+    lo, hi = limits
+    if np.isnan(value):
+        return (lo + hi) / 2
+    return hi if value > 0 else lo
 
 
 def series_label(binding: Binding) -> str:
@@ -144,6 +166,21 @@ def _plot_theme(*, compact_legend: bool = False) -> int | str:
             )
             dpg.add_theme_style(dpg.mvPlotStyleVar_LegendInnerPadding, 5, 2, category=dpg.mvThemeCat_Plots)
     result: int | str = theme
+    return result
+
+
+def _mark_series(
+    axis: int | str, label: str, color: tuple[int, int, int, int], marker: int, size: float
+) -> int | str:
+    """A hidden scatter series of markers in a series' colour (its lone samples, its infinities)."""
+    item = dpg.add_scatter_series([], [], label=label, parent=axis, show=False)
+    with dpg.theme() as theme, dpg.theme_component(dpg.mvScatterSeries):
+        dpg.add_theme_color(dpg.mvPlotCol_MarkerFill, color, category=dpg.mvThemeCat_Plots)
+        dpg.add_theme_color(dpg.mvPlotCol_MarkerOutline, color, category=dpg.mvThemeCat_Plots)
+        dpg.add_theme_style(dpg.mvPlotStyleVar_Marker, marker, category=dpg.mvThemeCat_Plots)
+        dpg.add_theme_style(dpg.mvPlotStyleVar_MarkerSize, size, category=dpg.mvThemeCat_Plots)
+    dpg.bind_item_theme(item, theme)
+    result: int | str = item
     return result
 
 
@@ -212,6 +249,8 @@ class PlotWidget(Widget):
         """Build the header (Pause, Link, what is shown), the plot, its axes, the cursor and hover lines."""
         self._series: list[int | str] = []
         self._dots: list[int | str] = []
+        self._marks: list[tuple[int | str, ...]] = []
+        """Per series: its lone samples, its +inf and its -inf marks (scatter series)."""
         self._notes: list[int | str] = []
         self._labels: list[str] = []
         self._shown_labels: list[str] = []
@@ -325,9 +364,9 @@ class PlotWidget(Widget):
         labels = [series_label(s.binding) for s in snapshots]
         if labels == self._labels:
             return
-        for tag in (*self._series, *self._dots, *self._notes):
+        for tag in (*self._series, *self._dots, *self._notes, *(m for ms in self._marks for m in ms)):
             dpg.delete_item(tag)
-        self._series, self._dots, self._notes = [], [], []
+        self._series, self._dots, self._notes, self._marks = [], [], [], []
         plan = legend_plan(labels, self.width, self._plot_h, self._measure, enabled=bool(self.prop("legend")))
         for i, label in enumerate(plan.labels):
             color = SERIES_COLORS[i % len(SERIES_COLORS)]
@@ -337,6 +376,17 @@ class PlotWidget(Widget):
                 dpg.add_theme_style(dpg.mvPlotStyleVar_LineWeight, 2.0, category=dpg.mvThemeCat_Plots)
             dpg.bind_item_theme(tag, theme)
             self._series.append(tag)
+            # What the line alone does not show: samples alone between gaps, infinities at the edges.
+            self._marks.append(
+                tuple(
+                    _mark_series(self.y_axis, f"##{what}{i}", color, marker, size)
+                    for what, marker, size in (
+                        ("lone", dpg.mvPlotMarker_Circle, LONE_SIZE),
+                        ("above", dpg.mvPlotMarker_Up, EDGE_SIZE),
+                        ("below", dpg.mvPlotMarker_Down, EDGE_SIZE),
+                    )
+                )
+            )
             # Hovering: a dot where the hover line crosses the series.
             dot = dpg.add_scatter_series([0.0], [0.0], label=f"##dot{i}", parent=self.y_axis, show=False)
             with dpg.theme() as theme, dpg.theme_component(dpg.mvScatterSeries):
@@ -612,6 +662,20 @@ class PlotWidget(Widget):
             self._set_y_limits(lines.limits)
         for tag, (x, y) in zip(self._series, lines.lines, strict=True):
             dpg.set_value(tag, [x, y])  # contiguous float64: through the buffer protocol, without lists
+        lo, hi = self._limits if self._limits is not None else (0.0, 1.0)
+        inset = (hi - lo) * EDGE_INSET
+        for items, marks in zip(self._marks, lines.marks, strict=True):
+            lone, above, below = items
+            for item, x, y in (
+                (lone, *marks.lone),
+                (above, marks.above, np.full(len(marks.above), hi - inset)),
+                (below, marks.below, np.full(len(marks.below), lo + inset)),
+            ):
+                if len(x) or self._configured.get(item, {}).get("show", False):
+                    dpg.set_value(
+                        item, [np.ascontiguousarray(x, np.float64), np.ascontiguousarray(y, np.float64)]
+                    )
+                    self._configure(item, show=bool(len(x)))
         self.points_drawn = lines.drawn
         self.drawn_from, self.drawn_to = lines.oldest, lines.newest
 
@@ -691,20 +755,22 @@ class PlotWidget(Widget):
             marks = [None if v is None else (at - origin, v) for v in self.cursor_values]
         else:
             marks = [None] * len(snaps)
-        shown = {i: m[1] for i, m in enumerate(marks) if m is not None and np.isfinite(m[1])}
+        shown = {i: m[1] for i, m in enumerate(marks) if m is not None}
         side = -1
         if hover is not None and self.view is not None:
             start, stop = self.view
             side = 1 if hover < (start + stop) / 2 else -1  # tags on the side with more room
         digits = tag_digits(self.width)
         texts = {i: reading(v, digits) for i, v in shown.items()}
-        places = dict(zip(shown, self._tag_places(list(shown.values()), list(texts.values())), strict=True))
+        heights = [tag_height(v, self._limits) for v in shown.values()]
+        places = dict(zip(shown, self._tag_places(heights, list(texts.values())), strict=True))
         labels = list(self.legend_plan.labels)
         valued = self.legend_plan.values_in_legend
         named = [f"\u25a0 {label}" for label in self._labels] if self._chip_texts else []
         for i, (note, dot) in enumerate(zip(self._notes, self._dots, strict=True)):
             mark = marks[i] if i in places else None
-            self._configure(dot, show=mark is not None and hover is not None)
+            dotted = mark is not None and hover is not None and bool(np.isfinite(mark[1]))
+            self._configure(dot, show=dotted)
             if mark is None:
                 self._configure(note, show=False)
             else:
@@ -715,7 +781,7 @@ class PlotWidget(Widget):
                     default_value=(mark[0], places[i][0]),
                     offset=(side * places[i][1], 0),
                 )
-                if hover is not None:
+                if dotted:
                     dpg.set_value(dot, [[mark[0]], [mark[1]]])
             if hover is not None or at is not None:
                 value = reading(self.hover_values[i] if hover is not None else self.cursor_values[i])
