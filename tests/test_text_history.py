@@ -49,7 +49,7 @@ def test_numbers_collapse_by_value_including_nan() -> None:
     """Numbers compare by value (not by formatted text); NaN runs collapse too."""
     nan = float("nan")
     snap = _numbers(1.0, 1.0, 2.5, nan, nan, 1.0000001, 1.0)
-    assert history_lines(snap, 10, with_time=False) == ["1", "1", "nan  \u00d72", "2.5", "1  \u00d72"]
+    assert history_lines(snap, 10, with_time=False) == ["1", "1", "NaN  \u00d72", "2.5", "1  \u00d72"]
     assert len(history_lines(_numbers(*range(100)), 7, with_time=False)) == 7
 
 
@@ -65,3 +65,9 @@ def test_no_history_shows_the_last_value_or_nothing() -> None:
     assert history_lines(array, 5, with_time=True) == ["(1.0, 2.0)"]
     assert history_lines(SeriesSnapshot(Binding("/e"), Status.WAITING), 5, with_time=True) == []
     assert history_lines(_texts("two\nlines"), 5, with_time=False) == ["two \u21b5 lines"]
+
+
+def test_numbers_that_are_not_finite_read_as_nan_and_inf() -> None:
+    """NaN and ±inf in a number's history read NaN, +inf, -inf (repeats of NaN collapse too)."""
+    lines = history_lines(_numbers(1.5, np.nan, np.nan, np.inf, -np.inf), 50, with_time=False)
+    assert lines == ["-inf", "+inf", "NaN  \u00d72", "1.5"]

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import dearpygui.dearpygui as dpg
@@ -21,6 +22,7 @@ from dbglog.viewer._widgets._common import (
     knob_radii,
     knob_scale_radius,
     latest_number,
+    nonfinite_text,
     scale_ticks,
     text_size,
     value_at_cursor_only,
@@ -115,15 +117,16 @@ class DialWidget(Widget):
         self._readout = draw_centered_text("\u2014", cx, cy + r * 0.55, self._size, TEXT, dl)
 
     def update(self, snapshots: Sequence[SeriesSnapshot], now: float) -> None:
-        """Turn the needle to the latest value."""
+        """Turn the needle to the latest value (±inf: at an end stop; NaN: no needle, the readout says it)."""
         value = latest_number(snapshots[0] if snapshots else None)
         cx, cy, r = self._geom
         lo, hi = self.num("minimum"), self.num("maximum")
+        known = value is not None and not math.isnan(value)
         angle = gauge_angle(
-            value if value is not None else lo, lo, hi, start_deg=self.START, sweep_deg=self.SWEEP
+            value if known and value is not None else lo, lo, hi, start_deg=self.START, sweep_deg=self.SWEEP
         )
-        dpg.configure_item(self._needle, points=_needle_points(cx, cy, r - 14, angle))
-        dpg.configure_item(self._arc, points=arc_points(cx, cy, r - 2, self.START, angle))
+        dpg.configure_item(self._needle, points=_needle_points(cx, cy, r - 14, angle), show=known)
+        dpg.configure_item(self._arc, points=arc_points(cx, cy, r - 2, self.START, angle), show=known)
         text = format_value(value, int(self.num("decimals")), str(self.prop("unit")))
         w, h = text_size(text, self._size)
         dpg.configure_item(self._readout, text=text, pos=(cx - w / 2, cy + r * 0.55 - h / 2))
@@ -182,17 +185,21 @@ class KnobWidget(DialWidget):
         self._readout = draw_centered_text("\u2014", cx, cy + r * 0.9, self._size, TEXT, dl)
 
     def update(self, snapshots: Sequence[SeriesSnapshot], now: float) -> None:
-        """Turn the pointer and grow the arc to the latest value."""
+        """Turn the pointer and grow the arc to the latest value (±inf: at the end stop; NaN: neither)."""
         value = latest_number(snapshots[0] if snapshots else None)
         cx, cy, r = self._geom
         lo, hi = self.num("minimum"), self.num("maximum")
+        known = value is not None and not math.isnan(value)
         angle = gauge_angle(
-            value if value is not None else lo, lo, hi, start_deg=self.START, sweep_deg=self.SWEEP
+            value if known and value is not None else lo, lo, hi, start_deg=self.START, sweep_deg=self.SWEEP
         )
         ring = self._ring
-        dpg.configure_item(self._arc, points=arc_points(cx, cy, self._arc_r, self.START, angle))
+        dpg.configure_item(self._arc, points=arc_points(cx, cy, self._arc_r, self.START, angle), show=known)
         dpg.configure_item(
-            self._needle, p1=polar(cx, cy, ring * 0.3, angle), p2=polar(cx, cy, ring * 0.78, angle)
+            self._needle,
+            p1=polar(cx, cy, ring * 0.3, angle),
+            p2=polar(cx, cy, ring * 0.78, angle),
+            show=known,
         )
         text = format_value(value, int(self.num("decimals")), str(self.prop("unit")))
         w, h = text_size(text, self._size)
@@ -250,16 +257,18 @@ class CompassWidget(Widget):
         return [list(tip), list(left), list(right), list(tip)]
 
     def update(self, snapshots: Sequence[SeriesSnapshot], now: float) -> None:
-        """Point the needle to the latest heading."""
+        """Point the needle to the latest heading (a heading that is not a finite number: no needle, the
+        readout says ``NaN`` or ``+inf``)."""
         value = latest_number(snapshots[0] if snapshots else None)
         if value is None:
             return
+        odd = nonfinite_text(value)
         heading = normalize_heading(
             value, radians=self.prop("units") == "radians", offset_deg=self.num("offset")
         )
-        dpg.configure_item(self._north, points=self._half(heading, 1))
-        dpg.configure_item(self._south, points=self._half(heading, -1))
-        text = f"{heading:5.1f}\u00b0 {compass_label(heading)}"
+        dpg.configure_item(self._north, points=self._half(heading, 1), show=odd is None)
+        dpg.configure_item(self._south, points=self._half(heading, -1), show=odd is None)
+        text = odd if odd is not None else f"{heading:5.1f}\u00b0 {compass_label(heading)}"
         w, _h = text_size(text, self._size)
         cx, _, _ = self._geom
         dpg.configure_item(self._readout, text=text, pos=(cx - w / 2, self.height - self._size - 2))
@@ -324,7 +333,7 @@ class ThermoWidget(Widget):
         self._readout = draw_centered_text("\u2014", width / 2, height - 10, self._size, TEXT, dl)
 
     def update(self, snapshots: Sequence[SeriesSnapshot], now: float) -> None:
-        """Fill the tube to the latest value."""
+        """Fill the tube to the latest value (+inf: full, -inf and NaN: empty; the readout says which)."""
         value = latest_number(snapshots[0] if snapshots else None)
         x0, tube_w, top, bottom, bulb_r = self._geom
         lo, hi = self.num("minimum"), self.num("maximum")

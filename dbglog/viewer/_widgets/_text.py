@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Sequence
 
@@ -13,6 +14,7 @@ from dbglog.viewer._widgets._common import (
     TEXT,
     draw_centered_text,
     draw_disc,
+    nonfinite_text,
     set_disc_color,
     text_size,
     value_at_cursor_only,
@@ -29,7 +31,8 @@ def _stamp(t: float) -> str:
 
 
 def _fmt(value: float) -> str:
-    return f"{value:.6g}"
+    odd = nonfinite_text(value)
+    return odd if odd is not None else f"{value:.6g}"
 
 
 def history_lines(snap: SeriesSnapshot, limit: int, *, with_time: bool, collapse: bool = True) -> list[str]:
@@ -182,6 +185,8 @@ class LedWidget(Widget):
         text = str(self.prop("on_text") if self.lit else self.prop("off_text"))
         if value is None:
             text = "\u2014"
+        elif isinstance(value, float) and math.isnan(value):  # neither on nor off: say so (the lamp is dark)
+            text = "NaN"
         w, h = text_size(text, self._size)
         cx, _, _ = self._geom
         dpg.configure_item(
