@@ -321,3 +321,56 @@ def test_two_publishers_of_one_tag_are_drawn_in_source_time_order(engine: Engine
     exported = np.loadtxt(tmp_path / "two.csv", delimiter=",", skiprows=1, usecols=0)
     assert rows == len(exported) == len(np.unique(times))
     assert np.all(np.diff(exported) >= 0)  # (to the microsecond: two writers' samples may share one)
+
+
+def test_a_publisher_that_stops_is_drawn_with_a_gap_and_integers_as_steps(
+    engine: Engine, peer: RosPeer
+) -> None:
+    """Real publishers that stop for 1.5 s and go on: the plot's lines from the engine's series break at
+    the silence; an SDK logint tag and a plain Int32 topic are drawn as steps, a logfloat tag as a line."""
+    from std_msgs.msg import Int32
+
+    from dbglog.viewer._widgets._plotlines import LineJob, plot_lines, stepped
+
+    count, level = topic_for_tag(f"{_RUN}/stop/count"), topic_for_tag(f"{_RUN}/stop/level")
+    plain = f"/{_RUN}/stop/plain"
+    bindings = [Binding(count), Binding(level), Binding(plain)]
+    for binding in bindings:
+        engine.bind(binding)
+    pub = peer.publisher(plain, Int32)
+    env = {k: v for k, v in os.environ.items() if k not in ("DBGLOG", "DBGLOG_STRICT")}
+    env["PYTHONPATH"] = str(ROOT)
+    code = f"""
+        import time, dbglog
+        dbglog.init()
+        time.sleep(2.0)
+        for part in range(2):
+            for i in range(60):
+                dbglog.logint({f"{_RUN}/stop/count"!r}, part * 100 + i // 10)
+                dbglog.logfloat({f"{_RUN}/stop/level"!r}, 0.5 * i)
+                time.sleep(0.01)
+            time.sleep(1.5 if part == 0 else 0.0)
+        assert dbglog.flush(5.0)
+        time.sleep(1.0)
+    """
+    child = subprocess.Popen([sys.executable, "-c", textwrap.dedent(code)], env=env, cwd=ROOT)
+    try:
+        assert peer.wait_for_subscribers(pub, timeout=TIMEOUT)
+        for part in range(2):
+            for i in range(60):
+                pub.publish(Int32(data=i // 10))
+                time.sleep(0.01)
+            time.sleep(1.5 if part == 0 else 0.0)
+        snaps = [_wait_snap(engine, b, lambda s: s.count >= 120) for b in bindings]
+    finally:
+        child.wait(timeout=60)
+    assert [stepped(s) for s in snaps] == [True, False, True]
+    assert type(snaps[0].last) is int
+    for snap in snaps:
+        start, stop = float(snap.times[0]), float(snap.times[-1])
+        job = LineJob((snap,), (None,), start, stop, stop, 800, None, None, 848, 240)
+        ((x, y),) = plot_lines(job).lines
+        assert np.isnan(y).sum() == 1, snap.binding
+        ok = ~np.isnan(y)
+        spans = [x[i + 1] - x[i] for i in range(len(x) - 1) if ok[i] and ok[i + 1]]
+        assert max(spans) < 0.5, f"{snap.binding.topic}: a segment across the silence ({max(spans):.2f} s)"
