@@ -36,7 +36,7 @@ _CHECKPOINT_EVERY_S = 0.1
 _RATE_SETTLE_S = 0.2
 """The rate ignores the first moments of a series: a latched history arrives as one burst."""
 _MAX_TEXTS = 1000
-_SMALL = 16
+_SMALL = 64
 """A batch up to this size is checked for order in plain Python (cheaper than numpy calls)."""
 _MIN_WINDOW_S = 60.0
 """A series at a past time carries at least this many seconds of samples before it (plots need a past)."""
@@ -44,18 +44,17 @@ _MIN_WINDOW_S = 60.0
 
 def _in_order(times: npt.NDArray[np.float64], newest: float) -> bool:
     """Whether a batch is sorted and not older than `newest` (the common case: appended as it is)."""
-    if not times[0] >= newest:
-        return False
-    n = len(times)
-    if n <= _SMALL:
-        return n == 1 or all(a <= b for a, b in itertools.pairwise(times.tolist()))
-    return not bool((times[1:] < times[:-1]).any())
+    if len(times) <= _SMALL:
+        tl = times.tolist()
+        return bool(tl[0] >= newest) and tl == sorted(tl)
+    return bool(times[0] >= newest) and not bool((times[1:] < times[:-1]).any())
 
 
 def _unsorted(times: npt.NDArray[np.float64]) -> bool:
     """Whether a batch's source times go back somewhere."""
     if len(times) <= _SMALL:
-        return any(a > b for a, b in itertools.pairwise(times.tolist()))
+        tl = times.tolist()
+        return tl != sorted(tl)
     return bool((times[1:] < times[:-1]).any())
 
 
