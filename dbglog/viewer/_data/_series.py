@@ -36,7 +36,7 @@ _CHECKPOINT_EVERY_S = 0.1
 _RATE_SETTLE_S = 0.2
 """The rate ignores the first moments of a series: a latched history arrives as one burst."""
 _MAX_TEXTS = 1000
-_SMALL = 64
+_SMALL = 128
 """A batch up to this size is checked for order in plain Python (cheaper than numpy calls)."""
 _MIN_WINDOW_S = 60.0
 """A series at a past time carries at least this many seconds of samples before it (plots need a past)."""
