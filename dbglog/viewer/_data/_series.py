@@ -45,15 +45,15 @@ _MIN_WINDOW_S = 60.0
 def _in_order(times: npt.NDArray[np.float64], newest: float) -> bool:
     """Whether a batch is sorted and not older than `newest` (the common case: appended as it is)."""
     if len(times) <= _SMALL:
-        tl = times.tolist()
-        return bool(tl[0] >= newest) and tl == sorted(tl)
+        tl: list[float] = times.tolist()
+        return tl[0] >= newest and tl == sorted(tl)
     return bool(times[0] >= newest) and not bool((times[1:] < times[:-1]).any())
 
 
 def _unsorted(times: npt.NDArray[np.float64]) -> bool:
     """Whether a batch's source times go back somewhere."""
     if len(times) <= _SMALL:
-        tl = times.tolist()
+        tl: list[float] = times.tolist()
         return tl != sorted(tl)
     return bool((times[1:] < times[:-1]).any())
 
