@@ -24,7 +24,7 @@ from tests.test_ui_plot_inspect import Viewer, length, near
 
 pytestmark = pytest.mark.gui
 
-SIZE = (1240, 800)
+SIZE = (1240, 900)
 GAP = (20.0, 40.0)
 """Seconds after `base` between which /t/gap and /t/count are silent (a robot killed and restarted)."""
 SPIKE_STEP = 0.5
@@ -62,6 +62,7 @@ def truth_dashboard(tmp: Path) -> Path:
         WidgetConfig("thermo", "thermo", 500, 460, 120, 200, (b("/t/ninf"),), {}),
         WidgetConfig("led", "led", 630, 460, 120, 130, (b("/t/nan"),), {}),
         WidgetConfig("string", "string", 760, 460, 220, 130, (b("/t/pinf"),), {}),
+        WidgetConfig("compass", "nothing", 630, 600, 150, 150, (b("/t/none"),), {}),
     ]
     path = tmp / "truth.json"
     save_dashboard(Dashboard(list[WidgetConfig | RawWidget](widgets), 20, True), path)
@@ -99,6 +100,8 @@ class Probe:
                 }
             elif item.config.type == "string":
                 readouts[item.name] = widget.latest_text
+            elif item.config.type == "compass" and not dpg.is_item_shown(widget._north):
+                readouts[item.name] = dpg.get_item_configuration(widget._readout)["text"] + " (no needle)"
             else:
                 readout = widget._caption if item.config.type == "led" else widget._readout
                 readouts[item.name] = dpg.get_item_configuration(readout)["text"]
@@ -230,7 +233,8 @@ def test_a_box_zoom_fits_the_y_axis_to_the_line_leaving_the_box(viewer: Callable
 
 def test_gaps_nan_and_infinities_are_drawn_and_said_as_they_are(viewer: Callable[[], TruthViewer]) -> None:
     """Nothing is drawn across a 20 s silence; NaN breaks a line, ±inf stand at the edges marked; the
-    pointer over NaN reads NaN; gauges, the LED and the String say NaN, +inf, -inf; no warning."""
+    pointer over NaN reads NaN; gauges, the LED and the String say NaN, +inf, -inf (a compass without a
+    value shows no needle); no warning."""
     from tests.test_ui import read_png
 
     v = viewer()
@@ -239,10 +243,11 @@ def test_gaps_nan_and_infinities_are_drawn_and_said_as_they_are(viewer: Callable
     assert state["readouts"] == {
         "dial": "NaN",
         "knob": "+inf",
-        "compass": "NaN",
+        "compass": "NaN (no needle)",
         "thermo": "-inf",
         "led": "NaN",
         "string": "+inf",
+        "nothing": "\u2014 (no needle)",
     }
     g = state["plots"]["G"]
     inside = (v.pixel_of("G", base + GAP[0] + 3.0), v.pixel_of("G", base + GAP[1] - 3.0))

@@ -258,13 +258,15 @@ class CompassWidget(Widget):
 
     def update(self, snapshots: Sequence[SeriesSnapshot], now: float) -> None:
         """Point the needle to the latest heading (a heading that is not a finite number: no needle, the
-        readout says ``NaN`` or ``+inf``)."""
+        readout says ``NaN`` or ``+inf``; no value, at the cursor say: no needle, a dash)."""
         value = latest_number(snapshots[0] if snapshots else None)
-        if value is None:
-            return
-        odd = nonfinite_text(value)
-        heading = normalize_heading(
-            value, radians=self.prop("units") == "radians", offset_deg=self.num("offset")
+        odd = "\u2014" if value is None else nonfinite_text(value)  # no value (yet, at the cursor): a dash
+        heading = (
+            0.0
+            if value is None
+            else normalize_heading(
+                value, radians=self.prop("units") == "radians", offset_deg=self.num("offset")
+            )
         )
         dpg.configure_item(self._north, points=self._half(heading, 1), show=odd is None)
         dpg.configure_item(self._south, points=self._half(heading, -1), show=odd is None)
