@@ -36,6 +36,7 @@ if TYPE_CHECKING or enabled:
         from dbglog.api import _public
 
         _public.REPORTER.strict = _config.strict
+        _public.RUNTIME.env_robot = _config.namespace
 else:
     from dbglog.api._disabled import (
         flush,

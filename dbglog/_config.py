@@ -7,7 +7,7 @@ import sys
 from collections.abc import Mapping
 from dataclasses import dataclass
 
-__all__ = ["Config", "ConfigError", "env_bool", "env_float", "has_display", "load_config"]
+__all__ = ["Config", "ConfigError", "env_bool", "env_float", "env_namespace", "has_display", "load_config"]
 
 _TRUE = frozenset({"1", "true", "yes", "on"})
 _FALSE = frozenset({"0", "false", "no", "off"})
@@ -78,6 +78,9 @@ class Config:
     """``DBGLOG``: on unless switched off; off by default under ``python -O``."""
     strict: bool
     """``DBGLOG_STRICT``: logging calls raise instead of warning (for tests)."""
+    namespace: str = ""
+    """``DBGLOG_NAMESPACE``: the robot namespace of the SDK's topics when neither the node given to
+    ``dbglog.init`` nor the process's ``--ros-args`` names one (``""``: the root; ``/robot1``)."""
 
 
 def load_config(environ: Mapping[str, str] | None = None) -> Config:
@@ -90,4 +93,21 @@ def load_config(environ: Mapping[str, str] | None = None) -> Config:
     return Config(
         enabled=env_bool("DBGLOG", not optimized, environ=environ),
         strict=env_bool("DBGLOG_STRICT", False, environ=environ),
+        namespace=env_namespace("DBGLOG_NAMESPACE", environ=environ),
     )
+
+
+def env_namespace(key: str, *, environ: Mapping[str, str] | None = None) -> str:
+    """Read a robot namespace (``robot1`` or ``/robot1``, held as ``/robot1``); unset or ``/`` is ``""``.
+
+    Raises:
+        ConfigError: not a namespace dbglog's topics can be in; the message names the variable.
+    """
+    from dbglog._ros._tags import TagError, normalize_robot
+
+    env = os.environ if environ is None else environ
+    raw = env.get(key, "")
+    try:
+        return normalize_robot(raw)
+    except TagError as exc:
+        raise ConfigError(f"environment variable {key}={raw!r} is not a robot namespace: {exc}") from None

@@ -5,6 +5,7 @@ from __future__ import annotations
 import functools
 import threading
 import time
+import warnings
 from collections.abc import Callable, Iterator
 from typing import Any
 
@@ -303,26 +304,49 @@ def test_a_batch_that_cannot_be_encoded_goes_out_sample_by_sample(peer: RosPeer)
     assert dbglog.stats().dropped_by_reason == {"publish_failed": 1}
 
 
-def test_invalid_tag_is_renamed_with_one_warning_at_the_callers_line(peer: RosPeer) -> None:
-    """'a-b' publishes on /rosdashboard/a_b; the warning names both and points at this file."""
-    got = peer.subscribe("/rosdashboard/t_a_b", Float64, LATCHED)
+def test_invalid_tag_is_escaped_with_one_warning_at_the_callers_line(peer: RosPeer) -> None:
+    """'t-a-b' publishes on /rosdashboard/t__2d_a__2d_b; the warning names both and points at this file."""
+    got = peer.subscribe("/rosdashboard/t__2d_a__2d_b", Float64, LATCHED)
     with pytest.warns(DbglogWarning) as rec:
         _twice(lambda: dbglog.logfloat("t-a-b", 1.0))
     assert len(rec) == 1
     text = str(rec[0].message)
     assert "'t-a-b'" in text
-    assert "/rosdashboard/t_a_b" in text
+    assert "/rosdashboard/t__2d_a__2d_b" in text
     assert rec[0].filename == __file__
     assert got.wait_for(2)
     assert dbglog.stats().renamed_tags == 1
 
 
-def test_two_tags_on_one_topic_are_reported(peer: RosPeer) -> None:
-    """'x-y' and 'x_y' map to one topic: that is reported."""
-    dbglog.logfloat("t_x_y", 1.0)
-    with pytest.warns(DbglogWarning) as rec:
-        dbglog.logfloat("t_x-y", 2.0)
-    assert any("both publish on /rosdashboard/t_x_y" in str(w.message) for w in rec)
+def test_tags_that_once_shared_a_topic_publish_apart(peer: RosPeer) -> None:
+    """速度 and 温度 (both /rosdashboard/__ before), and x-y beside a real x_y, each keep their own topic."""
+    names = {"速度": "__901f___5ea6_", "温度": "__6e29___5ea6_", "t_x-y": "t_x__2d_y", "t_x_y": "t_x_y"}
+    got = {tag: peer.subscribe("/rosdashboard/" + name, Float64, LATCHED) for tag, name in names.items()}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DbglogWarning)
+        for value, tag in enumerate(names):
+            dbglog.logfloat(tag, float(value))
+    for value, tag in enumerate(names):
+        assert got[tag].wait_for(1)
+        assert got[tag].values() == [float(value)]
+    assert dbglog.stats().renamed_tags == 3
+
+
+def test_a_dict_under_an_escaped_tag_escapes_each_key_path_once(peer: RosPeer) -> None:
+    """log('速度', {'x-1': ...}) publishes on the escaped text 速度/x-1, not an escape of an escape."""
+    got = peer.subscribe("/rosdashboard/__901f___5ea6_/x__2d_1", Float64, LATCHED)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DbglogWarning)
+        dbglog.log("速度", {"x-1": 2.5})
+    assert got.wait_for(1)
+    assert got.values() == [2.5]
+
+
+def test_a_tag_too_long_for_a_topic_is_dropped_with_a_warning(peer: RosPeer) -> None:
+    """A tag whose topic would pass rmw's 247 characters is dropped as bad_tag, saying so."""
+    with pytest.warns(DbglogWarning, match="too long: its topic would be 574 characters"):
+        dbglog.logfloat("速" * 80, 1.0)
+    assert dbglog.stats().dropped_by_reason == {"bad_tag": 1}
 
 
 def test_rate_control_once_skip_first_and_throttle(peer: RosPeer) -> None:

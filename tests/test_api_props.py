@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 
 import dbglog
 from dbglog import DbglogWarning
-from dbglog._ros._tags import tag_problem
+from dbglog._ros._tags import MAX_TOPIC_LENGTH, escape_tag, name_problem, topic_for_tag
 
 
 class _BadFloat:
@@ -166,17 +166,22 @@ def test_log_and_logdata_never_raise_and_count_every_call(
 
 
 @settings(max_examples=60, deadline=None)
-@given(tag=st.text(max_size=60))
+@given(tag=st.text(max_size=60) | st.text(alphabet="速度-", min_size=30, max_size=40))
 def test_any_string_tag_publishes_on_a_valid_topic(tag: str) -> None:
-    """Every string tag ends on a valid topic: a float logged with it is published, never dropped."""
+    """Every string tag ends on a valid topic of its own: a float logged with it is published, dropped
+    only when that topic would pass rmw's length limit."""
+    before = dbglog.stats().dropped
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DbglogWarning)
         dbglog.logfloat(tag, 1.0)
     s = dbglog.stats()
-    assert s.dropped == 0
+    fits = len(topic_for_tag(escape_tag(tag))) <= MAX_TOPIC_LENGTH
+    assert s.dropped - before == (0 if fits else 1)
+    assert set(s.dropped_by_reason) <= {"bad_tag"}
     from dbglog.api._public import RUNTIME
 
-    assert all(tag_problem(t) is None for t in RUNTIME.channels)
+    assert all(name_problem(t) is None for t in RUNTIME.channels)
+    assert (escape_tag(tag) in RUNTIME.channels) == fits
 
 
 def test_warning_is_given_once_per_problem_and_tag() -> None:

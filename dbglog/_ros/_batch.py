@@ -43,6 +43,8 @@ __all__ = [
     "BatchError",
     "DecodedBatch",
     "TagSamples",
+    "batch_robot",
+    "batch_topic",
     "decode_batch",
     "encode_batch",
     "is_sdk_node",
@@ -55,6 +57,25 @@ __all__ = [
 BATCH_TOPIC = "/_dbglog/samples"
 """Hidden (``_``) topic of the batches: ``ros2 topic list`` leaves it out unless asked."""
 BATCH_TYPE = "std_msgs/msg/UInt8MultiArray"
+_BATCH_ROBOT = re.compile(r"((?:/[A-Za-z_][A-Za-z0-9_]*)*)" + re.escape(BATCH_TOPIC))
+
+
+def batch_topic(robot: str) -> str:
+    """Return the batch topic of a robot namespace (``/robot1/_dbglog/samples``; `BATCH_TOPIC` for ``""``).
+
+    A batch carries its tags as in their topic names; the robot is the batch topic's namespace.
+    """
+    return robot + BATCH_TOPIC
+
+
+def batch_robot(topic: str) -> str | None:
+    """Return the robot namespace of a batch topic (``""`` for `BATCH_TOPIC`), None for any other topic."""
+    if not topic.endswith(BATCH_TOPIC):
+        return None
+    match = _BATCH_ROBOT.fullmatch(topic)
+    return match.group(1) if match is not None else None
+
+
 _SDK_NODE = re.compile(r"dbglog_[0-9]+")
 
 

@@ -17,6 +17,7 @@ from collections.abc import Mapping
 from types import FrameType
 from typing import TYPE_CHECKING, Any
 
+from dbglog._ros._tags import unescape_tag
 from dbglog.api import _native
 from dbglog.api._convert import (
     KIND_DEFAULT,
@@ -593,7 +594,8 @@ def _dispatch(clean: str, data: object, opts: _Options, depth: int) -> None:
             )
             return
         for key, value in list(data.items()):
-            sub = RUNTIME.resolve_tag(f"{clean}/{key if isinstance(key, str) else safe_repr(key)}", "log")
+            text = f"{unescape_tag(clean)}/{key if isinstance(key, str) else safe_repr(key)}"
+            sub = RUNTIME.resolve_tag(text, "log")
             if sub is not None:
                 _dispatch(sub, value, opts, depth + 1)
         return

@@ -20,11 +20,20 @@ import warnings
 from collections.abc import Callable
 from typing import Any, Literal
 
-from dbglog._ros._batch import BATCH_TOPIC, SCALAR_TYPES, sdk_node_name, type_code
+from dbglog._ros._batch import SCALAR_TYPES, batch_topic, sdk_node_name, type_code
 from dbglog._ros._cdr import scalar_encoder
 from dbglog._ros._nogil import publisher_address, rcl_addresses, unlocked_publish
 from dbglog._ros._qos import batch_qos, tag_qos
-from dbglog._ros._tags import TAG_PREFIX, sanitize_tag, tag_problem, topic_for_tag
+from dbglog._ros._tags import (
+    MAX_TOPIC_LENGTH,
+    TagError,
+    escape_tag,
+    normalize_robot,
+    ros_args_namespace,
+    tag_problem,
+    topic_for_tag,
+    unescape_tag,
+)
 from dbglog.api._convert import (
     ScalarSpec,
     encode_scalar,
@@ -88,10 +97,12 @@ class Channel:
         "topic",
     )
 
-    def __init__(self, tag: str, msg_class: type, publisher: Any, spec: ScalarSpec | None, raw: bool) -> None:
+    def __init__(
+        self, tag: str, topic: str, msg_class: type, publisher: Any, spec: ScalarSpec | None, raw: bool
+    ) -> None:
         self.tag = tag
         self.tag_bytes = tag.encode()
-        self.topic = topic_for_tag(tag)
+        self.topic = topic
         self.msg_class = msg_class
         self.publisher = publisher
         self.publish: Callable[[object], None] = publisher.publish
@@ -175,10 +186,15 @@ class Runtime:
         self.reporter = reporter
         self._lock = threading.RLock()
         self.channels: dict[str, Channel] = {}
-        """Valid tag -> channel."""
+        """Topic name of a tag (`escape_tag`) -> channel."""
         self.aliases: dict[object, str] = {}
-        """Tag as given -> valid tag (valid tags map to themselves)."""
-        self._owners: dict[str, str] = {}
+        """Tag as given -> its topic name (plain tags map to themselves)."""
+        self.robot = ""
+        """The namespace the topics are in while connected (``""``: the root; see `_choose_robot`)."""
+        self.env_robot = ""
+        """``DBGLOG_NAMESPACE``, normalized (set at import from the configuration)."""
+        self._node_robot: str | None = None
+        """The namespace of the node given to `init` (kept when dbglog falls back to its own node)."""
         self.fast_float: dict[object, Channel] = {}
         """Tag as given -> its Float64 channel (the hot path queues floats for it without checks)."""
         self.fast_int: dict[object, Channel] = {}
@@ -211,7 +227,7 @@ class Runtime:
     # ----- tags -----------------------------------------------------------------------------------
 
     def resolve_tag(self, tag: object, api: str) -> str | None:
-        """Return the valid tag for `tag` (warning once when renamed), or None when it is unusable."""
+        """Return the topic name of `tag` (warning once when it is escaped), or None when it is unusable."""
         clean = self.aliases.get(tag) if isinstance(tag, str) else None
         if clean is not None:
             return clean
@@ -223,33 +239,38 @@ class Runtime:
                 "value dropped",
             )
             return None
-        problem = tag_problem(tag)
-        clean = sanitize_tag(tag) if problem else tag
+        clean = escape_tag(tag)
+        robot = self.robot if self.state == "ready" else self._choose_robot()
+        if self._too_long(clean, robot, tag, api):
+            return None
         with self._lock:
             if len(self.aliases) < 4 * MAX_TAGS:
                 self.aliases[tag] = clean
-            owner = self._owners.setdefault(clean, tag)
-        if problem:
+        if clean != tag:
             self.reporter.renamed(
                 tag,
-                f"dbglog.{api}: tag {safe_repr(tag)} is not a valid ROS 2 name ({problem}); "
-                f"publishing it on {TAG_PREFIX}{clean} instead",
-            )
-        if owner != tag:
-            self.reporter.warn(
-                "tag_collision",
-                tag,
-                f"dbglog.{api}: tags {safe_repr(owner)} and {safe_repr(tag)} both publish on "
-                f"{TAG_PREFIX}{clean}",
-                None,
+                f"dbglog.{api}: tag {safe_repr(tag)} is not a valid ROS 2 name ({tag_problem(tag)}); "
+                f"publishing it on {topic_for_tag(clean, robot)} instead",
             )
         return clean
+
+    def _too_long(self, name: str, robot: str, text: str, api: str) -> bool:
+        """True (counted, warned once) when the topic of tag `name` would pass rmw's length limit."""
+        length = len(topic_for_tag(name, robot))
+        if length <= MAX_TOPIC_LENGTH:
+            return False
+        self.reporter.drop(
+            "bad_tag",
+            "too_long:" + name,
+            f"dbglog.{api}: tag {safe_repr(text)} is too long: its topic would be {length} characters long "
+            f"(at most {MAX_TOPIC_LENGTH}); value dropped",
+        )
+        return True
 
     def forget_tags(self) -> None:
         """Forget every tag seen (after `shutdown`, for tests)."""
         with self._lock:
             self.aliases.clear()
-            self._owners.clear()
             for table in self._fast_tables.values():
                 table.clear()
         self.pipe.clear()
@@ -286,11 +307,14 @@ class Runtime:
                 f"dbglog.{api}: more than {MAX_TAGS} tags; a value for the new tag {tag!r} was dropped",
             )
             return None
+        if self._too_long(tag, self.robot, unescape_tag(tag), api):
+            return None
+        topic = topic_for_tag(tag, self.robot)
         node = self._user_node if self._user_node is not None else self._node
-        publisher = node.create_publisher(msg_class, topic_for_tag(tag), tag_qos())
+        publisher = node.create_publisher(msg_class, topic, tag_qos())
         spec = scalar_spec(msg_class)
         raw = spec is not None and spec.kind != "str" and _cdr_round_trips(msg_class, spec)
-        ch = Channel(tag, msg_class, publisher, spec, raw)
+        ch = Channel(tag, topic, msg_class, publisher, spec, raw)
         if ch.encode is not None:
             # The DDS write without the GIL, as the batch's: on the writer thread, or through ctypes
             # (dbglog/_ros/_nogil.py). dbglog's own node: nobody else can destroy these publishers, and this
@@ -467,6 +491,14 @@ class Runtime:
             self.reporter.count("shut_down")
         return False
 
+    def _choose_robot(self) -> str:
+        """The namespace of the topics: the node's given to `init`, else the process's (``--ros-args -r
+        __ns:=/robot1`` in ``sys.argv``, as ``ros2 launch`` passes it), else ``DBGLOG_NAMESPACE``."""
+        if self._node_robot is not None:
+            return self._node_robot
+        from_args = ros_args_namespace(getattr(sys, "argv", None) or [])
+        return from_args if from_args is not None else self.env_robot
+
     def _start(self, user_node: Any, api: str) -> bool:
         # rclpy's first node imports modules that warn (lark imports the deprecated sre_parse): a user's
         # -W error::DeprecationWarning must not stop dbglog's own node. catch_warnings swaps a global,
@@ -488,6 +520,7 @@ class Runtime:
                     exc,
                 )
                 return False
+            self.robot = self._choose_robot()
             if user_node is not None:
                 self._user_node = user_node
             else:
@@ -498,6 +531,7 @@ class Runtime:
                     context.init([], initialize_logging=False)
                     self._node = Node(
                         sdk_node_name(os.getpid()),
+                        namespace=self.robot,
                         context=context,
                         use_global_arguments=False,
                         enable_rosout=False,
@@ -520,7 +554,9 @@ class Runtime:
             try:
                 from std_msgs.msg import UInt8MultiArray
 
-                self._batch_publisher = node.create_publisher(UInt8MultiArray, BATCH_TOPIC, batch_qos())
+                self._batch_publisher = node.create_publisher(
+                    UInt8MultiArray, batch_topic(self.robot), batch_qos()
+                )
                 if self._user_node is None and self._writer is None:
                     self._writer = self._new_writer()
                 # The DDS write without the GIL: the caller's threads run meanwhile.
@@ -530,7 +566,7 @@ class Runtime:
                 self.reporter.warn(
                     "publish_failed",
                     "batch_publisher",
-                    f"dbglog.{api}: cannot create the batch publisher on {BATCH_TOPIC} "
+                    f"dbglog.{api}: cannot create the batch publisher on {batch_topic(self.robot)} "
                     f"({type(exc).__name__}: {exc}); the viewer falls back to the per-tag topics",
                     exc,
                 )
@@ -543,6 +579,14 @@ class Runtime:
         """Connect now: on `node` when given, else on dbglog's own context and node."""
         if node is not None and not callable(getattr(node, "create_publisher", None)):
             raise TypeError(f"node must be an rclpy Node, not {type(node).__name__}")
+        robot = None
+        if node is not None:
+            try:
+                robot = normalize_robot(str(node.get_namespace()))
+            except TagError as exc:
+                raise ValueError(
+                    f"dbglog.init: the node's namespace cannot hold dbglog's topics: {exc}"
+                ) from None
         if self.state == "ready":
             self.shutdown()  # before taking the lock: locks are always taken publisher-thread lock first
         # The pipe lock too, in that order: the branch below destroys publishers, which only ever happens
@@ -554,6 +598,7 @@ class Runtime:
             if self.state == "ready":
                 self._drop_ros_objects(destroy=True)
                 self._user_node = None
+            self._node_robot = robot
             self.state = "idle"
             self._start(node, "init")
 
@@ -588,6 +633,7 @@ class Runtime:
             if self.state == "ready":
                 self._drop_ros_objects(destroy=True)
             self._user_node = None
+            self._node_robot = None
             if self.state in ("ready", "no_ros"):
                 self.state = "idle"
 
