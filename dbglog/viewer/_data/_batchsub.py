@@ -1,9 +1,11 @@
 """The engine's reader of dbglog's batch topic: every sample of every SDK tag, in order, with its time.
 
-A per-tag topic whose every publisher belongs to a node that also publishes batches is *covered*: the
-engine does not subscribe to it (so the SDK's per-tag copies cost it nothing) and feeds the topic's
-bindings from the batches instead. Topics with any other publisher (the bridge, a user's node) keep
-their own subscription. Runs on the engine's ROS thread only; no Dear PyGui.
+Each robot namespace has its own batch topic (``/robot1/_dbglog/samples``, `batch_topic`), whose
+tags are that robot's. A per-tag topic whose every publisher belongs to a node that also publishes
+batches in the topic's namespace is *covered*: the engine does not subscribe to it (so the SDK's
+per-tag copies cost it nothing) and feeds the topic's bindings from the batches instead. Topics with
+any other publisher (the bridge, a user's node) keep their own subscription. Runs on the engine's
+ROS thread only; no Dear PyGui.
 """
 
 from __future__ import annotations
@@ -17,11 +19,12 @@ from typing import Any
 import numpy as np
 
 from dbglog._ros._batch import (
-    BATCH_TOPIC,
     BATCH_TYPE,
     SCALAR_TYPES,
     BatchError,
     TagSamples,
+    batch_robot,
+    batch_topic,
     decode_batch,
     is_sdk_node,
 )
@@ -29,7 +32,7 @@ from dbglog._ros._cdr import read_string, string_payload
 from dbglog._ros._node import no_callback
 from dbglog._ros._numbers import as_numbers
 from dbglog._ros._qos import batch_qos
-from dbglog._ros._tags import topic_for_tag
+from dbglog._ros._tags import parse_topic, topic_for_tag
 from dbglog.viewer._data._history import History
 from dbglog.viewer._data._model import Binding, ValueKind
 from dbglog.viewer._data._series import NO_MESSAGE_YET, Series
@@ -69,7 +72,7 @@ class _Covered:
 
 
 class BatchIngest:
-    """Subscribes to `BATCH_TOPIC` while a writer exists and routes samples to covered topics' sinks.
+    """Subscribes to each robot's batch topic while a writer exists; routes samples to covered topics' sinks.
 
     Args:
         make_sink: the engine's ``(binding, series, cls, msg_type) -> sink``.
@@ -101,9 +104,11 @@ class BatchIngest:
         self._history = history
         self._claim = claim
         self._wanted: frozenset[str] = frozenset()
-        self.sub: Any = None
+        self.subs: dict[str, Any] = {}
+        """Robot namespace (``""``: the root) -> the subscription to its batch topic."""
         self._cls: Any = None
-        self._writer_nodes: frozenset[tuple[str, str]] = frozenset()
+        self._writer_nodes: dict[str, frozenset[tuple[str, str]]] = {}
+        """Robot namespace -> the nodes writing its batches."""
         self._first_seen: dict[tuple[str, str], float] = {}
         """When each scalar topic's publisher node was first seen (for the grace period)."""
         self._covered: dict[str, _Covered] = {}
@@ -118,21 +123,29 @@ class BatchIngest:
 
     # --- graph (engine thread) ----------------------------------------------------------------------
 
-    def refresh(self, node: Any) -> None:
-        """Follow the batch writers on the graph: subscribe while there is one."""
-        infos = node.get_publishers_info_by_topic(BATCH_TOPIC)
-        self._writer_nodes = frozenset(
-            (i.node_namespace, i.node_name) for i in infos if i.topic_type == BATCH_TYPE
-        )
-        if self._writer_nodes and self.sub is None:
-            self._cls = self._message_class(BATCH_TYPE)
-            self.sub = node.create_subscription(self._cls, BATCH_TOPIC, no_callback, batch_qos(), raw=True)
+    def refresh(self, node: Any, names: list[str]) -> int:
+        """Follow the batch writers on the graph (`names`: its topics): subscribe to each robot's batch
+        topic while it has one; return the graph queries made."""
+        robots = sorted({r for r in map(batch_robot, names) if r is not None} | set(self.subs))
+        for robot in robots:
+            topic = batch_topic(robot)
+            infos = node.get_publishers_info_by_topic(topic)
+            writers = frozenset((i.node_namespace, i.node_name) for i in infos if i.topic_type == BATCH_TYPE)
+            self._writer_nodes[robot] = writers
+            if writers and robot not in self.subs:
+                self._cls = self._cls or self._message_class(BATCH_TYPE)
+                self.subs[robot] = node.create_subscription(
+                    self._cls, topic, no_callback, batch_qos(), raw=True
+                )
+        return len(robots)
 
-    def covers(self, infos: list[Any]) -> bool:
-        """True when every publisher of a topic is a batch writer's node publishing a std_msgs scalar."""
+    def covers(self, infos: list[Any], name: str) -> bool:
+        """True when every publisher of topic `name` is a batch writer of its robot publishing a std_msgs
+        scalar."""
+        tag = parse_topic(name)
+        writers = self._writer_nodes.get(tag.robot if tag is not None else "", frozenset())
         return bool(infos) and all(
-            (i.node_namespace, i.node_name) in self._writer_nodes and i.topic_type in _SCALAR_TYPE_NAMES
-            for i in infos
+            (i.node_namespace, i.node_name) in writers and i.topic_type in _SCALAR_TYPE_NAMES for i in infos
         )
 
     def should_wait(self, infos: list[Any]) -> bool:
@@ -143,7 +156,8 @@ class BatchIngest:
                 continue
             key = (i.node_namespace, i.node_name)
             fresh = now - self._first_seen.setdefault(key, now) < _GRACE_S
-            if fresh and i.topic_type in _SCALAR_TYPE_NAMES and key not in self._writer_nodes:
+            writing = any(key in writers for writers in self._writer_nodes.values())
+            if fresh and i.topic_type in _SCALAR_TYPE_NAMES and not writing:
                 return True
         return False
 
@@ -213,10 +227,10 @@ class BatchIngest:
             del self._newest[binding]
 
     def close(self, node: Any) -> None:
-        """Destroy the subscription (engine stop)."""
-        if self.sub is not None:
-            node.destroy_subscription(self.sub)
-            self.sub = None
+        """Destroy the subscriptions (engine stop)."""
+        for sub in self.subs.values():
+            node.destroy_subscription(sub)
+        self.subs.clear()
 
     def stats(self) -> BatchStats:
         """Return the counters."""
@@ -226,9 +240,15 @@ class BatchIngest:
 
     # --- ingest (engine thread) ---------------------------------------------------------------------
 
-    def drain(self) -> None:
-        """Take the ready batches, keep every sample in the history and feed covered topics' sinks."""
-        take = self.sub.handle.take_message
+    def drain(self, ready: set[int]) -> None:
+        """Take the batches of the subscriptions in `ready` (handle pointers), keep every sample in the
+        history and feed covered topics' sinks."""
+        for robot, sub in list(self.subs.items()):
+            if sub.handle.pointer in ready:
+                self._drain(sub, robot)
+
+    def _drain(self, sub: Any, robot: str) -> None:
+        take = sub.handle.take_message
         for _ in range(_MAX_TAKE):
             got = take(self._cls, True)
             if got is None:
@@ -247,10 +267,10 @@ class BatchIngest:
             self._batches += 1
             self._samples += batch.samples
             for samples in batch.tags:
-                self._ingest(samples)
+                self._ingest(samples, robot)
 
-    def _ingest(self, samples: TagSamples) -> None:
-        name = topic_for_tag(samples.tag)
+    def _ingest(self, samples: TagSamples, robot: str = "") -> None:
+        name = topic_for_tag(samples.tag, robot)
         self._types[name] = "std_msgs/msg/" + samples.std_type
         times = samples.times_ns.astype(np.float64) * 1e-9
         chunk = (times, samples.values)

@@ -25,7 +25,7 @@ import numpy as np
 import numpy.typing as npt
 
 from dbglog._regex._compile import CompiledRegex
-from dbglog._ros._batch import BATCH_TOPIC
+from dbglog._ros._batch import batch_robot
 from dbglog._ros._cdr import decode_fixed
 from dbglog._ros._node import NodeIdentity, PrivateNode, WaitSet, no_callback, take_batch
 from dbglog._ros._qos import LOG_DEPTH, subscription_qos
@@ -516,10 +516,8 @@ class Engine(SeriesTimes):
                     self._refresh_graph(node)
                     next_graph = time.monotonic() + self.graph_period
                 wait_subs = list(self._subs.values())
-                batch_sub = self._batches.sub
-                subscriptions = [topic.sub for topic in wait_subs]
-                if batch_sub is not None:
-                    subscriptions.append(batch_sub)
+                batch_subs = list(self._batches.subs.values())
+                subscriptions = [topic.sub for topic in wait_subs] + batch_subs
                 timeout = max(0.0, next_graph - time.monotonic())
                 ready = wait_set.wait(subscriptions, int(timeout * 1e9))
                 woke, woke_cpu = time.monotonic(), time.thread_time()
@@ -528,8 +526,8 @@ class Engine(SeriesTimes):
                     for topic in wait_subs:
                         if topic.sub.handle.pointer in ready:
                             fullest = max(fullest, self._drain(topic) / topic.depth)
-                    if batch_sub is not None and batch_sub.handle.pointer in ready:
-                        self._batches.drain()
+                    if batch_subs:
+                        self._batches.drain(ready)
             except Exception:
                 if not (self._running and context.ok()):
                     return
@@ -608,10 +606,10 @@ class Engine(SeriesTimes):
         return plan
 
     def _refresh_graph(self, node: Any) -> None:
-        names_types = [(n, t) for n, t in node.get_topic_names_and_types() if n != BATCH_TOPIC]
-        self._batches.refresh(node)
+        graph = node.get_topic_names_and_types()
+        names_types = [(n, t) for n, t in graph if batch_robot(n) is None]
         self._graph_polls += 1
-        self._graph_queries += 2  # the topic list, the batch topic's publishers
+        self._graph_queries += 1 + self._batches.refresh(node, [n for n, _t in graph])  # + batch writers
         wanted = self._wanted()
         self._count_endpoints(node, names_types)
         topics: list[TopicInfo] = []
@@ -696,7 +694,7 @@ class Engine(SeriesTimes):
             return
         self._absent_since.pop(name, None)
         pub_types = sorted({info.topic_type for info in infos})
-        if self._batches.covers(infos) and len(pub_types) == 1:
+        if self._batches.covers(infos, name) and len(pub_types) == 1:
             # Every publisher is a dbglog SDK that also sends batches: read every sample from those.
             if topic is not None:
                 node.destroy_subscription(topic.sub)

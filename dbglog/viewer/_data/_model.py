@@ -12,7 +12,7 @@ from typing import Protocol
 import numpy as np
 import numpy.typing as npt
 
-from dbglog._ros._tags import tag_of
+from dbglog._ros._tags import TagName, parse_topic, tag_of
 from dbglog.viewer._values._transforms import Transform
 
 __all__ = [
@@ -119,8 +119,20 @@ class TopicInfo:
 
     @property
     def tag(self) -> str | None:
-        """The dbglog tag if this is a ``/rosdashboard/`` topic, else None."""
+        """The dbglog tag of a ``[/<robot>]/rosdashboard/`` topic as shown: the user's own text, with its
+        robot (``robot1:speed``) in a robot's namespace (`TagName.label`); None for any other topic."""
         return tag_of(self.name)
+
+    @property
+    def tag_name(self) -> TagName | None:
+        """The robot namespace and tag of a dbglog topic (`parse_topic`), None for any other topic."""
+        return parse_topic(self.name)
+
+    @property
+    def robot(self) -> str:
+        """The robot namespace of a dbglog topic (``/robot1``; ``""`` for the root and other topics)."""
+        name = parse_topic(self.name)
+        return name.robot if name is not None else ""
 
 
 @dataclass(frozen=True, slots=True)
