@@ -72,9 +72,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Run the ``dbglog`` command line and return its exit code."""
     parser = build_parser()
     args = parser.parse_args(argv)
-    if args.command is None:
-        parser.print_help()
-        return 0
+    if args.command is None:  # as argparse answers a missing argument: usage on stderr, status 2
+        parser.print_help(sys.stderr)
+        return 2
     interruptible()
     try:
         return _load(args._module).run(args)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import argparse
 import subprocess
 import sys
 import threading
@@ -15,7 +16,8 @@ from std_msgs.msg import Bool, Float64, String
 
 from dbglog._ros._qos import tag_qos
 from dbglog.viewer._cli._cli_echo import format_line, split_target
-from dbglog.viewer._cli._cli_tags import format_table, format_value
+from dbglog.viewer._cli._cli_tags import format_rate, format_table, format_value
+from dbglog.viewer._cli._cli_view import duration_arg
 from dbglog.viewer._data._engine import matched_reason
 from tests._ros import RosPeer
 
@@ -177,14 +179,46 @@ def test_echo_bad_field_exits_with_the_reason(robot: _Robot) -> None:
 
 
 def test_split_target_rules() -> None:
-    """Tags map to /rosdashboard/, the first dot starts the path, slashes need the graph."""
+    """Tags map to their topics (escaped, in a robot's namespace); a dot in a tag or slashes in a topic
+    need the graph to tell where the topic ends."""
     assert split_target("proximity", set()) == ("/rosdashboard/proximity", "")
-    assert split_target("pose.x", set()) == ("/rosdashboard/pose", "x")
+    assert split_target("pose.x", set()) is None  # the tag 'pose.x', or 'pose' and its field x?
+    assert split_target("pose.x", {"/rosdashboard/pose"}) == ("/rosdashboard/pose", "x")
+    assert split_target("v1.2", {"/rosdashboard/v1__2e_2"}) == ("/rosdashboard/v1__2e_2", "")
+    assert split_target("速度", set()) == ("/rosdashboard/__901f___5ea6_", "")
+    assert split_target("robot1:speed", set()) == ("/robot1/rosdashboard/speed", "")
+    assert split_target("/robot1:pose.x", {"/robot1/rosdashboard/pose"}) == ("/robot1/rosdashboard/pose", "x")
+    assert split_target(":a:b", set()) == ("/rosdashboard/a__3a_b", "")
     assert split_target("/scan.ranges[3]", set()) == ("/scan", "ranges[3]")
     assert split_target("/scan", {"/scan"}) == ("/scan", "")
     assert split_target("/turtle1/pose/x", set()) is None
     assert split_target("/turtle1/pose/x", {"/turtle1/pose"}) == ("/turtle1/pose", "x")
     assert split_target("/a/b/c/d", {"/a/b"}) == ("/a/b", "c.d")
+
+
+def test_history_durations_take_days() -> None:
+    """--history reads days as it reads hours; beyond 7 days it says the limit, not 'not a duration'."""
+    assert duration_arg("2d") == 2 * 86400
+    assert duration_arg("1d12h") == 1.5 * 86400
+    assert duration_arg("7d") == 7 * 86400
+    assert duration_arg("1h30m") == 5400
+    with pytest.raises(argparse.ArgumentTypeError, match=r"outside 1 s\.\.7 days"):
+        duration_arg("9d")
+    with pytest.raises(argparse.ArgumentTypeError, match="not a duration"):
+        duration_arg("2w")
+
+
+def test_rates_show_three_significant_digits_alike() -> None:
+    """Every rate has three significant digits, so 10 Hz never shows as both '10 Hz' and '10.0 Hz'."""
+    assert [format_rate(r) for r in (9.996, 10.0, 10.04)] == ["10.0 Hz"] * 3
+    assert [format_rate(r) for r in (0.5, 2.0, 19.84, 250.2, 1000.4, None)] == [
+        "0.500 Hz",
+        "2.00 Hz",
+        "19.8 Hz",
+        "250 Hz",
+        "1000 Hz",
+        "-",
+    ]
 
 
 def test_matched_reason_says_how_far_discovery_got() -> None:

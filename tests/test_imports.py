@@ -33,6 +33,17 @@ def test_cli_help_lists_every_command() -> None:
         assert command in out.stdout
 
 
+def test_dbglog_without_a_command_prints_help_and_exits_2() -> None:
+    """`dbglog` alone is a usage error, as argparse makes any other: help on stderr, exit status 2."""
+    out = subprocess.run(
+        [sys.executable, "-m", "dbglog"], capture_output=True, text=True, timeout=60, check=False
+    )
+    assert out.returncode == 2
+    assert out.stdout == ""
+    assert "usage: dbglog" in out.stderr
+    assert "tags" in out.stderr
+
+
 def test_widget_api_loads_no_bridge_matcher() -> None:
     """Importing widget_api loads neither the bridge's RE2-Set matcher nor its YAML rules loader."""
     code = (

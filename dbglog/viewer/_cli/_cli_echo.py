@@ -8,7 +8,7 @@ import sys
 import time
 from typing import TYPE_CHECKING
 
-from dbglog._ros._tags import topic_for_tag
+from dbglog._ros._tags import TagError, TagName, parse_target
 from dbglog._ros._text import format_line
 from dbglog.viewer._data._suggest import DISCOVERY_HORIZON_S, graph_names
 
@@ -37,8 +37,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Declare the ``echo`` options."""
     parser.add_argument(
         "target",
-        help="a dbglog tag (proximity) or a topic with an optional field path: "
-        "/turtle1/cmd_vel.linear.x, /scan.ranges[3] (rqt style /turtle1/pose/x works too)",
+        help="a dbglog tag (proximity, 速度; a robot's: robot1:proximity; a root tag holding ':' as :a:b) "
+        "or a topic with an optional field path: /turtle1/cmd_vel.linear.x, /scan.ranges[3] (rqt style "
+        "/turtle1/pose/x works too)",
     )
     parser.add_argument(
         "--count",
@@ -73,16 +74,27 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def split_target(target: str, graph_topics: set[str]) -> tuple[str, str] | None:
-    """Split TARGET into (topic, field path); None while a slash-style target matches no topic yet.
+    """Split TARGET into (topic, field path); None while the graph cannot tell yet where the topic ends.
 
-    A tag maps to ``/rosdashboard/<tag>``. Topic names never contain ``.``, so the first dot starts
-    the field path. Without a dot, a name that is not itself a topic is read rqt-style: the longest
-    prefix that is a topic on the graph, the rest a ``/``-separated field path.
+    A tag (``proximity``, ``速度``, ``robot1:speed``, ``:a:b``: `parse_target`) maps to its topic; topic
+    names never contain ``.``, so in a ``/topic`` the first dot starts the field path. A tag's text may
+    hold dots: ``tag.field`` is the tag ``tag.field`` when the graph has it, else ``tag`` and its field.
+    Without a dot, a ``/topic`` that is not itself on the graph is read rqt-style: the longest prefix
+    that is a topic on the graph, the rest a ``/``-separated field path.
+
+    Raises:
+        TagError: the tag's topic would be too long for ROS 2.
     """
     target = target.strip()
-    if not target.startswith("/"):
-        tag, _, path = target.partition(".")
-        return topic_for_tag(tag), path
+    whole = parse_target(target)
+    if isinstance(whole, TagName):
+        if "." not in target or whole.topic in graph_topics:
+            return whole.topic, ""
+        head, _, path = target.partition(".")
+        tag = parse_target(head)
+        if isinstance(tag, TagName) and tag.topic in graph_topics:
+            return tag.topic, path
+        return None
     topic, dot, path = target.partition(".")
     if dot or topic in graph_topics:
         return topic, path
@@ -92,6 +104,14 @@ def split_target(target: str, graph_topics: set[str]) -> tuple[str, str] | None:
         if prefix in graph_topics:
             return prefix, ".".join(parts[cut:])
     return None
+
+
+def _pending_topic(target: str) -> str:
+    """The topic a target whose split waits for the graph is named by (for its hints): ``/a/b/c`` as
+    typed, a ``tag.field`` target's tag."""
+    head = target.strip().split(".")[0]
+    tag = parse_target(head)
+    return tag.topic if isinstance(tag, TagName) else head
 
 
 def _why(engine: Engine, topic: str, snap: SeriesSnapshot | None, waited: float) -> str:
@@ -208,18 +228,22 @@ def run(args: argparse.Namespace) -> int:
         if reason is not None:
             print(f"dbglog echo: {reason} (still waiting; Ctrl-C to stop)", file=sys.stderr, flush=True)
 
+    try:
+        split = split_target(args.target, set())
+    except TagError as exc:
+        print(f"dbglog echo: {args.target!r} is not a tag: {exc}", file=sys.stderr)
+        return 2
     with Engine(node_name="dbglog_echo") as engine:
         started = last_value_at = time.monotonic()
-        split = split_target(args.target, set())
         while split is None:  # rqt-style name: wait for the graph to say where the topic ends
             split = split_target(args.target, {t.name for t in engine.topics()})
             waited = time.monotonic() - started
             if split is None and args.timeout is not None and waited > args.timeout:
-                topic = args.target.split(".")[0]
+                topic = _pending_topic(args.target)
                 print(f"dbglog echo: {_why(engine, topic, None, args.timeout)}", file=sys.stderr)
                 return 1
             if split is None:
-                hint_once(args.target.split(".")[0])
+                hint_once(_pending_topic(args.target))
             time.sleep(_POLL_S)
         topic, path = split
         binding = Binding(topic, path, args.regex)

@@ -11,7 +11,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from dbglog._ros._tags import tag_of
+from dbglog._ros._tags import robot_label, tag_of
 from dbglog.viewer._data._suggest import DISCOVERY_HORIZON_S
 
 if TYPE_CHECKING:
@@ -31,7 +31,10 @@ __all__ = [
     "run",
 ]
 
-HELP = "List the live dbglog tags (tag, type, rate, last value, status); --all lists every topic."
+HELP = (
+    "List the live dbglog tags (tag as logged, type, rate, last value, status; a robot column when tags "
+    "come from robot namespaces); --all lists every topic."
+)
 
 _CLEAR = "\x1b[H\x1b[2J"
 _POLL_S = 0.05
@@ -145,10 +148,14 @@ def rate_from_times(
 
 
 def format_rate(rate: float | None) -> str:
-    """Render a rate for a table cell (`-` when there is none)."""
+    """Render a rate for a table cell with three significant digits (``5.00 Hz``, ``10.0 Hz``, ``250 Hz``;
+    whole numbers from 1000 Hz); `-` when there is none."""
     if rate is None:
         return "-"
-    return f"{rate:.3g} Hz" if rate < 10 else f"{rate:.1f} Hz"
+    if not rate > 0 or rate >= 1000:
+        return f"{rate:.0f} Hz"
+    rounded = float(f"{rate:.3g}")
+    return f"{rounded:.{max(0, 2 - math.floor(math.log10(rounded)))}f} Hz"
 
 
 def _observe(engine: Engine, topics: list[TopicInfo], seen: dict[str, _Seen], now: float) -> None:
@@ -199,13 +206,30 @@ def _judge(engine: Engine, snap: SeriesSnapshot, state: _Seen, now: float) -> tu
     return True, n / (snap.last_time - state.first_time)
 
 
+def _robots(topics: list[TopicInfo], show_all: bool) -> bool:
+    """Whether the table has a robot column: some listed tag is in a robot's namespace (not with --all)."""
+    return not show_all and any(t.robot for t in topics)
+
+
+def _header(topics: list[TopicInfo], show_all: bool) -> list[str]:
+    head = ["topic" if show_all else "tag", "type", "rate", "last value", "status"]
+    return ["robot", *head] if _robots(topics, show_all) else head
+
+
 def _rows(engine: Engine, topics: list[TopicInfo], seen: dict[str, _Seen], show_all: bool) -> list[list[str]]:
     from dbglog.viewer._data._model import Binding, Status
 
     now = time.monotonic()
+    robots = _robots(topics, show_all)
     rows = []
+    if robots:  # each robot's tags together, the root's first
+        topics = sorted(topics, key=lambda t: (t.robot, t.tag_name.text if t.tag_name else t.name))
     for info in topics:
-        name = info.tag if info.tag is not None and not show_all else info.name
+        tag = info.tag_name
+        if show_all or tag is None:
+            name = info.name
+        else:
+            name = tag.text if robots else tag.label
         type_name = info.types[0] if info.types else "?"
         snap = engine.snapshot(Binding(info.name))
         state = seen.get(info.name)
@@ -220,7 +244,8 @@ def _rows(engine: Engine, topics: list[TopicInfo], seen: dict[str, _Seen], show_
             rate = format_rate(hz)
             value = format_value(snap.last)
             status = str(Status.LIVE if live else Status.STALE)
-        rows.append([name, type_name, rate, value, status])
+        row = [name, type_name, rate, value, status]
+        rows.append([robot_label(info.robot) or "-", *row] if robots else row)
     return rows
 
 
@@ -303,14 +328,13 @@ def run(args: argparse.Namespace) -> int:
     if args.wait < 0 or args.interval <= 0:
         print("dbglog tags: --wait must be >= 0 and --interval > 0", file=sys.stderr)
         return 2
-    header = ["topic" if args.all else "tag", "type", "rate", "last value", "status"]
     seen: dict[str, _Seen] = {}
     with Engine(node_name="dbglog_tags") as engine:
         started = time.monotonic()
         topics = _settle(engine, args, seen)
         while True:
             if topics:
-                table = format_table(header, _rows(engine, topics, seen, args.all))
+                table = format_table(_header(topics, args.all), _rows(engine, topics, seen, args.all))
             else:
                 table = _empty_message(engine, args.all, time.monotonic() - started)
             if not args.watch:

@@ -77,19 +77,22 @@ def seconds_arg(text: str) -> float:
     return _number_within(text, "seconds", "seconds", 0, 3600)
 
 
-_DURATION = re.compile(r"(?:(\d+(?:\.\d*)?)h)?(?:(\d+(?:\.\d*)?)m)?(?:(\d+(?:\.\d*)?)s?)?")
+_DURATION = re.compile(
+    r"(?:(\d+(?:\.\d*)?)d)?(?:(\d+(?:\.\d*)?)h)?(?:(\d+(?:\.\d*)?)m)?(?:(\d+(?:\.\d*)?)s?)?"
+)
 MAX_HISTORY_S = 7 * 86400.0
 
 
 def duration_arg(text: str) -> float:
-    """Parse a history length for argparse: seconds (``1800``) or with units (``90s``, ``30m``, ``1h30m``)."""
+    """Parse a history length for argparse: seconds (``1800``) or with units (``90s``, ``30m``, ``1h30m``,
+    ``2d``, ``1d12h``)."""
     match = _DURATION.fullmatch(text.strip().lower())
     if not text.strip() or match is None or not any(match.groups()):
-        raise argparse.ArgumentTypeError(f"not a duration: {text!r} (e.g. 1800, 90s, 30m, 2h, 1h30m)")
-    h, m, s = (float(g) if g else 0.0 for g in match.groups())
-    value = h * 3600 + m * 60 + s
+        raise argparse.ArgumentTypeError(f"not a duration: {text!r} (e.g. 1800, 90s, 30m, 2h, 1h30m, 2d)")
+    d, h, m, s = (float(g) if g else 0.0 for g in match.groups())
+    value = d * 86400 + h * 3600 + m * 60 + s
     if not 1 <= value <= MAX_HISTORY_S:
-        raise argparse.ArgumentTypeError(f"a history of {text} is outside 1 s..7 days")
+        raise argparse.ArgumentTypeError(f"a history of {text} is outside 1 s..7 days (7d)")
     return value
 
 
@@ -189,7 +192,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=1800.0,
         metavar="DURATION",
         help="how far back the viewer remembers every tag and bound topic, for the timeline: seconds "
-        "or 90s / 30m / 2h (default 30m)",
+        "or 90s / 30m / 2h / 1d (default 30m, at most 7d)",
     )
     parser.add_argument(
         "--history-mb",
