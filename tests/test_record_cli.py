@@ -308,16 +308,17 @@ def test_record_refuses_to_overwrite_unless_forced(tmp_path: Path, procs: Callab
 
 
 def test_record_rejects_a_malformed_target(tmp_path: Path) -> None:
-    """A target that is neither a tag nor a topic is named with exit 2, before anything starts."""
+    """A target that is neither a tag nor a topic is named with exit 2, before anything starts (any text is
+    a tag now: 'a.b' is the tag a.b, so a topic with a dot is the malformed one)."""
     done = subprocess.run(
-        [sys.executable, *_record(tmp_path / "x.mcap", "a.b")],
+        [sys.executable, *_record(tmp_path / "x.mcap", "/odom.x")],
         capture_output=True,
         text=True,
         timeout=60,
         check=False,
     )
     assert done.returncode == 2
-    assert "'a.b' is not a tag or a topic" in done.stderr
+    assert "'/odom.x' is not a tag or a topic" in done.stderr
     assert not (tmp_path / "x.mcap").exists()
 
 

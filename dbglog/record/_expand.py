@@ -12,9 +12,9 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
-from dbglog._ros._batch import BatchError, decode_batch
+from dbglog._ros._batch import BatchError, batch_topic, decode_batch
 from dbglog._ros._cdr import CDR_HEADER, string_payload
-from dbglog._ros._tags import TAG_PREFIX
+from dbglog._ros._tags import topic_for_tag
 
 if TYPE_CHECKING:
     import numpy as np
@@ -62,8 +62,9 @@ class BatchExpander:
         self.missing = 0
         """Batches never received: gaps in a writer's batch numbers (lost in DDS, or not sent by the SDK)."""
 
-    def expand(self, log_time: int, cdr: bytes) -> int:
-        """Write the samples of one batch message (CDR bytes); return how many were written."""
+    def expand(self, log_time: int, cdr: bytes, robot: str = "") -> int:
+        """Write the samples of one batch message (CDR bytes) of `robot`'s batch topic; return how many
+        were written."""
         import numpy as np
 
         try:
@@ -81,13 +82,13 @@ class BatchExpander:
         written = 0
         groups: dict[str, tuple[list[int], list[npt.NDArray[np.int64]], list[npt.NDArray[Any]]]] = {}
         for samples in batch.tags:
-            topic = TAG_PREFIX + samples.tag
+            topic = topic_for_tag(samples.tag, robot)
             if not self.wanted(topic):
                 continue
             msg_type = f"std_msgs/msg/{samples.std_type}"
             channel = self._channels.get((topic, msg_type))
             if channel is None:
-                channel = out.add_channel(topic, msg_type, metadata={"dbglog_from": "/_dbglog/samples"})
+                channel = out.add_channel(topic, msg_type, metadata={"dbglog_from": batch_topic(robot)})
                 self._channels[(topic, msg_type)] = channel
                 self.topics.add(topic)
             if isinstance(samples.values, list):  # String: variable length, one message each

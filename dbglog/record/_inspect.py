@@ -17,9 +17,9 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from dbglog._ros._batch import BATCH_TOPIC, BatchError, decode_batch
+from dbglog._ros._batch import BatchError, batch_robot, decode_batch
 from dbglog._ros._numbers import NumberType, as_number, as_numbers
-from dbglog._ros._tags import TAG_PREFIX
+from dbglog._ros._tags import TagError, TagName, parse_target, parse_topic
 from dbglog._ros._text import format_line
 from dbglog.record._reader import Recording, TopicData, read_recording
 from dbglog.record._writer import RecordingError
@@ -34,12 +34,15 @@ class TagSeries:
     """One dbglog tag's samples from a recording, oldest first."""
 
     tag: str
+    """The tag as shown (`TagName.label`: the user's text, ``robot1:speed`` in a robot's namespace)."""
     std_type: str
     """``Float64``, ``Int32``, ``Bool``, ``String`` ..."""
     times_ns: npt.NDArray[np.int64]
     values: npt.NDArray[Any] | list[str]
     """As the tag type holds them (int64/uint64 exact, float64, bool), from the batch topic or the tag's
     own topic alike."""
+    topic: str = ""
+    """The tag's topic."""
 
 
 def _stderr(message: str) -> None:
@@ -47,47 +50,58 @@ def _stderr(message: str) -> None:
 
 
 def tag_series(recording: Recording) -> dict[str, TagSeries]:
-    """Every dbglog tag's samples: from the batch topic where it carries the tag, else its own topic."""
+    """Every dbglog tag's samples by its label (``speed``, ``robot1:speed``): from its robot's batch topic
+    where that carries the tag, else its own topic."""
     out: dict[str, TagSeries] = {}
-    batch = recording.topics.get(BATCH_TOPIC)
-    if batch is not None and len(batch):
-        times: dict[str, list[npt.NDArray[np.int64]]] = {}
-        values: dict[str, list[Any]] = {}
-        kinds: dict[str, str] = {}
-        seen: set[tuple[int, int]] = set()
-        for payload in batch.payloads():
-            try:
-                decoded = decode_batch(payload)
-            except BatchError:
-                continue
-            if (decoded.writer, decoded.seq) in seen:  # re-sent history after a re-subscription
-                continue
-            seen.add((decoded.writer, decoded.seq))
-            for s in decoded.tags:
-                kinds[s.tag] = s.std_type
-                times.setdefault(s.tag, []).append(s.times_ns)
-                values.setdefault(s.tag, []).append(s.values)
-        for tag, parts in times.items():
-            t = np.concatenate(parts)
-            order = np.argsort(t, kind="stable")
-            if kinds[tag] == "String":
-                texts = [x for chunk in values[tag] for x in chunk]
-                out[tag] = TagSeries(tag, "String", t[order], [texts[i] for i in order.tolist()])
-            else:
-                v = np.concatenate(values[tag])
-                out[tag] = TagSeries(tag, kinds[tag], t[order], v[order])
+    for name, batch in recording.topics.items():
+        robot = batch_robot(name)
+        if robot is not None and len(batch):
+            _batch_series(batch, robot, out)
     for name, topic in recording.topics.items():
-        if not name.startswith(TAG_PREFIX):
+        tag_name = parse_topic(name)
+        if tag_name is None:
             continue
-        tag = name[len(TAG_PREFIX) :]
+        tag = tag_name.label
         if tag in out or not topic.msg_type.startswith("std_msgs/msg/"):
             continue
         std_type = topic.msg_type.rsplit("/", 1)[1]
         if topic.values is not None:
-            out[tag] = TagSeries(tag, std_type, topic.times_ns, topic.values)
+            out[tag] = TagSeries(tag, std_type, topic.times_ns, topic.values, name)
         elif std_type == "String":
-            out[tag] = TagSeries(tag, std_type, topic.times_ns, [_cdr_string(p) for p in topic.payloads()])
+            payloads = [_cdr_string(p) for p in topic.payloads()]
+            out[tag] = TagSeries(tag, std_type, topic.times_ns, payloads, name)
     return dict(sorted(out.items()))
+
+
+def _batch_series(batch: TopicData, robot: str, out: dict[str, TagSeries]) -> None:
+    """Add the tags of one robot's batch topic to `out`."""
+    times: dict[str, list[npt.NDArray[np.int64]]] = {}
+    values: dict[str, list[Any]] = {}
+    kinds: dict[str, str] = {}
+    seen: set[tuple[int, int]] = set()
+    for payload in batch.payloads():
+        try:
+            decoded = decode_batch(payload)
+        except BatchError:
+            continue
+        if (decoded.writer, decoded.seq) in seen:  # re-sent history after a re-subscription
+            continue
+        seen.add((decoded.writer, decoded.seq))
+        for s in decoded.tags:
+            kinds[s.tag] = s.std_type
+            times.setdefault(s.tag, []).append(s.times_ns)
+            values.setdefault(s.tag, []).append(s.values)
+    for tag, parts in times.items():
+        name = TagName(robot, tag)
+        t = np.concatenate(parts)
+        order = np.argsort(t, kind="stable")
+        if kinds[tag] == "String":
+            texts = [x for chunk in values[tag] for x in chunk]
+            series = TagSeries(name.label, "String", t[order], [texts[i] for i in order.tolist()], name.topic)
+        else:
+            v = np.concatenate(values[tag])
+            series = TagSeries(name.label, kinds[tag], t[order], v[order], name.topic)
+        out[series.tag] = series
 
 
 def _cdr_string(payload: bytes) -> str:
@@ -155,7 +169,7 @@ def tags_table(
                 ends = s.values[[0, -1]].tolist()  # Python numbers: an int64 stays exact
                 want = _number_type(s.std_type)
                 first, last = as_number(ends[0], want), as_number(ends[1], want)
-        name = TAG_PREFIX + tag if all_topics else tag
+        name = s.topic if all_topics else tag
         rows.append(
             [
                 name,
@@ -168,7 +182,8 @@ def tags_table(
         )
     if all_topics:
         for name, topic in recording.topics.items():
-            if name.startswith(TAG_PREFIX) and name[len(TAG_PREFIX) :] in series:
+            tag_name = parse_topic(name)
+            if tag_name is not None and tag_name.label in series:
                 continue
             first = last = None
             if topic.values is not None and len(topic):
@@ -209,7 +224,8 @@ def _resolve(recording: Recording, target: str) -> tuple[str, list[tuple[str, in
                     topic = candidate
                     break
     else:
-        topic, path = TAG_PREFIX + target, ""
+        tag = _tag_target(target)
+        topic, path = (tag.topic if tag is not None else target), ""
     fields: list[tuple[str, int | None]] = []
     for part in path.split(".") if path else []:
         m = _FIELD.match(part)
@@ -234,8 +250,9 @@ def echo_lines(
         RecordingError: the file cannot be read, or the target or field is not in it (named).
     """
     recording = _open(path, warn)
-    if not target.startswith("/"):
-        series = tag_series(recording).get(target)
+    tag = _tag_target(target)
+    if tag is not None:
+        series = tag_series(recording).get(tag.label)
         if series is None:
             tags = ", ".join(tag_series(recording)) or "none"
             raise RecordingError(f"{recording.path}: no tag {target!r} in this recording (tags: {tags})")
@@ -275,6 +292,19 @@ def echo_lines(
                 except IndexError:
                     raise RecordingError(f"{topic}: index {idx} is out of range in {name}") from None
         yield format_line(_plain(value), t if stamp else None)
+
+
+def _tag_target(target: str) -> TagName | None:
+    """The tag `target` names (``speed``, ``robot1:speed``: `parse_target`), None for a ``/topic``.
+
+    Raises:
+        RecordingError: the tag's topic would be too long for ROS 2 (no recording can hold it).
+    """
+    try:
+        tag = parse_target(target)
+    except TagError as exc:
+        raise RecordingError(f"{target!r} is not a tag: {exc}") from None
+    return tag if isinstance(tag, TagName) else None
 
 
 def _decoder(data: TopicData) -> Callable[[bytes], Any]:

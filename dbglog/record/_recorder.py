@@ -20,8 +20,8 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from dbglog._ros._batch import BATCH_DEPTH, BATCH_TOPIC, SCALAR_TYPES, is_sdk_node
-from dbglog._ros._tags import TAG_PREFIX
+from dbglog._ros._batch import BATCH_DEPTH, SCALAR_TYPES, batch_robot, batch_topic, is_sdk_node
+from dbglog._ros._tags import TagError, TagName, parse_target, parse_topic
 from dbglog.record._expand import BatchExpander
 from dbglog.record._writer import McapWriter
 
@@ -48,23 +48,33 @@ class Targets:
     prefixes: tuple[str, ...] = ()
     """Tag topics: the tag itself and its sub-tags (``motor`` -> ``motor/rpm``)."""
     batch: bool = True
-    """Record the SDK's batch topic (every sample with its source time) with tag targets."""
+    """Record the SDK's batch topics (every sample with its source time) with tag targets: each robot's
+    with its tags."""
 
     def wants(self, topic: str) -> bool:
         """True when `topic` is to be recorded."""
-        if topic == BATCH_TOPIC:
+        robot = batch_robot(topic)
+        if robot is not None:
             return topic in self.topics or (
-                self.batch and (self.everything or self.all_tags or bool(self.prefixes))
+                self.batch
+                and (self.everything or self.all_tags or any(_robot_of(p) == robot for p in self.prefixes))
             )
-        if self.all_tags and topic.startswith(TAG_PREFIX):
+        if self.all_tags and parse_topic(topic) is not None:
             return True
         if self.everything or topic in self.topics:
             return True
         return any(topic == p or topic.startswith(p + "/") for p in self.prefixes)
 
 
+def _robot_of(topic: str) -> str | None:
+    """The robot namespace of a tag topic (None for another topic)."""
+    name = parse_topic(topic)
+    return name.robot if name is not None else None
+
+
 def parse_targets(targets: Sequence[str], *, everything: bool, batch: bool = True) -> Targets:
-    """Read ``proximity`` as a tag, ``/odom`` as a topic; none: every tag plus /rosout.
+    """Read ``proximity``, ``速度`` or ``robot1:proximity`` as a tag (`parse_target`), ``/odom`` as a
+    topic; none: every tag (of every robot) plus /rosout.
 
     Raises:
         ValueError: a target is empty or malformed (the message names it).
@@ -77,12 +87,16 @@ def parse_targets(targets: Sequence[str], *, everything: bool, batch: bool = Tru
     prefixes: list[str] = []
     for target in targets:
         name = target.strip().rstrip("/")
-        if not name or " " in name or "." in name:
+        try:
+            parsed = parse_target(name) if name else None
+        except TagError as exc:
+            raise ValueError(f"{target!r} is not a tag: {exc}") from None
+        if isinstance(parsed, TagName):
+            prefixes.append(parsed.topic)
+        elif parsed is None or " " in name or "." in name:
             raise ValueError(f"{target!r} is not a tag or a topic (a topic starts with /, a tag is a name)")
-        if name.startswith("/"):
-            topics.add(name)
         else:
-            prefixes.append(TAG_PREFIX + name)
+            topics.add(name)
     return Targets(all_tags=False, topics=frozenset(topics), prefixes=tuple(prefixes), batch=batch)
 
 
@@ -262,9 +276,12 @@ class Recorder:
     def _refresh(self, node: Any) -> None:
         from rclpy.qos import DurabilityPolicy, ReliabilityPolicy
 
-        names = sorted((n for n, _types in node.get_topic_names_and_types()), key=lambda n: n != BATCH_TOPIC)
-        batch_nodes: set[tuple[str, str]] = set()
-        for name in names:  # the batch topic first: it decides which tag topics it covers
+        names = sorted(
+            (n for n, _types in node.get_topic_names_and_types()), key=lambda n: batch_robot(n) is None
+        )
+        batch_nodes: dict[str, set[tuple[str, str]]] = {}
+        """Robot namespace -> the SDK nodes writing its batches."""
+        for name in names:  # the batch topics first: they decide which tag topics they cover
             if not self.targets.wants(name):
                 continue
             infos = node.get_publishers_info_by_topic(name)
@@ -274,14 +291,18 @@ class Recorder:
             if len(pub_types) > 1:
                 self._skip(name, f"publishers disagree on its type ({', '.join(pub_types)})")
                 continue
-            if name == BATCH_TOPIC:
-                batch_nodes = {(i.node_namespace, i.node_name) for i in infos if is_sdk_node(i.node_name)}
+            robot = batch_robot(name)
+            tag_robot = _robot_of(name)
+            if robot is not None:
+                batch_nodes[robot] = {
+                    (i.node_namespace, i.node_name) for i in infos if is_sdk_node(i.node_name)
+                }
             elif (
                 name not in self._subs
-                and BATCH_TOPIC in self._subs
-                and name.startswith(TAG_PREFIX)
+                and tag_robot is not None
+                and batch_topic(tag_robot) in self._subs
                 and pub_types[0] in _BATCHED_TYPES
-                and all((i.node_namespace, i.node_name) in batch_nodes for i in infos)
+                and all((i.node_namespace, i.node_name) in batch_nodes.get(tag_robot, ()) for i in infos)
             ):
                 # Only SDK nodes that send the batch publish it: its samples come from the batches (a
                 # subscriber here would make each SDK publish every sample twice).
@@ -320,7 +341,7 @@ class Recorder:
             if old.lost_event is not None:
                 old.lost_event.destroy_when_not_in_use()
             node.destroy_subscription(old.sub)
-        depth = max(self.depth, BATCH_DEPTH) if name == BATCH_TOPIC else self.depth
+        depth = max(self.depth, BATCH_DEPTH) if batch_robot(name) is not None else self.depth
         qos = subscription_qos(depth, reliable=reliable, transient=transient)
         sub = node.create_subscription(cls, name, lambda _m: None, qos, raw=True)
         channel = 0
@@ -355,7 +376,8 @@ class Recorder:
         clock = time.time_ns
         writer = self.writer
         n = 0
-        expander = self._expander if s.topic == BATCH_TOPIC else None
+        robot = batch_robot(s.topic)
+        expander = self._expander if robot is not None else None
         if writer is not None and expander is not None:
             write = writer.write
             channel = s.channel
@@ -368,7 +390,7 @@ class Recorder:
                     break
                 now = clock()
                 write(channel, now, got[0], got[1]["source_timestamp"])
-                samples += expand(now, got[0])
+                samples += expand(now, got[0], robot or "")
                 n += 1
             self.stats.from_batch += samples
             self.stats.messages += samples
@@ -440,8 +462,9 @@ class Recorder:
                 channel = channels[key] = writer.add_channel(topic, msg_type)
             writer.write(channel, log_time, data, source)
             count += 1
-            if topic == BATCH_TOPIC:
-                count += expander.expand(log_time, data)
+            robot = batch_robot(topic)
+            if robot is not None:
+                count += expander.expand(log_time, data, robot)
         writer.close()
         return count
 

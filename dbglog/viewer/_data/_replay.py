@@ -16,9 +16,8 @@ import threading
 
 import numpy as np
 
-from dbglog._ros._batch import BATCH_TOPIC
+from dbglog._ros._batch import batch_robot
 from dbglog._ros._cdr import string_payload
-from dbglog._ros._tags import topic_for_tag
 from dbglog.record._inspect import tag_series
 from dbglog.record._reader import Recording, read_recording, recording_span
 from dbglog.viewer._data._fields import FieldPathError, list_fields, message_class
@@ -38,8 +37,8 @@ def history_of(recording: Recording, *, max_bytes: int) -> tuple[History, dict[s
     """Return a history holding every readable message of `recording`, and each topic's type."""
     store = History(clock=None, max_seconds=_FOREVER_S, max_bytes=max_bytes)
     types: dict[str, str] = {}
-    for tag, series in tag_series(recording).items():
-        name = topic_for_tag(tag)
+    for series in tag_series(recording).values():
+        name = series.topic
         times = series.times_ns.astype(np.float64) * 1e-9
         types[name] = f"std_msgs/msg/{series.std_type}"
         if isinstance(series.values, list):
@@ -48,7 +47,7 @@ def history_of(recording: Recording, *, max_bytes: int) -> tuple[History, dict[s
         else:
             store.append_numbers(name, times, series.values)
     for name, topic in recording.topics.items():
-        if name == BATCH_TOPIC or name in types or not len(topic):
+        if batch_robot(name) is not None or name in types or not len(topic):
             continue
         types[name] = topic.msg_type
         times = topic.times_ns.astype(np.float64) * 1e-9
