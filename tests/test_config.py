@@ -57,3 +57,15 @@ def test_load_config_defaults_and_switches() -> None:
     assert (cfg.enabled, cfg.strict) == (False, True)
     with pytest.raises(ConfigError, match="DBGLOG_STRICT="):
         load_config({"DBGLOG_STRICT": "sometimes"})
+
+
+def test_dbglog_namespace_is_read_once_and_checked() -> None:
+    """DBGLOG_NAMESPACE gives the robot namespace, with or without its slash; a bad one names the variable."""
+    assert load_config({}).namespace == ""
+    assert load_config({"DBGLOG_NAMESPACE": "robot1"}).namespace == "/robot1"
+    assert load_config({"DBGLOG_NAMESPACE": "/lab/robot1"}).namespace == "/lab/robot1"
+    assert load_config({"DBGLOG_NAMESPACE": "/"}).namespace == ""
+    with pytest.raises(ConfigError, match="DBGLOG_NAMESPACE='1robot'"):
+        load_config({"DBGLOG_NAMESPACE": "1robot"})
+    with pytest.raises(ConfigError, match="'rosdashboard' is dbglog's own"):
+        load_config({"DBGLOG_NAMESPACE": "/rosdashboard"})
