@@ -73,10 +73,10 @@ class Collector:
 class RosPeer:
     """An independent ROS 2 participant (own context and node) spinning in a background thread."""
 
-    def __init__(self, name: str = "test_peer") -> None:
+    def __init__(self, name: str = "test_peer", namespace: str = "") -> None:
         self.context = Context()
         rclpy.init(context=self.context)
-        self.node = Node(name, context=self.context)
+        self.node = Node(name, namespace=namespace, context=self.context)
         self._executor = SingleThreadedExecutor(context=self.context)
         self._executor.add_node(self.node)
         self._stop = threading.Event()

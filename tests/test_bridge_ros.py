@@ -219,6 +219,20 @@ def test_cli_check_accepts_a_good_file_and_lists_its_topics(tmp_path: Path) -> N
     assert "/rosdashboard/t/ok (bool)" in done.stdout
 
 
+def test_cli_check_lists_topics_in_the_bridges_namespace(tmp_path: Path) -> None:
+    """`--namespace robot1` puts the topics in /robot1 ('namespace: node' ones say so); a bad one exits 2."""
+    rules = tmp_path / "rules.yaml"
+    rules.write_text(ROBOT_RULES, encoding="utf-8")
+    done = _run_check(rules, "--namespace", "robot1")
+    assert done.returncode == 0, done.stderr
+    assert "  /robot1/rosdashboard/rb/fixed (int)" in done.stdout
+    assert "  /robot7/rosdashboard/rb/here (int)" in done.stdout
+    assert "  <the line's node namespace>/rosdashboard/__901f___5ea6_ (float)" in done.stdout
+    bad = _run_check(rules, "--namespace", "9lives")
+    assert bad.returncode == 2
+    assert "--namespace: robot namespace '9lives'" in bad.stderr
+
+
 def test_cli_check_rejects_a_bad_file_printing_every_problem(tmp_path: Path) -> None:
     """`--check` on a broken file exits non-zero and prints each problem with its line and tag."""
     rules = tmp_path / "bad.yaml"
@@ -282,9 +296,9 @@ def test_cli_error_for_a_100_kb_pattern_is_short(tmp_path: Path) -> None:
     assert "… (100001 chars) does not compile with RE2: missing ): (aaaa" in done.stderr
 
 
-def _run_check(path: Path) -> subprocess.CompletedProcess[Any]:
+def _run_check(path: Path, *options: str) -> subprocess.CompletedProcess[Any]:
     return subprocess.run(
-        [sys.executable, "-m", "dbglog", "bridge", "--check", str(path)],
+        [sys.executable, "-m", "dbglog", "bridge", "--check", str(path), *options],
         capture_output=True,
         text=True,
         timeout=60,
@@ -481,6 +495,58 @@ def test_a_log_line_delivered_twice_is_published_once(peers: tuple[RosPeer, RosP
         assert _settled(seqs, 6) == [0, 1, 2, 3, 4, 4]
         assert wait_until(lambda: bridge.stats.duplicates == 5, TIMEOUT), bridge.stats
         assert bridge.stats.values == 6
+
+
+ROBOT_RULES = r"""
+rules:
+  - tag: 速度
+    namespace: node
+    pattern: 'rbspeed (\S+)'
+  - tag: rb/fixed
+    type: int
+    pattern: 'rbfixed=(\d+)'
+  - tag: rb/here
+    namespace: /robot7
+    type: int
+    pattern: 'rbhere=(\d+)'
+"""
+
+
+def test_bridge_in_a_namespace_and_rules_that_follow_the_lines_node() -> None:
+    """--namespace puts the bridge and its topics in /lab; 'namespace: node' publishes each robot's line
+    under that robot's namespace (an escaped tag too); a rule's own namespace wins."""
+    with (
+        RosPeer("ctrl", "/robot1") as one,
+        RosPeer("ctrl", "/robot2") as two,
+        RosPeer("rb_viewer") as viewer,
+        Bridge(parse_rules(ROBOT_RULES, namespace="/lab"), node_name="bridge_rb", namespace="/lab") as bridge,
+    ):
+        assert wait_until(
+            lambda: ("bridge_rb", "/lab") in viewer.node.get_node_names_and_namespaces(), TIMEOUT
+        )
+        fixed = viewer.subscribe("/lab/rosdashboard/rb/fixed", Int64, LATCHED)
+        here = viewer.subscribe("/robot7/rosdashboard/rb/here", Int64, LATCHED)
+        speeds = {
+            ns: viewer.subscribe(f"{ns}/rosdashboard/__901f___5ea6_", Float64, LATCHED)
+            for ns in ("/robot1", "/robot2")
+        }
+        for _ in range(int(TIMEOUT / 0.2)):  # until discovery is done both ways
+            one.node.get_logger().info("rbfixed=1")
+            if wait_until(lambda: bool(fixed.values()), timeout=0.2):
+                break
+        one.node.get_logger().info("rbhere=7")
+        for _ in range(int(TIMEOUT / 0.5)):
+            one.node.get_logger().info("rbspeed 1.5")
+            two.node.get_logger().info("rbspeed 2.5")
+            two.node.get_logger().get_child("sub").info("rbspeed 2.5")  # a child logger: its node's namespace
+            if wait_until(lambda: all(c.values() for c in speeds.values()), timeout=0.5):
+                break
+        assert here.wait_for(1, TIMEOUT)
+        assert set(speeds["/robot1"].values()) == {1.5}
+        assert set(speeds["/robot2"].values()) == {2.5}
+        assert set(fixed.values()) == {1}
+        assert "/lab/rosdashboard/__901f___5ea6_" not in bridge.topics
+        assert not [n for n in bridge.topics if n.startswith("/robot2/ctrl")]
 
 
 def test_state_file_round_trips_and_stale_or_broken_files_are_refused(tmp_path: Path) -> None:

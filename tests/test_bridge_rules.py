@@ -122,7 +122,8 @@ def test_every_problem_is_reported_at_once() -> None:
             pattern: '(\\d+) and (\\d+)'
           - tag: none
             pattern: 'no groups'
-          - tag: 'bad tag!'
+          - tag: 'any text is a tag!'
+            namespace: 1bad
             pattern: '(\\d+)'
           - just a string
         """
@@ -144,9 +145,9 @@ def test_every_problem_is_reported_at_once() -> None:
     assert "group(s) 1, 2 are unnamed" in reasons
     assert (4, 13, "none") in got
     assert "no capture group" in reasons
-    assert (5, 14, "bad tag!") in got
-    assert "character ' ' is not allowed" in reasons
-    assert (6, 16, None) in got
+    assert (5, 15, "any text is a tag!") in got
+    assert "invalid namespace: robot namespace '1bad'" in reasons
+    assert (6, 17, None) in got
     assert "a rule must be a mapping, not a string" in reasons
     assert len(problems) == 11
 
@@ -380,3 +381,51 @@ def test_per_group_types_give_each_output_its_kind(names: list[str], data: st.Da
     assert isinstance(outcome, RuleSet), outcome
     expected = [kinds.get(n, "float") for n in names]
     assert [o.kind for o in outcome.rules[0].outputs] == expected
+
+
+def test_any_tag_text_is_escaped_as_the_sdk_escapes_it() -> None:
+    """A rule's tag may be any text: its topic is the SDK's for that text (速度, a-b), never refused."""
+    rules = parse_rules(
+        "rules: [{tag: 速度, pattern: 'v=(\\S+)'}, {tag: a-b, pattern: 'w=(?P<x>\\S+) (?P<y>\\S+)'}]"
+    )
+    assert [o.topic for o in rules.outputs] == [
+        "/rosdashboard/__901f___5ea6_",
+        "/rosdashboard/a__2d_b/x",
+        "/rosdashboard/a__2d_b/y",
+    ]
+
+
+def test_namespaces_of_the_bridge_and_of_a_rule() -> None:
+    """The bridge's namespace applies to rules without one; a rule's own wins; 'node' follows each line."""
+    text = textwrap.dedent(
+        """\
+        rules:
+          - {tag: a, pattern: 'a=(\\S+)'}
+          - {tag: b, pattern: 'b=(\\S+)', namespace: robot7}
+          - {tag: c, pattern: 'c=(\\S+)', namespace: node}
+          - {tag: d, pattern: 'd=(\\S+)', namespace: /}
+        """
+    )
+    outputs = parse_rules(text, namespace="/lab").outputs
+    assert [(o.topic, o.follow_node) for o in outputs] == [
+        ("/lab/rosdashboard/a", False),
+        ("/robot7/rosdashboard/b", False),
+        ("/rosdashboard/c", True),
+        ("/rosdashboard/d", False),
+    ]
+
+
+@pytest.mark.parametrize(
+    ("rule", "reason"),
+    [
+        ("{tag: a, pattern: '(x)', namespace: 1bad}", "invalid namespace: robot namespace '1bad'"),
+        ("{tag: a, pattern: '(x)', namespace: /rosdashboard}", "'rosdashboard' is dbglog's own"),
+        ("{tag: a, pattern: '(x)', namespace: node, source_topic: /chat}", "'namespace: node' only applies"),
+        ("{tag: '" + "x" * 240 + "', pattern: '(x)'}", "at most 247"),
+    ],
+)
+def test_bad_namespaces_and_too_long_tags_are_load_errors(rule: str, reason: str) -> None:
+    """A namespace rcl or dbglog refuses, 'node' without a logger, or a topic too long: named errors."""
+    with pytest.raises(RulesError) as info:
+        parse_rules(f"rules: [{rule}]")
+    assert reason in str(info.value)

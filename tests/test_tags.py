@@ -11,6 +11,7 @@ from dbglog._ros._tags import (
     MAX_TOPIC_LENGTH,
     TagError,
     TagName,
+    dotted_namespace,
     escape_tag,
     logger_namespace,
     normalize_robot,
@@ -221,15 +222,16 @@ def test_bad_robot_namespaces_say_why(bad: str) -> None:
 
 
 def test_logger_names_give_their_nodes_namespace() -> None:
-    """A /rosout logger's node: from the graph (child loggers too), else its dotted parts."""
+    """A /rosout logger's node: from the graph (child loggers too), else its dotted parts say it."""
     nodes = [("ctrl", "/robot1"), ("ctrl", "/"), ("plan", "/lab/r2")]
     assert logger_namespace("robot1.ctrl", nodes) == "/robot1"
     assert logger_namespace("ctrl", nodes) == ""
     assert logger_namespace("ctrl.child", nodes) == ""
     assert logger_namespace("lab.r2.plan.deep", nodes) == "/lab/r2"
-    assert logger_namespace("robot3.drive", nodes) == "/robot3"
-    assert logger_namespace("drive", nodes) == ""
-    assert logger_namespace("1x.drive", nodes) == ""
+    assert logger_namespace("robot3.drive", nodes) is None
+    assert dotted_namespace("robot3.drive") == "/robot3"
+    assert dotted_namespace("drive") == ""
+    assert dotted_namespace("1x.drive") == ""
 
 
 @settings(max_examples=200)

@@ -40,6 +40,7 @@ class PrivateNode:
     Args:
         name: the node name.
         rosout: whether the node's log lines go to ``/rosout``.
+        namespace: the node's namespace (``""``: the root).
 
     Raises:
         Exception: whatever rclpy raises when ROS cannot start (the owner words it).
@@ -50,7 +51,7 @@ class PrivateNode:
         >>> ros.close()
     """
 
-    def __init__(self, name: str, *, rosout: bool = False) -> None:
+    def __init__(self, name: str, *, rosout: bool = False, namespace: str = "") -> None:
         import rclpy
         from rclpy.context import Context
         from rclpy.node import Node
@@ -60,7 +61,11 @@ class PrivateNode:
         rclpy.init(args=[], context=self.context, signal_handler_options=SignalHandlerOptions.NO)
         try:
             self.node: Any = Node(
-                name, context=self.context, start_parameter_services=False, enable_rosout=rosout
+                name,
+                namespace=namespace,
+                context=self.context,
+                start_parameter_services=False,
+                enable_rosout=rosout,
             )
         except Exception:
             rclpy.shutdown(context=self.context)

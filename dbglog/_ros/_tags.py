@@ -21,6 +21,7 @@ __all__ = [
     "TAG_PREFIX",
     "TagError",
     "TagName",
+    "dotted_namespace",
     "escape_tag",
     "logger_namespace",
     "name_problem",
@@ -387,21 +388,30 @@ def _logger_of(namespace: str, name: str) -> str:
     return f"{namespace.strip('/').replace('/', '.')}.{name}" if namespace.strip("/") else name
 
 
-def logger_namespace(logger: str, nodes: Iterable[tuple[str, str]]) -> str:
-    """Return the robot namespace of the node that logged as `logger` (its ``/rosout`` name).
+def logger_namespace(logger: str, nodes: Iterable[tuple[str, str]]) -> str | None:
+    """Return the robot namespace of the node that logged as `logger` (a ``/rosout`` line's name), or None
+    when none of `nodes` did.
 
     Args:
         logger: the logger name of a ``/rosout`` line (``robot1.ctrl``, a child ``robot1.ctrl.plan``).
         nodes: the (name, namespace) pairs of the nodes on the graph; the node whose logger name is
-            `logger` or its longest dotted prefix is the one. Without one, every dotted part but the
-            last is the namespace (what rcl writes for a node's own logger).
+            `logger` or its longest dotted prefix is the one.
     """
     best: tuple[int, str] | None = None
     for name, namespace in nodes:
         own = _logger_of(namespace, name)
         if (logger == own or logger.startswith(own + ".")) and (best is None or len(own) > best[0]):
             best = (len(own), namespace)
-    namespace = best[1] if best is not None else "/" + "/".join(logger.split(".")[:-1])
+    return _robot_or_root(best[1]) if best is not None else None
+
+
+def dotted_namespace(logger: str) -> str:
+    """Return the namespace a node's own logger name says: every dotted part but the last, as rcl names
+    a node's logger (``robot1.ctrl`` -> ``/robot1``); ``""`` when that is no robot namespace."""
+    return _robot_or_root("/" + "/".join(logger.split(".")[:-1]))
+
+
+def _robot_or_root(namespace: str) -> str:
     try:
         return normalize_robot(namespace)
     except TagError:

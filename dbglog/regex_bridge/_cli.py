@@ -42,6 +42,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--name", default="dbglog_bridge", help="ROS node name (default: %(default)s)")
     parser.add_argument(
+        "--namespace",
+        metavar="NS",
+        help="the robot namespace of the bridge's node and of its topics (robot1 -> "
+        "/robot1/rosdashboard/<tag>; default: DBGLOG_NAMESPACE, else the root); a rule's own "
+        "'namespace:' wins, 'namespace: node' follows the node of each line",
+    )
+    parser.add_argument(
         "--depth",
         type=int,
         default=10_000,
@@ -106,8 +113,16 @@ def run(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
         return 2
+    from dbglog._config import ConfigError, load_config
+    from dbglog._ros._tags import TagError, normalize_robot
+
     try:
-        rules = load_rules(args.rules)
+        namespace = load_config().namespace if args.namespace is None else normalize_robot(args.namespace)
+    except (ConfigError, TagError) as exc:
+        print(f"dbglog bridge: --namespace: {exc}", file=sys.stderr)
+        return 2
+    try:
+        rules = load_rules(args.rules, namespace=namespace)
     except RulesError as exc:
         print(f"dbglog bridge: {exc}", file=sys.stderr)
         return 2
@@ -119,7 +134,8 @@ def run(args: argparse.Namespace) -> int:
         print(f"{args.rules}: OK, {len(rules.rules)} rules, {len(outputs)} topics")
         for rule in rules.rules:
             for out in rule.outputs:
-                print(f"  {out.topic} ({out.kind}) <- rule #{rule.index + 1} line {rule.line}")
+                where = "<the line's node namespace>" if out.follow_node else ""
+                print(f"  {where}{out.topic} ({out.kind}) <- rule #{rule.index + 1} line {rule.line}")
         return 0
 
     apply_cpu_argument(args.cpu, "dbglog bridge")  # before rclpy starts its threads: they inherit it
@@ -133,7 +149,9 @@ def run(args: argparse.Namespace) -> int:
         from dbglog.regex_bridge._node import Bridge
 
         state_dir = None if args.no_state else args.state_dir or default_state_dir()
-        with Bridge(rules, node_name=args.name, depth=args.depth, state_dir=state_dir) as bridge:
+        with Bridge(
+            rules, node_name=args.name, depth=args.depth, state_dir=state_dir, namespace=namespace
+        ) as bridge:
             print(
                 f"dbglog bridge: running, {len(rules.rules)} rules -> {len(bridge.topics)} topics "
                 f"(Ctrl-C to stop)",

@@ -34,6 +34,7 @@ from dbglog._regex._compile import NumberKind
 from dbglog._ros._cdr import SCALAR_FORMATS, read_log, read_string, scalar_encoder
 from dbglog._ros._node import PrivateNode, WaitSet, take_batch
 from dbglog._ros._qos import log_qos, tag_qos
+from dbglog._ros._tags import dotted_namespace, logger_namespace, robot_label
 from dbglog.regex_bridge._engine import Matcher
 from dbglog.regex_bridge._rules import ROSOUT, RuleSet
 
@@ -58,6 +59,9 @@ _MAX_NAMES: Final = 1024
 DEDUP_WINDOW: Final = 12.0
 """Seconds (at least, at most twice that) a published line is remembered: ``/rosout`` publishers keep a
 line for 10 s (their lifespan), so no history re-delivers it later."""
+_GRAPH_AGE_S: Final = 1.0
+"""``namespace: node`` rules: the graph's node list is asked again at most this often for a logger it
+lacks (a node whose first line arrives before discovery shows it)."""
 _STATE_FORMAT: Final = "dbglog-bridge-published"
 _STATE_VERSION: Final = 1
 _DIGEST: Final = 16
@@ -190,11 +194,13 @@ class Bridge:
         warn_every: float = 5.0,
         state_dir: Path | None = None,
         dedup_window: float = DEDUP_WINDOW,
+        namespace: str = "",
     ) -> None:
         """Create the node, its publishers and subscriptions, and start the ingest thread.
 
         Args:
-            rules: validated rules (`load_rules`).
+            rules: validated rules (`load_rules`; the topics of their outputs are already in the bridge's
+                namespace, but for ``namespace: node`` ones).
             node_name: the ROS node name.
             depth: history depth of each source subscription.
             warn_every: at most one warning about unparseable captures per this many seconds.
@@ -202,22 +208,32 @@ class Bridge:
                 domain, written by `close`, read at start), so that a restarted bridge does not publish
                 lines from ``/rosout``'s history twice; None keeps nothing between runs.
             dedup_window: how long (at least) a published line is remembered.
+            namespace: the bridge node's namespace (``""``: the root; normalized).
         """
         self.matcher = Matcher(rules)
         self._warn_every = warn_every
         self._published = _Published(dedup_window)
         self._duplicates = 0
-        self._ros = PrivateNode(node_name, rosout=True)
+        self._ros = PrivateNode(node_name, rosout=True, namespace=namespace)
         self._context = self._ros.context
         try:
             self.node = self._ros.node
             qos = tag_qos()
             self._publishers = {
-                o.topic: self.node.create_publisher(_MSG_TYPES[o.kind], o.topic, qos) for o in rules.outputs
+                o.topic: self.node.create_publisher(_MSG_TYPES[o.kind], o.topic, qos)
+                for o in rules.outputs
+                if not o.follow_node
             }
+            self._follow = {o.topic: o.kind for o in rules.outputs if o.follow_node}
+            """Root topics of ``namespace: node`` outputs (published under each line's node namespace)."""
+            self._namespaces: dict[str, str] = {}
+            """Logger name -> its node's namespace (``namespace: node`` rules)."""
+            self._graph: list[tuple[str, str]] = []
+            self._graph_at = -float("inf")
             self._state: Path | None = None
             if state_dir is not None:
-                self._state = state_dir / f"{node_name}-domain{self._context.get_domain_id()}.json"
+                where = robot_label(namespace).replace("/", ".") + "." if namespace else ""
+                self._state = state_dir / f"{where}{node_name}-domain{self._context.get_domain_id()}.json"
                 self._load_state(self._state)
             self._sources = [
                 (
@@ -249,7 +265,8 @@ class Bridge:
 
     @property
     def topics(self) -> tuple[str, ...]:
-        """Every output topic, in rules-file order."""
+        """Every output topic published so far, in rules-file order (``namespace: node`` ones once a
+        line gave them a namespace)."""
         return tuple(self._publishers)
 
     @property
@@ -385,6 +402,7 @@ class Bridge:
             return
         publishers = self._publishers
         published = self._published
+        follow = self._follow
         for i, values in enumerate(batch):
             if not values:
                 continue
@@ -394,6 +412,8 @@ class Bridge:
                 line_id = raws[i][4:12] + names[i].encode("utf-8", "surrogatepass") + b"\0" + texts[i]
                 digest = blake2b(line_id, digest_size=_DIGEST).digest()
             for out_topic, kind, value in values:
+                if out_topic in follow:
+                    out_topic = self._in_namespace(out_topic, names[i])
                 if raws is not None:
                     key = (digest, out_topic)
                     if key in published.now or key in published.before:
@@ -404,6 +424,29 @@ class Bridge:
                     publishers[out_topic].publish(encode_value(kind, value))
                 except Exception:  # counted; the next value may well go through
                     self._errors += 1
+
+    def _in_namespace(self, topic: str, logger: str) -> str:
+        """The topic of a ``namespace: node`` output for a line of `logger` (its publisher made if new)."""
+        namespace = self._namespaces.get(logger)
+        if namespace is None:
+            namespace = logger_namespace(logger, self._graph)
+            now = time.monotonic()
+            if namespace is None and now - self._graph_at >= _GRAPH_AGE_S:
+                self._graph_at = now
+                self._graph = list(self.node.get_node_names_and_namespaces())
+                namespace = logger_namespace(logger, self._graph)
+            if namespace is None:  # not on the graph (yet, or gone): its name says it, not kept
+                namespace = dotted_namespace(logger)
+            else:
+                if len(self._namespaces) >= _MAX_NAMES:
+                    self._namespaces.clear()
+                self._namespaces[logger] = namespace
+        full = namespace + topic
+        if full not in self._publishers:
+            self._publishers[full] = self.node.create_publisher(
+                _MSG_TYPES[self._follow[topic]], full, tag_qos()
+            )
+        return full
 
     def _maybe_warn(self) -> None:
         stats = self.matcher.stats

@@ -15,9 +15,10 @@ import yaml
 
 from dbglog._regex._compile import SHOWN_CHARS, NumberKind, RegexError, compile_regex, shorten
 from dbglog._ros._loglevels import LEVELS, node_matches
-from dbglog._ros._tags import tag_problem, topic_for_tag
+from dbglog._ros._tags import TagError, escape_tag, normalize_robot, tag_topic, topic_for_tag
 
 __all__ = [
+    "FOLLOW_NODE",
     "LEVELS",
     "ROSOUT",
     "Output",
@@ -34,7 +35,9 @@ ROSOUT: Final = "/rosout"
 
 
 _KINDS: Final = frozenset(get_args(NumberKind))
-_RULE_KEYS: Final = ("tag", "pattern", "node", "level", "type", "source_topic")
+_RULE_KEYS: Final = ("tag", "pattern", "node", "level", "type", "source_topic", "namespace")
+FOLLOW_NODE: Final = "node"
+"""``namespace: node``: a rule's values go to the namespace of the node that logged the line."""
 _REQUIRED: Final = ("tag", "pattern")
 _TOPIC = re.compile(r"(?:/[A-Za-z_][A-Za-z0-9_]*)+")
 
@@ -44,10 +47,14 @@ class Output:
     """One value a rule publishes: a capture group, its tag and topic, and the number kind."""
 
     tag: str
+    """The tag's topic name (`escape_tag` of the rule's tag text)."""
     topic: str
+    """The full topic; with `follow_node`, the root's (the line's node namespace goes before it)."""
     group: int
     """1-based index of the capture group."""
     kind: NumberKind
+    follow_node: bool = False
+    """``namespace: node``: published in the namespace of the node that logged the line."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -187,11 +194,13 @@ def _public_keys(mapping: dict[Any, Any]) -> Iterator[Any]:
     return (k for k in mapping if k is not _LINES and k is not _START and k is not _DUPLICATES)
 
 
-def load_rules(path: str | Path) -> RuleSet:
+def load_rules(path: str | Path, *, namespace: str = "") -> RuleSet:
     """Read and validate a rules file.
 
     Args:
         path: a YAML file with a top-level ``rules:`` list.
+        namespace: the robot namespace of the topics of rules without a ``namespace`` of their own
+            (``""``: the root; normalized, see `normalize_robot`).
 
     Raises:
         RulesError: the file is missing, not YAML, or any rule is invalid; lists every problem.
@@ -201,15 +210,16 @@ def load_rules(path: str | Path) -> RuleSet:
         text = Path(path).read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise RulesError([Problem(name, 0, None, None, f"cannot read the file: {exc}")]) from None
-    return parse_rules(text, source=name)
+    return parse_rules(text, source=name, namespace=namespace)
 
 
-def parse_rules(text: str, *, source: str = "<string>") -> RuleSet:
+def parse_rules(text: str, *, source: str = "<string>", namespace: str = "") -> RuleSet:
     """Validate rules given as YAML text.
 
     Args:
         text: the YAML document.
         source: the name used in problem messages (usually the file path).
+        namespace: the robot namespace of rules without a ``namespace`` of their own (see `load_rules`).
 
     Raises:
         RulesError: the text is not YAML or any rule is invalid; lists every problem.
@@ -223,10 +233,10 @@ def parse_rules(text: str, *, source: str = "<string>") -> RuleSet:
         raise RulesError([Problem(source, line, None, None, f"not valid YAML: {reason}")]) from None
     except (ValueError, TypeError, RecursionError) as exc:
         raise RulesError([Problem(source, 0, None, None, f"not valid YAML: {exc}")]) from None
-    return _validate(doc, source)
+    return _validate(doc, source, namespace)
 
 
-def _validate(doc: Any, source: str) -> RuleSet:
+def _validate(doc: Any, source: str, namespace: str) -> RuleSet:
     problems: list[Problem] = []
 
     def top(reason: str, line: int = 0) -> RulesError:
@@ -254,7 +264,7 @@ def _validate(doc: Any, source: str) -> RuleSet:
     checked: list[_Checked] = []
     item_lines = getattr(entries, "lines", None) or [doc[_LINES]["rules"]] * len(entries)
     for index, entry in enumerate(entries):
-        one = _validate_rule(index, entry, item_lines[index], source, problems)
+        one = _validate_rule(index, entry, item_lines[index], source, problems, namespace)
         checked.append(one)
         if one.rule is not None:
             rules.append(one.rule)
@@ -293,7 +303,9 @@ class _Checked:
     """The topics the rule publishes to when its tag and pattern are good (for the duplicate check)."""
 
 
-def _validate_rule(index: int, entry: Any, item_line: int, source: str, problems: list[Problem]) -> _Checked:
+def _validate_rule(
+    index: int, entry: Any, item_line: int, source: str, problems: list[Problem], namespace: str
+) -> _Checked:
     if not isinstance(entry, dict):
         problems.append(
             Problem(source, item_line, index, None, f"a rule must be a mapping, not a {_yaml_type(entry)}")
@@ -331,9 +343,24 @@ def _validate_rule(index: int, entry: Any, item_line: int, source: str, problems
         return value
 
     tag = text("tag")
-    if tag is not None and (why := tag_problem(tag)) is not None:
-        problem(f"invalid tag {_r(tag)}: {why}", "tag")
-        tag = None
+    robot: str | None = namespace
+    raw_namespace = text("namespace")
+    if raw_namespace is not None:
+        if raw_namespace == FOLLOW_NODE:
+            robot = None
+        else:
+            try:
+                robot = normalize_robot(raw_namespace)
+            except TagError as exc:
+                problem(
+                    f"invalid namespace: {exc} (or 'node': the namespace of the line's node)", "namespace"
+                )
+    if tag is not None:
+        try:  # any text: escaped as the SDK escapes it
+            tag_topic(tag, robot or "")
+        except TagError as exc:
+            problem(f"invalid tag {_r(tag)}: {exc}", "tag")
+            tag = None
 
     source_topic = ROSOUT
     raw_topic = text("source_topic")
@@ -355,6 +382,11 @@ def _validate_rule(index: int, entry: Any, item_line: int, source: str, problems
         node = None
     if node is not None and not from_rosout:
         problem(f"'node' only applies to {ROSOUT} (a std_msgs/msg/String topic has no logger name)", "node")
+    if robot is None and not from_rosout:
+        problem(
+            f"'namespace: node' only applies to {ROSOUT} (a std_msgs/msg/String topic has no logger name)",
+            "namespace",
+        )
 
     min_level = 0
     level = text("level")
@@ -380,7 +412,7 @@ def _validate_rule(index: int, entry: Any, item_line: int, source: str, problems
             def group_problem(why: str, line: int | None = None) -> None:
                 problem(why, "pattern", line)
 
-            outputs = _outputs(tag, kind, group_kinds, compiled.group_names, group_problem)
+            outputs = _outputs(tag, robot, kind, group_kinds, compiled.group_names, group_problem)
 
     problems.extend(found)
     if found or tag is None or pattern is None:
@@ -434,12 +466,14 @@ def _kinds(entry: dict[Any, Any], problem: Any) -> tuple[NumberKind, dict[str, t
 
 def _outputs(
     tag: str | None,
+    robot: str | None,
     kind: NumberKind,
     group_kinds: dict[str, tuple[NumberKind, int]],
     names: tuple[str | None, ...],
     problem: Any,
 ) -> tuple[Output, ...]:
-    """The rule's outputs; every problem with its groups is reported (not only the first)."""
+    """The rule's outputs (in `robot`'s namespace; None: the line's node's); every problem with its groups
+    is reported (not only the first)."""
     named = [n for n in names if n is not None]
     for group, (_kind, line) in group_kinds.items():
         if group not in named:
@@ -456,20 +490,26 @@ def _outputs(
         )
     if tag is None:
         return ()
+
+    def output(text: str, group: int, kind: NumberKind) -> Output:
+        name = escape_tag(text)
+        return Output(name, topic_for_tag(name, robot or ""), group, kind, robot is None)
+
     if len(names) == 1:
         first = names[0]
         one = group_kinds[first][0] if first is not None and first in group_kinds else kind
-        return (Output(tag, topic_for_tag(tag), 1, one),)
+        return (output(tag, 1, one),)
     outputs = []
     for i, name in enumerate(names):
         if name is None:
             continue
         sub = f"{tag}/{name}"
-        why = tag_problem(sub)
-        if why is not None:
-            problem(f"group {_r(name)} gives the invalid tag {_r(sub)}: {why}")
+        try:
+            tag_topic(sub, robot or "")
+        except TagError as exc:
+            problem(f"group {_r(name)} gives the tag {_r(sub)}, which is invalid: {exc}")
             continue
-        outputs.append(Output(sub, topic_for_tag(sub), i + 1, group_kinds.get(name, (kind, 0))[0]))
+        outputs.append(output(sub, i + 1, group_kinds.get(name, (kind, 0))[0]))
     return tuple(outputs)
 
 

@@ -226,10 +226,7 @@ def _rows(engine: Engine, topics: list[TopicInfo], seen: dict[str, _Seen], show_
         topics = sorted(topics, key=lambda t: (t.robot, t.tag_name.text if t.tag_name else t.name))
     for info in topics:
         tag = info.tag_name
-        if show_all or tag is None:
-            name = info.name
-        else:
-            name = tag.text if robots else tag.label
+        name = info.name if show_all or tag is None else (tag.text if robots else tag.label)
         type_name = info.types[0] if info.types else "?"
         snap = engine.snapshot(Binding(info.name))
         state = seen.get(info.name)
