@@ -30,6 +30,7 @@ __all__ = [
     "parse_topic",
     "robot_label",
     "robot_problem",
+    "robot_target",
     "ros_args_namespace",
     "tag_of",
     "tag_problem",
@@ -307,6 +308,20 @@ def _robot_part(head: str) -> str | None:
     return name if robot_problem(name) is None else None
 
 
+def robot_target(target: str) -> TagName | None:
+    """The tag a ``ROBOT:TAG`` (or ``:TAG``) target names, None for any other text (see `parse_target`).
+
+    Raises:
+        TagError: the tag's topic would be too long.
+    """
+    head, colon, rest = target.partition(":")
+    robot = _robot_part(head) if colon else None
+    if robot is None:
+        return None
+    tag_topic(rest, robot)  # the length check
+    return TagName(robot, escape_tag(rest))
+
+
 def parse_target(target: str) -> TagName | str:
     """Read what a user typed for a tag: ``speed``, ``robot1:speed``, ``:a:b`` or a full ``/topic``.
 
@@ -318,11 +333,9 @@ def parse_target(target: str) -> TagName | str:
     Raises:
         TagError: the tag's topic would be too long.
     """
-    head, colon, rest = target.partition(":")
-    robot = _robot_part(head) if colon else None
-    if robot is not None:
-        tag_topic(rest, robot)  # the length check
-        return TagName(robot, escape_tag(rest))
+    name = robot_target(target)
+    if name is not None:
+        return name
     if target.startswith("/"):
         return target
     tag_topic(target)

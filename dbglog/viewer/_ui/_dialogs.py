@@ -11,6 +11,7 @@ from typing import Protocol
 import dearpygui.dearpygui as dpg
 
 from dbglog._regex._compile import RegexError, compile_regex
+from dbglog._ros._tags import TagError, robot_target
 from dbglog.viewer._data._model import (
     Binding,
     FieldInfo,
@@ -481,6 +482,34 @@ def _is_unit(raw: list[float]) -> bool:
     return all(isinstance(c, float) and 0.0 <= c <= 1.0 for c in raw)
 
 
+def topic_suggestions(topics: list[TopicInfo], typed: str) -> list[str]:
+    """The suggestion lines for `typed`: topics whose name or tag as shown (``速度``, ``robot1:speed``)
+    holds it, prefix matches first; a tag whose text differs from its topic name shows the text too."""
+    typed = typed.strip().lower()
+
+    def names(t: TopicInfo) -> tuple[str, str]:
+        return t.name.lower(), (t.tag or "").lower()
+
+    prefix = [t for t in topics if any(n.startswith(typed) for n in names(t))]
+    inner = [t for t in topics if any(typed in n for n in names(t)) and t not in prefix]
+    lines = []
+    for t in prefix + inner:
+        tag = t.tag_name
+        shown = f"   {t.tag}" if tag is not None and (tag.robot or tag.text != tag.tag) else ""
+        lines.append(f"{t.name}   [{', '.join(t.types)}]{shown}")
+    return lines
+
+
+def typed_topic(text: str) -> str:
+    """The topic typed in the Topic field: a robot's tag as tools show it (``robot1:speed``) is its topic;
+    anything else is taken as typed."""
+    try:
+        name = robot_target(text.strip())
+    except TagError:
+        name = None
+    return name.topic if name is not None else text.strip()
+
+
 class TopicHost(Protocol):
     """What the Topic setup dialog reaches: the graph, a previewed series, and where its result goes."""
 
@@ -632,7 +661,7 @@ class TopicDialog(Dialog):
         self._show_transforms()
 
     def _store(self) -> None:
-        topic = str(dpg.get_value(self.topic_input)).strip()
+        topic = typed_topic(str(dpg.get_value(self.topic_input)))
         field = self._selected_field()
         regex = str(dpg.get_value(self.regex_input))
         # A log binding's node and level while the topic is a Log topic (none otherwise: they would be its
@@ -662,11 +691,7 @@ class TopicDialog(Dialog):
 
     def suggestions(self) -> list[str]:
         """Return the topics on the graph matching what is typed (prefix matches first)."""
-        typed = str(dpg.get_value(self.topic_input)).strip().lower()
-        names = list(self.setup.topics())
-        prefix = [t for t in names if t.name.lower().startswith(typed)]
-        inner = [t for t in names if typed in t.name.lower() and t not in prefix]
-        return [f"{t.name}   [{', '.join(t.types)}]" for t in prefix + inner]
+        return topic_suggestions(self.setup.topics(), str(dpg.get_value(self.topic_input)))
 
     def _refresh_suggestions(self) -> None:
         self._suggestions = self.suggestions()
