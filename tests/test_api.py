@@ -410,6 +410,46 @@ def test_init_with_user_node_publishes_through_it_and_falls_back_after_its_shutd
     assert dbglog.stats().dropped == 0
 
 
+def test_a_user_node_in_a_namespace_keeps_its_topics_there_after_the_fallback(peer: RosPeer) -> None:
+    """A node in /robot5 puts the tags under /robot5; when its context ends, dbglog's own node goes on in
+    /robot5 (the same topic, the same subscriber)."""
+    ctx = Context()
+    rclpy.init(context=ctx)
+    node = Node("ns_robot_node", namespace="/robot5", context=ctx)
+    got = peer.subscribe("/robot5/rosdashboard/t_ns_node", Float64, LATCHED)
+    dbglog.init(node=node)
+    dbglog.logfloat("t_ns_node", 1.0)
+    assert got.wait_for(1)
+    node.destroy_node()
+    rclpy.shutdown(context=ctx)
+    dbglog.logfloat("t_ns_node", 2.0)
+    assert got.wait_for(2)
+    assert got.values() == [1.0, 2.0]
+    writers = peer.node.get_publishers_info_by_topic("/robot5/rosdashboard/t_ns_node")
+    assert wait_until(
+        lambda: (
+            [
+                (i.node_namespace, i.node_name[:7])
+                for i in peer.node.get_publishers_info_by_topic("/robot5/rosdashboard/t_ns_node")
+            ]
+            == [("/robot5", "dbglog_")]
+        )
+    ), writers
+
+
+def test_init_refuses_a_node_whose_namespace_cannot_hold_the_tags() -> None:
+    """A node in a namespace with a 'rosdashboard' part would make its topics read as another robot's."""
+    ctx = Context()
+    rclpy.init(context=ctx)
+    node = Node("odd_node", namespace="/lab/rosdashboard", context=ctx)
+    try:
+        with pytest.raises(ValueError, match="'rosdashboard' is dbglog's own"):
+            dbglog.init(node=node)
+    finally:
+        node.destroy_node()
+        rclpy.shutdown(context=ctx)
+
+
 def test_shutdown_then_next_call_reconnects(peer: RosPeer) -> None:
     """dbglog.shutdown() releases everything; the next call connects again."""
     got = peer.subscribe("/rosdashboard/t_reconnect", Float64, LATCHED)

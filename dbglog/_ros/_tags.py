@@ -12,6 +12,7 @@ tag's name: two different texts never share a topic, and the text is read back f
 
 from __future__ import annotations
 
+import functools
 import re
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
@@ -275,11 +276,12 @@ class TagName:
         return text
 
 
+@functools.lru_cache(maxsize=4096)
 def parse_topic(topic: str) -> TagName | None:
     """Return the robot and tag of a dbglog topic (``/robot1/rosdashboard/a/b``), or None for any other.
 
     The robot is what comes before the first ``/rosdashboard/`` part (a robot namespace never has a
-    ``rosdashboard`` part: `robot_problem`).
+    ``rosdashboard`` part: `robot_problem`). Cached: widgets ask for their labels every frame.
     """
     if topic.startswith(TAG_PREFIX):
         robot, tag = "", topic[len(TAG_PREFIX) :]
@@ -293,6 +295,7 @@ def parse_topic(topic: str) -> TagName | None:
     return TagName(robot, tag) if tag else None
 
 
+@functools.lru_cache(maxsize=4096)
 def tag_of(topic: str) -> str | None:
     """Return how a dbglog topic's tag is shown: the user's text (``速度``), with its robot
     (``robot1:speed``) in a robot's namespace (`TagName.label`); None for any other topic."""

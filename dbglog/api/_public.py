@@ -641,9 +641,14 @@ def init(*, node: Any = None) -> None:
     """Connect to ROS 2 now (otherwise the first logging call does it).
 
     Args:
-        node: an rclpy ``Node`` to create dbglog's publishers on; by default dbglog uses its own
-            context and node and never touches ``rclpy.init()``'s global context. Also call it in a
-            forked child that should publish.
+        node: an rclpy ``Node`` to create dbglog's publishers on, in its namespace
+            (``/robot1/rosdashboard/<tag>``); by default dbglog uses its own context and node (in the
+            namespace of ``--ros-args -r __ns:=...``, else ``DBGLOG_NAMESPACE``) and never touches
+            ``rclpy.init()``'s global context. Also call it in a forked child that should publish.
+
+    Raises:
+        TypeError: `node` is not an rclpy node.
+        ValueError: the node's namespace cannot hold dbglog's topics (a ``rosdashboard`` part).
     """
     RUNTIME.init(node)
 
