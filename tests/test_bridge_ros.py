@@ -21,6 +21,7 @@ from std_msgs.msg import Bool, Float64, Int64, String
 
 from dbglog.regex_bridge import parse_rules
 from dbglog.regex_bridge._node import DEDUP_WINDOW, Bridge, _Published
+from dbglog.regex_bridge._rules import ROSOUT
 from tests._ros import Collector, RosPeer, wait_until
 
 RULES = r"""
@@ -514,7 +515,8 @@ rules:
 
 def test_bridge_in_a_namespace_and_rules_that_follow_the_lines_node() -> None:
     """--namespace puts the bridge and its topics in /lab; 'namespace: node' publishes each robot's line
-    under that robot's namespace (an escaped tag too); a rule's own namespace wins."""
+    under that robot's namespace (an escaped tag too; a child logger's under its node's; a logger of no
+    node on the graph by its dotted name); a rule's own namespace wins."""
     with (
         RosPeer("ctrl", "/robot1") as one,
         RosPeer("ctrl", "/robot2") as two,
@@ -541,6 +543,12 @@ def test_bridge_in_a_namespace_and_rules_that_follow_the_lines_node() -> None:
             two.node.get_logger().get_child("sub").info("rbspeed 2.5")  # a child logger: its node's namespace
             if wait_until(lambda: all(c.values() for c in speeds.values()), timeout=0.5):
                 break
+        # A logger no node on the graph has: after a moment's wait for discovery, its dotted name decides.
+        ghost = viewer.subscribe("/robot3/rosdashboard/__901f___5ea6_", Float64, LATCHED)
+        lines = viewer.publisher(ROSOUT, Log, LATCHED)
+        lines.publish(Log(name="robot3.ghost", level=Log.INFO, msg="rbspeed 3.5"))
+        assert ghost.wait_for(1, TIMEOUT)
+        assert ghost.values() == [3.5]
         assert here.wait_for(1, TIMEOUT)
         assert set(speeds["/robot1"].values()) == {1.5}
         assert set(speeds["/robot2"].values()) == {2.5}

@@ -131,9 +131,9 @@ def test_escape_round_trips_and_is_valid_for_rcl(text: str) -> None:
     name = escape_tag(text)
     assert escape_tag(text) == name
     assert unescape_tag(name) == text
-    assert _full_topic_error(topic_for_tag(name)) is None
-    assert _full_topic_error(topic_for_tag(name, "/robot1")) is None
-    assert _rclpy.rclpy_get_validation_error_for_topic_name(name) is None
+    for topic in (topic_for_tag(name), topic_for_tag(name, "/robot1")):
+        if len(topic) <= MAX_TOPIC_LENGTH:  # longer ones are refused (test_a_tag_too_long_...)
+            assert _full_topic_error(topic) is None
 
 
 @given(st.from_regex(r"[A-Za-z_][A-Za-z0-9_]{0,8}(/[A-Za-z_][A-Za-z0-9_]{0,8}){0,3}", fullmatch=True))

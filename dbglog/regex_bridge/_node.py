@@ -59,9 +59,14 @@ _MAX_NAMES: Final = 1024
 DEDUP_WINDOW: Final = 12.0
 """Seconds (at least, at most twice that) a published line is remembered: ``/rosout`` publishers keep a
 line for 10 s (their lifespan), so no history re-delivers it later."""
-_GRAPH_AGE_S: Final = 1.0
+_GRAPH_AGE_S: Final = 0.05
 """``namespace: node`` rules: the graph's node list is asked again at most this often for a logger it
-lacks (a node whose first line arrives before discovery shows it)."""
+lacks (a node whose first line arrives before discovery shows it; ~13 µs a query at 31 nodes)."""
+_HOLD_S: Final = 2.0
+"""How long a ``namespace: node`` value waits for its node to show on the graph (discovery tells the
+node list a little after the node's first /rosout line can arrive) before its logger's dotted name
+decides."""
+_MAX_HELD: Final = 10_000
 _STATE_FORMAT: Final = "dbglog-bridge-published"
 _STATE_VERSION: Final = 1
 _DIGEST: Final = 16
@@ -230,6 +235,8 @@ class Bridge:
             """Logger name -> its node's namespace (``namespace: node`` rules)."""
             self._graph: list[tuple[str, str]] = []
             self._graph_at = -float("inf")
+            self._held: list[tuple[float, str, str, NumberKind, float | int | bool, bytes | None]] = []
+            """Values of ``namespace: node`` rules waiting for their node on the graph (`_release_held`)."""
             self._state: Path | None = None
             if state_dir is not None:
                 where = robot_label(namespace).replace("/", ".") + "." if namespace else ""
@@ -288,6 +295,11 @@ class Bridge:
         self._stop.set()
         self._wake.trigger()
         self._thread.join(timeout=10)
+        if not self._thread.is_alive():
+            try:
+                self._release_held(force=True)
+            except Exception:  # the context going away: those values are lost
+                self._errors += len(self._held)
         if self._state is not None and not self._thread.is_alive():
             try:
                 self._published.save(self._state)
@@ -342,6 +354,10 @@ class Bridge:
                         self._errors += 1
                 if texts:
                     self._match_and_publish(texts, names, levels, raws if is_log else None, topic)
+            try:
+                self._release_held()
+            except Exception:  # never expected; counted, and the bridge goes on
+                self._errors += 1
             self._maybe_warn()
             if not busy and not self._stop.is_set():
                 try:
@@ -400,53 +416,104 @@ class Bridge:
         except Exception:  # never expected; counted, and the bridge goes on
             self._errors += len(texts)
             return
-        publishers = self._publishers
-        published = self._published
         follow = self._follow
+        self._release_held()  # first: a node's held values go out before its newer ones
+        held = {logger for _since, logger, *_rest in self._held}
         for i, values in enumerate(batch):
             if not values:
                 continue
-            digest = b""
+            digest: bytes | None = None
             if raws is not None:
                 # The stamp is the 8 bytes after the CDR header (builtin_interfaces/Time) in every Log.
                 line_id = raws[i][4:12] + names[i].encode("utf-8", "surrogatepass") + b"\0" + texts[i]
                 digest = blake2b(line_id, digest_size=_DIGEST).digest()
             for out_topic, kind, value in values:
                 if out_topic in follow:
-                    out_topic = self._in_namespace(out_topic, names[i])
-                if raws is not None:
-                    key = (digest, out_topic)
-                    if key in published.now or key in published.before:
-                        self._duplicates += 1
+                    logger = names[i]
+                    try:
+                        namespace = None if logger in held else self._node_namespace(logger)
+                    except Exception:  # the graph query failed (shutting down?): wait as for discovery
+                        namespace = None
+                    if namespace is None:  # its node not on the graph yet: wait for discovery a moment
+                        self._hold(logger, out_topic, kind, value, digest)
+                        held.add(logger)
                         continue
-                    published.now.add(key)
-                try:
-                    publishers[out_topic].publish(encode_value(kind, value))
-                except Exception:  # counted; the next value may well go through
-                    self._errors += 1
+                    out_topic = self._in_namespace(namespace, out_topic)
+                self._publish(out_topic, kind, value, digest)
 
-    def _in_namespace(self, topic: str, logger: str) -> str:
-        """The topic of a ``namespace: node`` output for a line of `logger` (its publisher made if new)."""
+    def _publish(self, topic: str, kind: NumberKind, value: float | int | bool, digest: bytes | None) -> None:
+        """Publish one value, unless its line (`digest`) was published on `topic` already."""
+        if digest is not None:
+            published = self._published
+            key = (digest, topic)
+            if key in published.now or key in published.before:
+                self._duplicates += 1
+                return
+            published.now.add(key)
+        try:
+            self._publishers[topic].publish(encode_value(kind, value))
+        except Exception:  # counted; the next value may well go through
+            self._errors += 1
+
+    def _node_namespace(self, logger: str) -> str | None:
+        """The namespace of the node on the graph that logged as `logger`, None while the graph lacks it
+        (the node list is asked again at most every `_GRAPH_AGE_S`)."""
         namespace = self._namespaces.get(logger)
-        if namespace is None:
+        if namespace is not None:
+            return namespace
+        namespace = logger_namespace(logger, self._graph)
+        now = time.monotonic()
+        if namespace is None and now - self._graph_at >= _GRAPH_AGE_S:
+            self._graph_at = now
+            self._graph = list(self.node.get_node_names_and_namespaces())
             namespace = logger_namespace(logger, self._graph)
-            now = time.monotonic()
-            if namespace is None and now - self._graph_at >= _GRAPH_AGE_S:
-                self._graph_at = now
-                self._graph = list(self.node.get_node_names_and_namespaces())
-                namespace = logger_namespace(logger, self._graph)
-            if namespace is None:  # not on the graph (yet, or gone): its name says it, not kept
-                namespace = dotted_namespace(logger)
-            else:
-                if len(self._namespaces) >= _MAX_NAMES:
-                    self._namespaces.clear()
-                self._namespaces[logger] = namespace
+        if namespace is not None:
+            if len(self._namespaces) >= _MAX_NAMES:
+                self._namespaces.clear()
+            self._namespaces[logger] = namespace
+        return namespace
+
+    def _in_namespace(self, namespace: str, topic: str) -> str:
+        """The topic of a ``namespace: node`` output in `namespace` (its publisher made if new)."""
         full = namespace + topic
         if full not in self._publishers:
             self._publishers[full] = self.node.create_publisher(
                 _MSG_TYPES[self._follow[topic]], full, tag_qos()
             )
         return full
+
+    def _hold(
+        self, logger: str, topic: str, kind: NumberKind, value: float | int | bool, digest: bytes | None
+    ) -> None:
+        """Keep a ``namespace: node`` value whose node the graph does not show yet (`_release_held`)."""
+        if len(self._held) >= _MAX_HELD:
+            self._release_held(force=True)
+        self._held.append((time.monotonic(), logger, topic, kind, value, digest))
+
+    def _release_held(self, *, force: bool = False) -> None:
+        """Publish the held values whose node the graph shows now, in the order they came; after
+        `_HOLD_S` (or `force`), those of a node it never showed go by the logger's dotted name
+        (``robot1.ctrl`` -> ``/robot1``)."""
+        if not self._held:
+            return
+        now = time.monotonic()
+        found: dict[str, str | None] = {}
+        keep: list[tuple[float, str, str, NumberKind, float | int | bool, bytes | None]] = []
+        for item in self._held:
+            since, logger, topic, kind, value, digest = item
+            if logger not in found:
+                try:
+                    found[logger] = self._node_namespace(logger)
+                except Exception:  # the context going away: the dotted name, or wait
+                    found[logger] = None
+            namespace = found[logger]
+            if namespace is None and (force or now - since >= _HOLD_S):
+                namespace = found[logger] = dotted_namespace(logger)
+            if namespace is None:
+                keep.append(item)
+            else:
+                self._publish(self._in_namespace(namespace, topic), kind, value, digest)
+        self._held = keep
 
     def _maybe_warn(self) -> None:
         stats = self.matcher.stats
