@@ -134,7 +134,7 @@ def run_here(tmp: str) -> None:
         assert dial is not None
         app.apply_bindings(dial, (Binding("/rosdashboard/a/x"),))
         dial.set_properties({"minimum": -5.0, "maximum": 5.0})
-        thermo = app.change_type(dial, "thermo")
+        thermo = app.canvas.change_type(dial, "thermo")
         assert thermo is not None
         assert dial not in app.items
         assert (thermo.name, thermo.config.type, thermo.bindings) == ("speed", "thermo", dial.bindings)
@@ -142,7 +142,7 @@ def run_here(tmp: str) -> None:
         assert isinstance(thermo.config, WidgetConfig)
         assert thermo.config.properties["minimum"] == -5.0
         assert source.bound >= {Binding("/rosdashboard/a/x")}
-        compass = app.change_type(led, "compass")
+        compass = app.canvas.change_type(led, "compass")
         assert compass is not None
         assert compass.rect.h >= compass.min_size[1]
         app.frame()

@@ -40,7 +40,7 @@ def run_here(tmp: str) -> None:
         try:
             item = app.add_widget("compass", 20, 20)
             assert item is not None
-            dialog = app.open_topic_dialog(item)
+            dialog = app.dialogs.topic(item)
             assert isinstance(dialog, TopicDialog)
             dialog.choose_topic(topic)
             # Live validation of the formula field: refused with the reason, then accepted.
@@ -81,7 +81,7 @@ def run_here(tmp: str) -> None:
                 time.sleep(0.02)
             raw = engine.snapshot(Binding(topic))
             assert raw.last is None or raw.last == pytest.approx(math.pi / 2)
-            assert app.save(Path(tmp) / "xf.json")
+            assert app.files.save(Path(tmp) / "xf.json")
             saved = json.loads((Path(tmp) / "xf.json").read_text())
             assert saved["widgets"][0]["bindings"][0]["transforms"] == [{"kind": "rad2deg"}]
             shot = app.screenshot(Path(tmp) / "xf.png")

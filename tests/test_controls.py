@@ -270,13 +270,13 @@ def scenario_toggle_and_text(tmp: Path) -> None:
             text.widget.submit("second")
             _pump(app, lambda: texts.values() == ["hello robot", "second"], what="second text")
             _pump(app, lambda: "sent" in toggle.reason, what="sent count")
-            assert app.save(tmp / "controls.json")
+            assert app.files.save(tmp / "controls.json")
             saved = json.loads((tmp / "controls.json").read_text())
             by_type = {w["type"]: w for w in saved["widgets"]}
             assert by_type["toggle"]["properties"]["state"] is True
             assert by_type["toggle"]["bindings"][0]["topic"] == "/ctl_ui/autopilot"
             assert by_type["text_field"]["properties"]["text"] == "second"
-            assert app.open_path(tmp / "controls.json")
+            assert app.files.open_path(tmp / "controls.json")
             again = next(i for i in app.items if i.config.type == "toggle")
             assert dpg.get_item_configuration(again.widget.button)["label"] == "AUTO"
             app.frame()
@@ -383,7 +383,7 @@ def scenario_button_and_publish(tmp: Path) -> None:
             _pump(app, lambda: len(vecs.messages) == 1, what="vector")
             assert (vecs.messages[0].x, vecs.messages[0].y, vecs.messages[0].z) == (1.5, 0.0, -2.0)
             app.frame()
-            assert app.save(tmp / "forms.json")
+            assert app.files.save(tmp / "forms.json")
             saved = {w["type"]: w for w in json.loads((tmp / "forms.json").read_text())["widgets"]}
             assert saved["publish"]["properties"]["msg_type"] == "geometry_msgs/msg/Vector3"
             assert json.loads(saved["publish"]["properties"]["message"]) == {"x": 1.5, "z": -2.0}

@@ -193,7 +193,7 @@ try:
     app.load(load_dashboard(dashboard_path(), registry.get), None)
     for _ in range(3):
         app.frame()
-    view = app.view_rect()
+    view = app.canvas.view_rect()
     right = max(i.rect.x + i.rect.w for i in app.items)
     bottom = max(i.rect.y + i.rect.h for i in app.items)
     print(json.dumps({"view": [view.w, view.h], "right": right, "bottom": bottom}))

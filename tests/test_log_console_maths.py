@@ -102,6 +102,7 @@ def test_a_recording_gets_its_lines_from_its_history() -> None:
 
     from dbglog.viewer._data._history import History
     from dbglog.viewer._ui._host import AppHost
+    from dbglog.viewer._widgets import WidgetRegistry
 
     def payload(text: str, level: int) -> bytes:
         msg = Log()
@@ -113,8 +114,8 @@ def test_a_recording_gets_its_lines_from_its_history() -> None:
     history.append_payloads(
         "/rosout", [10.0, 11.0], [payload("a", 20), payload("b", 40)], msg_type="rcl_interfaces/msg/Log"
     )
-    app = SimpleNamespace(source=SimpleNamespace(store=history))
-    host = AppHost(app)  # type: ignore[arg-type]
+    app = SimpleNamespace(source=SimpleNamespace(store=history))  # a timeline over a recording
+    host = AppHost(app, seek=print, registry=WidgetRegistry.builtin(), dialogs=None, add_plan=print)  # type: ignore[arg-type]
     store = host.log_store("/rosout")
     assert store is not None
     store.sync()

@@ -265,17 +265,17 @@ def scenario_plugin_in_toolbox_drop_bind_and_draw(app: Any, source: ScanSource, 
 
     from dbglog.viewer._ui._dialogs import TopicDialog
 
-    assert list(app.toolbox_buttons) == [*BUILTIN_WIDGETS, "laserscan"]
-    assert dpg.get_item_label(app.toolbox_buttons["laserscan"]) == "Laser scan"
+    assert list(app.canvas.tools.buttons) == [*BUILTIN_WIDGETS, "laserscan"]
+    assert dpg.get_item_label(app.canvas.tools.buttons["laserscan"]) == "Laser scan"
     payloads = [
         c
-        for c in dpg.get_item_children(app.toolbox_buttons["laserscan"], 3) or []
+        for c in dpg.get_item_children(app.canvas.tools.buttons["laserscan"], 3) or []
         if dpg.get_item_type(c).endswith("DragPayload")
     ]
     assert len(payloads) == 1
     assert dpg.get_item_configuration(payloads[0])["drag_data"] == "laserscan"
-    app.pointer_override = app.to_window((120, 100))
-    dpg.get_item_drop_callback(app.canvas)(app.canvas, "laserscan", None)
+    app.canvas.pointer_override = app.canvas.to_window((120, 100))
+    dpg.get_item_drop_callback(app.canvas.window)(app.canvas.window, "laserscan", None)
     item = app.items[-1]
     assert item.widget_cls is LaserScanWidget
     dialog = app.dialog
@@ -311,7 +311,7 @@ def scenario_plugin_properties_save_reopen_resize(app: Any, source: ScanSource, 
     app.apply_bindings(item, (Binding("/scan", "ranges[]"),))
     source.push_array("/scan", "ranges[]", front_wall(distance=2.0))
     frames(app)
-    dialog = app.open_properties_dialog(item)
+    dialog = app.dialogs.properties(item)
     assert isinstance(dialog, PropertiesDialog)
     assert set(dialog.editors) == {p.name for p in item.widget_cls.properties}
     dialog.set_value("max_range", -1.0)
@@ -330,14 +330,14 @@ def scenario_plugin_properties_save_reopen_resize(app: Any, source: ScanSource, 
     frames(app)
     assert item.widget.points_drawn == 181, "redrawn at the new size"
     path = tmp / "scan.json"
-    assert app.save(path)
+    assert app.files.save(path)
     saved = json.loads(path.read_text())["widgets"][0]
     assert saved["type"] == "laserscan"
     assert saved["properties"]["max_range"] == 4.0
     assert saved["bindings"] == [{"topic": "/scan", "field": "ranges[]", "regex": ""}]
-    app.new_dashboard()
-    assert app.open_path(path)
-    assert app.load_messages == []
+    app.files.new()
+    assert app.files.open_path(path)
+    assert app.doc.load_messages == []
     reopened = app.items[0]
     assert reopened.config == item.config
     frames(app)
@@ -351,15 +351,15 @@ def scenario_broken_plugins_reported_others_usable(app: Any, source: ScanSource,
     keeps its entry as a placeholder that says the plugin is installed but failed."""
     import dearpygui.dearpygui as dpg
 
-    assert list(app.toolbox_buttons) == [*BUILTIN_WIDGETS, "laserscan", *RAISING_NAMES]
-    texts = [str(dpg.get_value(c)) for c in dpg.get_item_children(app.toolbox, 1) or []]
+    assert list(app.canvas.tools.buttons) == [*BUILTIN_WIDGETS, "laserscan", *RAISING_NAMES]
+    texts = [str(dpg.get_value(c)) for c in dpg.get_item_children(app.canvas.tools.window, 1) or []]
     assert "Plugin problems" in texts
     for name in BROKEN_NAMES:
         assert any(f"'{name}'" in t for t in texts), name
     entry = {"type": "broken_import", "name": "Broken", "x": 20, "y": 20, "width": 200, "height": 120}
     path = tmp / "broken.json"
     path.write_text(json.dumps({"format": "dbglog-dashboard", "version": 1, "widgets": [entry]}))
-    assert app.open_path(path)
+    assert app.files.open_path(path)
     frames(app)
     (item,) = app.items
     assert item.widget_cls is None
@@ -413,7 +413,7 @@ def scenario_raising_plugins_disabled_others_keep_running(app: Any, source: Scan
     assert dial.status is Status.LIVE
     assert scan.status is Status.LIVE
     path = tmp / "faulty.json"
-    assert app.save(path)
+    assert app.files.save(path)
     saved = [w["type"] for w in json.loads(path.read_text())["widgets"]]
     assert saved == ["dial", "laserscan", "raises_update", "raises_create", "raises_resize"]
     shot = read_png(app.screenshot(tmp / "faulty.png"))
@@ -427,7 +427,7 @@ def scenario_missing_plugin_placeholder_saved_back_unchanged(app: Any, source: S
 
     from dbglog.viewer._document._dashboard import RawWidget
 
-    assert "laserscan" not in app.toolbox_buttons
+    assert "laserscan" not in app.canvas.tools.buttons
     entry = {
         "type": "laserscan",
         "name": "Front lidar",
@@ -457,7 +457,7 @@ def scenario_missing_plugin_placeholder_saved_back_unchanged(app: Any, source: S
     }
     path = tmp / "needs_plugin.json"
     path.write_text(json.dumps(original, indent=2))
-    assert app.open_path(path)
+    assert app.files.open_path(path)
     frames(app)
     placeholder = app.items[1]
     assert isinstance(placeholder.config, RawWidget)
@@ -468,13 +468,13 @@ def scenario_missing_plugin_placeholder_saved_back_unchanged(app: Any, source: S
     assert "entry point 'laserscan' in the group 'dbglog.widgets'" in body[1]
     assert placeholder.status is Status.ERROR
     assert str(dpg.get_value(placeholder.tooltip_text)).startswith("Error"), "a red pill, not waiting"
-    assert any("unknown widget type 'laserscan'" in m for m in app.load_messages)
+    assert any("unknown widget type 'laserscan'" in m for m in app.doc.load_messages)
     source.push("/speed", "data", 4.0)
     frames(app)
     assert app.items[0].status is Status.LIVE, "the other widgets work"
-    app.rename(app.items[0], "Speed (m/s)")
+    app.doc.rename(app.items[0], "Speed (m/s)")
     out = tmp / "saved.json"
-    assert app.save(out)
+    assert app.files.save(out)
     saved = json.loads(out.read_text())
     assert saved["widgets"][1] == entry, "the plugin's entry comes back exactly as it was"
     assert saved["widgets"][0]["name"] == "Speed (m/s)"

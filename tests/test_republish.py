@@ -479,13 +479,13 @@ def run_here(scenario: str, tmp_dir: str) -> None:
     assert republisher is not None
     assert scenario == "republish"
     app = ViewerApp(replay, WidgetRegistry.builtin(), width=1000, height=700, recording=True)
-    app.republisher = republisher
+    app.recordings.republisher = republisher
     app.start()
     app.cursor_hooks.append(functools.partial(follow_cursor, app, republisher))
 
     def report() -> None:
         state = {
-            "frame": app.rendered,
+            "frame": app.loop.rendered,
             "mouse": list(dpg.get_mouse_pos(local=False)),
             "cursor": app.timeline.cursor,
             "menubar": _menubar(app.main),

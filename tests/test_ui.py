@@ -139,11 +139,11 @@ def frames(app: ViewerApp, n: int = 3) -> None:
 
 def drop(app: ViewerApp, type_name: str, at: tuple[float, float]) -> CanvasItem:
     """Drop a toolbox widget at canvas point `at` through the canvas's registered drop callback."""
-    app.pointer_override = app.to_window(at)
-    callback = dpg.get_item_drop_callback(app.canvas)
-    assert callback == app.on_drop
+    app.canvas.pointer_override = app.canvas.to_window(at)
+    callback = dpg.get_item_drop_callback(app.canvas.window)
+    assert callback == app.canvas.on_drop
     before = len(app.items)
-    callback(app.canvas, type_name, None)
+    callback(app.canvas.window, type_name, None)
     assert len(app.items) == before + 1
     return app.items[-1]
 
@@ -151,24 +151,24 @@ def drop(app: ViewerApp, type_name: str, at: tuple[float, float]) -> CanvasItem:
 def title_point(item: CanvasItem, app: ViewerApp) -> tuple[float, float]:
     """A window point on the item's title strip."""
     r = item.rect
-    return app.to_window((r.x + 40, r.y + TITLE_H / 2))
+    return app.canvas.to_window((r.x + 40, r.y + TITLE_H / 2))
 
 
 def scenario_toolbox_lists_every_widget_with_drag_payload(
     app: ViewerApp, source: StaticSource, tmp_path: Path
 ) -> None:
     """The toolbox has a draggable button per registered widget, and the canvas accepts that payload."""
-    assert list(app.toolbox_buttons) == [
+    assert list(app.canvas.tools.buttons) == [
         *("plot", "dial", "knob", "compass", "thermo", "string", "led", "log"),
         *("toggle", "slider", "button", "text_field", "publish"),
     ]
-    for button in app.toolbox_buttons.values():
+    for button in app.canvas.tools.buttons.values():
         payloads = [
             c for c in dpg.get_item_children(button, 3) or [] if dpg.get_item_type(c).endswith("DragPayload")
         ]
         assert len(payloads) == 1
         assert dpg.get_item_configuration(payloads[0])["payload_type"] == "dbglog-widget"
-    assert dpg.get_item_configuration(app.canvas)["payload_type"] == "dbglog-widget"
+    assert dpg.get_item_configuration(app.canvas.window)["payload_type"] == "dbglog-widget"
 
 
 def scenario_drop_adds_widget_on_grid_and_opens_topic_setup(
@@ -182,7 +182,7 @@ def scenario_drop_adds_widget_on_grid_and_opens_topic_setup(
     assert isinstance(app.dialog, TopicDialog)
     assert app.dialog.item is item
     assert item.status is Status.WAITING
-    assert app.dirty
+    assert app.doc.dirty
 
 
 def scenario_topic_dialog_typeahead_fields_and_regex_preview(
@@ -237,21 +237,21 @@ def scenario_move_with_snap_outline_and_landing(app: ViewerApp, source: StaticSo
     assert item is not None
     frames(app)
     start = item.rect
-    app.press(title_point(item, app))
+    app.pointer_input.press(title_point(item, app))
     x0, y0 = title_point(item, app)
-    app.drag_to((x0 + 133, y0 + 47))
+    app.pointer_input.drag_to((x0 + 133, y0 + 47))
     frames(app)
     assert item.rect == Rect(start.x + 133, start.y + 47, start.w, start.h), "the widget follows the pointer"
-    outline = dpg.get_item_children(app.overlay, 2)
+    outline = dpg.get_item_children(app.canvas.overlay, 2)
     assert len(outline) == 1, "one outline rectangle shows where it will land"
-    ox, oy = app.canvas_origin()
+    ox, oy = app.canvas.origin()
     pmin = dpg.get_item_configuration(outline[0])["pmin"]
     assert (pmin[0] - ox, pmin[1] - oy) == (start.x + 140, start.y + 40)
-    app.release((x0 + 133, y0 + 47))
+    app.pointer_input.release((x0 + 133, y0 + 47))
     frames(app)
     assert item.rect == Rect(start.x + 140, start.y + 40, start.w, start.h)
-    assert dpg.get_item_children(app.overlay, 2) == []
-    assert app.dashboard().to_dict()["widgets"][0]["x"] == start.x + 140
+    assert dpg.get_item_children(app.canvas.overlay, 2) == []
+    assert app.doc.dashboard().to_dict()["widgets"][0]["x"] == start.x + 140
 
 
 def scenario_move_without_snap_keeps_exact_position(
@@ -264,8 +264,8 @@ def scenario_move_without_snap_keeps_exact_position(
     frames(app)
     start = item.rect
     x0, y0 = title_point(item, app)
-    app.press((x0, y0))
-    app.release((x0 + 7, y0 + 3))
+    app.pointer_input.press((x0, y0))
+    app.pointer_input.release((x0 + 7, y0 + 3))
     assert item.rect == Rect(start.x + 7, start.y + 3, start.w, start.h)
 
 
@@ -277,15 +277,17 @@ def scenario_resize_from_corner_snaps_and_respects_minimum(
     assert item is not None
     frames(app)
     r = item.rect
-    corner = app.to_window((r.x + r.w - 4, r.y + r.h - 4))
-    app.press(corner)
-    app.release((corner[0] + 61, corner[1] + 29))
+    corner = app.canvas.to_window((r.x + r.w - 4, r.y + r.h - 4))
+    app.pointer_input.press(corner)
+    app.pointer_input.release((corner[0] + 61, corner[1] + 29))
     frames(app)
     assert item.rect == Rect(r.x, r.y, r.w + 60, r.h + 20)
     assert item.widget is not None
     assert item.widget.width == int(r.w + 60) - 12
-    app.press(app.to_window((item.rect.x + item.rect.w - 4, item.rect.y + item.rect.h - 4)))
-    app.release(app.to_window((item.rect.x + 5, item.rect.y + 5)))
+    app.pointer_input.press(
+        app.canvas.to_window((item.rect.x + item.rect.w - 4, item.rect.y + item.rect.h - 4))
+    )
+    app.pointer_input.release(app.canvas.to_window((item.rect.x + 5, item.rect.y + 5)))
     assert item.rect.w >= 100
     assert item.rect.h >= 140 + TITLE_H
 
@@ -300,27 +302,30 @@ def scenario_delete_by_drop_zone_key_and_menu(app: ViewerApp, source: StaticSour
     assert c is not None
     app.apply_bindings(a, (Binding("/rosdashboard/speed", "data"),))
     frames(app)
-    app.press(title_point(a, app))
-    trash = app.trash_rect()
+    app.pointer_input.press(title_point(a, app))
+    trash = app.canvas.trash_rect()
     target = (trash.x + trash.w / 2, trash.y + trash.h / 2)
-    app.drag_to(target)
-    assert dpg.get_item_children(app.overlay, 2) == [], "no landing outline over the delete zone"
-    app.release(target)
+    app.pointer_input.drag_to(target)
+    assert dpg.get_item_children(app.canvas.overlay, 2) == [], "no landing outline over the delete zone"
+    app.pointer_input.release(target)
     assert a not in app.items
     assert not dpg.does_item_exist(a.window)
     assert Binding("/rosdashboard/speed", "data") not in source.bound, "its series is released"
-    app.press(title_point(b, app))
-    app.release(title_point(b, app))
-    app.on_delete_key()
+    app.pointer_input.press(title_point(b, app))
+    app.pointer_input.release(title_point(b, app))
+    app.actions.run("widget.delete")
     assert b not in app.items
     r = c.rect
-    assert app.context_menu(app.to_window((r.x + 50, r.y + 80))) is c
+    assert app.pointer_input.context_menu(app.canvas.to_window((r.x + 50, r.y + 80))) is c
     frames(app)
-    assert dpg.is_item_shown(app.menu)
-    labels = [dpg.get_item_label(m) for m in dpg.get_item_children(app.menu, 1) or []]
+    assert dpg.is_item_shown(app.pointer_input.menu)
+    labels = [dpg.get_item_label(m) for m in dpg.get_item_children(app.pointer_input.menu, 1) or []]
     assert labels[:4] == ["Topic setup\u2026", "Properties\u2026", "Rename\u2026", "Bring to front"]
-    delete = next(m for m in dpg.get_item_children(app.menu, 1) or [] if dpg.get_item_label(m) == "Delete")
+    delete = next(
+        m for m in dpg.get_item_children(app.pointer_input.menu, 1) or [] if dpg.get_item_label(m) == "Delete"
+    )
     dpg.get_item_callback(delete)(delete, None, None)
+    app.frame()  # a menu entry's command runs on the UI thread, at the next frame
     assert app.items == []
 
 
@@ -330,7 +335,7 @@ def scenario_delete_key_ignored_while_dialog_open(
     """The Delete key never deletes a widget while a dialog (e.g. a text field) has the keyboard."""
     item = drop(app, "dial", (50, 50))
     assert app.dialog is not None
-    app.on_delete_key()
+    app.actions.run("widget.delete")
     assert item in app.items
 
 
@@ -341,13 +346,16 @@ def scenario_context_menu_reopens_dialogs_and_rename(
     item = app.add_widget("dial", 40, 40)
     assert item is not None
     frames(app)
-    app.context_menu(app.to_window((item.rect.x + 60, item.rect.y + 80)))
-    entries = {dpg.get_item_label(m): m for m in dpg.get_item_children(app.menu, 1) or []}
+    app.pointer_input.context_menu(app.canvas.to_window((item.rect.x + 60, item.rect.y + 80)))
+    entries = {dpg.get_item_label(m): m for m in dpg.get_item_children(app.pointer_input.menu, 1) or []}
     dpg.get_item_callback(entries["Topic setup\u2026"])(0, None, None)
+    app.frame()
     assert isinstance(app.dialog, TopicDialog)
     app.dialog.close()
-    app.context_menu(app.to_window((item.rect.x + 60, item.rect.y + 80)))
+    frames(app)  # (a hand takes frames to right click again: Dear ImGui forgets the closed modal meanwhile)
+    app.pointer_input.context_menu(app.canvas.to_window((item.rect.x + 60, item.rect.y + 80)))
     dpg.get_item_callback(entries["Rename\u2026"])(0, None, None)
+    app.frame()
     dialog = app.dialog
     assert isinstance(dialog, RenameDialog)
     assert not dialog.apply("   ")
@@ -363,7 +371,7 @@ def scenario_properties_dialog_validates_and_applies(
     item = app.add_widget("dial", 40, 40)
     assert item is not None
     app.apply_bindings(item, (Binding("/rosdashboard/speed", "data"),))
-    dialog = app.open_properties_dialog(item)
+    dialog = app.dialogs.properties(item)
     assert isinstance(dialog, PropertiesDialog)
     assert set(dialog.editors) == {"minimum", "maximum", "unit", "decimals", "color"}
     dialog.set_value("decimals", 42.0)
@@ -401,7 +409,7 @@ def scenario_widget_stale_time_overrides_the_viewers(
         app.apply_bindings(item, (Binding(topic, "data"),))
     frames(app)
     assert [events.status, plain.status] == [Status.STALE, Status.STALE]
-    dialog = app.open_properties_dialog(events)
+    dialog = app.dialogs.properties(events)
     assert isinstance(dialog, PropertiesDialog)
     for typed, expected in (("-3", "more than 0"), ("soon", "number of seconds, got 'soon'")):
         dpg.set_value(dialog.stale_input, typed)
@@ -412,10 +420,10 @@ def scenario_widget_stale_time_overrides_the_viewers(
     frames(app)
     # An event topic: 5 s of quiet is normal for it.
     assert [events.status, plain.status] == [Status.LIVE, Status.STALE]
-    assert app.dirty
+    assert app.doc.dirty
     # A shorter time of its own makes a widget call a series stale that the viewer still calls live.
     source.set_status(topic, "data", Status.LIVE, age_s=5.0)
-    dialog = app.open_properties_dialog(plain)
+    dialog = app.dialogs.properties(plain)
     assert isinstance(dialog, PropertiesDialog)
     dpg.set_value(dialog.stale_input, "1.5")
     assert dialog.apply()
@@ -423,10 +431,10 @@ def scenario_widget_stale_time_overrides_the_viewers(
     assert (events.status, plain.status) == (Status.LIVE, Status.STALE)
     assert plain.reason.endswith("no message for 5.0 s")
     path = tmp_path / "stale.json"
-    assert app.save(path)
+    assert app.files.save(path)
     saved = [w.get("stale_after") for w in json.loads(path.read_text())["widgets"]]
     assert saved == [30.0, 1.5]
-    dialog = app.open_properties_dialog(events)
+    dialog = app.dialogs.properties(events)
     assert isinstance(dialog, PropertiesDialog)
     assert dpg.get_value(dialog.stale_input) == "30"
     dpg.set_value(dialog.stale_input, "")  # blank: back to the viewer's stale time
@@ -441,18 +449,18 @@ def scenario_save_and_reopen_round_trip(app: ViewerApp, source: StaticSource, tm
         item = app.add_widget(kind, 20 + 160 * (i % 4), 20 + 300 * (i // 4))
         assert item is not None
         app.apply_bindings(item, (Binding(f"/rosdashboard/{kind}", "data"),))
-    app.rename(app.items[0], "Speeds")
+    app.doc.rename(app.items[0], "Speeds")
     path = tmp_path / "dash.json"
-    assert app.save(path)
-    assert not app.dirty
-    saved = app.dashboard()
-    app.new_dashboard()
+    assert app.files.save(path)
+    assert not app.doc.dirty
+    saved = app.doc.dashboard()
+    app.files.new()
     assert app.items == []
-    assert app.open_path(path)
+    assert app.files.open_path(path)
     frames(app)
-    assert app.dashboard() == saved
+    assert app.doc.dashboard() == saved
     assert app.items[0].name == "Speeds"
-    assert app.save()
+    assert app.files.save()
     assert (tmp_path / "dash.json.bak").exists()
 
 
@@ -463,7 +471,7 @@ def scenario_failed_open_keeps_current_dashboard(
     item = app.add_widget("dial", 0, 0)
     bad = tmp_path / "broken.json"
     bad.write_text("{not json")
-    assert not app.open_path(bad)
+    assert not app.files.open_path(bad)
     assert app.items == [item]
     assert isinstance(app.dialog, MessageDialog)
     assert str(bad) in app.dialog.message
@@ -477,16 +485,16 @@ def scenario_legacy_open_never_modifies_file_and_unknown_kept(
     path = tmp_path / "legacy.json"
     shutil.copyfile(GOLDEN / "legacy_unknown_type.json", path)
     before = path.read_bytes()
-    assert app.open_path(path)
+    assert app.files.open_path(path)
     frames(app, 5)
     assert path.read_bytes() == before
     placeholder, dial = app.items
     assert placeholder.widget is None
     assert placeholder.status is Status.ERROR
     assert dial.config.type == "dial"
-    assert any("DragButton" in m for m in app.load_messages)
+    assert any("DragButton" in m for m in app.doc.load_messages)
     out = tmp_path / "new.json"
-    assert app.save(out)
+    assert app.files.save(out)
     data = json.loads(out.read_text())
     assert data["widgets"][0] == json.loads(before)["widgets"][0]
 

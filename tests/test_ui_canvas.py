@@ -92,16 +92,18 @@ class Probe:
         import dearpygui.dearpygui as dpg
 
         app = self.app
-        ox, oy = app.canvas_origin()
-        sx, sy = dpg.get_x_scroll(app.canvas), dpg.get_y_scroll(app.canvas)
-        bar_w = 14 if dpg.get_y_scroll_max(app.canvas) > 0 else 0  # the scrollbars' width (theme.SCROLLBAR)
-        bar_h = 14 if dpg.get_x_scroll_max(app.canvas) > 0 else 0
-        view_w, view_h = app.canvas_size()
-        selected = app.selected.name if app.selected is not None else None
+        ox, oy = app.canvas.origin()
+        sx, sy = dpg.get_x_scroll(app.canvas.window), dpg.get_y_scroll(app.canvas.window)
+        bar_w = (
+            14 if dpg.get_y_scroll_max(app.canvas.window) > 0 else 0
+        )  # the scrollbars' width (theme.SCROLLBAR)
+        bar_h = 14 if dpg.get_x_scroll_max(app.canvas.window) > 0 else 0
+        view_w, view_h = app.canvas.size()
+        selected = app.doc.selected.name if app.doc.selected is not None else None
         if selected is not None and selected not in self.selected_at:
             self.selected_at[selected] = time.time()
         buttons = {}
-        for name, button in app.toolbox_buttons.items():
+        for name, button in app.canvas.tools.buttons.items():
             (bx, by), (bw, bh) = dpg.get_item_rect_min(button), dpg.get_item_rect_size(button)
             buttons[name] = [bx, by, bw, bh]
         return {
@@ -118,15 +120,15 @@ class Probe:
             "on_panel": app.paint.on_panel,
             "canvas": [ox + sx, oy + sy, view_w - bar_w, view_h - bar_h],
             "scroll": [sx, sy],
-            "scroll_max": [dpg.get_x_scroll_max(app.canvas), dpg.get_y_scroll_max(app.canvas)],
+            "scroll_max": [dpg.get_x_scroll_max(app.canvas.window), dpg.get_y_scroll_max(app.canvas.window)],
             "buttons": buttons,
             "selected": selected,
             "selected_at": self.selected_at,
             "dialog": type(app.dialog).__name__ if app.dialog is not None else None,
             "mouse": list(dpg.get_mouse_pos(local=False)),
-            "status": dpg.get_value(app.status_left),
+            "status": dpg.get_value(app.status.info),
             "first_status": self.first_status,
-            "rendered": getattr(app, "rendered", self.calls),  # (a viewer that renders every pass has none)
+            "rendered": app.loop.rendered,
         }
 
     def hook(self) -> None:
@@ -179,7 +181,7 @@ def run_here(scenario: str, tmp_dir: str) -> None:
         path = dense_dashboard(tmp) if scenario.startswith("dense") else canvas_dashboard(tmp)
         app.load(load_dashboard(path, registry.get), path)
         app.frame()  # the first frame with the dashboard: what its status bar says
-        probe = Probe(app, tmp, dpg.get_value(app.status_left))
+        probe = Probe(app, tmp, dpg.get_value(app.status.info))
         app.frame_hooks.append(probe.hook)
         if scenario.startswith("live"):  # a new sample for the plot on every pass of the loop
             app.frame_hooks.append(lambda: source.push("/t/x", "data", time.time() % 1.0))

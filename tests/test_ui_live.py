@@ -54,7 +54,7 @@ def run_here(tmp: str) -> None:
                 time.sleep(0.02)
             shot = app.screenshot(Path(tmp) / "live.png")
             assert shot.stat().st_size > 0
-            dialog = app.open_topic_dialog(item)
+            dialog = app.dialogs.topic(item)
             assert isinstance(dialog, TopicDialog)
             dpg.set_value(dialog.topic_input, "ui_e2e")
             assert [s.split()[0] for s in dialog.suggestions()] == [topic]

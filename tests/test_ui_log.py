@@ -163,7 +163,7 @@ class Probe:
 
         app = self.app
         shown: Any = app.dialog
-        ox, oy = app.canvas_origin()
+        ox, oy = app.canvas.origin()
         items = []
         console = None
         for item in app.items:
@@ -203,20 +203,20 @@ class Probe:
             }
         return {
             "pid": os.getpid(),
-            "frame": app.rendered,
-            "menu": _labelled(app.menu) if dpg.is_item_shown(app.menu) else None,
+            "frame": app.loop.rendered,
+            "menu": _labelled(app.pointer_input.menu) if dpg.is_item_shown(app.pointer_input.menu) else None,
             "mouse": list(dpg.get_mouse_pos(local=False)),
-            "live": app.live,
+            "live": app.timeline.live,
             "cursor": app.timeline.cursor,
             "items": items,
             "console": console,
             "dialog": dialog,
             "menubar": _menubar(app.main),
             "clipboard": dpg.get_clipboard_text(),
-            "scroll": [dpg.get_x_scroll(app.canvas), dpg.get_y_scroll(app.canvas)],
+            "scroll": [dpg.get_x_scroll(app.canvas.window), dpg.get_y_scroll(app.canvas.window)],
             "marks": len(app.host.marks(0.0, 1e12)[0]),
             "bar_marks": [list(m) for m in app.timebar._marked],
-            "status": app._status_text,
+            "status": app.status.text,
         }
 
     def hook(self) -> None:
@@ -246,7 +246,7 @@ def run_here(scenario: str, tmp_dir: str) -> None:
     with Engine(stale_after=2.0) as engine:
         app = ViewerApp(engine, registry, width=1280, height=800, fps=8.0 if slow else 60.0)
         if slow:
-            app.idle_render_s = 3600.0  # no idle frames: only the keys' own frames can finish a word
+            app.loop.idle_render_s = 3600.0  # no idle frames: only the keys' own frames can finish a word
         app.start()
         import dearpygui.dearpygui as dpg
 

@@ -123,7 +123,7 @@ class Probe:
         from dbglog.viewer._ui._dialogs import TopicDialog
 
         app = self.app
-        ox, oy = app.canvas_origin()
+        ox, oy = app.canvas.origin()
         items = [
             {
                 "name": i.name,
@@ -137,19 +137,19 @@ class Probe:
         state: dict[str, Any] = {
             "pid": os.getpid(),
             "items": items,
-            "toolbox": {dpg.get_item_label(b): _rect(b) for b in app.toolbox_buttons.values()},
-            "selected": app.selected.name if app.selected is not None else None,
-            "dirty": app.dirty,
-            "path": str(app.path) if app.path else None,
+            "toolbox": {dpg.get_item_label(b): _rect(b) for b in app.canvas.tools.buttons.values()},
+            "selected": app.doc.selected.name if app.doc.selected is not None else None,
+            "dirty": app.doc.dirty,
+            "path": str(app.doc.path) if app.doc.path else None,
             "mouse": list(dpg.get_mouse_pos(local=False)),
-            "menu": _labelled(app.menu) if dpg.is_item_shown(app.menu) else None,
-            "menu_rect": _window_rect(app.menu),
+            "menu": _labelled(app.pointer_input.menu) if dpg.is_item_shown(app.pointer_input.menu) else None,
+            "menu_rect": _window_rect(app.pointer_input.menu),
             "file_dialog": None,
             "dialog": None,
-            "status": app._status_text,
+            "status": app.status.text,
             "menubar": _menubar(app.main),
         }
-        request = app.file_request
+        request = app.files.request
         if request is not None and dpg.does_item_exist(request.item):
             state["file_dialog"] = {"save": request.save, "shown": bool(dpg.is_item_shown(request.item))}
             save_as = getattr(request, "dialog", None)  # the viewer's own Save As (not Open's file dialog)
@@ -200,7 +200,7 @@ class Probe:
             if pacer is not None:
                 pacer.request()
         state = self.state()
-        state["frame"] = getattr(self.app, "rendered", self.frame)  # frames drawn (input is read then)
+        state["frame"] = self.app.loop.rendered  # frames drawn (input is read then)
         out = self.tmp / "state.json.tmp"
         out.write_text(json.dumps(state, indent=1))
         out.replace(self.tmp / "state.json")

@@ -114,7 +114,7 @@ def scenario_each_widget_gets_the_past_it_asks_for(app: Any) -> None:
         items[kind] = item
     app.select(None)
     cursor = T0 + 40.0
-    app.seek(cursor)
+    app.time.seek(cursor)
     for _ in range(3):
         app.frame()
     seen = {kind: item.widget.seen[0] for kind, item in items.items()}

@@ -94,7 +94,7 @@ class Probe:
         import dearpygui.dearpygui as dpg
 
         app = self.app
-        ox, oy = app.canvas_origin()
+        ox, oy = app.canvas.origin()
         plots = {}
         for item in app.items:
             widget = item.widget
@@ -127,15 +127,15 @@ class Probe:
             }
         return {
             "pid": os.getpid(),
-            "frame": app.rendered,
+            "frame": app.loop.rendered,
             "mouse": list(dpg.get_mouse_pos(local=False)),
             "base": self.base,
             "newest": app.time_range.newest,
-            "live": app.live,
+            "live": app.timeline.live,
             "cursor": app.timeline.cursor,
-            "scroll": [dpg.get_x_scroll(app.canvas), dpg.get_y_scroll(app.canvas)],
-            "menu": bool(dpg.is_item_shown(app.menu)),
-            "dirty": app.dirty,
+            "scroll": [dpg.get_x_scroll(app.canvas.window), dpg.get_y_scroll(app.canvas.window)],
+            "menu": bool(dpg.is_item_shown(app.pointer_input.menu)),
+            "dirty": app.doc.dirty,
             "plots": plots,
             "rects": {i.name: [i.rect.x + ox, i.rect.y + oy, i.rect.w, i.rect.h] for i in app.items},
         }

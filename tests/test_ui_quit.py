@@ -242,9 +242,9 @@ class Child:
 
         self.state.update(changes)
         self.state.update(
-            dirty=self.app.dirty,
+            dirty=self.app.doc.dirty,
             widgets=len(self.app.items),
-            title=dpg.get_viewport_title() if self.app._started else "",
+            title=dpg.get_viewport_title() if self.app.started else "",
             prompt_open=self.prompt() is not None,
         )
         text = json.dumps(self.state, indent=1)
@@ -303,13 +303,13 @@ class Child:
         }[action.split(":")[0]]
         click(button)
         if action == "save:cancel" or action == "save:choose":
-            request = self.app.file_request
+            request = self.app.files.request
             assert request is not None, "Save As did not open"
             assert request.save
             assert dpg.is_item_shown(request.item)
             self.state["events"].append("save-as-opened")
             if action == "save:cancel":
-                self.app.file_cancelled()  # what the dialog's Cancel button calls
+                self.app.files.cancelled()  # what the dialog's Cancel button calls
             else:
                 save_as = request.dialog
                 assert save_as is not None
@@ -325,7 +325,7 @@ def dialog_buttons(dialog: Any) -> list[int | str]:
 
 def unsaved(app: Any) -> bool:
     """Whether the viewer has unsaved changes (a call, so that type narrowing does not outlive a frame)."""
-    return bool(app.dirty)
+    return bool(app.doc.dirty)
 
 
 def click(button: int | str) -> None:
@@ -381,7 +381,7 @@ def run_here(scenario: str, tmp_dir: str) -> None:
         app.frame_hooks.append(child.hook)
         child.write(phase="ready")
         if scenario == "discard":
-            click(app.quit_menu)  # File > Quit
+            click(app.menus.entries["file.quit"])  # File > Quit
         app.run()
         child.write(phase="loop-ended", quitting=app.quitting)
     except KeyboardInterrupt:

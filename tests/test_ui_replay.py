@@ -230,7 +230,7 @@ class Probe:
 
         app = self.app
         timeline, bar = app.timeline, app.timebar
-        ox, oy = app.canvas_origin()
+        ox, oy = app.canvas.origin()
         items = {
             i.name: {
                 "rect": [i.rect.x + ox, i.rect.y + oy, i.rect.w, i.rect.h],
@@ -245,17 +245,17 @@ class Probe:
         }
         state: dict[str, Any] = {
             "pid": os.getpid(),
-            "frame": app.rendered,
+            "frame": app.loop.rendered,
             "clock": time.monotonic(),
             "mouse": list(dpg.get_mouse_pos(local=False)),
             "recording": timeline.recording,
-            "replay": app.replay_name,
+            "replay": app.time.replay_name,
             "live": timeline.live,
             "cursor": timeline.cursor,
             "playing": timeline.playing,
             "speed": timeline.speed,
             "loop": timeline.loop,
-            "span": list(app.time_span() or ()) or None,
+            "span": list(app.time.time_span() or ()) or None,
             "play": _icon(app, "play"),
             "loop_button": _icon(app, "loop"),
             "speed_button": _rect(bar.speed),
@@ -267,11 +267,11 @@ class Probe:
             else [bar.scale.oldest, bar.scale.newest, bar.scale.x0, bar.scale.x1],
             "menubar": _menubar(app.main),
             "items": items,
-            "selected": app.selected.name if app.selected is not None else None,
-            "status": app._status_text,
-            "status_left": dpg.get_value(app.status_left),
+            "selected": app.doc.selected.name if app.doc.selected is not None else None,
+            "status": app.status.text,
+            "status_left": dpg.get_value(app.status.info),
             "dialog": None,
-            "back_to_live": bool(dpg.is_item_shown(app.recordings.live_entry)),
+            "back_to_live": bool(dpg.is_item_shown(app.menus.entries["recording.back_to_live"])),
         }
         dialog = app.dialog
         if dialog is not None:

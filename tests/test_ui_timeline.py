@@ -95,7 +95,7 @@ class Probe:
         from dbglog.viewer._ui._auto import json_value
 
         app = self.app
-        ox, oy = app.canvas_origin()
+        ox, oy = app.canvas.origin()
         scale = app.timebar.scale
         items = {}
         for item in app.items:
@@ -115,19 +115,19 @@ class Probe:
         note = next(i.widget for i in app.items if i.name == "Note")  # (a click brings a widget to the front)
         return {
             "pid": os.getpid(),
-            "frame": app.rendered,
+            "frame": app.loop.rendered,
             "mouse": list(dpg.get_mouse_pos(local=False)),
-            "live": app.live,
+            "live": app.timeline.live,
             "cursor": app.timeline.cursor,
-            "span": list(app.time_span() or ()) or None,
+            "span": list(app.time.time_span() or ()) or None,
             "track": _rect(app.timebar.track),
             "scale": None if scale is None else [scale.oldest, scale.newest, scale.x0, scale.x1],
             "button": _rect(app.timebar.button),
             "button_label": dpg.get_item_label(app.timebar.button),
             "note_input": _rect(note.input) if note is not None else None,
-            "selected": app.selected.name if app.selected is not None else None,
+            "selected": app.doc.selected.name if app.doc.selected is not None else None,
             "items": items,
-            "status": app._status_text,
+            "status": app.status.text,
         }
 
     def hook(self) -> None:
@@ -508,21 +508,23 @@ def plugin_time_travel() -> None:
     app = ViewerApp(source, registry, width=800, height=500)
     app.start()
     try:
-        item = app.add_config(WidgetConfig("readout", "R", 20, 20, 300, 80, (Binding("/p", "data"),), {}))
+        item = app.canvas.add_config(
+            WidgetConfig("readout", "R", 20, 20, 300, 80, (Binding("/p", "data"),), {})
+        )
         widget = item.widget
         assert isinstance(widget, Readout)
         for _ in range(3):
             app.frame()
         assert widget.seen[-1][0] == 100.0
         assert [widget.paused_at] == [None]  # live (a list: mypy would narrow the attribute for good)
-        app.seek(t0 + 4.25)
+        app.time.seek(t0 + 4.25)
         for _ in range(3):
             app.frame()
         last, last_time, now, status = widget.seen[-1]
         assert (last, last_time, now, status) == (42.0, t0 + 4.2, t0 + 4.25, Status.LIVE), widget.seen[-1]
         assert widget.paused_at == t0 + 4.25
         assert dpg.get_value(widget.text) == "42.0 (0.0 s old)"
-        app.seek(t0 + 15.0)  # in the gap: the last value then, stale then (by its age at the cursor)
+        app.time.seek(t0 + 15.0)  # in the gap: the last value then, stale then (by its age at the cursor)
         for _ in range(3):
             app.frame()
         assert widget.seen[-1] == (99.0, t0 + 9.9, t0 + 15.0, Status.STALE), widget.seen[-1]
@@ -532,11 +534,11 @@ def plugin_time_travel() -> None:
         for _ in range(3):
             app.frame()
         assert len(widget.seen) == redraws
-        assert app.step_time(+1)  # the next message: 100 at t0 + 20
+        assert app.time.step_time(+1)  # the next message: 100 at t0 + 20
         for _ in range(3):
             app.frame()
         assert widget.seen[-1][:3] == (100.0, t0 + 20.0, t0 + 20.0)
-        app.go_live()
+        app.time.go_live()
         for _ in range(3):
             app.frame()
         assert widget.seen[-1][0] == 101.0

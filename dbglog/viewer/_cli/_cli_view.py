@@ -336,7 +336,7 @@ def run(args: argparse.Namespace) -> int:
         data_fps=args.data_fps,
         recording=args.replay is not None,
     )
-    app.republisher = republisher  # View › Republish on ROS 2 shows for it
+    app.recordings.republisher = republisher  # View › Republish on ROS 2 shows for it
     try:
         app.start()
         if republisher is not None:
@@ -345,7 +345,7 @@ def run(args: argparse.Namespace) -> int:
 
         auto: AutoDashboard | None = None
         if new_file:
-            app.new_dashboard(args.dashboard)
+            app.files.new(args.dashboard)
             app.set_status(f"new dashboard: Save (Ctrl+S) writes {args.dashboard}")
         elif result is not None and args.template:
             app.load(result, None)
@@ -442,14 +442,14 @@ def whole_recording(app: ViewerApp, timeout: float = 600.0) -> None:
         app.frame()
         time.sleep(0.02)
     if not app.timeline.playing:
-        app.go_live()  # the end of the whole file (the cursor was at the end of its first part)
+        app.time.go_live()  # the end of the whole file (the cursor was at the end of its first part)
 
 
 def replay_status(app: ViewerApp, path: Path, auto: bool, *, republish: bool = False) -> None:
     """Say in the status bar what is replayed and how to play it."""
     from dbglog.viewer._ui._timescale import format_duration
 
-    span = app.time_span()
+    span = app.time.time_span()
     length = format_duration(span[1] - span[0]) if span is not None else "empty"
     how = "automatic dashboard of its topics; " if auto else ""
     also = "; republished on ROS 2 at the cursor" if republish else ""
@@ -466,10 +466,10 @@ def place_cursor(app: ViewerApp, t: float) -> float | None:
     """
     newest = None
     if t < 0:
-        span = app.time_span()
+        span = app.time.time_span()
         newest = span[1] if span is not None else time.time()
         t += newest
-    app.seek(t)
+    app.time.seek(t)
     for _ in range(3):  # every widget redraws at the cursor, the bar shows it
         app.frame()
     return newest

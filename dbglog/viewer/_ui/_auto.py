@@ -58,12 +58,12 @@ class AutoDashboard:
         self.app.frame_hooks.append(self.tick)
         # Tags can outnumber what fits the window: let the canvas scroll (its scrollbar, not the wheel,
         # which plots use to zoom).
-        dpg.configure_item(self.app.canvas, no_scrollbar=False)
+        dpg.configure_item(self.app.canvas.window, no_scrollbar=False)
         self._menu_item = dpg.add_menu_item(
             label="Auto-add new tags",
             check=True,
             default_value=self.enabled,
-            parent=self.app.view_menu,
+            parent=self.app.menus.menus["View"],
             callback=lambda s, a: self.set_enabled(bool(a)),
         )
         self.app.set_status("auto-dashboard: adding a widget for every tag as it is first published")
@@ -102,7 +102,7 @@ class AutoDashboard:
     def poll(self, now: float | None = None) -> int:
         """Look at the graph once and add widgets for new topics; return how many were added."""
         now = time.monotonic() if now is None else now
-        w, _h = self.app.canvas_size()
+        w, _h = self.app.canvas.size()
         if w > 0 and not self.added:
             self.layout.fit_columns(w - 16)  # room for the scrollbar
         before = self.added
@@ -138,7 +138,7 @@ class AutoDashboard:
             return  # the type is not known yet: try again next time
         suggestions = suggest(info, array_length=lambda _t: length, fields=source.fields)
         for config in self.layout.add(suggestions, info.name, free=self._free):
-            self.app.add_config(config)
+            self.app.canvas.add_config(config)
             self.added += 1
 
     def _free(self, x: float, y: float, w: float, h: float) -> bool:
@@ -184,12 +184,12 @@ def widget_report(app: ViewerApp, *, cursor_from: float | None = None) -> dict[s
     `cursor_from`: the newest source time a cursor given in seconds before it counted back from.
     """
     return {
-        "file": str(app.path) if app.path is not None else None,
-        "modified": app.dirty,
+        "file": str(app.doc.path) if app.doc.path is not None else None,
+        "modified": app.doc.dirty,
         "replay": str(getattr(app.source, "name", "")) if app.timeline.recording else None,
         "cursor": app.timeline.cursor,
         "cursor_from": cursor_from,
-        "span": list(span) if (span := app.time_span()) is not None else None,
+        "span": list(span) if (span := app.time.time_span()) is not None else None,
         "widgets": [
             {
                 "name": item.name,
@@ -201,7 +201,7 @@ def widget_report(app: ViewerApp, *, cursor_from: float | None = None) -> dict[s
             }
             for item in app.items
         ],
-        "dashboard": app.dashboard().to_dict(),
+        "dashboard": app.doc.dashboard().to_dict(),
     }
 
 

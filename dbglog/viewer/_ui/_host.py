@@ -4,33 +4,49 @@
 from __future__ import annotations
 
 import weakref
-from typing import TYPE_CHECKING
+from collections.abc import Callable
 
 import numpy as np
 import numpy.typing as npt
 
 from dbglog.viewer._data._history import History
 from dbglog.viewer._data._logstore import LOG_TYPES, WARN, LogStore
-from dbglog.viewer._ui._frame import TITLE_H
+from dbglog.viewer._data._timeline import Timeline
+from dbglog.viewer._ui._modal import Dialogs
 from dbglog.viewer._ui._plotnumber import NumberPlan, PlotNumberDialog
 from dbglog.viewer._ui._timescale import TimeScale
+from dbglog.viewer._widgets import WidgetRegistry
 from dbglog.viewer.widget_api import Binding, ValueKind
-
-if TYPE_CHECKING:
-    from dbglog.viewer._ui._app import ViewerApp
 
 __all__ = ["AppHost", "mark_columns"]
 
 
 class AppHost:
     """The app's `WidgetHost`: hands log stores out (the engine's, or built from a recording's history),
-    moves the cursor, opens "Plot this number", and collects the stores' marks for the timeline bar."""
+    moves the cursor, opens "Plot this number", and collects the stores' marks for the timeline bar.
 
-    def __init__(self, app: ViewerApp) -> None:
-        self.app = app
+    Args:
+        timeline: the window's time cursor over its data source.
+        seek: pauses the dashboard at a source time (kept within what is held).
+        registry: the widget types ("Plot this number" offers those that show numbers).
+        dialogs: the window's dialogs.
+        add_plan: adds the widget "Plot this number" asked for.
+    """
+
+    def __init__(
+        self,
+        timeline: Timeline,
+        *,
+        seek: Callable[[float], None],
+        registry: WidgetRegistry,
+        dialogs: Dialogs,
+        add_plan: Callable[[NumberPlan], object],
+    ) -> None:
+        self.timeline = timeline
+        self._seek, self.registry, self.dialogs, self.add_plan = seek, registry, dialogs, add_plan
         self._stores: weakref.WeakValueDictionary[str, LogStore] = weakref.WeakValueDictionary()
         """The current data source's stores by topic (a recording opened in the window has its own)."""
-        self._source: object = app.source
+        self._source: object = timeline.source
 
     def log_store(self, topic: str) -> LogStore | None:
         """The data source's store of `topic`'s lines; a source with only a history gets one built from it."""
@@ -55,8 +71,8 @@ class AppHost:
         return store
 
     def _current(self) -> object:
-        """The app's data source; when it changed (a recording opened, live again), its stores start over."""
-        source = self.app.source
+        """The data source; when it changed (a recording opened, live again), its stores start over."""
+        source = self.timeline.source
         if source is not self._source:
             self._source = source
             self._stores = weakref.WeakValueDictionary()
@@ -64,43 +80,29 @@ class AppHost:
 
     def seek(self, t: float) -> None:
         """Pause the dashboard at source time `t`."""
-        self.app.seek(t)
+        self._seek(t)
 
     def envelope(
         self, binding: Binding, t0: float, t1: float, pixels: int
     ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]] | None:
         """The history's min/max envelope of a binding over a range, up to the cursor (the timeline's)."""
-        return self.app.timeline.envelope(binding, t0, t1, pixels)
+        return self.timeline.envelope(binding, t0, t1, pixels)
 
     def plot_number(self, topic: str, line_id: int, number: int) -> None:
         """Open "Plot this number" for a number of a stored line (one dialog at a time, as every dialog)."""
         store = self.log_store(topic)
         if store is None or not store.has(line_id):
             return
-        app = self.app
-        app.close_dialog()
+        self.dialogs.close()
         types = [
             (cls.type_name, cls.label)
-            for cls in app.registry
+            for cls in self.registry
             if ValueKind.NUMBER in cls.accepts and not cls.publishes and cls.type_name != "log"
         ]
         types.sort(key=lambda t: t[0] != "plot")  # a Plot first: the default
-        dialog = PlotNumberDialog(store, topic, line_id, number, types, self.add_plan, app.dialog_closed)
-        app.open_dialog(dialog)
-
-    def add_plan(self, plan: NumberPlan) -> None:
-        """Add the widget "Plot this number" asked for, below the selected widget (or where there is room)."""
-        app = self.app
-        near = app.selected.rect if app.selected is not None and app.selected in app.items else None
-        x, y = (near.x, near.y + near.h + 10 + TITLE_H / 2) if near is not None else (40.0, 40.0)
-        item = app.add_widget(plan.type_name, x + 20, y)
-        if item is None:
-            return
-        app.apply_bindings(item, (plan.binding,))
-        if plan.properties:
-            item.set_properties(plan.properties)
-        app.rename(item, plan.name)
-        app.set_status(f"added {plan.name!r}: {plan.binding.topic} /{plan.binding.regex}/")
+        self.dialogs.open(
+            PlotNumberDialog(store, topic, line_id, number, types, self.add_plan, self.dialogs.closed)
+        )
 
     def marks(self, t0: float, t1: float) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.uint8]]:
         """Times and levels of the WARN, ERROR and FATAL lines held from `t0` to `t1` (timeline marks)."""

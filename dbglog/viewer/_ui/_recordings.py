@@ -3,8 +3,8 @@
 Each opens the viewer's own file dialog (`SaveAsDialog`: a name filled in, the extension added once, asks
 before replacing); the reading or writing then runs on a worker thread (the history is read without locks,
 docs/history.md) while the window keeps drawing, and the result comes back on the UI thread through a frame
-hook: the recording replaces the data source (`ViewerApp.use_source`), a file written is named in the status
-bar, and what went wrong is said in the dialog, never as a traceback.
+hook: the recording replaces the data source (`TimeControl.use_source`), a file written is named in the
+status bar, and what went wrong is said in the dialog, never as a traceback.
 
 Opening a recording swaps the data source inside this window rather than starting another viewer: the
 dashboard, its bindings and the time bar stay, and File > Back to live returns to the live engine, which
@@ -19,7 +19,7 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Generic, TypeVar
+from typing import Generic, TypeVar
 
 import dearpygui.dearpygui as dpg
 
@@ -27,12 +27,14 @@ from dbglog.record import RecordingError
 from dbglog.viewer._data._export import ExportError, export_csv, save_recording
 from dbglog.viewer._data._model import Binding, DataSource
 from dbglog.viewer._data._replay import ReplaySource, load_replay
+from dbglog.viewer._publishing._republish import Republisher
+from dbglog.viewer._ui._actions import Actions
+from dbglog.viewer._ui._canvas import Canvas
 from dbglog.viewer._ui._dialogs import SaveAsDialog
+from dbglog.viewer._ui._modal import Dialogs
 from dbglog.viewer._ui._theme import DIM
+from dbglog.viewer._ui._time import TimeControl
 from dbglog.viewer._ui._timescale import format_clock, format_duration
-
-if TYPE_CHECKING:
-    from dbglog.viewer._ui._app import ViewerApp
 
 __all__ = ["ExportRange", "RecordingCommands", "default_name", "import_ros", "plot_window"]
 
@@ -137,10 +139,34 @@ class _Pending:
 
 
 class RecordingCommands:
-    """The File menu's recording and export entries of one window, and their dialogs."""
+    """The File menu's recording and export entries of one window, and their dialogs.
 
-    def __init__(self, app: ViewerApp) -> None:
-        self.app = app
+    Args:
+        time: the window's time control (the span held, the cursor, the data source).
+        canvas: its widgets (what the plots show, the series to export).
+        dialogs: its dialogs (each command opens one; one at a time).
+        close_file_dialog: closes the dashboard file dialog (one modal at a time).
+        use_source: shows another data source (a recording opened: True; live again: False).
+        say: shows a message in the status bar.
+        wake: renders frames soon (a worker thread's result is waited for by the frame loop).
+    """
+
+    def __init__(
+        self,
+        time: TimeControl,
+        canvas: Canvas,
+        dialogs: Dialogs,
+        *,
+        close_file_dialog: Callable[[], None],
+        use_source: Callable[[DataSource, bool], None],
+        say: Callable[[str], None],
+        wake: Callable[[], None],
+    ) -> None:
+        self.time, self.canvas, self.dialogs = time, canvas, dialogs
+        self._close_file_dialog, self._use_source = close_file_dialog, use_source
+        self.say, self.wake = say, wake
+        self.republisher: Republisher | None = None
+        """``--republish``'s, set before the window starts: View \u203a Republish on ROS 2 switches it."""
         self.live_source: DataSource | None = None
         """The live source a recording opened from the menu replaced (File > Back to live returns to it)."""
         self.folder: Path | None = None
@@ -149,51 +175,66 @@ class RecordingCommands:
         self._choice: int | str | None = None
         self._ranges: list[ExportRange] = []
 
-    # -- the menu -----------------------------------------------------------------------------------
+    # -- the commands -------------------------------------------------------------------------------
 
-    def build_menu(self) -> None:
-        """Add the entries to the File menu being built (call inside its ``dpg.menu``)."""
-        queue = self.app.queue_time  # menu callbacks come on Dear PyGui's thread: run on the UI thread
-        self.open_entry = dpg.add_menu_item(
-            label="Open recording\u2026", callback=lambda *_: queue(self.ask_open)
+    def register(self, actions: Actions) -> None:
+        """Register the File menu's recording commands (`poll` must run every frame: a frame hook)."""
+        add = actions.register
+        add("recording.open", "Open recording\u2026", "Replay an MCAP file in this window", self.ask_open)
+        add(
+            "recording.save",
+            "Save history as recording\u2026",
+            "Everything held, or what the plots show, as an MCAP file",
+            self.ask_save_recording,
         )
-        self.save_entry = dpg.add_menu_item(
-            label="Save history as recording\u2026", callback=lambda *_: queue(self.ask_save_recording)
+        add("recording.export_csv", "Export CSV\u2026", "Every widget's series as CSV", self.ask_export_csv)
+        add(
+            "recording.back_to_live",
+            "Back to live",
+            "Show the live data again (the recording opened from the menu closes)",
+            self.back_to_live,
+            shown=lambda: self.live_source is not None,
         )
-        self.csv_entry = dpg.add_menu_item(
-            label="Export CSV\u2026", callback=lambda *_: queue(self.ask_export_csv)
+        add(
+            "view.republish",
+            "Republish on ROS 2",
+            "The replay follows the cursor on the ROS 2 graph",
+            self.toggle_republish,
+            checked=lambda: self.republisher is not None and self.republisher.enabled,
+            shown=lambda: self.republisher is not None,
         )
-        self.live_entry = dpg.add_menu_item(
-            label="Back to live", show=False, callback=lambda *_: queue(self.back_to_live)
-        )
-        self.app.frame_hooks.append(self.poll)
+
+    def toggle_republish(self) -> None:
+        """View \u203a Republish on ROS 2: the replay follows the cursor on the graph again, or stops."""
+        if self.republisher is not None:
+            on = not self.republisher.enabled
+            self.republisher.set_enabled(on)
+            self.say("republishing on ROS 2 at the cursor" if on else "republishing on ROS 2 stopped")
 
     # -- dialogs --------------------------------------------------------------------------------------
 
     def _start_folder(self) -> Path:
         if self.folder is not None and self.folder.is_dir():
             return self.folder
-        path = self.app.doc.path
+        path = self.canvas.doc.path
         return path.parent if path is not None else Path.cwd()
 
     def _dialog(
         self, title: str, name: str, extension: str, action: str, on_ok: Callable[[Path], object]
     ) -> SaveAsDialog:
-        app = self.app
-        app.close_dialog()
-        app.files.close_dialog()
+        self.dialogs.close()
+        self._close_file_dialog()
         dialog = SaveAsDialog(
             self._start_folder(),
             name,
             on_ok,
-            app.dialog_closed,
+            self.dialogs.closed,
             title=title,
             extension=extension,
             action=action,
             opening=action == "Open",
         )
-        app.open_dialog(dialog)
-        return dialog
+        return self.dialogs.open(dialog)
 
     def _range_options(self, dialog: SaveAsDialog, ranges: Sequence[ExportRange]) -> None:
         """Offer the time ranges as radio buttons (the first chosen) under the folder's entries."""
@@ -229,7 +270,7 @@ class RecordingCommands:
         dialog.set_note(note, error=False)
         dpg.configure_item(dialog.save_button, enabled=False)
         self._pending = _Pending(_Job(work), dialog, finish, cancellable)
-        self.app.pacer.request()
+        self.wake()
 
     def poll(self) -> None:
         """Frame hook: take a finished job's outcome (on the UI thread)."""
@@ -237,21 +278,21 @@ class RecordingCommands:
         if pending is None or not pending.job.done.is_set():
             return
         self._pending = None
-        app, dialog, job = self.app, pending.dialog, pending.job
-        app.pacer.request()
+        dialog, job = pending.dialog, pending.job
+        self.wake()
         if job.error is not None:
             message = (
                 str(job.error) if isinstance(job.error, RecordingError | ExportError) else repr(job.error)
             )
-            app.set_status(f"failed: {message}")
+            self.say(f"failed: {message}")
             if not dialog.closed:
                 dpg.configure_item(dialog.save_button, enabled=True)
                 dialog.set_note(message)
             else:
-                app.show_message("File error", message)
+                self.dialogs.message("File error", message)
             return
         if dialog.closed and pending.cancellable:
-            app.set_status("not opened: cancelled")
+            self.say("not opened: cancelled")
             return
         dialog.close()
         pending.finish(job.result)
@@ -269,7 +310,7 @@ class RecordingCommands:
         if dialog is None:
             dialog = self.ask_open()
             dpg.set_value(dialog.name_input, str(target))
-        stale = float(getattr(self.app.source, "stale_after", 2.0))
+        stale = float(getattr(self.time.source, "stale_after", 2.0))
         self.folder = target.parent if target.is_file() else target
         import_ros()
         self._run(
@@ -281,37 +322,33 @@ class RecordingCommands:
         )
 
     def _replay(self, replay: ReplaySource) -> None:
-        app = self.app
-        if not app.timeline.recording:
-            self.live_source = app.source
-        app.use_source(replay, recording=True)
-        if self.live_source is not None:
-            dpg.configure_item(self.live_entry, show=True)
+        if not self.time.timeline.recording:
+            self.live_source = self.time.source
+        self._use_source(replay, True)
         name = Path(replay.name).name
         span = replay.time_span()
         length = format_duration(replay.duration) if span is not None else "no message"
         if replay.problems:
-            app.show_message(
+            self.dialogs.message(
                 f"Problems in {name}", "\n".join(replay.problems) + "\n\nThe readable part plays."
             )
-            app.set_status(f"replaying {name} ({length}); {len(replay.problems)} problem(s) with the file")
+            self.say(f"replaying {name} ({length}); {len(replay.problems)} problem(s) with the file")
         else:
-            app.set_status(f"replaying {name} ({length}): Space plays, the time bar seeks")
+            self.say(f"replaying {name} ({length}): Space plays, the time bar seeks")
 
     def back_to_live(self) -> None:
         """File > Back to live: the live source a recording replaced shows again."""
         if self.live_source is None:
             return
-        self.app.use_source(self.live_source, recording=False)
+        self._use_source(self.live_source, False)
         self.live_source = None
-        dpg.configure_item(self.live_entry, show=False)
-        self.app.set_status("live again")
+        self.say("live again")
 
     # -- Save history as recording ------------------------------------------------------------------
 
     def _ranges_now(self, *, selected_plot: bool) -> list[ExportRange] | None:
         """Everything held, then what the plots show (the selected plot's window, else every plot's)."""
-        span = self.app.time_span()
+        span = self.time.time_span()
         if span is None:
             return None
         out = [ExportRange(span[0], span[1], "Everything held", whole=True)]
@@ -322,13 +359,13 @@ class RecordingCommands:
 
     def plots_range(self, *, selected_only: bool = False) -> ExportRange | None:
         """The time range the plots show (within the span held); only the selected plot's if asked."""
-        app = self.app
-        plots = [i for i in app.items if i.config.type == "plot" and i.series]
-        selected = app.selected
+        timeline = self.time.timeline
+        plots = [i for i in self.canvas.doc.items if i.config.type == "plot" and i.series]
+        selected = self.canvas.selected
         what = "What the plots show"
         if selected_only and selected is not None and selected in plots:
             plots, what = [selected], f"The window of {selected.name!r}"
-        span = app.time_span()
+        span = self.time.time_span()
         lo, hi = math.inf, -math.inf
         for item in plots:
             shown = _visible_range(item.widget)  # a plot zoomed or panned says what it shows
@@ -336,31 +373,30 @@ class RecordingCommands:
                 props = getattr(item.config, "properties", {})
                 window = float(props.get("window", 10.0))
                 newest = max(
-                    (s.last_time for s in item.snapshots(app.timeline) if s.last_time is not None),
+                    (s.last_time for s in item.snapshots(timeline) if s.last_time is not None),
                     default=None,
                 )
-                shown = plot_window(window, app.timeline.cursor, newest)
+                shown = plot_window(window, timeline.cursor, newest)
             if shown is not None:
                 lo, hi = min(lo, shown[0]), max(hi, shown[1])
         if hi < lo:
             return None
         if span is not None:
             lo, hi = max(lo, span[0]), min(hi, span[1])
-        if app.timeline.cursor is not None:  # paused, a plot draws what had arrived by the cursor, no later
-            hi = min(hi, app.timeline.cursor)
+        if timeline.cursor is not None:  # paused, a plot draws what had arrived by the cursor, no later
+            hi = min(hi, timeline.cursor)
         return ExportRange(lo, hi, what) if hi >= lo else None
 
     def ask_save_recording(self) -> SaveAsDialog | None:
         """File > Save history as recording…: everything held, or what the plots show, as an MCAP file."""
-        app = self.app
-        source = app.source
+        source = self.time.source
         store, types = getattr(source, "store", None), getattr(source, "held_types", None)
         if store is None or not callable(types):
-            app.show_message("Nothing to save", "This data source keeps no history to save.")
+            self.dialogs.message("Nothing to save", "This data source keeps no history to save.")
             return None
         ranges = self._ranges_now(selected_plot=False)
         if ranges is None:
-            app.show_message("Nothing to save", "The history is empty: nothing has arrived yet.")
+            self.dialogs.message("Nothing to save", "The history is empty: nothing has arrived yet.")
             return None
 
         def save(path: Path) -> None:
@@ -373,7 +409,7 @@ class RecordingCommands:
                 lambda: save_recording(
                     store, held, path, t0=chosen.bounds[0], t1=chosen.bounds[1], force=True
                 ),
-                lambda n: app.set_status(f"saved {n:,} messages ({chosen.what.lower()}) to {path}"),
+                lambda n: self.say(f"saved {n:,} messages ({chosen.what.lower()}) to {path}"),
             )
 
         dialog = self._dialog(
@@ -386,29 +422,28 @@ class RecordingCommands:
 
     def export_bindings(self) -> list[Binding]:
         """Every series a widget shows (each once, in the dashboard's order)."""
-        return self.app.step_bindings(all_widgets=True)
+        return self.canvas.step_series(all_widgets=True)
 
     def ask_export_csv(self) -> SaveAsDialog | None:
         """File > Export CSV…: every widget's series between two times (the span held, or a plot's window)."""
-        app = self.app
         bindings = self.export_bindings()
         if not bindings:
-            app.show_message("Nothing to export", "No widget shows a series: bind one to a topic first.")
+            self.dialogs.message("Nothing to export", "No widget shows a series: bind one to a topic first.")
             return None
         ranges = self._ranges_now(selected_plot=True)
         if ranges is None:
-            app.show_message("Nothing to export", "The history is empty: nothing has arrived yet.")
+            self.dialogs.message("Nothing to export", "The history is empty: nothing has arrived yet.")
             return None
 
         def export(path: Path) -> None:
             chosen = self.chosen_range()
             self.folder = path.parent
-            timeline = app.timeline
+            timeline = self.time.timeline
             self._run(
                 dialog,
                 f"exporting {path.name}\u2026",
                 lambda: export_csv(timeline, bindings, *chosen.bounds, path, force=True),
-                lambda rows: app.set_status(f"exported {rows:,} rows of {len(bindings)} series to {path}"),
+                lambda rows: self.say(f"exported {rows:,} rows of {len(bindings)} series to {path}"),
             )
 
         dialog = self._dialog("Export CSV", default_name("export", ".csv"), ".csv", "Export", export)

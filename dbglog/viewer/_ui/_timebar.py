@@ -71,11 +71,12 @@ class TimeBar:
         timeline: the app's time cursor (read only: moves go through `on_seek`).
         span: returns the (oldest, newest) source time to show, None while nothing is held.
         on_seek: moves the cursor to a time (a click or drag on the track).
-        on_toggle: the Pause/Live button's action (queued by the app, run on the UI thread).
+        on_toggle: the Pause/Live button's action (called on Dear PyGui's callback thread: queue it).
         on_play: the play/pause button's action (a click on it, seen by `poll` on the UI thread).
-        on_speed: a speed chosen in the speed menu (called on Dear PyGui's callback thread: queue it).
+        on_speed: a speed chosen in the speed menu (called by `poll`, on the UI thread).
         on_loop: the loop toggle's action (seen by `poll` on the UI thread).
         marks: the log lines to mark on the track for a scale (the Log console's warnings and errors).
+        keys: the keys that move the cursor, as the track's tooltip lists them.
     """
 
     def __init__(
@@ -89,8 +90,12 @@ class TimeBar:
         on_speed: Callable[[float], None] = lambda _speed: None,
         on_loop: Callable[[], None] = lambda: None,
         marks: Callable[[TimeScale], Sequence[tuple[int, int]]] | None = None,
+        keys: str = "",
     ) -> None:
         self.timeline = timeline
+        self._on_speed = on_speed
+        self._speed_chosen: float | None = None
+        """A speed chosen in the speed menu (its callback thread), taken by the next `poll`."""
         self._marks = marks
         """Log lines to mark on the track: (pixel, level) of the worst WARN/ERROR/FATAL per pixel column."""
         self._marked: tuple[tuple[int, int], ...] = ()
@@ -130,11 +135,8 @@ class TimeBar:
                 self.button = dpg.add_button(label="Pause", width=BUTTON_W, callback=lambda *_: on_toggle())
         with dpg.tooltip(track_group, delay=0.6, hide_on_activity=True):  # not over the cursor while dragging
             dpg.add_text("Click or drag to look back in time (pauses)")
-            dpg.add_text(
-                "Space pause/resume \u00b7 \u2190/\u2192 previous/next message \u00b7 "
-                "Shift+\u2190/\u2192 \u00b11 s \u00b7 End live",
-                color=theme.DIM,
-            )
+            if keys:
+                dpg.add_text(keys, color=theme.DIM)
         with dpg.tooltip(self.button):
             self.button_tip = dpg.add_text("")
         with dpg.tooltip(play_group, delay=0.4):
@@ -158,7 +160,7 @@ class TimeBar:
             """Speed -> its entry in the speed menu."""
             for speed in Timeline.SPEEDS:
                 self.speed_entries[speed] = dpg.add_selectable(
-                    label=speed_text(speed), callback=lambda *_, v=speed: on_speed(v)
+                    label=speed_text(speed), callback=lambda *_, v=speed: self._choose_speed(v)
                 )
         self._speed_asked = False
 
@@ -197,6 +199,10 @@ class TimeBar:
         # Dear PyGui's callback thread: `open_speed_menu` opens it on the UI thread (at the next `poll`).
         self._speed_asked = True
 
+    def _choose_speed(self, speed: float) -> None:
+        # Dear PyGui's callback thread: `poll` closes the menu and sets the speed on the UI thread.
+        self._speed_chosen = speed
+
     def open_speed_menu(self) -> None:
         """Show the speed menu above the speed button, the current speed highlighted."""
         for speed, entry in self.speed_entries.items():
@@ -227,6 +233,10 @@ class TimeBar:
         if self._speed_asked:
             self._speed_asked = False
             self.open_speed_menu()
+        chosen, self._speed_chosen = self._speed_chosen, None
+        if chosen is not None:
+            self.close_speed_menu()
+            self._on_speed(chosen)
         blocked = blocked or self.speed_menu_open
         self._hover = None
         for which in ("play", "loop") if not blocked else ():
