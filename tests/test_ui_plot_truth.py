@@ -82,7 +82,7 @@ class Probe:
         from tests.test_ui_plot_inspect import _rect
 
         app = self.app
-        ox, oy = app.canvas_origin()
+        ox, oy = app.canvas.origin()
         plots, readouts = {}, {}
         for item in app.items:
             widget = item.widget
@@ -106,10 +106,10 @@ class Probe:
                 readout = widget._caption if item.config.type == "led" else widget._readout
                 readouts[item.name] = dpg.get_item_configuration(readout)["text"]
         return {
-            "frame": app.rendered,
+            "frame": app.loop.rendered,
             "mouse": list(dpg.get_mouse_pos(local=False)),
             "base": self.base,
-            "menu": bool(dpg.is_item_shown(app.menu)),
+            "menu": bool(dpg.is_item_shown(app.pointer_input.menu)),
             "plots": plots,
             "readouts": readouts,
             "rects": {i.name: [i.rect.x + ox, i.rect.y + oy, i.rect.w, i.rect.h] for i in app.items},
