@@ -200,7 +200,8 @@ def test_a_file_without_summary_is_scanned_and_named(tmp_path: Path) -> None:
     assert speed.values.tolist() == [float(i) for i in range(500)]
     assert len(rec.problems) == 1
     assert str(path) in rec.problems[0]
-    assert "no readable summary" in rec.problems[0]
+    assert "no summary or index: the file does not end with an MCAP footer" in rec.problems[0]
+    assert "read by scanning the whole file: 500 messages in" in rec.problems[0]
 
 
 @pytest.mark.parametrize("cut", [0.3, 0.55, 0.8, 0.97])
@@ -346,7 +347,7 @@ def test_tags_and_echo_of_a_file_name_what_is_missing(tmp_path: Path) -> None:
     _flushed(tmp_path / "killed.mcap", 2, 10).abandon()
     assert list(echo_lines(tmp_path / "killed.mcap", "speed", warn=warnings.append))[-1] == "19.0"
     assert len(warnings) == 1
-    assert "killed.mcap: no readable summary" in warnings[0]
+    assert "killed.mcap: no summary or index" in warnings[0]
 
 
 def test_a_time_range_reads_only_its_messages(tmp_path: Path) -> None:

@@ -170,6 +170,37 @@ def test_cli_replay_without_a_dashboard_shows_every_topic_and_its_end(display: s
     assert by_topic[CMD]["bindings"][0]["field"] == "linear.x"
 
 
+def test_cli_replay_of_files_without_an_index_plays_every_message(display: str, tmp_path: Path) -> None:
+    """`--replay` of an index-less file (the `mcap` writer: no chunks, or no index and no summary) holds
+    every message, and says once on stderr that it had no index and how long the scan took."""
+    from mcap.writer import CompressionType, IndexType
+
+    from tests import _mcap_layouts
+    from tests._mcap_layouts import Layout, write
+
+    n = _mcap_layouts.N
+    for i, layout in enumerate(
+        (
+            Layout(False, CompressionType.NONE, IndexType.ALL, True, True, True, True, True),
+            Layout(True, CompressionType.ZSTD, IndexType.NONE, False, False, False, False, True),
+        )
+    ):
+        rec, report = write(tmp_path / f"plain{i}.mcap", layout), tmp_path / f"r{i}.json"
+        done = view(
+            display, "--replay", str(rec), "--screenshot", str(tmp_path / f"p{i}.png"), "--after", "0.3",
+            "--report-json", str(report),
+        )  # fmt: skip
+        assert done.returncode == 0, done.stderr
+        notes = [line for line in done.stderr.splitlines() if "warning" in line]
+        assert len(notes) == 1, done.stderr
+        assert f"{rec}: no " in notes[0]
+        assert f"read by scanning the whole file: {3 * n} messages in " in notes[0]
+        widgets = {w["bindings"][0]["topic"]: w for w in json.loads(report.read_text())["widgets"]}
+        assert widgets["/rosdashboard/speed"]["samples"] == [n]
+        assert widgets["/rosdashboard/speed"]["values"] == [(n - 1) * 0.5]
+        assert set(widgets["/cmd_vel"]["samples"]) == {n}  # one binding per Twist field
+
+
 def test_cli_replay_of_a_damaged_or_missing_file(display: str, tmp_path: Path) -> None:
     """A cut-short file plays its readable part with warnings on stderr; a missing or foreign file is one
     line and exit 1."""

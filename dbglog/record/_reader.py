@@ -3,17 +3,21 @@
 Indexed files are read through their summary (the ``mcap`` library's `SeekingReader`): every chunk is
 decompressed once and its message indexes give each channel's record offsets, so times, payloads and
 scalar values (``std_msgs`` Float64, Int32, Bool, ...) are gathered with numpy, never one Python
-object per message. A file without a usable summary (killed recording, truncated copy, corrupt
-bytes) is scanned from the start instead, keeping every record that is whole; what was wrong is
-said in `Recording.problems`, naming the file. The file is opened read-only (memory-mapped).
+object per message. A file whose summary cannot find every message (no summary: a killed recording or
+a streaming writer; no chunk index; channels or chunks missing from it; a truncated copy) is scanned
+from the start instead, keeping every record that is whole, as the MCAP specification allows; one
+problem in `Recording.problems` says so, with what the scan found and how long it took. The file is
+opened read-only (memory-mapped).
 """
 
 from __future__ import annotations
 
 import contextlib
+import io
 import mmap
 import os
 import struct
+import time
 import zlib
 from collections.abc import Iterator
 from dataclasses import dataclass, field
@@ -147,32 +151,34 @@ class _Loader:
 
     # ----- records ---------------------------------------------------------------------------------
 
-    def _string(self, buf: Any, pos: int) -> tuple[str, int]:
-        (n,) = struct.unpack_from("<I", buf, pos)
-        return bytes(buf[pos + 4 : pos + 4 + n]).decode(errors="replace"), pos + 4 + n
+    def record(self, op: int, body: Any, where: int) -> None:
+        """Read a header, schema or channel record with the ``mcap`` library (a corrupt one is named)."""
+        from mcap.data_stream import ReadDataStream
+        from mcap.exceptions import McapError
+        from mcap.records import Channel, Header, Schema
 
-    def schema(self, body: Any) -> None:
-        (sid,) = struct.unpack_from("<H", body, 0)
-        name, pos = self._string(body, 2)
-        encoding, pos = self._string(body, pos)
-        (n,) = struct.unpack_from("<I", body, pos)
-        self.schemas[sid] = (name, encoding, bytes(body[pos + 4 : pos + 4 + n]).decode(errors="replace"))
-
-    def channel(self, body: Any) -> None:
-        cid, sid = struct.unpack_from("<HH", body, 0)
-        topic, pos = self._string(body, 4)
-        encoding, pos = self._string(body, pos)
-        self.channels[cid] = _Chan(topic, sid, encoding)
-
-    def header(self, body: Any) -> None:
-        self.profile, _ = self._string(body, 0)
+        stream = ReadDataStream(io.BytesIO(bytes(body)))
+        kind = {0x01: "header", 0x03: "schema", 0x04: "channel"}[op]
+        try:
+            if op == 0x01:
+                self.profile = Header.read(stream).profile
+            elif op == 0x03:
+                schema = Schema.read(stream)
+                self.schemas[schema.id] = (schema.name, schema.encoding, schema.data.decode(errors="replace"))
+            else:
+                channel = Channel.read(stream)
+                self.channels[channel.id] = _Chan(channel.topic, channel.schema_id, channel.message_encoding)
+        except (McapError, struct.error, UnicodeDecodeError) as exc:
+            self.problems.append(f"{self.path}: the {kind} record at byte {where} is corrupt ({_why(exc)})")
 
     # ----- chunks ----------------------------------------------------------------------------------
 
     def chunk(self, body: Any, where: int, index: dict[int, npt.NDArray[np.int64]] | None) -> None:
         """Decode one chunk record's body; `index`: channel -> record offsets, else walk the records."""
         _start_t, _end_t, usize, crc = struct.unpack_from("<QQQI", body, 0)
-        compression, pos = self._string(body, 28)
+        (n,) = struct.unpack_from("<I", body, 28)
+        compression = bytes(body[32 : 32 + n]).decode(errors="replace")
+        pos = 32 + n
         (clen,) = struct.unpack_from("<Q", body, pos)
         data = body[pos + 8 : pos + 8 + clen]
         if len(data) != clen:
@@ -223,10 +229,8 @@ class _Loader:
             if op == 0x05 and length >= 22:
                 (cid,) = struct.unpack_from("<H", raw, pos + 9)
                 found.setdefault(cid, []).append(pos)
-            elif op == 0x03:
-                self.schema(memoryview(raw)[pos + 9 : pos + 9 + length])
-            elif op == 0x04:
-                self.channel(memoryview(raw)[pos + 9 : pos + 9 + length])
+            elif op in (0x03, 0x04):
+                self.record(op, memoryview(raw)[pos + 9 : pos + 9 + length], where)
             pos += 9 + length
         return {cid: np.asarray(v, dtype=np.int64) for cid, v in found.items()}
 
@@ -269,52 +273,27 @@ class _Loader:
 
     # ----- whole file --------------------------------------------------------------------------------
 
-    def indexed(self) -> bool:
-        """Read through the summary; False when the file has none usable (then scan)."""
+    def indexed(self) -> str | None:
+        """Read through the summary; return why not (then scan the file) when it cannot find every message."""
         from mcap.exceptions import McapError
         from mcap.reader import SeekingReader
 
-        class _View:
-            """A read-only file object over the mapping for mcap's reader."""
-
-            def __init__(self, buf: Any) -> None:
-                self.buf, self.pos = buf, 0
-
-            def read(self, n: int = -1) -> bytes:
-                end = len(self.buf) if n < 0 else min(len(self.buf), self.pos + n)
-                out = bytes(self.buf[self.pos : end])
-                self.pos = end
-                return out
-
-            def seek(self, pos: int, whence: int = 0) -> int:
-                base = {0: 0, 1: self.pos, 2: len(self.buf)}[whence]
-                self.pos = max(0, base + pos)
-                return self.pos
-
-            def tell(self) -> int:
-                return self.pos
-
-            def seekable(self) -> bool:
-                return True
-
+        if bytes(self.buf[-len(MAGIC) :]) != MAGIC:
+            return (
+                "no summary or index: the file does not end with an MCAP footer (the recording was not "
+                "finished: killed, or still being written; or the file was cut short)"
+            )
         try:
             reader = SeekingReader(_View(self.buf), validate_crcs=False)  # type: ignore[arg-type]
             summary = reader.get_summary()
             header = reader.get_header()
         except (McapError, struct.error, ValueError, EOFError, IndexError) as exc:
-            self.problems.append(
-                f"{self.path}: no readable summary or index ({_why(exc)}): the recording was not "
-                "finished (killed, or still being written) or the file is truncated; read by scanning it"
-            )
-            return False
+            return f"no readable summary or index ({_why(exc)})"
         if summary is None:
-            self.problems.append(
-                f"{self.path}: the file has no summary (the recording was not finished, or the writer "
-                "wrote none); read by scanning it"
-            )
-            return False
-        if not summary.chunk_indexes and summary.statistics and summary.statistics.message_count:
-            return False  # unchunked messages: only a scan finds them (not an error)
+            return "no summary or index (its writer wrote none)"
+        gap = _index_gap(summary)
+        if gap is not None:
+            return gap
         self.profile = header.profile
         for sid, s in summary.schemas.items():
             self.schemas[sid] = (s.name, s.encoding, s.data.decode(errors="replace"))
@@ -344,7 +323,15 @@ class _Loader:
             if not ci.message_index_offsets:
                 index = None
             self.chunk(memoryview(self.buf)[where + 9 : where + 9 + length], where, index)
-        return True
+        stats = summary.statistics
+        found = self.count()
+        if stats is not None and self.span is None and not self.problems and found != stats.message_count:
+            return f"the index finds {found:,} of the {stats.message_count:,} messages its statistics count"
+        return None
+
+    def count(self) -> int:
+        """Messages gathered so far."""
+        return sum(len(x) for acc in self.acc.values() for x in acc.log)
 
     def _message_index(self, at: int) -> npt.NDArray[np.int64] | None:
         if at + 15 > self.size:
@@ -356,51 +343,72 @@ class _Loader:
         return pairs[1::2].astype(np.int64)
 
     def scan(self) -> None:
-        """Read every whole record from the start; stop at the first one cut short or malformed."""
+        """Read every whole record from the start; stop at the first one cut short or malformed.
+
+        A chunk followed by its message indexes (a killed recording's) is gathered through them; one
+        without is walked record by record.
+        """
         buf, size, pos = self.buf, self.size, len(MAGIC)
         unpack = _REC.unpack_from
-        loose: dict[int, list[tuple[int, int, bytes]]] = {}
+        loose: dict[int, list[int]] = {}
+        chunk: tuple[int, int] | None = None
+        """The last chunk read (where, body length): gathered once the records after it are known."""
+        index: dict[int, npt.NDArray[np.int64]] | None = {}
+
+        def gather_chunk() -> None:
+            nonlocal chunk, index
+            if chunk is not None:
+                where, n = chunk
+                usable = index if index and index.keys() <= self.channels.keys() else None
+                self.chunk(memoryview(buf)[where + 9 : where + 9 + n], where, usable)
+            chunk, index = None, {}
+
         while pos < size:
             if pos + 9 > size:
                 self.problems.append(f"{self.path}: truncated at byte {size} (a record header is cut short)")
+                index = None  # the last chunk's message indexes may be cut: walk it
                 break
             op, length = unpack(buf, pos)
             if op == 0 or length > size:
                 self.problems.append(
                     f"{self.path}: corrupt at byte {pos} (not an MCAP record); stopped there"
                 )
+                index = None
                 break
             if pos + 9 + length > size:
                 self.problems.append(
                     f"{self.path}: truncated at byte {size} (the record at byte {pos} needs "
                     f"{9 + length} bytes); kept everything before it"
                 )
+                index = None
                 break
-            body = memoryview(buf)[pos + 9 : pos + 9 + length]
-            try:
-                if op == 0x01:
-                    self.header(body)
-                elif op == 0x03:
-                    self.schema(body)
-                elif op == 0x04:
-                    self.channel(body)
-                elif op == 0x06:
-                    self.chunk(body, pos, None)
-                elif op == 0x05:
-                    cid, _seq, log, pub = struct.unpack_from("<HIQQ", body, 0)
-                    loose.setdefault(cid, []).append((log, pub, bytes(body[22:])))
-                elif op in (0x0F, 0x02):  # data end, footer
-                    break
-            except (struct.error, UnicodeDecodeError) as exc:
-                self.problems.append(f"{self.path}: corrupt record at byte {pos} ({exc}); stopped there")
+            if op == 0x07:
+                offsets = self._message_index(pos) if chunk is not None and length >= 6 else None
+                if index is not None and offsets is not None:
+                    index[struct.unpack_from("<H", buf, pos + 9)[0]] = offsets
+                else:
+                    index = None
+                pos += 9 + length
+                continue
+            gather_chunk()
+            if op == 0x05:
+                if length >= 22:
+                    (channel,) = struct.unpack_from("<H", buf, pos + 9)
+                    loose.setdefault(channel, []).append(pos)
+            elif op == 0x06:
+                chunk = (pos, length)
+            elif op in (0x01, 0x03, 0x04):
+                self.record(op, memoryview(buf)[pos + 9 : pos + 9 + length], pos)
+            elif op == 0x02:  # footer: what follows is the closing magic
                 break
             pos += 9 + length
-        for cid, items in loose.items():
-            acc = self.acc.setdefault(cid, _Acc())
-            acc.log.append(np.array([i[0] for i in items], dtype=np.int64))
-            acc.pub.append(np.array([i[1] for i in items], dtype=np.int64))
-            acc.data.append(np.frombuffer(b"".join(i[2] for i in items), dtype=np.uint8))
-            acc.lengths.append(np.array([len(i[2]) for i in items], dtype=np.int64))
+        gather_chunk()
+        if loose:  # messages outside chunks: gathered like a chunk's, straight from the mapping
+            u = np.frombuffer(buf, dtype=np.uint8)
+            for cid, starts in loose.items():
+                if cid in self.channels:
+                    self._gather(u, cid, np.asarray(starts, dtype=np.int64))
+            del u
 
     def result(self, indexed: bool, keep_payloads: bool) -> Recording:
         topics: dict[str, TopicData] = {}
@@ -461,6 +469,56 @@ class _Loader:
         return Recording(self.path, topics, unreadable, self.problems, indexed, self.profile)
 
 
+class _View:
+    """A read-only file object over the mapping, for the ``mcap`` library's readers."""
+
+    def __init__(self, buf: Any) -> None:
+        self.buf, self.pos = buf, 0
+
+    def read(self, n: int = -1) -> bytes:
+        end = len(self.buf) if n < 0 else min(len(self.buf), self.pos + n)
+        out = bytes(self.buf[self.pos : end])
+        self.pos = end
+        return out
+
+    def seek(self, pos: int, whence: int = 0) -> int:
+        base = {0: 0, 1: self.pos, 2: len(self.buf)}[whence]
+        self.pos = max(0, base + pos)
+        return self.pos
+
+    def tell(self) -> int:
+        return self.pos
+
+    def seekable(self) -> bool:
+        return True
+
+
+def _index_gap(summary: Any) -> str | None:
+    """Why a summary cannot find every message of its file (then it is scanned); None when it can.
+
+    The MCAP writers' options leave out any part of it: the chunk indexes (and with them every index),
+    the schemas and channels repeated there, the statistics; messages outside chunks are never indexed.
+    """
+    stats = summary.statistics
+    indexes = summary.chunk_indexes
+    if not indexes:
+        if stats is not None and stats.message_count == 0 and stats.channel_count == len(summary.channels):
+            return None  # the statistics say the file holds no message: nothing to find
+        return "no index (its summary has no chunk index)"
+    if stats is not None and stats.chunk_count != len(indexes):
+        return f"an incomplete index (its summary indexes {len(indexes)} of its {stats.chunk_count} chunks)"
+    listed = {cid for ci in indexes for cid in ci.message_index_offsets}
+    if (
+        not summary.channels
+        or not listed <= summary.channels.keys()
+        or (stats is not None and stats.channel_count > len(summary.channels))
+    ):
+        return "an incomplete summary (it does not list every channel of its chunks)"
+    if any(c.schema_id and c.schema_id not in summary.schemas for c in summary.channels.values()):
+        return "an incomplete summary (it does not list the schemas of its channels)"
+    return None
+
+
 def _type_known(name: str, text: str) -> bool:
     if text.strip():
         return True
@@ -511,10 +569,12 @@ def _scalars(
 
 
 def recording_span(path: str | os.PathLike[str]) -> tuple[int, int] | None:
-    """Return (first, last) log time in ns from a file's summary statistics; None without a summary.
+    """Return (first, last) log time in ns from a file's summary statistics; None without a full index.
 
     Reads the footer and summary only (milliseconds, whatever the file's size), for a viewer that
-    opens the end of a long recording first. A rosbag2 directory: its first ``.mcap`` file.
+    opens the end of a long recording first; None too when the file has no index that finds every
+    message (a time range would be read by scanning the whole file anyway). A rosbag2 directory: its
+    first ``.mcap`` file.
     """
     from mcap.exceptions import McapError
     from mcap.reader import SeekingReader
@@ -531,7 +591,7 @@ def recording_span(path: str | os.PathLike[str]) -> tuple[int, int] | None:
     except (OSError, McapError, struct.error, ValueError, EOFError, IndexError):
         return None
     stats = None if summary is None else summary.statistics
-    if stats is None or not stats.message_count:
+    if stats is None or not stats.message_count or _index_gap(summary) is not None:
         return None
     return int(stats.message_start_time), int(stats.message_end_time)
 
@@ -587,13 +647,18 @@ def read_recording(
     if start_ns is not None or end_ns is not None:
         span = (start_ns if start_ns is not None else -(2**63), end_ns if end_ns is not None else 2**63 - 1)
     loader = _Loader(path, buf, keep_payloads, span)
-    done = loader.indexed()
-    if not done:
+    why = loader.indexed()
+    if why is not None:
         loader.schemas.clear()
         loader.channels.clear()
         loader.acc.clear()
+        loader.problems.clear()
+        start = time.perf_counter()
         loader.scan()
-    recording = loader.result(done, keep_payloads)
+        took = time.perf_counter() - start
+        found = "no message" if not loader.count() else f"{loader.count():,} messages"
+        loader.problems.insert(0, f"{path}: {why}; read by scanning the whole file: {found} in {took:.2f} s")
+    recording = loader.result(why is None, keep_payloads)
     del loader
     if isinstance(buf, mmap.mmap):
         with contextlib.suppress(BufferError):  # a view still alive: the mapping goes with it
