@@ -287,9 +287,11 @@ def test_record_after_sigkill_opens_missing_at_most_the_last_second(
 
 
 def test_record_refuses_to_overwrite_unless_forced(tmp_path: Path, procs: Callable[..., Proc]) -> None:
-    """An existing output file is kept and named (exit 1); --force replaces it with a recording."""
+    """An existing output file is kept and named (exit 1); --force replaces it with a recording, a new
+    file that gets 0666 less the umask (not the old file's 0600)."""
     out = tmp_path / "exists.mcap"
     out.write_bytes(b"keep me")
+    out.chmod(0o600)
     done = subprocess.run(
         [sys.executable, *_record(out)], capture_output=True, text=True, timeout=60, check=False
     )
@@ -302,9 +304,12 @@ def test_record_refuses_to_overwrite_unless_forced(tmp_path: Path, procs: Callab
         text=True,
         timeout=60,
         check=False,
+        umask=0o027,
     )
     assert forced.returncode == 0, forced.stderr
     assert read_recording(out).indexed
+    assert out.stat().st_mode & 0o777 == 0o640
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["exists.mcap"]
 
 
 def test_record_rejects_a_malformed_target(tmp_path: Path) -> None:

@@ -201,6 +201,62 @@ def test_cli_replay_of_files_without_an_index_plays_every_message(display: str, 
         assert set(widgets["/cmd_vel"]["samples"]) == {n}  # one binding per Twist field
 
 
+# A window over a recording takes a screenshot to a new file, then one that fails (no time to capture) over
+# a file already there, and closes without drawing again. Prints the old file's bytes after the failure.
+_SHOTS = """
+import sys
+from pathlib import Path
+from dbglog.viewer._data._replay import load_replay
+from dbglog.viewer._ui import ViewerApp
+from dbglog.viewer._widgets import WidgetRegistry
+
+folder = Path(sys.argv[2])
+app = ViewerApp(load_replay(sys.argv[1]), WidgetRegistry.builtin(), width=640, height=480)
+app.start()
+try:
+    app.screenshot(folder / "new.png")
+    try:
+        app.screenshot(folder / "old.png", timeout=0)
+    except TimeoutError as exc:
+        print("failed:", exc)
+    print((folder / "old.png").read_text())
+finally:
+    app.close()
+"""
+
+
+def test_screenshots_get_the_umask_and_a_failed_one_keeps_the_file_there(
+    display: str, tmp_path: Path
+) -> None:
+    """A screenshot is a new file with 0666 less the umask; one that fails leaves the file it was to
+    replace as it was (bytes and mode) and nothing temporary beside it."""
+    rec = write_recording(tmp_path / "run.mcap")
+    shots = tmp_path / "shots"
+    shots.mkdir()
+    (shots / "old.png").write_text("an older picture")
+    (shots / "old.png").chmod(0o600)
+    done = subprocess.run(
+        [sys.executable, "-c", _SHOTS, str(rec), str(shots)],
+        env={**os.environ, "DISPLAY": display},
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=False,
+        umask=0o027,
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.splitlines() == [
+        f"failed: {shots / 'old.png'}: the window was not captured within 0 s",
+        "an older picture",
+    ]
+    assert sorted(p.name for p in shots.iterdir()) == ["new.png", "old.png"]
+    assert (shots / "new.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert (shots / "new.png").stat().st_mode & 0o777 == 0o640
+    assert (shots / "old.png").read_text() == "an older picture"
+    assert (shots / "old.png").stat().st_mode & 0o777 == 0o600
+
+
 def test_cli_replay_of_a_damaged_or_missing_file(display: str, tmp_path: Path) -> None:
     """A cut-short file plays its readable part with warnings on stderr; a missing or foreign file is one
     line and exit 1."""

@@ -157,9 +157,12 @@ def run(args: argparse.Namespace) -> int:
             requests.pop()
             path = _snapshot_path(args.output, written)
             try:
-                n = recorder.snapshot(McapWriter(path))
+                n = recorder.snapshot(McapWriter(path, atomic=True))
             except RecordingError as exc:
                 say(str(exc))
+                continue
+            except OSError as exc:  # a full disk: the recorder keeps its window and goes on
+                say(f"cannot write {path}: {exc.strerror or exc}")
                 continue
             say(f"snapshot of the last {args.snapshot:g} s: {n:,} messages written to {path}")
         if args.duration is not None and now - started >= args.duration:

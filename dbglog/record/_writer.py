@@ -70,6 +70,8 @@ class _Open:
 class McapWriter:
     """Write one MCAP file (ROS 2 profile); never replaces an existing file unless `force`.
 
+    The file gets mode 0666 less the umask, as any file the user creates.
+
     Example::
 
         with McapWriter("run.mcap") as out:
@@ -82,15 +84,23 @@ class McapWriter:
         path: str | os.PathLike[str],
         *,
         force: bool = False,
+        atomic: bool = False,
         chunk_bytes: int = 1 << 20,
         level: int = 3,
         library: str = "dbglog",
     ) -> None:
         """Create the file and write its header.
 
+        The file gets mode 0666 less the umask. It is written under a temporary name beside `path`
+        and renamed onto it: at once, after the header (a recording: a killed recorder leaves a
+        readable file at `path`, and `force` replaces an existing file only once the new one is
+        created), or with `atomic` by `close` (a snapshot, a saved history: `path` appears whole or not
+        at all, and `abandon` leaves nothing).
+
         Args:
             path: the file to create.
             force: replace an existing file.
+            atomic: put the file at `path` only when `close` has written it whole.
             chunk_bytes: uncompressed bytes after which a chunk is closed.
             level: zstd compression level.
             library: written in the header.
@@ -100,13 +110,18 @@ class McapWriter:
         """
         import zstandard
 
+        from dbglog._files import create_temp, discard_temp
+
         self.path = os.fspath(path)
+        self._force = force
+        if not force and os.path.lexists(self.path):
+            raise RecordingError(f"{self.path} already exists (use --force to overwrite it)")
         try:
-            self._file: IO[bytes] = open(self.path, "wb" if force else "xb")  # noqa: SIM115
-        except FileExistsError:
-            raise RecordingError(f"{self.path} already exists (use --force to overwrite it)") from None
+            fd, self._tmp = create_temp(self.path)
         except OSError as exc:
             raise RecordingError(f"cannot create {self.path}: {exc.strerror or exc}") from None
+        self._file: IO[bytes] = os.fdopen(fd, "wb")
+        self._placed = False
         self._zstd = zstandard.ZstdCompressor(level=level)
         self.chunk_bytes = chunk_bytes
         self._schemas: dict[str, Schema] = {}
@@ -122,7 +137,27 @@ class McapWriter:
         self.size = 0
         builder = RecordBuilder()
         Header(profile="ros2", library=library).write(builder)
-        self._put(MAGIC + _end(builder))
+        try:
+            self._put(MAGIC + _end(builder))
+            if not atomic:
+                self._file.flush()
+                self._place()
+        except BaseException:
+            self._file.close()
+            discard_temp(self._tmp)
+            raise
+
+    def _place(self) -> None:
+        """Rename the file being written onto `path` (RecordingError when it exists, without `force`)."""
+        from dbglog._files import put_in_place
+
+        try:
+            put_in_place(self._tmp, self.path, replace=self._force)
+        except FileExistsError:
+            raise RecordingError(f"{self.path} already exists (use --force to overwrite it)") from None
+        except OSError as exc:
+            raise RecordingError(f"cannot create {self.path}: {exc.strerror or exc}") from None
+        self._placed = True
 
     # ----- setup ---------------------------------------------------------------------------------
 
@@ -303,10 +338,34 @@ class McapWriter:
     # ----- end -----------------------------------------------------------------------------------
 
     def close(self) -> None:
-        """Write the last chunk, the summary and the footer, and close the file."""
+        """Write the last chunk, the summary and the footer, and close the file.
+
+        An `atomic` file is then put at `path`; on any failure it is removed and `path` left as it was.
+        """
         if self._closed:
             return
         self._closed = True
+        try:
+            self._finish()
+        except BaseException:
+            self._file.close()
+            if not self._placed:
+                from dbglog._files import discard_temp
+
+                discard_temp(self._tmp)
+            raise
+        self._file.close()
+        if not self._placed:
+            try:
+                self._place()
+            finally:
+                if not self._placed:
+                    from dbglog._files import discard_temp
+
+                    discard_temp(self._tmp)
+
+    def _finish(self) -> None:
+        """Write the last chunk, the data end, the summary, the footer and the closing magic; sync."""
         self.close_chunk()
         builder = RecordBuilder()
         DataEnd(data_section_crc=0).write(builder)
@@ -347,13 +406,16 @@ class McapWriter:
         self._put(tail + MAGIC)
         self._file.flush()
         os.fsync(self._file.fileno())
-        self._file.close()
 
     def abandon(self) -> None:
-        """Close the file without a summary (as a crash would leave it): for tests and benchmarks."""
+        """Close the file without a summary, as a crash leaves it (an `atomic` file is removed instead)."""
         if not self._closed:
             self._closed = True
             self._file.close()
+            if not self._placed:
+                from dbglog._files import discard_temp
+
+                discard_temp(self._tmp)
 
     def __enter__(self) -> McapWriter:
         return self

@@ -6,9 +6,9 @@ binding, one row per distinct time, a cell empty where that series has no sample
 layout PlotJuggler's CSV export and pandas' ``read_csv`` expect). `save_recording` writes every topic
 the history holds in a time range as an MCAP file in the ROS 2 profile (``dbglog record``'s writer): a
 dbglog tag as its std_msgs type with every sample, other topics as their received CDR bytes, so
-``dbglog view --replay`` and other tools open it. Both write to a temporary file beside the target and
-rename it into place: a failure never leaves a half-written file or harms an existing one. No ROS, no
-Dear PyGui.
+``dbglog view --replay`` and other tools open it. Both files get mode 0666 less the umask and are written
+under a temporary name beside the target, then renamed into place (`dbglog._files`): a failure never
+leaves a half-written file or harms an existing one. No ROS, no Dear PyGui.
 """
 
 from __future__ import annotations
@@ -16,7 +16,6 @@ from __future__ import annotations
 import csv
 import math
 import os
-import tempfile
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Protocol
@@ -24,6 +23,7 @@ from typing import Protocol
 import numpy as np
 import numpy.typing as npt
 
+from dbglog._files import write_new_file
 from dbglog._ros._cdr import SCALAR_FORMATS, scalar_encoder
 from dbglog.record._writer import McapWriter, RecordingError
 from dbglog.viewer._data._fields import Scalar
@@ -64,8 +64,8 @@ def _cell(value: Scalar) -> str:
     return str(value)
 
 
-def _atomic(path: Path, write: Callable[[Path], None], *, force: bool) -> None:
-    """Write through a temporary file in the target's folder, then rename it onto `path`."""
+def _check_target(path: Path, *, force: bool) -> None:
+    """Refuse a target that exists (without `force`), is a folder or lies in a folder that does not exist."""
     if path.exists() and not force:
         raise ExportError(f"{path} already exists (choose another name, or allow replacing it)")
     if path.is_dir():
@@ -73,16 +73,17 @@ def _atomic(path: Path, write: Callable[[Path], None], *, force: bool) -> None:
     folder = path.parent
     if not folder.is_dir():
         raise ExportError(f"cannot write {path}: the folder {folder} does not exist")
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".part", dir=folder)
-    os.close(fd)
-    tmp_path = Path(tmp)
+
+
+def _atomic(path: Path, write: Callable[[Path], None], *, force: bool) -> None:
+    """Write through a temporary file in the target's folder (0666 less the umask), then rename it."""
+    _check_target(path, force=force)
     try:
-        write(tmp_path)
-        os.replace(tmp_path, path)
+        write_new_file(path, write, replace=force)
+    except FileExistsError:
+        raise ExportError(f"{path} already exists (choose another name, or allow replacing it)") from None
     except OSError as exc:
         raise ExportError(f"cannot write {path}: {exc.strerror or exc}") from None
-    finally:
-        tmp_path.unlink(missing_ok=True)
 
 
 def export_csv(
@@ -159,38 +160,40 @@ def save_recording(
     """
     topics = [n for n in store.topics() if n.startswith("/") and n in types]
     target = Path(path)
+    _check_target(target, force=force)
     written = 0
-
-    def write(tmp: Path) -> None:
-        nonlocal written
-        writer = McapWriter(tmp, force=True)
-        try:
-            for name in topics:
-                msg_type = types[name]
-                if store.kind(name) == "numbers":
-                    encode = _numbers_encoder(msg_type)
-                    if encode is None:
-                        continue
-                    times, values = store.range(name, t0, t1)
-                    payloads = [encode(v) for v in values.tolist()]
-                else:
-                    times, payloads = store.payloads(name, t0, t1)
-                if not len(times):
+    try:
+        writer = McapWriter(target, force=force, atomic=True)
+    except RecordingError as exc:
+        raise ExportError(f"cannot write {target}: {exc}") from None
+    try:
+        for name in topics:
+            msg_type = types[name]
+            if store.kind(name) == "numbers":
+                encode = _numbers_encoder(msg_type)
+                if encode is None:
                     continue
-                channel = writer.add_channel(name, msg_type)
-                for t, data in zip(times.tolist(), payloads, strict=True):
-                    ns = round(t * 1e9)
-                    writer.write(channel, ns, data, ns)
-                written += len(times)
-            if not written:
-                raise ExportError("nothing to save: the history holds no message in that time range")
-            writer.close()
-        except RecordingError as exc:
-            writer.abandon()
-            raise ExportError(f"cannot write {target}: {exc}") from None
-        except BaseException:
-            writer.abandon()
-            raise
-
-    _atomic(target, write, force=force)
+                times, values = store.range(name, t0, t1)
+                payloads = [encode(v) for v in values.tolist()]
+            else:
+                times, payloads = store.payloads(name, t0, t1)
+            if not len(times):
+                continue
+            channel = writer.add_channel(name, msg_type)
+            for t, data in zip(times.tolist(), payloads, strict=True):
+                ns = round(t * 1e9)
+                writer.write(channel, ns, data, ns)
+            written += len(times)
+        if not written:
+            raise ExportError("nothing to save: the history holds no message in that time range")
+        writer.close()
+    except RecordingError as exc:
+        writer.abandon()
+        raise ExportError(f"cannot write {target}: {exc}") from None
+    except OSError as exc:
+        writer.abandon()
+        raise ExportError(f"cannot write {target}: {exc.strerror or exc}") from None
+    except BaseException:
+        writer.abandon()
+        raise
     return written

@@ -14,6 +14,7 @@ from typing import Protocol
 
 import dearpygui.dearpygui as dpg
 
+from dbglog._files import write_new_file
 from dbglog.viewer._ui._pacing import (
     DEFAULT_DATA_FPS,
     DEFAULT_FPS,
@@ -247,16 +248,19 @@ class FrameLoop:
         """
         target = Path(path).resolve()
         target.parent.mkdir(parents=True, exist_ok=True)
-        if target.exists():
-            target.unlink()
         # Settle first: texture uploads (plugins may draw into dynamic textures) reach the screen a frame
         # late, and the capture reads the previous buffer; without this a fresh update can be missing.
         for _ in range(SETTLE_FRAMES):
             self.frame()
-        dpg.output_frame_buffer(file=str(target))
-        deadline = time.monotonic() + timeout
-        while time.monotonic() < deadline:
-            self.frame()
-            if target.exists() and target.stat().st_size > 0:
-                return target
-        raise TimeoutError(f"{target}: the window was not captured within {timeout:g} s")
+
+        def capture(tmp: Path) -> None:
+            dpg.output_frame_buffer(file=str(tmp))
+            deadline = time.monotonic() + timeout
+            while time.monotonic() < deadline:
+                self.frame()
+                if tmp.stat().st_size > 0:
+                    return
+            raise TimeoutError(f"{target}: the window was not captured within {timeout:g} s")
+
+        write_new_file(target, capture, replace=True)  # 0666 less the umask; a failure keeps the old file
+        return target
