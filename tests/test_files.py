@@ -1,8 +1,9 @@
 """Files dbglog creates (issue 32.9): 0666 less the umask everywhere, whole or not at all, an existing file
-never harmed by a failure."""
+never harmed by a failure; the CSV export's rows as its time column shows them."""
 
 from __future__ import annotations
 
+import csv
 import json
 import stat
 import subprocess
@@ -10,12 +11,16 @@ import sys
 import textwrap
 from pathlib import Path
 
+import numpy as np
+import numpy.typing as npt
 import pytest
 
 from dbglog._files import TEMP_MARK, put_in_place, write_new_file
 from dbglog.record import McapWriter, RecordingError
-from dbglog.viewer._data._export import ExportError, save_recording
+from dbglog.viewer._data._export import ExportError, csv_rows, export_csv, save_recording
+from dbglog.viewer._data._fields import Scalar
 from dbglog.viewer._data._history import History
+from dbglog.viewer._data._model import Binding
 
 ROOT = Path(__file__).resolve().parent.parent
 T0_NS = 1_700_000_000_000_000_000
@@ -154,3 +159,69 @@ def test_a_recording_is_at_its_name_from_its_header_on(tmp_path: Path) -> None:
     assert (tmp_path / "live.mcap").exists()
     assert (tmp_path / "snap.mcap").read_bytes()[-8:] == b"\x89MCAP0\r\n"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["live.mcap", "snap.mcap"]
+
+
+class _Columns:
+    """A source whose bindings hold given sample times (float64 epoch seconds, as the history holds them)."""
+
+    def __init__(self, columns: dict[Binding, npt.NDArray[np.float64]]) -> None:
+        self.columns = columns
+
+    def between(self, binding: Binding, t0: float, t1: float) -> tuple[npt.NDArray[np.float64], list[Scalar]]:
+        """Return the binding's samples in [t0, t1]; each value is its index."""
+        t = self.columns[binding]
+        keep = (t >= t0) & (t <= t1)
+        return t[keep], [float(i) for i in np.flatnonzero(keep).tolist()]
+
+
+def _read(path: Path) -> list[list[str]]:
+    with path.open(encoding="utf-8", newline="") as f:
+        return list(csv.reader(f))[1:]
+
+
+def test_samples_a_few_nanoseconds_apart_share_the_row_of_their_microsecond(tmp_path: Path) -> None:
+    """Two series logged 3 ns apart (as float64 seconds: one ulp apart or equal): a row per microsecond
+    shown, never two rows with the same time; the pair shares its row unless a microsecond boundary
+    falls between them (then they are on neighbouring rows, 1 µs apart); every sample is there once."""
+    n = 5000
+    a_ns = T0_NS + np.arange(n, dtype=np.int64) * 10_000_037  # ~100 Hz, every phase of the microsecond
+    b_ns = a_ns + 3
+    a, b = Binding("/a"), Binding("/b")
+    source = _Columns({a: a_ns.astype(np.float64) * 1e-9, b: b_ns.astype(np.float64) * 1e-9})  # as history_of
+    assert np.count_nonzero(a_ns * 1e-9 != b_ns * 1e-9) > 10  # the case the issue met: different floats
+    path = tmp_path / "pairs.csv"
+    rows_written = export_csv(source, [a, b], -np.inf, np.inf, path)
+    rows = _read(path)
+    assert rows_written == len(rows)
+    shown = np.array([int(r[0].replace(".", "")) for r in rows], dtype=np.int64) * 1000  # ns
+    assert np.all(np.diff(shown) > 0)  # one row per time shown
+    for col, true_ns in ((1, a_ns), (2, b_ns)):
+        filled = [i for i, r in enumerate(rows) if r[col]]
+        assert [rows[i][col] for i in filled] == [repr(float(i)) for i in range(n)]
+        # Each sample's row shows its time to the microsecond, within what the float64 seconds made from
+        # its ns hold (0.35 µs off at most here).
+        assert np.max(np.abs(shown[filled] - true_ns)) <= 500 + 400
+    split = [i for i, r in enumerate(rows) if not (r[1] and r[2])]
+    assert len(split) < n * 0.01  # a boundary between two samples 3 ns apart: rare
+    for i, j in zip(split[::2], split[1::2], strict=True):
+        assert j == i + 1
+        assert shown[j] - shown[i] == 1000
+
+
+def test_samples_of_one_series_in_one_microsecond_keep_their_own_rows(tmp_path: Path) -> None:
+    """A series with two samples in one microsecond fills two rows with that time (none lost); another
+    series' sample of that microsecond is on the first; rows never repeat a time otherwise."""
+    t = 1_700_000_000.0
+    a, b = Binding("/a"), Binding("/b")
+    us = 1e-6
+    source = _Columns({a: np.array([t, t + 0.2 * us, t + 2 * us]), b: np.array([t + 0.1 * us, t + 2 * us])})
+    path = tmp_path / "dup.csv"
+    assert export_csv(source, [a, b], 0, 2e9, path) == 3
+    assert _read(path) == [
+        ["1700000000.000000", "0.0", "0.0"],
+        ["1700000000.000000", "1.0", ""],
+        ["1700000000.000002", "2.0", "1.0"],
+    ]
+    times, rows = csv_rows([np.array([t + 3 * us, t]), np.array([])])
+    assert times.tolist() == [1_700_000_000_000_000, 1_700_000_000_000_003]
+    assert [r.tolist() for r in rows] == [[1, 0], []]

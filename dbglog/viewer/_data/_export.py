@@ -1,14 +1,17 @@
 """What the viewer holds, written out: a time range of series as CSV, the history as an MCAP recording.
 
 `export_csv` writes chosen bindings between two source times as one table: a ``time`` column (source
-time, epoch seconds to the microsecond: a float64 second count holds no finer) and a column per
-binding, one row per distinct time, a cell empty where that series has no sample at that time (the
-layout PlotJuggler's CSV export and pandas' ``read_csv`` expect). `save_recording` writes every topic
-the history holds in a time range as an MCAP file in the ROS 2 profile (``dbglog record``'s writer): a
-dbglog tag as its std_msgs type with every sample, other topics as their received CDR bytes, so
-``dbglog view --replay`` and other tools open it. Both files get mode 0666 less the umask and are written
-under a temporary name beside the target, then renamed into place (`dbglog._files`): a failure never
-leaves a half-written file or harms an existing one. No ROS, no Dear PyGui.
+time in epoch seconds to the microsecond: the history holds float64 seconds, ~0.24 µs apart today, so
+no finer digit would be true) and a column per binding, a cell empty where that series has no sample
+(the layout PlotJuggler's CSV export and pandas' ``read_csv`` expect). A row is one microsecond, as its
+time is written: the samples of different series whose times round to it share the row, and a series
+with several samples in that microsecond fills as many rows (the time repeated), so no sample is lost.
+`save_recording` writes every topic the history holds in a time range as an MCAP file in the ROS 2
+profile (``dbglog record``'s writer): a dbglog tag as its std_msgs type with every sample, other topics
+as their received CDR bytes, so ``dbglog view --replay`` and other tools open it. Both files get mode
+0666 less the umask and are written under a temporary name beside the target, then renamed into place
+(`dbglog._files`): a failure never leaves a half-written file or harms an existing one. No ROS, no
+Dear PyGui.
 """
 
 from __future__ import annotations
@@ -30,7 +33,7 @@ from dbglog.viewer._data._fields import Scalar
 from dbglog.viewer._data._history import History
 from dbglog.viewer._data._model import Binding
 
-__all__ = ["ExportError", "column_label", "export_csv", "save_recording"]
+__all__ = ["ExportError", "column_label", "csv_rows", "export_csv", "save_recording"]
 
 
 class ExportError(Exception):
@@ -86,6 +89,61 @@ def _atomic(path: Path, write: Callable[[Path], None], *, force: bool) -> None:
         raise ExportError(f"cannot write {path}: {exc.strerror or exc}") from None
 
 
+def _micros(times: npt.NDArray[np.float64]) -> npt.NDArray[np.int64]:
+    """Source times (epoch seconds) as the whole microseconds a CSV row shows, each float rounded exactly.
+
+    The whole seconds and the fraction are scaled apart: ``t * 1e6`` itself would be rounded to a quarter
+    of a microsecond first at today's epoch.
+    """
+    t = np.asarray(times, dtype=np.float64)
+    whole = np.floor(t)
+    return whole.astype(np.int64) * 1_000_000 + np.rint((t - whole) * 1e6).astype(np.int64)
+
+
+def _time_text(us: int) -> str:
+    """Whole microseconds as epoch seconds with six decimals, exactly."""
+    sign = "-" if us < 0 else ""
+    whole, frac = divmod(abs(us), 1_000_000)
+    return f"{sign}{whole}.{frac:06d}"
+
+
+def csv_rows(
+    times: Sequence[npt.NDArray[np.float64]],
+) -> tuple[npt.NDArray[np.int64], list[npt.NDArray[np.int64]]]:
+    """Lay series out as CSV rows: each row's time, and for each series the row of each of its samples.
+
+    Samples whose times round to the same microsecond share a row; the k-th sample of a series within a
+    microsecond goes to that microsecond's k-th row. Rows are in time order.
+
+    Args:
+        times: each series' sample times (epoch seconds).
+
+    Returns:
+        The rows' times (whole microseconds, ascending; repeated where a series has several samples in
+        one microsecond) and, per series, the row index of each of its samples.
+    """
+    keys: list[npt.NDArray[np.int64]] = []
+    ranks: list[npt.NDArray[np.int64]] = []
+    for t in times:
+        us = _micros(t)
+        order = np.argsort(us, kind="stable")
+        ordered = us[order]
+        rank = np.empty(len(us), dtype=np.int64)
+        rank[order] = np.arange(len(us)) - np.searchsorted(ordered, ordered, side="left")
+        keys.append(us)
+        ranks.append(rank)
+    all_keys = np.concatenate(keys) if keys else np.empty(0, np.int64)
+    all_ranks = np.concatenate(ranks) if ranks else np.empty(0, np.int64)
+    order = np.lexsort((all_ranks, all_keys))  # by microsecond, then by rank within it
+    k, r = all_keys[order], all_ranks[order]
+    starts = np.ones(len(k), dtype=bool)
+    starts[1:] = (k[1:] != k[:-1]) | (r[1:] != r[:-1])
+    row = np.empty(len(k), dtype=np.int64)
+    row[order] = np.cumsum(starts) - 1
+    bounds = np.cumsum([0, *(len(x) for x in keys)])
+    return k[starts], [row[bounds[i] : bounds[i + 1]] for i in range(len(keys))]
+
+
 def export_csv(
     source: _Ranges,
     bindings: Sequence[Binding],
@@ -105,21 +163,21 @@ def export_csv(
     if not t0 <= t1:
         raise ExportError(f"the export range is empty: it starts at {t0} after it ends at {t1}")
     columns = [source.between(b, t0, t1) for b in bindings]
-    times = np.unique(np.concatenate([c[0] for c in columns])) if columns else np.empty(0)
+    row_us, rows_of = csv_rows([c[0] for c in columns])
     target = Path(path)
 
     def write(tmp: Path) -> None:
+        table = [[_time_text(us), *([""] * len(columns))] for us in row_us.tolist()]
+        for col, ((_times, values), rows) in enumerate(zip(columns, rows_of, strict=True), start=1):
+            for row, value in zip(rows.tolist(), values, strict=True):
+                table[row][col] = _cell(value)
         with tmp.open("w", newline="", encoding="utf-8") as f:
             out = csv.writer(f)
             out.writerow(["time", *(column_label(b) for b in bindings)])
-            cells: list[dict[float, str]] = []
-            for col_times, values in columns:
-                cells.append({float(t): _cell(v) for t, v in zip(col_times.tolist(), values, strict=True)})
-            for t in times.tolist():
-                out.writerow([f"{t:.6f}", *(c.get(t, "") for c in cells)])
+            out.writerows(table)
 
     _atomic(target, write, force=force)
-    return len(times)
+    return len(row_us)
 
 
 def _numbers_encoder(msg_type: str) -> Callable[[float], bytes] | None:
