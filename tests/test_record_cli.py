@@ -338,6 +338,9 @@ def test_snapshot_writes_the_ram_window_on_sigusr1(tmp_path: Path, procs: Callab
     # The window holds the batches (~100/s; the SDK tag's own topic is not subscribed, its samples are
     # written from the batches when the snapshot is taken).
     _counts(rec, lambda c: len(c) >= 10 and c[-1] > 50)
+    # The summary says what left the window (the first seconds, long gone from 1.5 s).
+    words = _stderr_until(rec, "dropped as older").replace(",", "").split()
+    assert int(words[words.index("dropped") - 1]) > 100
     assert not base.exists()
     sent_at = time.time()
     rec.proc.send_signal(signal.SIGUSR1)
@@ -362,6 +365,40 @@ def test_snapshot_writes_the_ram_window_on_sigusr1(tmp_path: Path, procs: Callab
     assert not isinstance(values, list)
     assert list(values) == [float(v) for v in range(int(values[0]), int(values[0]) + len(values))]
     assert sorted(p.name for p in tmp_path.iterdir()) == [path.name]
+
+
+def test_snapshot_summary_counts_what_the_snapshot_then_writes(
+    tmp_path: Path, procs: Callable[..., Proc]
+) -> None:
+    """--snapshot's summary counts what the window holds as a snapshot writes it (the samples of the batches
+    it holds included), so the snapshot then writes that many messages, to the message."""
+    n = 200
+    robot = procs("-c", _ROBOT, str(n), stdin=True)
+    assert robot.line() == "ready"
+    base = tmp_path / "win.mcap"
+    rec = procs(*_record(base, "--snapshot", "600"))
+    _counts(rec, lambda c: c[-1] >= 2)  # subscribed: the batch that carried 'early', and its sample
+    robot.send("go")
+    assert robot.line() == "sent"
+    # Every sample of the 3 tags (n each), 'early' and 'late', plus the batches that carried them.
+    held = _counts(rec, lambda c: _settled(c, 3 * n + 2))[-1]
+    rec.proc.send_signal(signal.SIGUSR1)
+    line = _stderr_until(rec, "snapshot of the last 600 s")
+    written = int(line.split(": ", 2)[2].split()[0].replace(",", ""))
+    path = Path(line.rsplit(" written to ", 1)[1].strip())
+    code, err = rec.end(signal.SIGINT)
+    assert code == 0, err
+    assert written == held, (line, err)
+    recording = read_recording(path)
+    assert sum(len(t) for t in recording.topics.values()) == written
+    assert list(tag_series(recording)["count"].values) == list(range(n))
+    assert path.stat().st_mode & 0o777 == 0o666 & ~_umask()
+
+
+def _umask() -> int:
+    """This process's umask (read without changing it, from /proc)."""
+    with open("/proc/self/status") as f:
+        return int(next(line.split()[1] for line in f if line.startswith("Umask:")), 8)
 
 
 def test_record_help_names_sigusr1() -> None:

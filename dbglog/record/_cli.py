@@ -24,7 +24,8 @@ stderr every second; the last line says whether messages were lost and where.
 
 Snapshot mode (--snapshot SECONDS) keeps the last SECONDS in RAM and writes nothing until it receives
 SIGUSR1 (kill -USR1 <pid>): each signal writes the window to a new file named after -o with the time
-added (run-20260101-120000.mcap). Ctrl-C or SIGTERM ends it without writing.
+added (run-20260101-120000.mcap). The summary counts what a snapshot would write now (the samples of
+the batches held included) and what left the window. Ctrl-C or SIGTERM ends it without writing.
 """
 
 
@@ -146,7 +147,12 @@ def run(args: argparse.Namespace) -> int:
                 f"{_human(size)}, {rate:,.0f} msg/s"
             )
         else:
-            line = f"RAM window {args.snapshot:g} s: {len(recorder.ring):,} messages, {rate:,.0f} msg/s"
+            window = recorder.window
+            line = (
+                f"RAM window {args.snapshot:g} s: {window.messages:,} messages "
+                f"({window.from_batch:,} of them samples from batches), {window.dropped:,} dropped as "
+                f"older, {rate:,.0f} msg/s"
+            )
         print(
             ("\r" if tty else "") + f"dbglog record: {line}",
             end="" if tty else "\n",

@@ -22,7 +22,7 @@ if TYPE_CHECKING:
 
     from dbglog.record._writer import McapWriter
 
-__all__ = ["BatchExpander"]
+__all__ = ["BatchCounter", "BatchExpander"]
 
 _BODY: dict[str, tuple[str, int]] = {
     "Float64": ("<f8", 8),
@@ -62,9 +62,14 @@ class BatchExpander:
         self.missing = 0
         """Batches never received: gaps in a writer's batch numbers (lost in DDS, or not sent by the SDK)."""
 
-    def expand(self, log_time: int, cdr: bytes, robot: str = "") -> int:
+    def expand(
+        self, log_time: int, cdr: bytes, robot: str = "", wanted: Callable[[str], bool] | None = None
+    ) -> int:
         """Write the samples of one batch message (CDR bytes) of `robot`'s batch topic; return how many
-        were written."""
+        were written.
+
+        `wanted` overrides the expander's own choice of tag topics for this batch.
+        """
         import numpy as np
 
         try:
@@ -78,12 +83,13 @@ class BatchExpander:
         if last is not None:
             self.missing += batch.seq - last - 1
         self._last_seq[batch.writer] = batch.seq
+        wanted = wanted or self.wanted
         out = self.out
         written = 0
         groups: dict[str, tuple[list[int], list[npt.NDArray[np.int64]], list[npt.NDArray[Any]]]] = {}
         for samples in batch.tags:
             topic = topic_for_tag(samples.tag, robot)
-            if not self.wanted(topic):
+            if not wanted(topic):
                 continue
             msg_type = f"std_msgs/msg/{samples.std_type}"
             channel = self._channels.get((topic, msg_type))
@@ -115,3 +121,32 @@ class BatchExpander:
             out.write_fixed(np.array(chans, dtype=np.int64), np.full(n, log_time, dtype=np.int64), rows, t)
             written += n
         return written
+
+
+def _written(samples: Any) -> int:
+    """How many messages `BatchExpander.expand` writes for one tag's samples of a batch."""
+    if isinstance(samples.values, list):  # String
+        return len(samples.values)
+    return len(samples.times_ns) if samples.std_type in _BODY else 0
+
+
+class BatchCounter:
+    """Count, as batches arrive, the messages `BatchExpander.expand` will write for them (snapshot mode).
+
+    A batch seen before (its writer's history re-sent) counts 0, as `expand` skips it.
+    """
+
+    def __init__(self) -> None:
+        self._last_seq: dict[int, int] = {}
+
+    def count(self, cdr: bytes, wanted: Callable[[str], bool], robot: str = "") -> int:
+        """Return how many messages the batch `cdr` expands to (tags `wanted` selects; 0 if undecodable)."""
+        try:
+            batch = decode_batch(cdr)
+        except BatchError:
+            return 0
+        last = self._last_seq.get(batch.writer)
+        if last is not None and batch.seq <= last:
+            return 0
+        self._last_seq[batch.writer] = batch.seq
+        return sum(_written(s) for s in batch.tags if wanted(topic_for_tag(s.tag, robot)))

@@ -22,10 +22,10 @@ from typing import Any
 
 from dbglog._ros._batch import BATCH_DEPTH, SCALAR_TYPES, batch_robot, batch_topic, is_sdk_node
 from dbglog._ros._tags import TagError, TagName, parse_target, parse_topic
-from dbglog.record._expand import BatchExpander
+from dbglog.record._expand import BatchCounter, BatchExpander
 from dbglog.record._writer import McapWriter
 
-__all__ = ["DEFAULT_DEPTH", "Recorder", "Stats", "Targets", "parse_targets"]
+__all__ = ["DEFAULT_DEPTH", "Recorder", "Stats", "Targets", "Window", "parse_targets"]
 
 ROSOUT = "/rosout"
 DEFAULT_DEPTH = 1000
@@ -116,6 +116,24 @@ class _Sub:
     count: int = 0
 
 
+_Held = tuple[str, str, int, int, bytes, int, frozenset[str]]
+"""Snapshot mode, one message held: topic, type, log time, source time, CDR bytes, and for a batch the
+messages its samples are written as and the topics subscribed when it came (those are not expanded)."""
+_NONE: frozenset[str] = frozenset()
+
+
+@dataclass
+class Window:
+    """Snapshot mode: what the RAM window holds now (what a snapshot would write) and what left it."""
+
+    messages: int = 0
+    """Messages a snapshot writes now: those received plus the samples of the batches among them."""
+    from_batch: int = 0
+    """Of those, the samples written from batches as their tags' messages."""
+    dropped: int = 0
+    """Messages (counted the same way) that left the window as older than it."""
+
+
 @dataclass
 class Stats:
     """What the recorder has done so far."""
@@ -170,8 +188,11 @@ class Recorder:
         self.targets = targets
         self.writer = writer
         self.window_ns = int(window_s * 1e9) if window_s else 0
-        self.ring: deque[tuple[str, str, int, int, bytes]] = deque()
-        """Snapshot mode: (topic, type, log time, source time, CDR), oldest first."""
+        self.ring: deque[_Held] = deque()
+        """Snapshot mode: the messages held, oldest first."""
+        self.window = Window()
+        self._counter = BatchCounter()
+        self._subscribed: tuple[int, frozenset[str]] = (-1, _NONE)
         self.flush_period = flush_period
         self.node_name = node_name or f"dbglog_record_{os.getpid()}"
         self.depth = depth
@@ -408,12 +429,24 @@ class Recorder:
         else:
             append = self.ring.append
             topic, msg_type = s.topic, s.msg_type
+            subscribed, wanted = _NONE, None
+            robot = batch_robot(topic)
+            if robot is not None:  # the samples a snapshot will write from it, counted now
+                subscribed = self._subscribed_now()
+                wanted = functools.partial(self._from_batch_of, subscribed)
+            samples = 0
             for _ in range(_TAKE_MAX):
                 got = take(cls, True)
                 if got is None:
                     break
-                append((topic, msg_type, clock(), got[1]["source_timestamp"], got[0]))
+                k = 0 if wanted is None else self._counter.count(got[0], wanted, robot or "")
+                append((topic, msg_type, clock(), got[1]["source_timestamp"], got[0], k, subscribed))
+                samples += k
                 n += 1
+            self.window.messages += n + samples
+            self.window.from_batch += samples
+            self.stats.from_batch += samples
+            self.stats.messages += samples
         s.count += n
         stats = self.stats
         stats.messages += n
@@ -439,33 +472,54 @@ class Recorder:
             self.stats.dds_lost += total - s.lost
             s.lost = total
 
+    def _subscribed_now(self) -> frozenset[str]:
+        """The topics subscribed now (one shared set per change of the subscriptions)."""
+        if self._subscribed[0] != self._version:
+            self._subscribed = (self._version, frozenset(self._subs))
+        return self._subscribed[1]
+
+    def _from_batch_of(self, subscribed: frozenset[str], topic: str) -> bool:
+        """`_from_batch` as it was when `subscribed` were the subscriptions."""
+        return topic not in subscribed and self.targets.wants(topic)
+
     def _trim(self) -> None:
         """Snapshot mode: drop what is older than the window."""
         if not self.window_ns:
             return
         oldest = time.time_ns() - self.window_ns
         ring = self.ring
+        window = self.window
         while ring and ring[0][2] < oldest:
-            ring.popleft()
+            samples = ring.popleft()[5]
+            window.messages -= 1 + samples
+            window.from_batch -= samples
+            window.dropped += 1 + samples
 
     def snapshot(self, writer: McapWriter) -> int:
-        """Write the RAM window into `writer` (then closed); return how many messages it held."""
+        """Write the RAM window into `writer` (then closed); return how many messages it held.
+
+        That is `window.messages` at the time: each batch is expanded as it was counted when it came.
+        """
         self._trim()
         items = list(self.ring)
         channels: dict[tuple[str, str], int] = {}
         expander = BatchExpander(writer, self._from_batch)
         count = 0
-        for topic, msg_type, log_time, source, data in items:
-            key = (topic, msg_type)
-            channel = channels.get(key)
-            if channel is None:
-                channel = channels[key] = writer.add_channel(topic, msg_type)
-            writer.write(channel, log_time, data, source)
-            count += 1
-            robot = batch_robot(topic)
-            if robot is not None:
-                count += expander.expand(log_time, data, robot)
-        writer.close()
+        try:
+            for topic, msg_type, log_time, source, data, samples, subscribed in items:
+                key = (topic, msg_type)
+                channel = channels.get(key)
+                if channel is None:
+                    channel = channels[key] = writer.add_channel(topic, msg_type)
+                writer.write(channel, log_time, data, source)
+                count += 1
+                if samples:
+                    wanted = functools.partial(self._from_batch_of, subscribed)
+                    count += expander.expand(log_time, data, batch_robot(topic) or "", wanted)
+            writer.close()
+        except BaseException:
+            writer.abandon()
+            raise
         return count
 
 
