@@ -133,6 +133,8 @@ def test_an_existing_file_is_never_replaced_unasked_even_when_it_appears_meanwhi
     assert target.read_text() == "theirs"
     with pytest.raises(RecordingError, match="already exists"):
         McapWriter(target)
+    with pytest.raises(RecordingError, match="it is a folder"):
+        McapWriter(tmp_path, force=True)
     w = McapWriter(tmp_path / "late.mcap", atomic=True)
     (tmp_path / "late.mcap").write_text("theirs too")
     with pytest.raises(RecordingError, match=r"late\.mcap already exists"):

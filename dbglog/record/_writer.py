@@ -114,6 +114,8 @@ class McapWriter:
 
         self.path = os.fspath(path)
         self._force = force
+        if os.path.isdir(self.path):
+            raise RecordingError(f"cannot create {self.path}: it is a folder")
         if not force and os.path.lexists(self.path):
             raise RecordingError(f"{self.path} already exists (use --force to overwrite it)")
         try:
