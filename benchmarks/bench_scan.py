@@ -7,12 +7,16 @@ index: a recording killed before its summary (chunks and message indexes, no sum
 finished file whose writer wrote no index (chunks only, an empty summary), and an unchunked file
 (every message a top-level record; uncompressed, so several times bigger). Each is loaded whole by
 ``read_recording``, interleaved with the others, ``--repeats`` times; the table gives the median and
-the spread, and checks every layout reads every message.
+the spread, and checks every layout reads every message. For reference, the ``mcap`` library's own
+non-seeking readers on the index-less file: its `StreamReader` walking the top-level records (chunks
+not opened), and its `NonSeekingReader` yielding every message as a Python object (once; ``--no-library``
+leaves them out).
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import statistics
 import struct
@@ -115,6 +119,40 @@ def _layouts(indexed: Path) -> dict[str, Path]:
     }
 
 
+def _library_rows(layouts: dict[str, Path], total: int, base: float) -> list[list[str]]:
+    """Time the ``mcap`` library's non-seeking readers on the index-less layouts (for reference)."""
+    from mcap.exceptions import EndOfFile
+    from mcap.reader import NonSeekingReader
+    from mcap.stream_reader import StreamReader
+
+    rows = []
+    for name in ("killed: no summary", "no index, no summary", "unchunked, no index"):
+        path = layouts[name]
+        with path.open("rb") as f:
+            start = time.perf_counter()
+            records = 0
+            with contextlib.suppress(EndOfFile):  # the killed file ends without a footer
+                for _record in StreamReader(f, emit_chunks=True).records:
+                    records += 1
+            took = time.perf_counter() - start
+        rows.append(
+            [f"mcap StreamReader, top-level records only: {name}", f"{os.path.getsize(path) / 1e6:.0f} MB",
+             f"{took:.2f} s", "once", f"{took / base:.1f}x", f"{took / total * 1e9:.0f} ns",
+             f"{records:,} records; no message read"]
+        )  # fmt: skip
+    path = layouts["no index, no summary"]
+    with path.open("rb") as f:
+        start = time.perf_counter()
+        count = sum(1 for _ in NonSeekingReader(f).iter_messages(log_time_order=False))
+        took = time.perf_counter() - start
+    rows.append(
+        ["mcap NonSeekingReader.iter_messages: no index, no summary", f"{os.path.getsize(path) / 1e6:.0f} MB",
+         f"{took:.2f} s", "once", f"{took / base:.1f}x", f"{took / total * 1e9:.0f} ns",
+         f"{count:,} messages, one Python object each (not decoded)"]
+    )  # fmt: skip
+    return rows
+
+
 def main(argv: list[str] | None = None) -> int:
     """Write the files, load each layout `--repeats` times (interleaved) and print the table."""
     parser = argparse.ArgumentParser(
@@ -122,6 +160,7 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("--mb", type=float, default=100.0, help="size of the indexed file (MB)")
     parser.add_argument("--repeats", type=int, default=5, help="loads of each layout (interleaved)")
+    parser.add_argument("--no-library", action="store_true", help="leave out the mcap library's readers")
     args = parser.parse_args(argv)
     from dbglog.record import read_recording
 
@@ -157,6 +196,8 @@ def main(argv: list[str] | None = None) -> int:
                     notes[name],
                 ]
             )
+        if not args.no_library:
+            rows += _library_rows(layouts, total, base)
         load = os.getloadavg()[0]
         print_table(
             f"read_recording, {total:,} Float64 messages on {_TOPICS} topics, median of {args.repeats} "
