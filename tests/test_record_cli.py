@@ -381,14 +381,22 @@ def test_snapshot_summary_counts_what_the_snapshot_then_writes(
     robot.send("go")
     assert robot.line() == "sent"
     # Every sample of the 3 tags (n each), 'early' and 'late', plus the batches that carried them.
-    held = _counts(rec, lambda c: _settled(c, 3 * n + 2))[-1]
+    counts = _counts(rec, lambda c: _settled(c, 3 * n + 2))
     rec.proc.send_signal(signal.SIGUSR1)
-    line = _stderr_until(rec, "snapshot of the last 600 s")
+    # The snapshot is taken right after a summary line, in the same pass of the take loop: the last
+    # summary before it says what the window held when it was written.
+    assert rec.proc.stderr is not None
+    seen: list[str] = []
+    while not (line := rec.proc.stderr.readline()).startswith("dbglog record: snapshot of the last 600 s"):
+        assert line, seen[-3:]
+        seen.append(line)
+    held = int(seen[-1].replace(",", "").split("messages")[0].split()[-1]) if seen else counts[-1]
     written = int(line.split(": ", 2)[2].split()[0].replace(",", ""))
     path = Path(line.rsplit(" written to ", 1)[1].strip())
     code, err = rec.end(signal.SIGINT)
     assert code == 0, err
-    assert written == held, (line, err)
+    assert held >= 3 * n + 2
+    assert written == held, (seen[-1:], counts[-3:], line)
     recording = read_recording(path)
     assert sum(len(t) for t in recording.topics.values()) == written
     assert list(tag_series(recording)["count"].values) == list(range(n))
