@@ -504,7 +504,11 @@ class ParamClient:
             "describe_parameters": srv.DescribeParameters,
             "set_parameters": srv.SetParameters,
         }
-        return node.create_client(kinds[service], f"{target}/{service}")
+        from rclpy.qos import qos_profile_parameters
+
+        # The parameter services' own QoS (deep queues): many requests at once (a watcher asking every node,
+        # a slider's sets) must not overwrite each other in the request writer's history.
+        return node.create_client(kinds[service], f"{target}/{service}", qos_profile=qos_profile_parameters)
 
     def _advance(self, now: float) -> None:
         """Send the requests whose service is ready; fail those past their deadline."""
@@ -566,10 +570,17 @@ class ParamClient:
 
     def _refresh_graph(self, node: Any, now: float) -> None:
         nodes = sorted(node_name(ns, name) for name, ns in node.get_node_names_and_namespaces())
+        on_graph = set(nodes)
+        # The graph lists a service name for its clients too (ours, to a node that may not exist): a node
+        # offers parameters when it is on the graph and, where this client asked it, a server answers.
+        ours = {target for target, service in self._clients if service == "list_parameters"}
         with_params = sorted(
-            service[: -len(_LIST_SERVICE)]
+            target
             for service, types in node.get_service_names_and_types()
-            if service.endswith(_LIST_SERVICE) and "rcl_interfaces/srv/ListParameters" in types
+            if service.endswith(_LIST_SERVICE)
+            and "rcl_interfaces/srv/ListParameters" in types
+            and (target := service[: -len(_LIST_SERVICE)]) in on_graph
+            and (target not in ours or node.count_services(service) > 0)
         )
         self._graph = _Graph(tuple(nodes), tuple(with_params), self._graph.polls + 1)
         present = set(nodes) | set(with_params)
