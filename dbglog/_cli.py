@@ -31,6 +31,7 @@ _COMMANDS: dict[str, str] = {
     "tags": "dbglog.viewer._cli._cli_tags",
     "echo": "dbglog.viewer._cli._cli_echo",
     "logs": "dbglog.viewer._cli._cli_logs",
+    "params": "dbglog._params._cli",
     "record": "dbglog.record._cli",
     "demo": "dbglog._demo._cli",
 }
