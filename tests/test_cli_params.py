@@ -109,13 +109,14 @@ def test_rejections_exit_1_with_the_nodes_reasons(
 def test_a_node_that_never_answers_costs_the_timeout(
     nodes: ParamNodes, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    """A node whose services never answer is named within the timeout, exit 1; so is a node not there."""
+    """A node whose services never answer is named once the timeout for its answers has passed, exit 1; so
+    is a node not there."""
     start = time.monotonic()
     code, _out, err = _params(capsys, nodes.hung_fqn, "--timeout", "5")
     took = time.monotonic() - start
     assert code == 1, err
     assert f"{nodes.hung_fqn} did not answer (list_parameters) within" in err
-    assert took < 5 + 3, f"took {took:.1f} s"
+    assert took < 5 + 5 + 3, f"took {took:.1f} s"  # finding it (discovery), then its answers, each <= 5 s
     code, _out, err = _params(capsys, "/cli_nobody", "--timeout", "1")
     assert code == 1
     assert "no node /cli_nobody" in err
