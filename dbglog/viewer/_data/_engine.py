@@ -30,6 +30,7 @@ from dbglog._ros._cdr import decode_fixed
 from dbglog._ros._node import NodeIdentity, PrivateNode, WaitSet, no_callback, take_batch
 from dbglog._ros._qos import LOG_DEPTH, subscription_qos
 from dbglog.viewer._data._batchsub import BatchIngest, BatchStats
+from dbglog.viewer._data._events import EVENT_TOPICS, EventStore, events_of
 from dbglog.viewer._data._fields import (
     FieldPathError,
     fixed_size,
@@ -320,6 +321,10 @@ class Engine(SeriesTimes):
         self._logs: weakref.WeakValueDictionary[str, LogStore] = weakref.WeakValueDictionary()
         """Log stores by topic (`log_store`), each fed every batch of its topic while someone holds it."""
         self._logs_lock = threading.Lock()
+        self._events: EventStore | None = None
+        """Parameter changes and markers (`events`), fed every batch of `EVENT_TOPICS` once made."""
+        self._kept: set[str] = set()
+        """Topics subscribed and kept in the history with no binding (the events store's)."""
 
     # --- lifecycle ----------------------------------------------------------------------------------
 
@@ -551,6 +556,8 @@ class Engine(SeriesTimes):
             for binding, series in self._series.items():
                 if binding not in self._static_errors:
                     wanted[_normalize(binding.topic)][binding] = series
+            for name in self._kept:
+                wanted.setdefault(name, {})  # subscribed with no binding
             return wanted
 
     def _reconcile(self, node: Any) -> None:
@@ -566,7 +573,7 @@ class Engine(SeriesTimes):
             for binding in list(topic.sinks):
                 if binding not in want:
                     del topic.sinks[binding]
-            if not want:
+            if name not in wanted:
                 node.destroy_subscription(topic.sub)
                 del self._subs[name]
                 continue
@@ -672,6 +679,8 @@ class Engine(SeriesTimes):
 
         topic = self._subs.get(name)
         if not infos:
+            if not bindings:  # a kept topic (the events store's) with no publisher now: nothing to say
+                return
             now = time.monotonic()
             since = self._absent_since.setdefault(name, now)
             if topic is not None:
@@ -770,6 +779,8 @@ class Engine(SeriesTimes):
         )
         if msg_type == LOG_TYPE:
             depth = max(depth, LOG_DEPTH, LOG_QUEUE)  # the history re-sent to a late reader, and bursts
+        elif name in self._kept:
+            depth = max(depth, LOG_DEPTH)  # every node's declarations at a launch, a recorder's markers
         qos = subscription_qos(depth, reliable=reliable, transient=transient)
         sub = node.create_subscription(cls, name, no_callback, qos, raw=True)
         topic = _TopicSub(name, msg_type, cls, sub, reliable, transient, depth=depth)
@@ -944,13 +955,28 @@ class Engine(SeriesTimes):
                 self._logs[name] = logs
         return logs
 
+    def events(self) -> EventStore:
+        """Return the store of every parameter change and user marker on the graph (made on the first call,
+        which subscribes ``/parameter_events`` and ``/_dbglog/markers``; the same store after)."""
+        with self._logs_lock:
+            if self._events is None:
+                self._events = events_of(self.store)  # whatever a binding already had kept
+                with self._lock:
+                    self._kept.update(EVENT_TOPICS)
+            events = self._events
+        self._wake()
+        return events
+
     def _keep_payloads(self, topic: _TopicSub, times: npt.NDArray[np.float64], buffers: list[bytes]) -> None:
-        """Keep a batch of messages in the history, and give it to the topic's log store, if it has one."""
+        """Keep a batch of messages in the history, and give it to the topic's log store or events store."""
         with self._logs_lock:  # a log store being made reads the history: each batch reaches it once
             self.store.append_payloads(topic.name, times, buffers, msg_type=topic.msg_type)
             logs = self._logs.get(topic.name)
+            events = self._events if topic.name in EVENT_TOPICS else None
         if logs is not None:
             logs.push(topic.msg_type, times, buffers)
+        if events is not None:
+            events.push(topic.name, times, buffers)
 
     def _count(self, topic: _TopicSub, stamps: list[int]) -> None:
         topic.taken += len(stamps)

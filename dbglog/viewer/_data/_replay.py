@@ -20,6 +20,7 @@ from dbglog._ros._batch import batch_robot
 from dbglog._ros._cdr import string_payload
 from dbglog.record._inspect import tag_series
 from dbglog.record._reader import Recording, read_recording, recording_span
+from dbglog.viewer._data._events import EventStore, events_of
 from dbglog.viewer._data._fields import FieldPathError, list_fields, message_class
 from dbglog.viewer._data._history import History
 from dbglog.viewer._data._model import Binding, FieldInfo, SeriesSnapshot, TopicInfo
@@ -150,6 +151,7 @@ class ReplaySource(SeriesTimes):
         self._end = span.newest if span.newest is not None else 0.0
         self.loading = False
         """True while the rest of a long recording loads behind its first seconds."""
+        self._events: tuple[History, EventStore] | None = None
 
     def replace(self, store: History, types: dict[str, str], problems: list[str]) -> None:
         """Serve a fuller history of the same recording: every binding is filled again from it."""
@@ -232,6 +234,20 @@ class ReplaySource(SeriesTimes):
             return list_fields(message_class(msg_type))
         except FieldPathError:
             return []
+
+    def events(self) -> EventStore:
+        """Return the recording's parameter changes and user markers (its ``/parameter_events`` and
+        ``/_dbglog/markers``). Call it again rather than keeping it: once a long recording has loaded whole
+        this is a new store of the whole file (with the markers added to the old one)."""
+        with self._lock:
+            store, made = self.store, self._events
+            if made is not None and made[0] is store:
+                return made[1]
+            events = events_of(store)
+            if made is not None:
+                events.adopt_markers(made[1])
+            self._events = (store, events)
+            return events
 
     # --- history (the TimeSource methods come from SeriesTimes) ----------------------------------
 
