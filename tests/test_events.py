@@ -3,8 +3,11 @@ messages, each node's seeded values, a recording's history and the live engine."
 
 from __future__ import annotations
 
+import subprocess
+import sys
 import time
 from collections.abc import Iterator
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -24,6 +27,8 @@ from dbglog.viewer._data._events import (
     events_of,
 )
 from dbglog.viewer._data._history import History
+from dbglog.viewer._data._replay import load_replay
+from tests._children import stop_child
 from tests._param_nodes import ParamNodes
 from tests._ros import wait_until
 
@@ -275,3 +280,69 @@ def test_live_changes_reach_the_store_fast_with_their_old_values(nodes: ParamNod
         assert engine.held_types()[PARAMETER_EVENTS] == PARAMETER_EVENTS_TYPE
     print(f"parameter change to events store: {', '.join(f'{d * 1e3:.1f} ms' for d in delays)}")
     assert max(delays) < 1.0, f"slowest {max(delays) * 1e3:.0f} ms"
+
+
+# --- recorded and replayed ------------------------------------------------------------------------------
+
+
+def test_record_keeps_changes_and_markers_for_the_replay(nodes: ParamNodes, tmp_path: Path) -> None:
+    """``dbglog record`` (default targets) records /parameter_events and a viewer's markers; the replay's
+    store shows the same changes, old → new from the recorded events, and the marker."""
+    out = tmp_path / "run.mcap"
+    recorder = subprocess.Popen(
+        [sys.executable, "-m", "dbglog", "record", "-o", str(out)],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        with ParamClient() as params:
+
+            def recorded() -> int:
+                """The message count of the recorder's next once-a-second summary."""
+                assert recorder.stderr is not None
+                while True:
+                    words = recorder.stderr.readline().replace(",", "").split()
+                    assert words, "the recorder ended"
+                    if "messages" in words:
+                        return int(words[words.index("messages") - 1])
+
+            deadline = time.monotonic() + WAIT
+            while recorded() == 0:  # until the recorder is matched with the node's /parameter_events
+                assert time.monotonic() < deadline, "the recorder never received a parameter change"
+                assert params.set(nodes.twin_fqn, {"kp": 0.25}).result(WAIT)[0].ok
+            base = recorded()
+            mark = Marker(time.time() - 1.0, "robot bumped here")
+            params.publish_marker(mark)
+            for value in (4.5, 5.5):
+                assert params.set(nodes.twin_fqn, {"kp": value}).result(WAIT)[0].ok
+            while recorded() < base + 3:  # the two changes and the marker (its topic new to the recorder)
+                assert time.monotonic() < deadline + WAIT, "the recorder missed a change or the marker"
+            recorded()  # one more second: a probe's event counted late in `base` would have come first
+    finally:
+        said = stop_child(recorder)
+        assert recorder.returncode == 0, said
+    replay = load_replay(out)
+    store = replay.events()
+    changes = [e for e in store.all() if isinstance(e, ParamChange) and e.node == nodes.twin_fqn]
+    assert [c.new for c in changes[-2:]] == [ParamValue.of(4.5), ParamValue.of(5.5)]
+    assert event_label(changes[-1]) == "arm/ev_pid.kp 4.5 → 5.5"
+    assert store.markers() == [mark]
+    assert replay.events() is store
+
+
+def test_recorder_topic_choice_includes_events_unless_left_out() -> None:
+    """Any targets record /parameter_events and /_dbglog/markers; --no-events leaves them out unless named
+    (or with --all, which records every topic)."""
+    from dbglog.record._recorder import parse_targets
+
+    for targets in ([], ["speed"], ["/odom"]):
+        chosen = parse_targets(targets, everything=False)
+        assert chosen.wants(PARAMETER_EVENTS)
+        assert chosen.wants(MARKER_TOPIC)
+        assert not parse_targets(targets, everything=False, events=False).wants(PARAMETER_EVENTS)
+    named = parse_targets([MARKER_TOPIC], everything=False, events=False)
+    assert named.wants(MARKER_TOPIC)
+    assert not named.wants(PARAMETER_EVENTS)
+    assert parse_targets([], everything=True, events=False).wants(PARAMETER_EVENTS)
+    assert not parse_targets(["/odom"], everything=False).wants("/rosout")

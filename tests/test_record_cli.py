@@ -168,8 +168,8 @@ def test_record_default_gets_kept_values_new_tags_and_every_sample(
     assert robot.line() == "ready"
     out = tmp_path / "run.mcap"
     rec = procs(*_record(out))
-    # Wait until the recorder has matched the robot's topics (its summary counts them).
-    _stderr_until(rec, " 2 topics")
+    # Wait until the recorder has matched the robot's topics (its summary counts them, /parameter_events too).
+    _stderr_until(rec, " 3 topics")
     robot.send("go")
     assert robot.line() == "sent"
     _counts(rec, lambda c: _settled(c, 3 * 100))
@@ -236,7 +236,7 @@ def test_record_topics_and_tags_given_as_targets(tmp_path: Path, procs: Callable
         assert robot.line() == "ready"
         out = tmp_path / "some.mcap"
         rec = procs(*_record(out, "/cmd_vel_rec", "speed"))
-        _stderr_until(rec, " 2 topics")  # the batch topic and /cmd_vel_rec
+        _stderr_until(rec, " 3 topics")  # the batch topic, /cmd_vel_rec and /parameter_events
         robot.send("go")
         assert robot.line() == "sent"
         for i in range(20):
@@ -245,7 +245,7 @@ def test_record_topics_and_tags_given_as_targets(tmp_path: Path, procs: Callable
             pub.publish(msg)
             other.publish(msg)
             time.sleep(0.02)
-        _stderr_until(rec, " 3 topics")  # and now speed
+        _stderr_until(rec, " 4 topics")  # and now speed
         _counts(rec, lambda c: _settled(c, 20 + 50))
         code, err = rec.end(signal.SIGTERM)
         assert code == 0, err
@@ -268,7 +268,7 @@ def test_record_after_sigkill_opens_missing_at_most_the_last_second(
     assert steady.line() == "ready"
     out = tmp_path / "killed.mcap"
     rec = procs(*_record(out, "steady"))
-    _stderr_until(rec, " 2 topics")
+    _stderr_until(rec, " 3 topics")  # the batch topic, steady and /parameter_events
     _counts(rec, lambda c: c[-1] > 500)
     killed_at = time.time()
     rec.proc.send_signal(signal.SIGKILL)
@@ -431,10 +431,10 @@ def test_record_no_batch_leaves_out_the_batch_topic(tmp_path: Path, procs: Calla
     assert robot.line() == "ready"
     out = tmp_path / "small.mcap"
     rec = procs(*_record(out, "--no-batch"))
-    _stderr_until(rec, " 1 topics")  # /rosdashboard/early only
+    _stderr_until(rec, " 2 topics")  # /rosdashboard/early and /parameter_events
     robot.send("go")
     assert robot.line() == "sent"
-    _stderr_until(rec, " 5 topics")
+    _stderr_until(rec, " 6 topics")
     _counts(rec, lambda c: _settled(c, 1 + 3 * 30 + 1))
     code, err = rec.end(signal.SIGINT)
     assert code == 0, err
@@ -460,14 +460,15 @@ def test_record_writes_sdk_tags_from_the_batch_without_subscribing_to_them(
         assert robot.line() == "ready"
         out = tmp_path / "b.mcap"
         rec = procs(*_record(out))
-        # The batch topic, early (from the batch), from_peer (subscribed) and /rosout (the peer's).
-        _stderr_until(rec, " 4 topics")
+        # The batch topic, early (from the batch), from_peer (subscribed), /rosout (the peer's) and
+        # /parameter_events.
+        _stderr_until(rec, " 5 topics")
         assert peer.wait_for_subscribers(pub)
         robot.send("go")
         assert robot.line() == "sent"
         for i in range(20):
             pub.publish(Float64(data=float(i)))
-        _stderr_until(rec, " 8 topics")  # and speed, count, state, late
+        _stderr_until(rec, " 9 topics")  # and speed, count, state, late
 
         def recorders(topic: str) -> list[str]:
             infos = peer.node.get_subscriptions_info_by_topic(topic)

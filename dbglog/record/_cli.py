@@ -18,7 +18,9 @@ HELP = "Record dbglog tags and ROS topics into an MCAP file (ROS 2 profile) unti
 _EPILOG = """\
 TARGET is a dbglog tag (proximity -> /rosdashboard/proximity and its sub-tags) or a topic (/odom).
 Without TARGET: every dbglog tag (also those appearing later), the hidden /_dbglog/samples batch topic
-(every sample with its source time) and /rosout. A tag that only dbglog SDK nodes publish is written
+(every sample with its source time) and /rosout. With or without TARGET: /parameter_events (every
+parameter change on the graph) and /_dbglog/markers (the viewer's user markers), which a replay shows on
+its timeline (--no-events leaves them out). A tag that only dbglog SDK nodes publish is written
 to its topic from the batches (every sample) rather than subscribed. A live summary is printed on
 stderr every second; the last line says whether messages were lost and where.
 
@@ -41,6 +43,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--no-batch",
         action="store_true",
         help="leave out /_dbglog/samples (smaller files; tags then hold what their own topics carry)",
+    )
+    parser.add_argument(
+        "--no-events",
+        action="store_true",
+        help="leave out /parameter_events and /_dbglog/markers (parameter changes and user markers) unless "
+        "named as targets (--all records every topic)",
     )
     parser.add_argument(
         "--snapshot",
@@ -97,7 +105,9 @@ def run(args: argparse.Namespace) -> int:
         print(f"dbglog record: {message}", file=sys.stderr, flush=True)
 
     try:
-        targets = parse_targets(args.targets, everything=args.all, batch=not args.no_batch)
+        targets = parse_targets(
+            args.targets, everything=args.all, batch=not args.no_batch, events=not args.no_events
+        )
     except ValueError as exc:
         say(str(exc))
         return 2

@@ -21,6 +21,8 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from dbglog._ros._batch import BATCH_DEPTH, SCALAR_TYPES, batch_robot, batch_topic, is_sdk_node
+from dbglog._ros._markers import MARKER_TOPIC
+from dbglog._ros._params import PARAMETER_EVENTS
 from dbglog._ros._tags import TagError, TagName, parse_target, parse_topic
 from dbglog.record._expand import BatchCounter, BatchExpander
 from dbglog.record._writer import McapWriter
@@ -36,6 +38,9 @@ _MIN_CYCLE = 0.005
 _WAIT_S = 0.05
 """Longest wait on the wait set: signals (Ctrl-C, SIGTERM, SIGUSR1) are handled at least this often."""
 _BATCHED_TYPES = frozenset(f"std_msgs/msg/{t}" for t in SCALAR_TYPES)
+EVENT_TOPICS = frozenset({PARAMETER_EVENTS, MARKER_TOPIC})
+"""Recorded with any targets (unless left out): every parameter change on the graph and the user's markers,
+what a replay shows on its timeline."""
 
 
 @dataclass(frozen=True)
@@ -50,9 +55,13 @@ class Targets:
     batch: bool = True
     """Record the SDK's batch topics (every sample with its source time) with tag targets: each robot's
     with its tags."""
+    events: bool = True
+    """Record `EVENT_TOPICS` (parameter changes, user markers) whatever the targets."""
 
     def wants(self, topic: str) -> bool:
         """True when `topic` is to be recorded."""
+        if topic in EVENT_TOPICS:
+            return self.events or self.everything or topic in self.topics
         robot = batch_robot(topic)
         if robot is not None:
             return topic in self.topics or (
@@ -72,17 +81,20 @@ def _robot_of(topic: str) -> str | None:
     return name.robot if name is not None else None
 
 
-def parse_targets(targets: Sequence[str], *, everything: bool, batch: bool = True) -> Targets:
+def parse_targets(
+    targets: Sequence[str], *, everything: bool, batch: bool = True, events: bool = True
+) -> Targets:
     """Read ``proximity``, ``速度`` or ``robot1:proximity`` as a tag (`parse_target`), ``/odom`` as a
-    topic; none: every tag (of every robot) plus /rosout.
+    topic; none: every tag (of every robot) plus /rosout. With any targets, `events` adds
+    ``/parameter_events`` and ``/_dbglog/markers``.
 
     Raises:
         ValueError: a target is empty or malformed (the message names it).
     """
     if everything:
-        return Targets(everything=True, all_tags=True, batch=batch)
+        return Targets(everything=True, all_tags=True, batch=batch, events=events)
     if not targets:
-        return Targets(all_tags=True, topics=frozenset({ROSOUT}), batch=batch)
+        return Targets(all_tags=True, topics=frozenset({ROSOUT}), batch=batch, events=events)
     topics: set[str] = set()
     prefixes: list[str] = []
     for target in targets:
@@ -97,7 +109,9 @@ def parse_targets(targets: Sequence[str], *, everything: bool, batch: bool = Tru
             raise ValueError(f"{target!r} is not a tag or a topic (a topic starts with /, a tag is a name)")
         else:
             topics.add(name)
-    return Targets(all_tags=False, topics=frozenset(topics), prefixes=tuple(prefixes), batch=batch)
+    return Targets(
+        all_tags=False, topics=frozenset(topics), prefixes=tuple(prefixes), batch=batch, events=events
+    )
 
 
 @dataclass
