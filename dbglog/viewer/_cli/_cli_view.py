@@ -15,6 +15,8 @@ from typing import TYPE_CHECKING
 from dbglog._sched import CpuPolicy, add_cpu_argument, apply_cpu_argument, in_background
 
 if TYPE_CHECKING:
+    from dbglog._ros._paramclient import ParamClient
+    from dbglog.viewer._data._events import EventStore
     from dbglog.viewer._data._model import DataSource
     from dbglog.viewer._data._replay import ReplaySource
     from dbglog.viewer._publishing._republish import Republisher
@@ -25,11 +27,14 @@ __all__ = [
     "add_arguments",
     "cursor_arg",
     "duration_arg",
+    "events_of_source",
+    "follow_parameters",
     "fps_arg",
     "megabytes_arg",
     "run",
     "seconds_arg",
     "size_arg",
+    "write_full_report",
 ]
 
 HELP = (
@@ -184,7 +189,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         type=Path,
         metavar="PATH",
         help="on exit, write every widget's name, type, status and bindings (and the dashboard) as JSON, "
-        "with the cursor and each binding's value at it and samples held",
+        "with the cursor and each binding's value at it and samples held, and the events: every parameter "
+        "change seen (time, node, name, old and new value) and every user marker",
     )
     parser.add_argument(
         "--history",
@@ -296,6 +302,7 @@ def run(args: argparse.Namespace) -> int:
         return 2
     source: DataSource
     republisher: Republisher | None = None
+    params: ParamClient | None = None
     if args.replay is not None:
         replay = open_replay(args.replay, stale_after=max(0.1, args.stale_after))
         if replay is None:
@@ -326,6 +333,7 @@ def run(args: argparse.Namespace) -> int:
             print(f"dbglog view: error: {exc}{hint}", file=sys.stderr)
             return 1
         source = engine
+        params = follow_parameters(engine.events())
     width, height = args.size
     app = ViewerApp(
         source,
@@ -341,7 +349,7 @@ def run(args: argparse.Namespace) -> int:
         app.start()
         if republisher is not None:
             app.cursor_hooks.append(functools.partial(follow_cursor, app, republisher))
-        from dbglog.viewer._ui._auto import AutoDashboard, all_live, write_report
+        from dbglog.viewer._ui._auto import AutoDashboard, all_live
 
         auto: AutoDashboard | None = None
         if new_file:
@@ -374,7 +382,7 @@ def run(args: argparse.Namespace) -> int:
                 app.frame()
             newest = place_cursor(app, args.cursor) if args.cursor is not None else None
             if args.report_json is not None:
-                write_report(app, args.report_json, cursor_from=newest)
+                write_full_report(app, args.report_json, cursor_from=newest)
             try:
                 path = app.screenshot(args.screenshot)
             except (OSError, TimeoutError) as exc:
@@ -384,14 +392,52 @@ def run(args: argparse.Namespace) -> int:
             return 0
         app.run()
         if args.report_json is not None:
-            write_report(app, args.report_json)
+            write_full_report(app, args.report_json)
         return 0
     finally:
         app.close()
+        if params is not None:
+            params.close()
         if engine is not None:
             engine.stop()
         if republisher is not None:
             republisher.close()
+
+
+def follow_parameters(events: EventStore) -> ParamClient:
+    """Start the parameter client that tells `events` each node's values when first seen (so a change reads
+    "old → new") and publishes the user's markers; its calls never wait on a node."""
+    from dbglog._ros._paramclient import ParamClient
+
+    params = ParamClient().start()
+    params.watch(events.seed)
+    events.publish = params.publish_marker
+    return params
+
+
+def events_of_source(source: object) -> EventStore | None:
+    """The data source's events store (the engine's, a recording's), None for a source that keeps none."""
+    from dbglog.viewer._data._events import EventStore
+
+    make = getattr(source, "events", None)
+    made = make() if callable(make) else None
+    return made if isinstance(made, EventStore) else None
+
+
+def write_full_report(app: ViewerApp, path: Path, *, cursor_from: float | None = None) -> Path:
+    """Write ``--report-json``: the widgets' report and ``events``, every parameter change (and deletion)
+    the viewer saw and every user marker, oldest first."""
+    import json
+
+    from dbglog.viewer._data._events import event_json
+    from dbglog.viewer._ui._auto import widget_report
+
+    report = widget_report(app, cursor_from=cursor_from)
+    events = events_of_source(app.source)
+    report["events"] = [event_json(e) for e in events.all()] if events is not None else []
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(report, indent=2) + "\n", encoding="utf-8")
+    return path
 
 
 def open_replay(path: Path, *, stale_after: float) -> ReplaySource | None:
