@@ -214,3 +214,30 @@ def test_bad_values_are_refused_before_sending(client: ParamClient, nodes: Param
         client.set(nodes.fqn, {"kp": object()})
     with pytest.raises(ValueError, match="timeout must be > 0 seconds"):
         ParamClient(timeout=0)
+
+
+def test_set_latest_sends_one_at_a_time_and_always_the_last(client: ParamClient, nodes: ParamNodes) -> None:
+    """A drag's values: one set awaits the node at a time, values sent meanwhile replace one another
+    (their futures cancelled), the last is always sent, and the node ends at it."""
+    futures = [client.set_latest(nodes.fqn, "count", 5 * k) for k in range(1, 21)]
+    last = futures[-1].result(WAIT)
+    assert last.ok
+    assert nodes.value("count") == 100
+    assert futures[0].result(WAIT).ok  # the first went out at once
+    cancelled = [f for f in futures if f.cancelled()]
+    assert len(cancelled) >= 10, "values sent while one awaited its answer should have replaced each other"
+    assert all(f.done() for f in futures)
+
+
+def test_set_latest_waits_behind_a_silent_node(client: ParamClient, nodes: ParamNodes) -> None:
+    """Behind a node that never answers, only the newest value waits; it is sent (and given up) after."""
+    first = client.set_latest(nodes.hung_fqn, "kp", 1.0, timeout=1.0)
+    waiting = [client.set_latest(nodes.hung_fqn, "kp", float(k), timeout=1.0) for k in range(2, 6)]
+    assert all(f.cancelled() for f in waiting[:-1])
+    with pytest.raises(NoAnswerError):
+        first.result(WAIT)
+    with pytest.raises(NoAnswerError):
+        waiting[-1].result(WAIT)
+    after = client.set_latest(nodes.hung_fqn, "kp", 9.0, timeout=0.5)  # nothing in flight: sent at once
+    with pytest.raises(NoAnswerError):
+        after.result(WAIT)

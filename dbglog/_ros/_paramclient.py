@@ -102,6 +102,15 @@ class _Call:
     sent_at: float = 0.0
 
 
+@dataclass(frozen=True, slots=True)
+class _Waiting:
+    """A `set_latest` value waiting for the answer to the one sent before it."""
+
+    value: ParamValue
+    future: Future[SetResult]
+    timeout: float | None
+
+
 @dataclass(slots=True)
 class _Seed:
     """A node's values asked for a watcher: when to ask (again) and how long to wait after a failure."""
@@ -165,6 +174,8 @@ class ParamClient:
         self._lock = threading.Lock()
         self._graph = _Graph()
         self._watchers: list[ValuesCallback] = []
+        self._latest: dict[tuple[str, str], _Waiting | None] = {}
+        """`set_latest`'s parameters with a set awaiting its answer, and the value waiting after it."""
         self._thread: threading.Thread | None = None
         self._started = threading.Event()
         self._running = False
@@ -339,6 +350,58 @@ class ParamClient:
         if not items:
             return _done([])
         return self._submit(node, "set_parameters", build, convert, timeout)
+
+    def set_latest(
+        self, node: str, name: str, value: ParamValue | object, *, timeout: float | None = None
+    ) -> Future[SetResult]:
+        """Set one parameter, at most one request at a time: what a control sends while it is dragged.
+
+        While a set of this parameter awaits the node's answer, the newest value waits and is sent when
+        the answer comes; a value that was waiting is replaced (its future is cancelled). So a slider
+        dragged faster than the node answers sends as fast as the node answers, and its last value
+        always goes out. The future holds the node's answer for this value.
+
+        Raises:
+            ValueError: a value of no parameter type (at once, nothing is sent).
+        """
+        target = node if node.startswith("/") else "/" + node
+        key = (target, name)
+        typed = ParamValue.of(value)
+        future: Future[SetResult] = Future()
+        with self._lock:
+            if key in self._latest:  # one is being answered: this one waits, replacing the one waiting
+                replaced = self._latest[key]
+                self._latest[key] = _Waiting(typed, future, timeout)
+                if replaced is not None:
+                    replaced.future.cancel()
+                return future
+            self._latest[key] = None  # sent now, nothing waiting
+        self._send_latest(key, _Waiting(typed, future, timeout))
+        return future
+
+    def _send_latest(self, key: tuple[str, str], this: _Waiting) -> None:
+        """Send `this` value of a `set_latest` parameter; when answered, send the one waiting, if any."""
+
+        def answered(done: Future[list[SetResult]]) -> None:
+            error = done.exception()
+            if error is not None:
+                _settle(this.future, error=error)
+            else:
+                _settle(this.future, done.result()[0])
+            with self._lock:
+                waiting = self._latest.get(key)
+                if waiting is None or waiting.future.cancelled():
+                    del self._latest[key]
+                    return
+                self._latest[key] = None
+            self._send_latest(key, waiting)
+
+        try:
+            sent = self.set(key[0], {key[1]: this.value}, timeout=this.timeout)
+        except Exception as exc:  # never leave the parameter marked busy
+            sent = Future()
+            sent.set_exception(exc)
+        sent.add_done_callback(answered)
 
     def fetch(self, node: str, *, describe: bool = True, timeout: float | None = None) -> Future[list[Param]]:
         """Every parameter of `node` with its value (and descriptor unless `describe` is False), sorted by
