@@ -149,6 +149,8 @@ def test_format_value_reads_back_to_the_same_value(value: ParamValue) -> None:
         (ParamValue(ParamType.DOUBLE, math.inf), ".inf"),
         (ParamValue(ParamType.STRING, "1.0"), "'1.0'"),
         (ParamValue(ParamType.STRING, "two\nlines"), '"two\\nlines"'),
+        (ParamValue(ParamType.STRING_ARRAY, ("\x85",)), '["\\N"]'),
+        (ParamValue(ParamType.STRING, "a\u2028b"), '"a\\Lb"'),
         (ParamValue(ParamType.BOOL, False), "false"),
         (ParamValue(ParamType.STRING_ARRAY, ("a", "b c")), "[a, b c]"),
         (ParamValue(ParamType.BYTE_ARRAY, b"\x01\xff"), "[1, 255]"),

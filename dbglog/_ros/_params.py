@@ -16,8 +16,6 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from typing import Any, Final, TypeAlias
 
-import yaml
-
 __all__ = [
     "PARAMETER_EVENTS",
     "PARAMETER_EVENTS_TYPE",
@@ -259,6 +257,8 @@ def parse_value(text: str) -> ParamValue:
     Raises:
         ValueError: an integer outside the 64-bit range (``ros2 param set`` fails there too).
     """
+    import yaml  # (on use: importing the viewer's API must not load it)
+
     try:
         loaded = yaml.safe_load(text)
     except yaml.YAMLError:
@@ -287,9 +287,10 @@ def format_value(value: ParamValue) -> str:
     """Write a value on one line as YAML flow text that `parse_value` reads back to the same value.
 
     ``true``, ``3``, ``2.5``, ``1.0e-05``, ``.inf``, ``hello``, ``'1.0'`` (a string that would read as a
-    number is quoted), ``[1, 2]``, ``[a, b]``; a string with a line break is double-quoted with ``\\n``. Two
-    values read back differently: an empty array of a type other than boolean reads as a boolean array,
-    and a byte array (written ``[1, 255]``) as an integer array. NOT_SET is ``not set``.
+    number is quoted), ``[1, 2]``, ``[a, b]``; a string with a line break is double-quoted, the break
+    escaped (``\\n``, ``\\N`` ...). Two values read back differently: an empty array of a type other than
+    boolean reads as a boolean array, and a byte array (written ``[1, 255]``) as an integer array. NOT_SET
+    is ``not set``.
     """
     v = value.value
     if value.type is ParamType.NOT_SET:
@@ -302,12 +303,18 @@ def format_value(value: ParamValue) -> str:
         return "[" + ", ".join(str(b) for b in v) + "]"
     data: object = list(v) if isinstance(v, tuple) else v
     text = _dump(data)
-    if "\n" in text:
+    if any(c in text for c in _BREAKS):  # YAML folds a raw line break: escape it in double quotes
         text = _dump(data, style='"')
     return text
 
 
+_BREAKS: Final = "\n\r\x85\u2028\u2029"
+"""The characters YAML reads as line breaks."""
+
+
 def _dump(data: object, style: str | None = None) -> str:
+    import yaml
+
     text = yaml.safe_dump(
         data, default_flow_style=True, allow_unicode=True, width=math.inf, default_style=style
     )
