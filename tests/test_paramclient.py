@@ -241,3 +241,16 @@ def test_set_latest_waits_behind_a_silent_node(client: ParamClient, nodes: Param
     after = client.set_latest(nodes.hung_fqn, "kp", 9.0, timeout=0.5)  # nothing in flight: sent at once
     with pytest.raises(NoAnswerError):
         after.result(WAIT)
+
+
+def test_ros_that_cannot_start_fails_every_call_saying_why() -> None:
+    """When ROS refuses the client's node (an invalid name), every call, queued before or after, fails
+    with the reason instead of waiting."""
+    params = ParamClient(node_name="not a node name")
+    queued = params.get("/anything", ["kp"])
+    assert params.wait_started(30.0)
+    with pytest.raises(ClientClosedError, match="ROS 2 could not start for the parameter client"):
+        queued.result(WAIT)
+    with pytest.raises(ClientClosedError, match="could not start"):
+        params.list_names("/anything").result(1.0)
+    params.close()

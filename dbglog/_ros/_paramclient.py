@@ -439,7 +439,9 @@ class ParamClient:
     def publish_marker(self, marker: Marker) -> None:
         """Publish a user marker on ``/_dbglog/markers`` (kept for subscribers that join later)."""
         self.start()
-        self._jobs.put(marker)
+        with self._lock:
+            if not self._closed:
+                self._jobs.put(marker)
         self._wake()
 
     # --- calling thread -----------------------------------------------------------------------------
@@ -456,13 +458,14 @@ class ParamClient:
         limit = self.timeout if timeout is None else max(0.0, timeout)
         target = node if node.startswith("/") else "/" + node
         call = _Call(target, service, build, convert, future, time.monotonic() + limit, limit)
-        with self._lock:
-            closed = self._closed
-        if closed or self._error is not None:
+        self.start()
+        with self._lock:  # queued under the lock: `close` fails whatever was queued before it closed
+            closed = self._closed or self._error is not None
+            if not closed:
+                self._jobs.put(call)
+        if closed:
             _settle(future, error=ClientClosedError(self._error or "the parameter client is closed"))
             return future
-        self.start()
-        self._jobs.put(call)
         self._wake()
         return future
 
@@ -496,7 +499,8 @@ class ParamClient:
             executor.add_node(ros.node)
             self._guard = ros.node.create_guard_condition(lambda: None)
         except Exception as exc:  # rclpy missing, or ROS refusing to start: every call says so
-            self._error = f"ROS 2 could not start for the parameter client: {exc}"
+            with self._lock:  # no call is queued after this (`_submit` queues under the lock)
+                self._error = f"ROS 2 could not start for the parameter client: {exc}"
             self._started.set()
             self._fail_queued(ClientClosedError(self._error))
             return
