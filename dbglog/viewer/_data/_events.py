@@ -212,15 +212,14 @@ class EventStore:
     ) -> Event | None:
         """The nearest event strictly before (`direction` -1) or after (+1) `t`, of `kinds`."""
         with self._lock:
+            events = self._events
             if direction < 0:
-                i = bisect.bisect_left(self._times, t) - 1
-                candidates = reversed(self._events[: i + 1])
+                order = range(bisect.bisect_left(self._times, t) - 1, -1, -1)
             else:
-                i = bisect.bisect_right(self._times, t)
-                candidates = iter(self._events[i:])
-            for event in candidates:
-                if kinds is None or event_kind(event) in kinds:
-                    return event
+                order = range(bisect.bisect_right(self._times, t), len(events))
+            for i in order:
+                if kinds is None or event_kind(events[i]) in kinds:
+                    return events[i]
         return None
 
     def value(self, node: str, name: str) -> ParamValue | None:
