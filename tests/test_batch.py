@@ -6,6 +6,7 @@ viewer engine's history exactly.
 from __future__ import annotations
 
 import struct
+import time
 import uuid
 from array import array
 from collections.abc import Iterator
@@ -258,3 +259,76 @@ def test_big_integers_logged_by_the_sdk_reach_the_engine_history_exactly(engine:
     assert snap.last == BIG + 2
     assert type(snap.last) is int
     assert topic_for_tag(signed) in engine.batch_stats().covered
+
+
+def test_a_big_int_tag_another_node_also_publishes_keeps_every_sample_exactly_once(engine: Engine) -> None:
+    """An Int64 tag published by an SDK process (in batches, and on its topic) and by a plain rclpy node
+    (on its topic): the engine reads it on its topic, and its history keeps every sample of both, exact,
+    once each (the batches' copies are not held a second time, and the two never drop each other)."""
+    from std_msgs.msg import Int64
+
+    from dbglog._ros._qos import tag_qos
+    from tests._ros import RosPeer
+
+    tag = f"{_RUN}/shared"
+    topic = topic_for_tag(tag)
+    bound = Binding(topic)
+    engine.bind(bound)
+    with RosPeer("batch_int_plain") as peer:
+        pub = peer.publisher(topic, Int64, tag_qos())
+        for k in range(5):
+            pub.publish(Int64(data=-k))
+        code = f"""
+            import time, dbglog
+            dbglog.init()
+            time.sleep(2.0)  # the viewer's engine sees the batch writer first
+            for k in range(20):
+                dbglog.logint({tag!r}, {BIG} + k)
+                time.sleep(0.01)
+            assert dbglog.flush(5.0)
+            time.sleep(1.0)
+            """
+        done = run_sdk(code)
+        assert done.returncode == 0, done.stderr
+        for k in range(5, 10):
+            pub.publish(Int64(data=-k))
+        want = sorted([-k for k in range(10)] + [BIG + k for k in range(20)])
+        assert wait_until(lambda: engine.store.count(topic) >= len(want), 30), engine.store.count(topic)
+        held = engine.store.range(topic, -np.inf, np.inf)[1]
+        assert held.dtype == np.int64
+        assert sorted(held.tolist()) == want
+        assert engine.snapshot(bound).count == len(want)
+    assert topic not in engine.batch_stats().covered  # read on its own topic
+
+
+def test_a_publisher_whose_node_rmw_does_not_know_yet_is_waited_for(monkeypatch: pytest.MonkeyPatch) -> None:
+    """rmw names an endpoint's node `_NODE_NAME_UNKNOWN_` until it learns it (or once the node is going
+    away): the engine waits (the grace time) before deciding how to read the topic, then goes on."""
+    from rclpy.topic_endpoint_info import TopicEndpointInfo
+
+    from dbglog.viewer._data import _batchsub
+    from dbglog.viewer._data._batchsub import UNKNOWN_NODE, BatchIngest
+    from dbglog.viewer._data._history import History
+
+    monkeypatch.setattr(_batchsub, "_GRACE_S", 0.2)
+    monkeypatch.setattr(_batchsub, "_UNKNOWN_GAP_S", 0.1)
+
+    def unused(*_args: object) -> None:
+        raise AssertionError("not called")
+
+    ingest = BatchIngest(
+        make_sink=unused,
+        feed=unused,
+        feed_numbers=unused,
+        record_latency=unused,
+        message_class=unused,
+        history=History(),
+    )
+    unknown = [TopicEndpointInfo(node_name=UNKNOWN_NODE, node_namespace="_NODE_NAMESPACE_UNKNOWN_")]
+    known = [TopicEndpointInfo(node_name="bridge", node_namespace="/", topic_type="std_msgs/msg/Int64")]
+    assert ingest.should_wait("/rosdashboard/a", unknown)
+    assert not ingest.should_wait("/rosdashboard/a", known)  # a node rmw knows, not dbglog's: read it
+    assert wait_until(lambda: not ingest.should_wait("/rosdashboard/a", unknown), 5.0)  # never known
+    time.sleep(0.15)  # unseen for longer than the gap: the next unknown stretch has its own grace
+    assert ingest.should_wait("/rosdashboard/a", unknown)
+    assert ingest.should_wait("/rosdashboard/b", unknown)  # each topic its own

@@ -38,7 +38,7 @@ from dbglog.viewer._data._model import Binding, ValueKind
 from dbglog.viewer._data._series import NO_MESSAGE_YET, Series
 from dbglog.viewer._data._sinks import as_received, number_type
 
-__all__ = ["BatchIngest", "BatchStats"]
+__all__ = ["UNKNOWN_NODE", "BatchIngest", "BatchStats"]
 
 _log = logging.getLogger("dbglog.viewer.engine")
 _MAX_TAKE = 2000
@@ -46,7 +46,15 @@ _MAX_TAKE = 2000
 _GRACE_S = 0.75
 """dbglog's own node (``dbglog_<pid>``) seen this recently publishing a scalar topic may not show its
 batch publisher yet (discovery announces a node's endpoints in any order): the per-tag subscription
-waits that long, or the switch to batches later would lose the samples in between."""
+waits that long, or the switch to batches later would lose the samples in between. A publisher whose node
+rmw does not know (yet, or any more) waits as long: see `UNKNOWN_NODE`."""
+UNKNOWN_NODE = "_NODE_NAME_UNKNOWN_"
+"""The node name rmw gives an endpoint whose node it does not know. DDS announces an endpoint and rmw its
+node (``ros_discovery_info``) in separate messages, so a new publisher shows under this name for 1-80 ms,
+and a publisher of a node that is going away can show under it before it goes: a graph poll that landed
+there read an SDK tag per tag, as if another node published it."""
+_UNKNOWN_GAP_S = 0.5
+"""A topic's publisher seen under `UNKNOWN_NODE` again after this long is a new stretch (its own grace)."""
 _SCALAR_TYPE_NAMES = frozenset(f"std_msgs/msg/{name}" for name in SCALAR_TYPES)
 
 
@@ -83,6 +91,9 @@ class BatchIngest:
             made later (or just before its writer is seen on the graph) starts with the tag's past.
         claim: the engine's ``(topic, msg_type) -> attached``, asked when samples of a bound topic
             arrive before the graph shows its publishers (a short-lived writer may be gone by then).
+        own: the engine's ``topic -> subscribed``: a topic the engine reads on its own subscription keeps
+            its history from there (another node publishes it too, and the SDK then sends every sample
+            on the topic as well), so its samples in batches are not held a second time.
     """
 
     def __init__(
@@ -95,6 +106,7 @@ class BatchIngest:
         message_class: Callable[[str], Any],
         history: History,
         claim: Callable[[str, str], bool] | None = None,
+        own: Callable[[str], bool] | None = None,
     ) -> None:
         self._make_sink = make_sink
         self._feed = feed
@@ -103,6 +115,7 @@ class BatchIngest:
         self._message_class = message_class
         self._history = history
         self._claim = claim
+        self._own = own
         self._wanted: frozenset[str] = frozenset()
         self.subs: dict[str, Any] = {}
         """Robot namespace (``""``: the root) -> the subscription to its batch topic."""
@@ -111,6 +124,8 @@ class BatchIngest:
         """Robot namespace -> the nodes writing its batches."""
         self._first_seen: dict[tuple[str, str], float] = {}
         """When each scalar topic's publisher node was first seen (for the grace period)."""
+        self._unknown: dict[str, tuple[float, float]] = {}
+        """Per topic, when a publisher under `UNKNOWN_NODE` was first and last seen in the current stretch."""
         self._covered: dict[str, _Covered] = {}
         self._types: dict[str, str] = {}
         """The std_msgs type each tag seen in batches has (its newest)."""
@@ -148,9 +163,20 @@ class BatchIngest:
             (i.node_namespace, i.node_name) in writers and i.topic_type in _SCALAR_TYPE_NAMES for i in infos
         )
 
-    def should_wait(self, infos: list[Any]) -> bool:
-        """True while a scalar topic's dbglog node is too new to know whether it sends batches."""
+    def should_wait(self, name: str, infos: list[Any]) -> bool:
+        """True while topic `name` has a publisher too new (or too unknown) to tell whether it sends batches.
+
+        A ``dbglog_<pid>`` node seen publishing a scalar topic less than `_GRACE_S` ago and not yet seen
+        writing batches; or a publisher whose node rmw does not know (`UNKNOWN_NODE`) since less than that.
+        """
         now = time.monotonic()
+        wait = False
+        if any(i.node_name == UNKNOWN_NODE for i in infos):
+            first, last = self._unknown.get(name, (now, now))
+            if now - last > _UNKNOWN_GAP_S:
+                first = now
+            self._unknown[name] = (first, now)
+            wait = now - first < _GRACE_S
         for i in infos:
             if not is_sdk_node(i.node_name):
                 continue
@@ -158,8 +184,8 @@ class BatchIngest:
             fresh = now - self._first_seen.setdefault(key, now) < _GRACE_S
             writing = any(key in writers for writers in self._writer_nodes.values())
             if fresh and i.topic_type in _SCALAR_TYPE_NAMES and not writing:
-                return True
-        return False
+                wait = True
+        return wait
 
     def types(self) -> dict[str, str]:
         """Return the std_msgs type of every tag seen in batches (its newest)."""
@@ -274,7 +300,9 @@ class BatchIngest:
         self._types[name] = "std_msgs/msg/" + samples.std_type
         times = samples.times_ns.astype(np.float64) * 1e-9
         chunk = (times, samples.values)
-        self._remember(name, times, samples.values)
+        own = self._own
+        if own is None or not own(name):
+            self._remember(name, times, samples.values)
         covered = self._covered.get(name)
         if covered is None:
             claim = self._claim

@@ -26,7 +26,7 @@ import numpy.typing as npt
 
 from dbglog._regex._compile import CompiledRegex
 from dbglog._ros._batch import batch_robot
-from dbglog._ros._cdr import decode_fixed
+from dbglog._ros._cdr import CDR_HEADER, HEADER_SIZE, decode_fixed
 from dbglog._ros._node import NodeIdentity, PrivateNode, WaitSet, no_callback, take_batch
 from dbglog._ros._qos import LOG_DEPTH, subscription_qos
 from dbglog.viewer._data._batchsub import BatchIngest, BatchStats
@@ -170,6 +170,31 @@ class _TopicSub:
     """The subscription's KEEP_LAST queue depth."""
 
 
+def _offered(infos: list[Any]) -> tuple[bool, bool]:
+    """Return (best effort, transient local) for a subscription that matches every one of these publishers."""
+    from rclpy.qos import DurabilityPolicy, ReliabilityPolicy
+
+    best_effort = any(i.qos_profile.reliability == ReliabilityPolicy.BEST_EFFORT for i in infos)
+    transient = all(i.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL for i in infos)
+    return best_effort, transient
+
+
+def _scalars(buffers: list[bytes], plan: tuple[int, str]) -> npt.NDArray[Any] | None:
+    """Return the field at `plan` (payload offset, dtype) of every message in its own dtype, or None when a
+    message is not little-endian CDR or too short.
+
+    An Int64 or UInt64 stays exact beyond 2**53 (as a batch carries it), so the history of a tag read on its
+    own topic and in batches is one column of one dtype.
+    """
+    offset, dtype = plan
+    start = HEADER_SIZE + offset
+    end = start + np.dtype(dtype).itemsize
+    head = CDR_HEADER[:2]
+    if not all(len(b) >= end and b[:2] == head for b in buffers):
+        return None
+    return np.frombuffer(b"".join([b[start:end] for b in buffers]), dtype=dtype)
+
+
 def matched_reason(matched: int, publishers: int) -> str:
     """Say why a subscribed topic shows nothing yet, from how many of its publishers DDS matched."""
     if matched <= 0:
@@ -306,6 +331,7 @@ class Engine(SeriesTimes):
             message_class=message_class,
             history=self.store,
             claim=self._claim_for_batch,
+            own=self._reads_itself,
         )
         """dbglog SDK tags arrive in batches on one hidden topic (see ``_batchsub``)."""
         self._reported: set[tuple[str, str]] = set()
@@ -675,8 +701,6 @@ class Engine(SeriesTimes):
         self, node: Any, name: str, bindings: dict[Binding, Series], on_graph: bool, infos: list[Any]
     ) -> None:
         """Subscribe, re-subscribe or wait, as the publishers of one wanted topic require."""
-        from rclpy.qos import DurabilityPolicy, ReliabilityPolicy
-
         topic = self._subs.get(name)
         if not infos:
             if not bindings:  # a kept topic (the events store's) with no publisher now: nothing to say
@@ -711,12 +735,11 @@ class Engine(SeriesTimes):
             self._batches.attach(name, pub_types[0], bindings)
             return
         self._batches.detach(name)
-        if topic is None and self._batches.should_wait(infos):
+        if topic is None and self._batches.should_wait(name, infos):
             for series in bindings.values():
                 series.set_waiting("the topic's publisher just appeared; checking whether it sends batches")
             return
-        best_effort = any(i.qos_profile.reliability == ReliabilityPolicy.BEST_EFFORT for i in infos)
-        transient = all(i.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL for i in infos)
+        best_effort, transient = _offered(infos)
         if topic is not None and topic.msg_type in pub_types:
             if (topic.reliable and best_effort) or (topic.transient and not transient):
                 self._subscribe(node, name, topic.msg_type, bindings, not best_effort, transient, topic)
@@ -741,6 +764,10 @@ class Engine(SeriesTimes):
             return False
         self._batches.attach(name, msg_type, bindings)
         return True
+
+    def _reads_itself(self, name: str) -> bool:
+        """True when the engine reads topic `name` on a subscription of its own (ROS thread)."""
+        return name in self._subs
 
     def _unpublished(self, name: str, on_graph: bool) -> str:
         """Say why nothing arrives on `name` after a while: close matches, sub-topics or an empty graph."""
@@ -924,14 +951,18 @@ class Engine(SeriesTimes):
             if topic.scalar is None:
                 self._keep_payloads(topic, times, buffers)
                 return
-            if column is None:
-                columns = decode_fixed(buffers, [topic.scalar])
-                if columns is None:  # not plain little-endian CDR: read them the slow way
-                    from rclpy.serialization import deserialize_message
+            if np.dtype(topic.scalar[1]).kind != "f" or column is None:
+                column = _scalars(buffers, topic.scalar)  # integers and bools exact, as the batches hold them
+            if column is None:  # not plain little-endian CDR: read them the slow way
+                from rclpy.serialization import deserialize_message
 
-                    columns = [np.array([float(deserialize_message(b, topic.cls).data) for b in buffers])]
-                column = columns[0]
-            self.store.append_numbers(topic.name, times, column)
+                dtype = np.dtype(topic.scalar[1]).newbyteorder("=")
+                column = np.array([deserialize_message(b, topic.cls).data for b in buffers], dtype=dtype)
+            try:
+                self.store.append_numbers(topic.name, times, column)
+            except ValueError:  # held as another type from before (the topic's type changed): start afresh
+                self.store.drop(topic.name)
+                self.store.append_numbers(topic.name, times, column)
         except ValueError:  # e.g. the other kind held from before: that history is over
             self.store.drop(topic.name)
 
