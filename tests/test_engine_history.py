@@ -374,3 +374,52 @@ def test_a_publisher_that_stops_is_drawn_with_a_gap_and_integers_as_steps(
         ok = ~np.isnan(y)
         spans = [x[i + 1] - x[i] for i in range(len(x) - 1) if ok[i] and ok[i + 1]]
         assert max(spans) < 0.5, f"{snap.binding.topic}: a segment across the silence ({max(spans):.2f} s)"
+
+
+def test_tags_of_the_regex_bridge_and_of_a_plain_node_are_held_before_anything_binds_them(
+    engine: Engine, peer: RosPeer, tmp_path: Path
+) -> None:
+    """A real bridge's tag and a plain node's tag, never bound: the history holds them from when the engine
+    saw them, a binding made later starts with their past, and Save history as recording includes them."""
+    from dbglog.record._inspect import echo_lines
+    from dbglog.viewer._data._export import save_recording
+    from tests._children import stop_child
+
+    bridged, plain = f"{_RUN}/turtle/heading_deg", f"{_RUN}/plain_user"
+    rules = tmp_path / "rules.yaml"
+    rules.write_text(  # the demo's rule: two captures, two tags
+        f"rules:\n  - tag: {_RUN}/turtle\n    node: history_peer\n"
+        "    pattern: 'speed (?P<speed>[-+.0-9]+) m/s, heading (?P<heading_deg>[-+.0-9]+) deg'\n",
+        encoding="utf-8",
+    )
+    bridge = subprocess.Popen(
+        [sys.executable, "-m", "dbglog", "bridge", str(rules), "--no-state", "--name", "history_bridge"],
+        stderr=subprocess.PIPE,
+        stdout=subprocess.DEVNULL,
+        text=True,
+        cwd=ROOT,
+    )
+    try:
+        # The engine sees the bridge's output as soon as the bridge runs, and subscribes to it unbound.
+        assert wait_until(lambda: topic_for_tag(bridged) in engine.stats().per_topic, TIMEOUT)
+        pub = peer.publisher(topic_for_tag(plain), Float64)
+        assert wait_until(lambda: topic_for_tag(plain) in engine.stats().per_topic, TIMEOUT)
+        assert peer.wait_for_subscribers(pub, 1, TIMEOUT)
+        for k in range(20):
+            peer.node.get_logger().info(f"odometry: speed 0.5 m/s, heading {1.5 * k} deg")
+            pub.publish(Float64(data=-1.0 * k))
+            time.sleep(0.01)
+        held = [topic_for_tag(bridged), topic_for_tag(plain)]
+        assert wait_until(lambda: all(engine.store.count(t) >= 20 for t in held), TIMEOUT), held
+        binding = Binding(topic_for_tag(bridged))
+        engine.bind(binding)  # a plot added later: its past at once, not "waiting"
+        snap = _wait_snap(engine, binding, lambda s: s.count >= 20)
+        assert snap.values.tolist() == [1.5 * k for k in range(20)]
+        assert snap.status in (Status.LIVE, Status.STALE)
+        out = tmp_path / "held.mcap"
+        save_recording(engine.store, engine.held_types(), out)  # File > Save history > Everything held
+        assert [float(v) for v in echo_lines(out, bridged)] == [1.5 * k for k in range(20)]
+        assert [float(v) for v in echo_lines(out, plain)] == [-1.0 * k for k in range(20)]
+        engine.unbind(binding)
+    finally:
+        stop_child(bridge)

@@ -233,7 +233,7 @@ def run(args: argparse.Namespace) -> int:
     except TagError as exc:
         print(f"dbglog echo: {args.target!r} is not a tag: {exc}", file=sys.stderr)
         return 2
-    with Engine(node_name="dbglog_echo") as engine:
+    with Engine(node_name="dbglog_echo", hold_tags=False) as engine:
         started = last_value_at = time.monotonic()
         while split is None:  # rqt-style name: wait for the graph to say where the topic ends
             split = split_target(args.target, {t.name for t in engine.topics()})

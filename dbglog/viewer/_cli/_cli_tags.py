@@ -326,7 +326,7 @@ def run(args: argparse.Namespace) -> int:
         print("dbglog tags: --wait must be >= 0 and --interval > 0", file=sys.stderr)
         return 2
     seen: dict[str, _Seen] = {}
-    with Engine(node_name="dbglog_tags") as engine:
+    with Engine(node_name="dbglog_tags", hold_tags=False) as engine:
         started = time.monotonic()
         topics = _settle(engine, args, seen)
         while True:

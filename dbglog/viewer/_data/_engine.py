@@ -29,6 +29,7 @@ from dbglog._ros._batch import batch_robot
 from dbglog._ros._cdr import CDR_HEADER, HEADER_SIZE, decode_fixed
 from dbglog._ros._node import NodeIdentity, PrivateNode, WaitSet, no_callback, take_batch
 from dbglog._ros._qos import LOG_DEPTH, subscription_qos
+from dbglog._ros._tags import parse_topic
 from dbglog.viewer._data._batchsub import BatchIngest, BatchStats
 from dbglog.viewer._data._events import EVENT_TOPICS, EventStore, events_of
 from dbglog.viewer._data._fields import (
@@ -253,6 +254,11 @@ class Engine(SeriesTimes):
         history_seconds: how far back the history reaches (every dbglog tag and every bound topic,
             raw, and every binding's values): what time travel and back-filled widgets read.
         history_bytes: the history's memory cap; the oldest samples go first.
+        hold_tags: keep every dbglog tag on the graph in the history, bound or not, whoever publishes it:
+            the SDK's scalar tags come in its batches, any other tag (the regex bridge's, a user's node's,
+            the SDK's arrays and messages) gets a subscription of its own as soon as the engine sees it,
+            so a plot added later shows its past. The terminal commands, which read one binding, leave
+            it off.
     """
 
     def __init__(
@@ -269,6 +275,7 @@ class Engine(SeriesTimes):
         measure_latency: bool = False,
         history_seconds: float = DEFAULT_MAX_SECONDS,
         history_bytes: int = DEFAULT_MAX_BYTES,
+        hold_tags: bool = True,
     ) -> None:
         if history < 1:
             raise ValueError(f"history must be at least 1 value, not {history}")
@@ -288,6 +295,7 @@ class Engine(SeriesTimes):
         self.queue_depth = queue_depth
         self.queue_budget = queue_budget
         self.node_name = node_name
+        self.hold_tags = hold_tags
         self._lock = threading.Lock()
         self.store = History(max_seconds=history_seconds, max_bytes=history_bytes)
         """The history: topics by name (raw: numbers or CDR payloads) and each series' values by its key."""
@@ -323,6 +331,10 @@ class Engine(SeriesTimes):
         self._graph_polls = 0
         self._graph_queries = 0
         self._subs: dict[str, _TopicSub] = {}
+        self._held_seen: dict[str, tuple[int, tuple[str, ...]]] = {}
+        """Each unbound tag topic's (publishers, types) when the engine last decided how to hold it."""
+        self._held_waiting: set[str] = set()
+        """Unbound tag topics whose publisher is too new to decide on: looked at again at every poll."""
         self._batches = BatchIngest(
             make_sink=self._make_sink,
             feed=feed,
@@ -600,6 +612,10 @@ class Engine(SeriesTimes):
                 if binding not in want:
                     del topic.sinks[binding]
             if name not in wanted:
+                if self._holds(name):  # an unbound tag: its history goes on (the graph poll may drop it)
+                    topic.fast = self._fast_plan(topic)
+                    self._held_seen.pop(name, None)
+                    continue
                 node.destroy_subscription(topic.sub)
                 del self._subs[name]
                 continue
@@ -644,8 +660,9 @@ class Engine(SeriesTimes):
         self._graph_polls += 1
         self._graph_queries += 1 + self._batches.refresh(node, [n for n, _t in graph])  # + batch writers
         wanted = self._wanted()
-        self._count_endpoints(node, names_types)
+        counted = self._count_endpoints(node, names_types)
         topics: list[TopicInfo] = []
+        held: dict[str, tuple[int, tuple[str, ...]]] = {}
         types: dict[str, tuple[str, ...]] = {}
         publishers: dict[str, list[Any]] = {}
         for name, type_list in names_types:
@@ -655,6 +672,8 @@ class Engine(SeriesTimes):
                 self._graph_queries += 1
                 pubs = len(infos)
                 type_list = sorted({info.topic_type for info in infos}) or type_list
+            if pubs and name not in wanted and self._holds(name):
+                held[name] = (pubs, tuple(type_list))
             if pubs == 0 and foreign_subs <= 0:
                 continue
             types[name] = tuple(type_list)
@@ -673,10 +692,12 @@ class Engine(SeriesTimes):
                     _log.exception("viewer engine: topic %s failed", name)
                 for series in bindings.values():
                     series.set_error(f"internal error on {name}: {exc}")
+        if self.hold_tags:
+            self._hold_tags(node, held, set(wanted), counted)
 
-    def _count_endpoints(self, node: Any, names_types: list[tuple[str, list[str]]]) -> None:
+    def _count_endpoints(self, node: Any, names_types: list[tuple[str, list[str]]]) -> bool:
         """Count the publishers and the subscribers other than the engine's of every graph topic, when the
-        graph changed, once more when discovery has settled, and every ``_RECOUNT_S``."""
+        graph changed, once more when discovery has settled, and every ``_RECOUNT_S``; True when it did."""
         now = time.monotonic()
         graph = (names_types, sorted(node.get_node_names_and_namespaces()))
         self._graph_queries += 1
@@ -688,7 +709,7 @@ class Engine(SeriesTimes):
             or self._counted_at < changed + _SETTLE_S <= now  # discovery has settled since
             or now - self._counted_at >= _RECOUNT_S
         ):
-            return
+            return False
         self._counted_at = now
         counts = {}
         for name, _ in names_types:
@@ -696,6 +717,7 @@ class Engine(SeriesTimes):
             counts[name] = (node.count_publishers(name), node.count_subscribers(name) - own)
         self._counts = counts
         self._graph_queries += 2 * len(counts)
+        return True
 
     def _follow(
         self, node: Any, name: str, bindings: dict[Binding, Series], on_graph: bool, infos: list[Any]
@@ -768,6 +790,59 @@ class Engine(SeriesTimes):
     def _reads_itself(self, name: str) -> bool:
         """True when the engine reads topic `name` on a subscription of its own (ROS thread)."""
         return name in self._subs
+
+    def _holds(self, name: str) -> bool:
+        """True for a topic the history keeps unbound: a dbglog tag (any robot's), with `hold_tags`."""
+        return self.hold_tags and parse_topic(name) is not None
+
+    def _hold_tags(
+        self, node: Any, held: dict[str, tuple[int, tuple[str, ...]]], wanted: set[str], counted: bool
+    ) -> None:
+        """Keep the unbound tag topics in the history: `held` maps each to its (publishers, types).
+
+        The SDK's tags come in batches (nothing to do); any other tag gets a subscription of its own. A topic
+        is looked at again when its publisher count or types changed at a count of the graph, and at every
+        poll while its publisher is too new to decide on (`BatchIngest.should_wait`).
+        """
+        for name in [n for n in self._subs if n not in held and n not in wanted]:
+            node.destroy_subscription(self._subs.pop(name).sub)  # an unbound tag that left the graph
+        for name in [n for n in self._held_seen if n not in held]:
+            del self._held_seen[name]
+        self._held_waiting &= held.keys()
+        for name, seen in held.items():
+            if name not in self._held_waiting and (not counted or self._held_seen.get(name) == seen):
+                continue
+            self._held_seen[name] = seen
+            self._held_waiting.discard(name)
+            infos = node.get_publishers_info_by_topic(name)
+            self._graph_queries += 1
+            try:
+                self._hold(node, name, infos)
+            except Exception:  # one odd topic must not stop the others
+                if (name, "hold") not in self._reported:
+                    self._reported.add((name, "hold"))
+                    _log.exception("viewer engine: keeping %s in the history failed", name)
+
+    def _hold(self, node: Any, name: str, infos: list[Any]) -> None:
+        """Subscribe to one unbound tag topic unless its publishers send batches (or none is left)."""
+        topic = self._subs.get(name)
+        pub_types = sorted({info.topic_type for info in infos})
+        if not infos or (self._batches.covers(infos, name) and len(pub_types) == 1):
+            if topic is not None:  # gone, or now in batches: those hold it
+                node.destroy_subscription(topic.sub)
+                del self._subs[name]
+            return
+        if topic is None and self._batches.should_wait(name, infos):
+            self._held_waiting.add(name)
+            return
+        if len(pub_types) > 1:  # publishers disagree: a binding says so; nothing to hold meanwhile
+            return
+        best_effort, transient = _offered(infos)
+        if topic is not None:
+            fits = not ((topic.reliable and best_effort) or (topic.transient and not transient))
+            if topic.msg_type == pub_types[0] and fits:
+                return
+        self._subscribe(node, name, pub_types[0], {}, not best_effort, transient, topic)
 
     def _unpublished(self, name: str, on_graph: bool) -> str:
         """Say why nothing arrives on `name` after a while: close matches, sub-topics or an empty graph."""
