@@ -10,15 +10,17 @@ import time
 from collections.abc import Iterator
 from pathlib import Path
 
+import numpy as np
 import pytest
 from geometry_msgs.msg import Twist
 from std_msgs.msg import Bool, Float64, String
 
 from dbglog._ros._qos import tag_qos
-from dbglog.viewer._cli._cli_echo import format_line, split_target
+from dbglog.viewer._cli._cli_echo import _backlog, format_line, split_target
 from dbglog.viewer._cli._cli_tags import format_rate, format_table, format_value
 from dbglog.viewer._cli._cli_view import duration_arg
 from dbglog.viewer._data._engine import matched_reason
+from dbglog.viewer._data._model import Binding, SeriesSnapshot, Status, ValueKind
 from tests._ros import RosPeer
 
 TIMEOUT = 60
@@ -219,6 +221,34 @@ def test_rates_show_three_significant_digits_alike() -> None:
         "1000 Hz",
         "-",
     ]
+
+
+def _arrived(times: list[float]) -> SeriesSnapshot:
+    """A number series that received values with these source times (values 0, 1, ...)."""
+    stamps = np.asarray(times, dtype=np.float64)
+    values = np.arange(len(times), dtype=np.float64)
+    return SeriesSnapshot(
+        Binding("/rosdashboard/t"),
+        Status.LIVE,
+        kind=ValueKind.NUMBER,
+        times=stamps,
+        values=values,
+        count=len(times),
+    )
+
+
+def test_echo_started_before_the_publisher_prints_every_value_from_its_first_call() -> None:
+    """Echo waiting before the node starts prints every value that arrives late (discovery), not only the
+    newest; a node already running gives the newest kept value, then what follows; --history gives all."""
+    started = 1000.0
+    # The node started 0.1 s after echo; discovery delivered its first 1.4 s at once, at 1001.5.
+    late = _arrived([1000.1 + 0.001 * k for k in range(1400)])
+    assert _backlog(late, since=1001.45, started=started, history=False) == 1400
+    # A node already running: its kept history (before echo started), then values published since.
+    kept = _arrived([990.0, 995.0, 999.5, 1000.2, 1001.0, 1001.46, 1001.47])
+    assert _backlog(kept, since=1001.45, started=started, history=False) == 3  # 1001.0, then what followed
+    assert _backlog(kept, since=1001.45, started=started, history=True) == 7
+    assert _backlog(_arrived([]), since=1001.45, started=started, history=False) == 0
 
 
 def test_matched_reason_says_how_far_discovery_got() -> None:

@@ -27,6 +27,7 @@ from dbglog._ros._qos import subscription_qos
 from dbglog.api._public import RUNTIME
 from dbglog.viewer._data._engine import Engine
 from dbglog.viewer._data._model import Binding, SeriesSnapshot
+from tests._children import stop_child
 from tests._ros import RosPeer, wait_until
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -152,6 +153,71 @@ def test_dbglog_echo_prints_every_sample_in_order_with_its_stamp() -> None:
     stamps = [float(t) for t, _ in rows[1:]]
     assert all(abs(s - t) < 0.005 for s, t in zip(stamps, sent, strict=True))
     assert stamps == sorted(stamps)
+
+
+def _graph_has_nodes(peer: RosPeer, *prefixes: str) -> bool:
+    names = [name for name, _ in peer.node.get_node_names_and_namespaces()]
+    return all(any(name.startswith(p) for name in names) for p in prefixes)
+
+
+def test_readers_waiting_before_a_node_starts_get_its_first_second(engine: Engine, tmp_path: Path) -> None:
+    """Echo, a viewer engine and ``dbglog record`` wait first; a fresh node logs 5000 values at 1 kHz: each
+    of them gets all 5000, in order (the first second arrives late, after discovery, and is not history)."""
+    from dbglog.record._inspect import echo_lines
+
+    tag, n = f"probe/first_{os.getpid()}", 5000
+    topic = "/rosdashboard/" + tag
+    binding = Binding(topic)
+    engine.bind(binding)
+    out = tmp_path / "first.mcap"
+    echo_cmd = ["echo", tag, "--count", str(n), "--stamp", "--timeout", "30"]
+    with (
+        subprocess.Popen(
+            [sys.executable, "-m", "dbglog", *echo_cmd],
+            env=_env(),
+            stdout=subprocess.PIPE,
+            text=True,
+            cwd=ROOT,
+        ) as echo,
+        subprocess.Popen(
+            [sys.executable, "-m", "dbglog", "record", "-o", str(out), tag],
+            env=_env(),
+            stderr=subprocess.PIPE,
+            text=True,
+            cwd=ROOT,
+        ) as record,
+    ):
+        try:
+            with RosPeer("probe_first_watch") as peer:  # both readers are up before the node starts
+                assert wait_until(lambda: _graph_has_nodes(peer, "dbglog_echo", "dbglog_record_"), TIMEOUT)
+            done = _run(
+                f"""
+                import time, dbglog
+                deadline = time.monotonic()
+                for k in range({n}):
+                    dbglog.logint({tag!r}, k)
+                    deadline += 0.001
+                    time.sleep(max(0.0, deadline - time.monotonic()))
+                assert dbglog.flush(5.0)
+                """
+            )
+            assert done.returncode == 0, done.stderr
+            printed = echo.communicate(timeout=60)[0]
+            snap = _when(engine, binding, n)
+        finally:
+            if echo.poll() is None:
+                stop_child(echo)
+            summary = stop_child(record)
+    assert echo.returncode == 0
+    rows = [line.split() for line in printed.splitlines()]
+    assert [int(v) for _, v in rows] == list(range(n))
+    stamps = [float(t) for t, _ in rows]
+    assert stamps == sorted(stamps)
+    assert snap.count == n
+    assert snap.values.tolist() == list(map(float, range(n)))
+    assert engine.store.range(topic, -np.inf, np.inf)[1].tolist() == list(range(n))
+    # The recording's tag, as dbglog's readers take it (`dbglog echo --file`, replay): from its batches.
+    assert [int(v) for v in echo_lines(out, tag)] == list(range(n)), summary
 
 
 def test_a_full_queue_drops_count_and_warn_once_and_the_rest_arrive_in_order(engine: Engine) -> None:

@@ -164,12 +164,15 @@ def _settled(snap: SeriesSnapshot, first_at: float, last_change_at: float, now: 
     return snap.last_time is not None and snap.last_time >= since
 
 
-def _backlog(snap: SeriesSnapshot, since: float, history: bool) -> int:
-    """Return how many received values to print first: the newest kept one and all published `since`.
+def _backlog(snap: SeriesSnapshot, since: float, started: float, history: bool) -> int:
+    """Return how many received values to print first.
 
-    Values published before the first one arrived (source time before `since`) are the publishers'
-    kept history: only the newest of them is the current value (all of them with --history). Values
-    published afterwards are all printed. Arrays keep no times: their newest value only.
+    Values published before echo started (source time before `started`) are the publishers' kept
+    history: of those only the newest is the current value (all of them with --history), and values
+    published before the first one arrived (`since`) are taken as that history too. When nothing older
+    than echo's start arrived, the publishers started after echo: every value is printed, from the first
+    call on (the batches keep seconds of them, so discovery's delay loses none). Arrays keep no times:
+    their newest value only.
     """
     import numpy as np
 
@@ -178,6 +181,8 @@ def _backlog(snap: SeriesSnapshot, since: float, history: bool) -> int:
         return snap.count
     if not len(times):
         return min(1, snap.count)
+    if not (times < started).any():
+        return len(times)
     kept = np.flatnonzero(times < since)
     return len(times) - int(kept[-1]) if len(kept) else len(times)
 
@@ -218,6 +223,7 @@ def run(args: argparse.Namespace) -> int:
         return 2
     printed = 0
     hinted = False
+    started_at = time.time()  # a value published from now on is new, however late discovery delivers it
 
     def hint_once(topic: str) -> None:
         nonlocal hinted
@@ -276,7 +282,7 @@ def run(args: argparse.Namespace) -> int:
                     time.sleep(_POLL_S)
                     continue
                 caught_up = True
-                seen = snap.count - _backlog(snap, since, args.history)
+                seen = snap.count - _backlog(snap, since, started_at, args.history)
             new = snap.count - seen if caught_up else 0
             if new > 0:
                 values, times = _values(snap, new)
