@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import re
 import signal
 import subprocess
@@ -614,3 +615,32 @@ def test_bridge_with_a_broken_state_file_warns_runs_and_rewrites_it(
             TIMEOUT,
         )
     assert json.loads(path.read_text(encoding="utf-8"))["topics"]["/rosdashboard/t/probe"]
+
+
+def test_a_reader_waiting_for_a_bridged_tag_gets_every_value_from_the_first_line(tmp_path: Path) -> None:
+    """Echo waits on a bridged tag; a node logs 300 lines as the bridge starts: echo prints all 300."""
+    tag = f"first_{os.getpid()}/seq"
+    rules = tmp_path / "rules.yaml"
+    rules.write_text(f"rules:\n  - tag: {tag}\n    type: int\n    pattern: 'first seq=(\\d+)'\n", "utf-8")
+    echo_cmd = [sys.executable, "-m", "dbglog", "echo", tag, "--count", "300", "--timeout", "30"]
+    with subprocess.Popen(echo_cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) as echo:
+        node: _Node | None = None
+        bridge: _Process | None = None
+        try:
+            with RosPeer("first_watch") as watch:  # echo is up before the node and the bridge start
+                assert wait_until(lambda: "dbglog_echo" in watch.node.get_node_names(), TIMEOUT), (
+                    watch.node.get_node_names()
+                )
+            node = _Node("first_lines", [f"first seq={k}" for k in range(300)])
+            bridge = _Process(str(rules), "--name", "bridge_first_reader", "--no-state")
+            node.wait_logged()
+            printed, err = echo.communicate(timeout=60)
+        finally:
+            if echo.poll() is None:
+                echo.kill()
+            if node is not None:
+                node.close()
+            if bridge is not None:
+                bridge.stop(signal.SIGINT)
+    assert echo.returncode == 0, err
+    assert [int(v) for v in printed.split()] == list(range(300))

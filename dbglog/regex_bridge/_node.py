@@ -27,13 +27,14 @@ from types import TracebackType
 from typing import Any, Final, Self
 
 from rcl_interfaces.msg import Log
+from rclpy.qos import QoSProfile
 from rclpy.serialization import deserialize_message
 from std_msgs.msg import Bool, Float64, Int64, String
 
 from dbglog._regex._compile import NumberKind
 from dbglog._ros._cdr import SCALAR_FORMATS, read_log, read_string, scalar_encoder
 from dbglog._ros._node import PrivateNode, WaitSet, take_batch
-from dbglog._ros._qos import log_qos, tag_qos
+from dbglog._ros._qos import LOG_DEPTH, log_qos, subscription_qos
 from dbglog._ros._tags import dotted_namespace, logger_namespace, robot_label
 from dbglog.regex_bridge._engine import Matcher
 from dbglog.regex_bridge._rules import ROSOUT, RuleSet
@@ -42,6 +43,7 @@ __all__ = [
     "DEDUP_WINDOW",
     "DEFAULT_DEPTH",
     "DEFAULT_NODE_NAME",
+    "OUTPUT_DEPTH",
     "Bridge",
     "BridgeStats",
     "encode_value",
@@ -50,6 +52,13 @@ __all__ = [
 DEFAULT_NODE_NAME: Final = "dbglog_bridge"
 DEFAULT_DEPTH: Final = 10_000
 """History depth of the source subscriptions: at 20k lines/s, half a second of slack."""
+OUTPUT_DEPTH: Final = LOG_DEPTH
+"""Values each output topic keeps for a reader that matches late (reliable, transient-local, like a tag's).
+
+As deep as the ``/rosout`` history a bridge reads on start (rcl keeps 1000 lines a node): a bridge that
+starts beside the robot publishes that backlog at once, before a viewer, ``dbglog echo`` or ``dbglog
+record`` already waiting has matched its new publishers (discovery takes up to seconds), and those readers
+still get every value from the first line. A tag's 100 lost the start of such a burst."""
 _BURST: Final = 256
 """Messages taken from one subscription before looking at the others."""
 _WAIT_NS: Final = 200_000_000
@@ -175,6 +184,11 @@ class _Published:
         return count
 
 
+def _output_qos() -> QoSProfile:
+    """Return the QoS of an output topic: reliable, transient-local, keep-last `OUTPUT_DEPTH`."""
+    return subscription_qos(OUTPUT_DEPTH, reliable=True, transient=True)
+
+
 def _unused(_msg: Any) -> None:  # pragma: no cover - the ingest thread takes messages itself
     """Callback of the source subscriptions; never called (no executor spins them)."""
 
@@ -223,7 +237,7 @@ class Bridge:
         self._context = self._ros.context
         try:
             self.node = self._ros.node
-            qos = tag_qos()
+            qos = _output_qos()
             self._publishers = {
                 o.topic: self.node.create_publisher(_MSG_TYPES[o.kind], o.topic, qos)
                 for o in rules.outputs
@@ -478,7 +492,7 @@ class Bridge:
         full = namespace + topic
         if full not in self._publishers:
             self._publishers[full] = self.node.create_publisher(
-                _MSG_TYPES[self._follow[topic]], full, tag_qos()
+                _MSG_TYPES[self._follow[topic]], full, _output_qos()
             )
         return full
 
