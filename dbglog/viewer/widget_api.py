@@ -59,7 +59,9 @@ from dbglog.viewer._data._logstore import (
     FilterError,
     LogFilter,
     LogLine,
+    LogReader,
     LogStore,
+    Shown,
     level_name,
     level_of,
 )
@@ -75,6 +77,7 @@ __all__ = [
     "InterfaceError",
     "LogFilter",
     "LogLine",
+    "LogReader",
     "LogStore",
     "PropKind",
     "PropValue",
@@ -84,6 +87,7 @@ __all__ = [
     "PublishService",
     "PublishState",
     "SeriesSnapshot",
+    "Shown",
     "Status",
     "TimeRange",
     "Value",
@@ -260,7 +264,7 @@ class WidgetHost(Protocol):
         """Return the store of every line of a log topic (``rcl_interfaces/msg/Log`` or a String topic), fed
         live and already holding what the viewer's history has; None when the data source keeps none.
 
-        The owner (the UI thread) calls `LogStore.sync` to take in the lines that arrived.
+        A console asks its filter through `LogStore.reader` and takes the answers with `LogStore.step`.
         """
 
     def seek(self, t: float) -> None:

@@ -401,6 +401,8 @@ class Engine(SeriesTimes):
         self._wake()
         thread.join(timeout)
         self._thread = None
+        for logs in list(self._logs.values()):  # their workers end; the lines stay readable
+            logs.close()
 
     def __enter__(self) -> Self:
         self.start()
@@ -1048,13 +1050,13 @@ class Engine(SeriesTimes):
 
         Made on the first call holding the topic's past from the history, then given each batch the engine
         takes; held weakly (it goes when its last user drops it). A binding on the topic subscribes it.
-        The caller's thread owns the store (`LogStore.sync`); this engine only pushes raw batches to it.
+        This engine only pushes raw batches to it; the store's own worker thread decodes and filters them.
         """
         name = _normalize(topic)
         with self._logs_lock:
             logs = self._logs.get(name)
             if logs is None:
-                logs = LogStore()
+                logs = LogStore(worker=True)
                 if self.store.kind(name) == "payloads":
                     times, payloads = self.store.payloads(name, -np.inf, np.inf)
                     logs.push(self.store.msg_type(name), times, payloads)

@@ -1,19 +1,23 @@
 """The Log console's store: log lines decoded into columns, bounded, with fast filters cached per filter.
 
 Pure: numpy, google-re2 and the ground floor's CDR readers and pattern proposals; no ROS, no Dear PyGui.
-One owner thread (the viewer's UI thread) reads and writes a store; any thread may `push` raw CDR batches
-(the engine's ROS thread does), which the owner decodes at its next `sync`. Nothing from a line is ever
-evaluated; patterns are RE2 (linear time). Layout and measured figures: ``docs/logs.md``.
+Any thread may `push` raw CDR batches (the engine's ROS thread does). A store made with ``worker=True``
+decodes them, stores them and answers its readers' filters on a thread of its own, so the UI thread only
+takes the newest answers (`step`) and reads the rows it shows; without a worker the owner does that work
+in `step` or `sync`. Nothing from a line is ever evaluated; patterns are RE2 (linear time). Layout, threads
+and measured figures: ``docs/logs.md``.
 """
 
 from __future__ import annotations
 
 import collections
+import logging
 import struct
 import threading
 import time
+import weakref
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Final
 
 import numpy as np
@@ -47,8 +51,10 @@ __all__ = [
     "FilterError",
     "LogFilter",
     "LogLine",
+    "LogReader",
     "LogStore",
     "Matches",
+    "Shown",
     "level_name",
     "level_of",
 ]
@@ -81,6 +87,16 @@ _MATCH_OPTIONS.never_nl = True  # a pattern never matches a line break, so never
 _UNANCHORED = re2._Anchor.UNANCHORED
 _ANCHOR_START = re2._Anchor.ANCHOR_START
 _LETTERS: Final = frozenset(range(ord("a"), ord("z") + 1))
+WORKER_LINES: Final = 20_000
+"""Lines the worker decodes before it answers its readers again (a long history fills in over a few turns)."""
+WORKER_BUDGET_S: Final = 0.01
+"""Time the worker gives each reader's older lines per turn (new lines are always answered whole)."""
+WORKER_PAUSE_S: Final = 0.008
+"""The worker's pause after a turn that left nothing to do: what arrives meanwhile is taken in one turn."""
+SYNC_TIMEOUT_S: Final = 60.0
+"""`sync` waits at most this long for the worker to take in what was pushed before it."""
+
+_log = logging.getLogger(__name__)
 
 
 class FilterError(ValueError):
@@ -216,6 +232,104 @@ class _Selection:
     ids: _Ids = field(default_factory=_Ids)
 
 
+@dataclass(eq=False, slots=True)
+class _Slot:
+    """Where a filter's cached answer lives: the store's own (`select`) or a reader's."""
+
+    sel: _Selection | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class Shown:
+    """A reader's answer, as the store stood when it was given (immutable: a frame may keep it)."""
+
+    filt: LogFilter
+    """The filter asked (a pattern RE2 refused was left out of the answer: `error`)."""
+    ids: npt.NDArray[np.int64]
+    """The ids of the lines it shows, oldest first (read-only)."""
+    complete: bool
+    """Whether every held line was answered (False while older lines are still being filtered)."""
+    error: str
+    """The patterns RE2 refused, each named with its reason (``""`` when none)."""
+    generation: int
+    """The store's `generation` the ids refer to (`LogStore.window` reads rows only for the same one)."""
+    held: int
+    """Lines the store held then."""
+
+
+@dataclass(frozen=True, slots=True)
+class _Published:
+    """What a turn of the worker (or of `LogStore.step`) answered: every reader's answer and the count."""
+
+    serial: int
+    held: int
+    answers: dict[int, Shown]
+
+
+class LogReader:
+    """One console's view of a store: it asks a filter (`ask`) and reads the answer given (`shown`).
+
+    Made by `LogStore.reader`; the store holds it weakly, so a reader dropped stops costing anything.
+    """
+
+    __slots__ = ("__weakref__", "_slot", "_store", "asked", "key")
+
+    def __init__(self, store: LogStore, key: int) -> None:
+        self._store = store
+        self.key = key
+        self.asked = LogFilter()
+        """The filter whose answer is wanted."""
+        self._slot = _Slot()
+
+    def ask(self, filt: LogFilter) -> None:
+        """Ask for the lines `filt` shows (a store with a worker answers on its thread; never blocks)."""
+        if filt != self.asked:
+            self.asked = filt
+            self._store._wake()
+
+    def shown(self) -> Shown | None:
+        """The newest answer taken by `LogStore.step` (or `sync`); None before the first."""
+        return self._store._current.answers.get(self.key)
+
+
+class _Worker:
+    """The thread that decodes, stores and answers for one store (holding it only weakly between turns)."""
+
+    __slots__ = ("stop", "thread", "wake")
+
+    def __init__(self, store: LogStore) -> None:
+        self.wake = threading.Event()
+        self.stop = threading.Event()
+        self.thread = threading.Thread(
+            target=_work, args=(weakref.ref(store), self.wake, self.stop), name="dbglog-logs", daemon=True
+        )
+
+
+def _work(ref: weakref.ref[LogStore], wake: threading.Event, stop: threading.Event) -> None:
+    """The worker's loop: a turn whenever lines were pushed or a reader asked; ends with its store."""
+    while True:
+        wake.wait()
+        wake.clear()
+        store = ref()
+        if stop.is_set() or store is None:
+            return
+        try:
+            more = store._serve(WORKER_LINES, WORKER_BUDGET_S)
+        except Exception:  # a bug here must not end the thread: the next lines still come
+            _log.exception("the log store's worker failed a turn")
+            more = False
+        del store  # not held between turns: a store nobody uses goes, and its worker with it
+        if more:
+            wake.set()
+        else:
+            stop.wait(WORKER_PAUSE_S)
+
+
+def _stop_worker(wake: threading.Event, stop: threading.Event) -> None:
+    stop.set()
+    wake.set()
+
+
 class LogStore:
     """Log lines in columns: time, level, node (interned), message, source location; bounded.
 
@@ -232,7 +346,7 @@ class LogStore:
     first_slice = 4096
     """`select_within` answers this many of the newest lines first, then slices sized to its time budget."""
 
-    def __init__(self, capacity: int = DEFAULT_CAPACITY) -> None:
+    def __init__(self, capacity: int = DEFAULT_CAPACITY, *, worker: bool = False) -> None:
         if capacity < 1:
             raise ValueError(f"a log store keeps at least one line, not {capacity}")
         self._capacity = int(capacity)
@@ -257,26 +371,84 @@ class LogStore:
         self._cut: dict[int, int] = {}
         """Line id -> bytes of its message not kept (only for lines longer than `MAX_LINE`)."""
         self._masks: collections.OrderedDict[tuple[str, str], _Mask] = collections.OrderedDict()
-        self._selection: _Selection | None = None
+        self._own = _Slot()
+        """The cached answer of `select` and `select_within` (readers have their own)."""
         self._marks = _Selection(("marks",), 0, 0)
-        self._pending: collections.deque[tuple[str, npt.NDArray[np.float64], list[bytes]]] = (
+        """The ids of the held WARN, ERROR and FATAL lines (kept as lines are added)."""
+        self._pending: collections.deque[tuple[int, str, npt.NDArray[np.float64], list[bytes]]] = (
             collections.deque()
         )
         self._pending_lines = 0
+        self._pushed = 0
+        """Batches pushed so far (each waiting batch carries its number)."""
         self._push_lock = threading.Lock()
+        """Guards the waiting batches and the readers' list (held for a few statements, by any thread)."""
+        self._write = threading.RLock()
+        """Held to change the store or its cached answers (the worker's turn, `select`, `preview`, `append`):
+        whoever holds it sees rows that do not change under it."""
+        self._read = threading.RLock()
+        """Held by a writer only while it changes the rows, and by the readers of rows (`line`, `rows`, ...):
+        short both ways. Taken after `_write`, never before it."""
+        self._readers: list[weakref.ref[LogReader]] = []
+        self._reader_keys = 0
+        self._ready = self._current = _Published(0, 0, {})
+        """The newest answers given (`_ready`), and those the owner took (`_current`: `step`, `sync`)."""
+        self._done = threading.Condition(threading.Lock())
+        self._answered = 0
+        """The number of the newest batch the worker took in and answered for (what `sync` waits for)."""
+        self._worker: _Worker | None = None
         self.version = 0
         """Changes whenever lines are added or dropped (a reader redraws when it changes)."""
-        self.added = 0
-        """Lines stored so far (dropped ones included)."""
-        self.evicted = 0
-        """Lines dropped because the store was full."""
+        self._added = 0
+        self._evicted = 0
         self.dropped = 0
         """Lines dropped before decoding, over `capacity` waiting (counted in `added` and `evicted` too)."""
         self.undecodable = 0
         """Payloads that were not a readable Log or String (skipped)."""
         self.msg_type = ""
         """The type of the lines pushed so far (``rcl_interfaces/msg/Log`` or ``std_msgs/msg/String``)."""
+        self.generation = 0
+        """Changes when line ids start meaning other lines (a late batch merged in, `clear`): an answer
+        given before refers to the old ones."""
         self._grow(min(self._capacity, 4096))
+        if worker:
+            self.start()
+
+    # --- the worker -----------------------------------------------------------------------------------
+
+    def start(self) -> None:
+        """Start the store's worker thread: from now on it decodes what is pushed and answers the readers."""
+        if self._worker is not None:
+            return
+        worker = self._worker = _Worker(self)
+        weakref.finalize(self, _stop_worker, worker.wake, worker.stop)
+        worker.thread.start()
+        worker.wake.set()  # lines pushed before
+
+    def close(self) -> None:
+        """Stop the worker thread and wait for it to end; the store stays readable (the owner may `sync`)."""
+        worker, self._worker = self._worker, None
+        if worker is None:
+            return
+        _stop_worker(worker.wake, worker.stop)
+        if worker.thread is not threading.current_thread():
+            worker.thread.join()
+        with self._done:
+            self._done.notify_all()  # a `sync` waiting for it syncs by itself
+
+    @property
+    def threaded(self) -> bool:
+        """Whether a worker thread decodes and answers (`start`); else the owner does, in `step`/`sync`."""
+        return self._worker is not None
+
+    def _wake(self) -> None:
+        worker = self._worker
+        if worker is not None:
+            worker.wake.set()
+
+    def _on_worker(self) -> bool:
+        worker = self._worker
+        return worker is not None and worker.thread is threading.current_thread()
 
     # --- size ---------------------------------------------------------------------------------------
 
@@ -289,11 +461,27 @@ class LogStore:
     def capacity(self, value: int) -> None:
         if value < 1:
             raise ValueError(f"a log store keeps at least one line, not {value}")
-        self._capacity = int(value)
-        self._evict()
+        if int(value) == self._capacity:
+            return
+        with self._write, self._read:
+            self._capacity = int(value)
+            self._evict()
 
     def __len__(self) -> int:
+        """Lines held; with a worker, as of the answers `step` or `sync` took (they go together)."""
+        if self._worker is not None:
+            return self._current.held
         return self._n - self._lo
+
+    @property
+    def added(self) -> int:
+        """Lines stored so far (dropped ones included)."""
+        return self._added + self.dropped
+
+    @property
+    def evicted(self) -> int:
+        """Lines dropped because the store was full (dropped ones included)."""
+        return self._evicted + self.dropped
 
     @property
     def first_id(self) -> int:
@@ -307,57 +495,160 @@ class LogStore:
 
     @property
     def pending(self) -> int:
-        """Lines pushed and not yet decoded (`sync` takes them)."""
+        """Lines pushed and not yet decoded (the worker, or `sync`, takes them)."""
         return self._pending_lines
+
+    @property
+    def published(self) -> int:
+        """Changes whenever new answers are given (a console redraws when it changes)."""
+        return self._ready.serial
 
     def bytes_used(self) -> int:
         """Bytes the store holds: its columns, its text, cached filter results and interned names."""
-        columns = sum(a.nbytes for a in (self._times, self._levels, self._nodes, self._sites, self._starts))
-        masks = sum(m.rows.nbytes for m in self._masks.values())
-        selections = self._marks.ids.buf.nbytes + (self._selection.ids.buf.nbytes if self._selection else 0)
-        names = sum(len(n) + 60 for n in self._node_names) + sum(
-            len(f) + len(g) + 120 for f, g, _ in self._site_list
-        )
-        text = self._text.__sizeof__()
-        return columns + masks + selections + names + text + 90 * len(self._cut)
+        with self._write, self._read:
+            columns = sum(
+                a.nbytes for a in (self._times, self._levels, self._nodes, self._sites, self._starts)
+            )
+            masks = sum(m.rows.nbytes for m in self._masks.values())
+            selections = sum(s.ids.buf.nbytes for s in self._selections())
+            names = sum(len(n) + 60 for n in self._node_names) + sum(
+                len(f) + len(g) + 120 for f, g, _ in self._site_list
+            )
+            text = self._text.__sizeof__()
+            return columns + masks + selections + names + text + 90 * len(self._cut)
 
     # --- writing ------------------------------------------------------------------------------------
 
     def push(self, msg_type: str, times: npt.ArrayLike, payloads: list[bytes]) -> None:
         """Queue serialized Log or String messages with their source times (any thread; never blocks long).
 
-        The owner decodes them at its next `sync` (decoding on the engine's ROS thread instead was measured
-        to make it lose lines in DDS under load: ``docs/logs.md``). While more than `capacity` lines wait, the
-        oldest waiting batches are dropped (they would be evicted anyway).
+        The worker, or the owner's next `sync`, decodes them (decoding on the engine's ROS thread instead was
+        measured to make it lose lines in DDS under load: ``docs/logs.md``). While more than `capacity` lines
+        wait, the oldest waiting batches are dropped (they would be evicted anyway).
         """
         if not payloads:
             return
-        batch = (msg_type, np.asarray(times, dtype=np.float64), payloads)
         with self._push_lock:
-            self._pending.append(batch)
+            self._pushed += 1
+            self._pending.append((self._pushed, msg_type, np.asarray(times, dtype=np.float64), payloads))
             self._pending_lines += len(payloads)
-            while self._pending_lines - len(self._pending[0][2]) >= self._capacity:
+            while self._pending_lines - len(self._pending[0][3]) >= self._capacity:
                 dropped = self._pending.popleft()
-                self._pending_lines -= len(dropped[2])
-                self.added += len(dropped[2])
-                self.evicted += len(dropped[2])
-                self.dropped += len(dropped[2])
+                self._pending_lines -= len(dropped[3])
+                self.dropped += len(dropped[3])
+        self._wake()
 
     def sync(self, max_lines: int | None = None) -> int:
-        """Decode waiting batches into the store (owner thread); return how many lines were added.
+        """Take in the lines pushed so far; return how many lines were added.
+
+        Without a worker, decode the waiting batches here. With one, wait (at most `SYNC_TIMEOUT_S`) until it
+        took in and answered every batch pushed before the call, then take its answers as `step` does.
 
         Args:
-            max_lines: stop after about this many lines (the rest wait for the next call).
+            max_lines: without a worker, stop after about this many lines (the rest wait for the next call).
+
+        Raises:
+            TimeoutError: the worker did not take the lines in time.
         """
-        added = 0
-        while max_lines is None or added < max_lines:
+        if self._worker is not None and not self._on_worker():
+            added = self._added
             with self._push_lock:
-                if not self._pending:
-                    break
-                msg_type, times, payloads = self._pending.popleft()
-                self._pending_lines -= len(payloads)
-            added += self._append_decoded(self._decode(msg_type, times, payloads))
+                target = self._pushed
+            with self._done:
+                done = self._done.wait_for(
+                    lambda: self._answered >= target or self._worker is None, SYNC_TIMEOUT_S
+                )
+            if not done:
+                raise TimeoutError(f"the log store's worker did not take the lines in {SYNC_TIMEOUT_S:g} s")
+            if self._worker is not None:
+                self._current = self._ready
+                return self._added - added
+        return self._take_in(max_lines)
+
+    def step(self, max_lines: int | None = None, budget: float | None = 0.03) -> None:
+        """Bring the readers' answers up to date, for a frame (the owner; never waits on a worker).
+
+        With a worker, take the newest answers it gave (and the count of lines held with them). Without
+        one, decode up to `max_lines` waiting lines and answer every reader here, the older lines of a new
+        filter within about `budget` seconds (the newest first; ask again for the rest).
+        """
+        if self._worker is not None:
+            self._current = self._ready
+            return
+        self._serve(max_lines, budget)
+        self._current = self._ready
+
+    def reader(self) -> LogReader:
+        """A new reader of this store (a console): it asks a filter and is answered at each turn."""
+        with self._push_lock:
+            self._reader_keys += 1
+            made = LogReader(self, self._reader_keys)
+            self._readers.append(weakref.ref(made))
+        self._wake()
+        return made
+
+    def _live_readers(self) -> list[LogReader]:
+        with self._push_lock:
+            live = [r for r in (ref() for ref in self._readers) if r is not None]
+            if len(live) != len(self._readers):
+                self._readers = [weakref.ref(r) for r in live]
+        return live
+
+    def _selections(self) -> list[_Selection]:
+        """Every cached answer: the store's own, the readers', the timeline marks."""
+        slots = [self._own, *(r._slot for r in self._live_readers())]
+        return [s.sel for s in slots if s.sel is not None] + [self._marks]
+
+    def _take_in(self, max_lines: int | None) -> int:
+        """Decode waiting batches into the store (up to about `max_lines` lines); return the lines added."""
+        added = 0
+        with self._write:
+            while max_lines is None or added < max_lines:
+                with self._push_lock:
+                    if not self._pending:
+                        break
+                    _serial, msg_type, times, payloads = self._pending.popleft()
+                    self._pending_lines -= len(payloads)
+                batch = self._decode(msg_type, times, payloads)
+                with self._read:
+                    added += self._append_decoded(batch)
         return added
+
+    def _serve(self, max_lines: int | None, budget: float | None) -> bool:
+        """One turn: take in waiting lines, answer every reader, publish the answers; return whether more
+        is left to do (lines waiting, or a reader's answer incomplete)."""
+        self._take_in(max_lines)
+        with self._write:
+            answers = {}
+            more = False
+            for reader in self._live_readers():
+                shown = self._answer(reader, budget)
+                answers[reader.key] = shown
+                more = more or not shown.complete or shown.filt != reader.asked
+            with self._push_lock:
+                answered = self._pending[0][0] - 1 if self._pending else self._pushed
+                more = more or bool(self._pending)
+            self._ready = _Published(self._ready.serial + 1, self._n - self._lo, answers)
+        with self._done:
+            self._answered = max(self._answered, answered)
+            self._done.notify_all()
+        return more
+
+    def _answer(self, reader: LogReader, budget: float | None) -> Shown:
+        """A reader's answer (within `budget` for older lines); a pattern RE2 refuses is named, left out."""
+        asked = filt = reader.asked
+        errors: list[str] = []
+        while True:  # each refusal leaves one pattern out: at most two
+            try:
+                ids, complete = self._select(reader._slot, filt, None, budget)
+                break
+            except FilterError as exc:
+                errors.append(str(exc))
+                if str(exc).startswith("include"):
+                    filt = replace(filt, include="")
+                else:
+                    filt = replace(filt, exclude="")
+        return Shown(asked, ids, complete, "; ".join(errors), self.generation, self._n - self._lo)
 
     def _append_decoded(self, batch: _Decoded) -> int:
         self.undecodable += batch.undecodable
@@ -477,6 +768,18 @@ class LogStore:
             sites is not None and len(sites) != n
         ):
             raise ValueError("append needs one time, level, node (and site) per message")
+        with self._write:
+            self._append_lines(n, time_array, level_array, nodes, messages, sites)
+
+    def _append_lines(
+        self,
+        n: int,
+        time_array: npt.NDArray[np.float64],
+        level_array: npt.NDArray[np.int64],
+        nodes: Sequence[str],
+        messages: Sequence[str],
+        sites: Sequence[tuple[str, str, int]] | None,
+    ) -> None:
         node_ids = np.zeros(n, dtype=np.uint16)
         for i, name in enumerate(nodes):
             key = name.encode("utf-8", "replace")
@@ -500,14 +803,15 @@ class LogStore:
                 cut[i] = len(data) - MAX_LINE
                 data = _cut_utf8(data)
             texts.append(data.translate(_SANITIZE))
-        self._add(
-            time_array,
-            np.clip(level_array, 0, 255).astype(np.uint8),
-            node_ids,
-            site_ids,
-            texts,
-            cut,
-        )
+        with self._read:
+            self._add(
+                time_array,
+                np.clip(level_array, 0, 255).astype(np.uint8),
+                node_ids,
+                site_ids,
+                texts,
+                cut,
+            )
 
     def _intern_node(self, name: bytes) -> int:
         if len(self._node_names) >= MAX_NODES:
@@ -540,11 +844,13 @@ class LogStore:
         texts: list[bytes],
         cut: npt.NDArray[np.int64],
     ) -> None:
-        """Append a batch in time order (a batch older than the newest line is merged into the tail)."""
+        """Append a batch in time order (a batch older than the newest line is merged into the tail).
+
+        The caller holds `_write` and `_read`."""
         k = len(texts)
         if k == 0:
             return
-        self.added += k
+        self._added += k
         if k > 1 and np.any(times[1:] < times[:-1]):
             order = np.argsort(times, kind="stable")
             times, levels, nodes, sites, cut = (
@@ -559,7 +865,7 @@ class LogStore:
             times, levels, nodes, sites, texts, cut = self._take_tail(times, levels, nodes, sites, texts, cut)
         if len(texts) > self._capacity:  # only the newest fit; everything held is older still
             drop = len(texts) - self._capacity
-            self.evicted += drop
+            self._evicted += drop
             times, levels, nodes, sites = times[drop:], levels[drop:], nodes[drop:], sites[drop:]
             texts, cut = texts[drop:], cut[drop:]
             self._drop_front(self._n - self._lo)
@@ -577,6 +883,8 @@ class LogStore:
         for i in np.flatnonzero(cut).tolist():
             self._cut[self._base + n + i] = int(cut[i])
         self._n = n + k
+        self._marks.ids.append(np.flatnonzero(levels >= WARN).astype(np.int64) + (self._base + n))
+        self._marks.b = self._n
         self._evict()
         self.version += 1
 
@@ -617,15 +925,17 @@ class LogStore:
         # Rows from k0 on are rewritten: forget what was computed about them.
         del text[int(starts[k0]) :]
         self._n = k0
-        for ranged in (*self._masks.values(), self._selection, self._marks):
-            if ranged is not None and ranged.b > k0:
+        self.generation += 1
+        selections = self._selections()
+        ranges: list[_Mask | _Selection] = [*self._masks.values(), *selections]
+        for ranged in ranges:
+            if ranged.b > k0:
                 ranged.b = max(k0, ranged.a) if ranged.a < k0 else k0
                 ranged.a = min(ranged.a, ranged.b)
-        for sel in (self._selection, self._marks):
-            if sel is not None:
-                sel.ids.cut_at(self._base + k0)
-                if sel.a >= k0:  # nothing below the rewritten rows was computed: start again there
-                    sel.ids.drop_below(self._base + sel.a)
+        for sel in selections:
+            sel.ids.cut_at(self._base + k0)
+            if sel.a >= k0:  # nothing below the rewritten rows was computed: start again there
+                sel.ids.drop_below(self._base + sel.a)
         return (*merged, merged_texts, merged_cut)
 
     def _reserve(self, k: int) -> None:
@@ -650,9 +960,9 @@ class LogStore:
         del self._text[:shift]
         for mask in self._masks.values():
             mask.rows[:live] = mask.rows[lo:n]
-        for ranged in (*self._masks.values(), self._selection, self._marks):
-            if ranged is not None:
-                ranged.a, ranged.b = max(0, ranged.a - lo), max(0, ranged.b - lo)
+        ranges: list[_Mask | _Selection] = [*self._masks.values(), *self._selections()]
+        for ranged in ranges:
+            ranged.a, ranged.b = max(0, ranged.a - lo), max(0, ranged.b - lo)
         self._base += lo
         self._lo, self._n = 0, live
 
@@ -689,7 +999,8 @@ class LogStore:
         if count <= 0:
             return
         self._lo += count
-        self.evicted += count
+        self._evicted += count
+        self._marks.ids.drop_below(self._base + self._lo)
         if self._cut:
             first = self._base + self._lo
             for line_id in [i for i in self._cut if i < first]:
@@ -697,17 +1008,20 @@ class LogStore:
 
     def clear(self) -> None:
         """Forget every line (ids go on from where they were)."""
-        self._base += self._n
-        self._lo = self._n = 0
-        self._starts[0] = 0
-        self._text = bytearray()
-        self._cut.clear()
-        self._masks.clear()
-        self._selection = None
-        self._marks = _Selection(("marks",), 0, 0)
-        self.version += 1
+        with self._write, self._read:
+            self._base += self._n
+            self._lo = self._n = 0
+            self._starts[0] = 0
+            self._text = bytearray()
+            self._cut.clear()
+            self._masks.clear()
+            for slot in (self._own, *(r._slot for r in self._live_readers())):
+                slot.sel = None
+            self._marks = _Selection(("marks",), 0, 0)
+            self.generation += 1
+            self.version += 1
 
-    # --- reading ------------------------------------------------------------------------------------
+    # --- reading (any thread: each call holds `_read` briefly) ----------------------------------------
 
     def _row(self, line_id: int) -> int:
         row = line_id - self._base
@@ -717,7 +1031,8 @@ class LogStore:
 
     def has(self, line_id: int) -> bool:
         """Whether line `line_id` is still held."""
-        return self._lo <= line_id - self._base < self._n
+        with self._read:
+            return self._lo <= line_id - self._base < self._n
 
     def line(self, line_id: int) -> LogLine:
         """Return one line, decoded (its message with its line breaks back).
@@ -725,19 +1040,20 @@ class LogStore:
         Raises:
             IndexError: the line is not held (evicted, or not yet added).
         """
-        row = self._row(line_id)
-        file, function, lineno = self._site_list[int(self._sites[row])]
-        return LogLine(
-            line_id,
-            float(self._times[row]),
-            int(self._levels[row]),
-            self._node_name(int(self._nodes[row])),
-            self._message(row).replace("\x1f", "\n"),
-            file,
-            function,
-            lineno,
-            self._cut.get(line_id, 0),
-        )
+        with self._read:
+            row = self._row(line_id)
+            file, function, lineno = self._site_list[int(self._sites[row])]
+            return LogLine(
+                line_id,
+                float(self._times[row]),
+                int(self._levels[row]),
+                self._node_name(int(self._nodes[row])),
+                self._message(row).replace("\x1f", "\n"),
+                file,
+                function,
+                lineno,
+                self._cut.get(line_id, 0),
+            )
 
     def _message(self, row: int, limit: int | None = None) -> str:
         start, end = int(self._starts[row]), int(self._starts[row + 1]) - 1
@@ -750,6 +1066,12 @@ class LogStore:
     ) -> list[tuple[float, int, str, str]]:
         """Return (time, level, node, message) of each id for drawing: at most `limit` bytes of a message,
         its line breaks as ``↵``."""
+        with self._read:
+            return self._rows(ids, limit)
+
+    def _rows(
+        self, ids: Sequence[int] | npt.NDArray[np.int64], limit: int
+    ) -> list[tuple[float, int, str, str]]:
         out = []
         for line_id in ids:
             row = self._row(int(line_id))
@@ -764,14 +1086,25 @@ class LogStore:
             )
         return out
 
+    def window(
+        self, shown: Shown, ids: npt.NDArray[np.int64], limit: int = 400
+    ) -> list[tuple[float, int, str, str]] | None:
+        """`rows` of some of an answer's `ids` (those in view), or None when the store has changed under
+        the answer since (a late batch merged in, the lines cleared or evicted): wait for the next one."""
+        with self._read:
+            if self.generation != shown.generation or (len(ids) and int(ids[0]) < self._base + self._lo):
+                return None
+            return self._rows(ids, limit)
+
     def _node_name(self, node: int) -> str:
         names = self._node_names
         return names[node] if node < len(names) else ""
 
     def times(self, ids: Sequence[int] | npt.NDArray[np.int64]) -> npt.NDArray[np.float64]:
         """Return the source time of each id."""
-        rows = np.asarray(ids, dtype=np.int64) - self._base
-        return self._times[rows].copy()
+        with self._read:
+            rows = np.asarray(ids, dtype=np.int64) - self._base
+            return self._times[rows].copy()
 
     def numbers(self, line_id: int) -> list[NumberSpan]:
         """Return the numbers of a line's message (what "plot this number" can capture), in order."""
@@ -783,8 +1116,9 @@ class LogStore:
 
     def node_counts(self) -> dict[str, int]:
         """Return how many held lines each logger wrote."""
-        lo, n = self._lo, self._n
-        counts = np.bincount(self._nodes[lo:n], minlength=len(self._node_names))
+        with self._read:
+            lo, n = self._lo, self._n
+            counts = np.bincount(self._nodes[lo:n], minlength=len(self._node_names))
         out: dict[str, int] = {}
         for name, count in zip(self._node_names, counts.tolist(), strict=False):
             out[name] = out.get(name, 0) + int(count)
@@ -792,32 +1126,27 @@ class LogStore:
 
     def index_at(self, t: float) -> int | None:
         """Return the id of the last line at or before source time `t`, None when every line is later."""
-        lo, n = self._lo, self._n
-        k = int(np.searchsorted(self._times[lo:n], t, side="right"))
-        return None if k == 0 else self._base + lo + k - 1
+        with self._read:
+            lo, n = self._lo, self._n
+            k = int(np.searchsorted(self._times[lo:n], t, side="right"))
+            return None if k == 0 else self._base + lo + k - 1
 
     def span(self) -> tuple[float, float] | None:
         """Return (oldest, newest) source time held, None when empty."""
-        if self._n == self._lo:
-            return None
-        return float(self._times[self._lo]), float(self._times[self._n - 1])
+        with self._read:
+            if self._n == self._lo:
+                return None
+            return float(self._times[self._lo]), float(self._times[self._n - 1])
 
     def marks(self, min_level: int = WARN) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.uint8]]:
         """Return the times and levels of held lines at `min_level` or above (timeline marks), in order."""
-        marks = self._marks
-        if marks.b < self._n:
-            start = max(marks.b, self._lo)
-            new = np.flatnonzero(self._levels[start : self._n] >= WARN) + start + self._base
-            marks.ids.append(new.astype(np.int64))
-            marks.b = self._n
-        marks.ids.drop_below(self.first_id)
-        ids = marks.ids.values()
-        rows = ids - self._base
-        levels = self._levels[rows]
-        if min_level > WARN:
-            keep = levels >= min_level
-            rows, levels = rows[keep], levels[keep]
-        return self._times[rows].copy(), levels.copy()
+        with self._read:
+            rows = self._marks.ids.values() - self._base
+            levels = self._levels[rows]
+            if min_level > WARN:
+                keep = levels >= min_level
+                rows, levels = rows[keep], levels[keep]
+            return self._times[rows], levels
 
     # --- filtering ------------------------------------------------------------------------------------
 
@@ -837,22 +1166,29 @@ class LogStore:
         """Like `select`, newest lines first, within about `budget` seconds; also say whether it is complete.
 
         A new filter over many lines is answered for the newest lines at once and for the older ones over the
-        next calls (a console redraws at once and fills in the count and scrollbar as it goes). Lines that
-        arrive meanwhile are always answered.
+        next calls. Lines that arrive meanwhile are always answered. A console asks through a `LogReader`
+        instead (its own cached answer, given by the worker).
 
         Returns:
             ``(ids, complete)``: ids as in `select`, of the lines answered so far, as a read-only view that
             later calls leave as it is (no copy of every id per call); and whether every held line has been
             answered (when False, ask again).
         """
+        with self._write:
+            return self._select(self._own, filt, until, budget)
+
+    def _select(
+        self, slot: _Slot, filt: LogFilter, until: float | None, budget: float | None
+    ) -> tuple[npt.NDArray[np.int64], bool]:
+        """`select_within` for the answer cached in `slot` (the caller holds `_write`)."""
         key = (filt.min_level, filt.hidden, filt.include, filt.exclude, filt.text)
-        sel = self._selection
+        sel = slot.sel
         lo, n = self._lo, self._n
         if sel is None or sel.key != key:
             for kind, pattern in (("include", filt.include), ("exclude", filt.exclude)):
                 if pattern:
                     _compiled(kind, pattern)  # raises FilterError before anything is kept
-            sel = self._selection = _Selection(key, n, n)
+            sel = slot.sel = _Selection(key, n, n)
         sel.ids.drop_below(self._base + lo)  # evicted lines
         if sel.b < lo:
             sel.a = sel.b = lo
@@ -1028,6 +1364,10 @@ class LogStore:
             node: only lines of this logger (exact name or fnmatch glob); default: the proposal's node.
             min_level: only lines at this level or above.
         """
+        with self._write:  # (the rows do not change under it; readers of rows go on)
+            return self._preview(proposal, node, min_level)
+
+    def _preview(self, proposal: Proposal, node: str | None, min_level: int) -> Matches:
         lo, n = self._lo, self._n
         empty = Matches(np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0))
         if n == lo:
@@ -1055,7 +1395,8 @@ class LogStore:
 
     def messages(self, ids: Iterable[int]) -> list[str]:
         """Return the message of each id (its line breaks back)."""
-        return [self._message(self._row(int(i))).replace("\x1f", "\n") for i in ids]
+        with self._read:
+            return [self._message(self._row(int(i))).replace("\x1f", "\n") for i in ids]
 
 
 # --- helpers -------------------------------------------------------------------------------------------

@@ -63,7 +63,7 @@ class AppHost:
         else:
             history = getattr(source, "store", None)
             if isinstance(history, History) and history.msg_type(name) in LOG_TYPES:
-                store = LogStore()
+                store = LogStore(worker=True)
                 times, payloads = history.payloads(name, -np.inf, np.inf)
                 store.push(history.msg_type(name), times, payloads)
         if store is not None:

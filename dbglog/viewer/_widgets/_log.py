@@ -2,15 +2,18 @@
 
 It reads the viewer's `LogStore` of its topic (``/rosout`` by default, any ``rcl_interfaces/msg/Log`` or
 ``std_msgs/msg/String`` topic) through the widget API's host, and draws only the rows in view: a fixed pool
-of rows in one drawlist, re-filled as it scrolls. Dear PyGui callbacks only record what the user did; the
-work happens in `update` on the UI thread. The layout maths are plain functions at the top.
+of rows in one drawlist, re-filled as it scrolls. The store's worker thread decodes the lines and answers
+the console's filter (a `LogReader`); each frame the console takes the newest answer and reads the rows in
+view, so its work on the UI thread does not grow with the line rate. Dear PyGui callbacks only record what
+the user did; the rest happens in `update` on the UI thread. The layout maths are plain functions at the top.
 """
 
 from __future__ import annotations
 
+import contextlib
 import threading
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import dearpygui.dearpygui as dpg
 import numpy as np
@@ -18,12 +21,13 @@ import numpy.typing as npt
 
 from dbglog.viewer._widgets._common import DIM, TEXT, clock_text
 from dbglog.viewer.widget_api import (
-    FilterError,
     LogFilter,
+    LogReader,
     LogStore,
     Property,
     PropKind,
     SeriesSnapshot,
+    Shown,
     Status,
     ValueKind,
     Widget,
@@ -58,9 +62,9 @@ TIP_CHARS = 2000
 COPY_LINES = 10_000
 """Copy with nothing selected copies at most this many of the shown lines (the newest)."""
 SYNC_LINES = 20_000
-"""Lines decoded per update: a long history back-fills over a few frames instead of one long one."""
+"""A store without a worker: lines decoded per update (a long history back-fills over a few frames)."""
 FILTER_BUDGET_S = 0.03
-"""Time a new filter may take per update; the newest lines are answered first."""
+"""A store without a worker: time a new filter may take per update; the newest lines are answered first."""
 WHEEL_LINES = 3
 LEVEL_CHOICES = ("any", "debug", "info", "warn", "error", "fatal")
 LEVEL_COLORS: dict[int, tuple[int, int, int, int]] = {
@@ -196,6 +200,10 @@ class LogWidget(Widget):
     def __init__(self, props: dict[str, float | str | bool] | None = None) -> None:
         super().__init__(props)
         self.store: LogStore | None = None
+        self.reader: LogReader | None = None
+        """The console's reader of `store`: the filter asked, the answer given."""
+        self._shown: Shown | None = None
+        """The answer the rows show (taken in `update`)."""
         self.topic = ""
         self.shown_ids: npt.NDArray[np.int64] = np.zeros(0, dtype=np.int64)
         """The ids of the lines the filters show (up to the cursor while paused)."""
@@ -372,7 +380,7 @@ class LogWidget(Widget):
             return None
         self._poll()
         store = self.store
-        arrived = (store.added + store.pending, store.evicted) if store is not None else None
+        arrived = (store.added + store.pending, store.evicted, store.published) if store is not None else None
         return (self._version, self._hover, arrived, self._busy)
 
     def _poll(self) -> None:
@@ -439,19 +447,18 @@ class LogWidget(Widget):
     # -- drawing --------------------------------------------------------------------------------------
 
     def update(self, snapshots: Sequence[SeriesSnapshot], now: float) -> None:
-        """Take new lines, apply what the user did, and re-fill the rows in view."""
+        """Take the newest answer to the filter, apply what the user did, and re-fill the rows in view."""
         self._snap = snapshots[0] if snapshots else None
         topic = snapshots[0].binding.topic if snapshots else ""
         host = self.context.host
         store = host.log_store(topic) if host is not None and topic else None  # (a recording opened: its own)
         if topic != self.topic or store is not self.store:
             self.topic, self.store = topic, store
+            self.reader = store.reader() if store is not None else None
+            self._shown = None
             self.selected.clear()
             self._anchor = None
         store = self.store
-        if store is not None:
-            store.capacity = int(self.num("max_lines"))
-            store.sync(SYNC_LINES)
         with self._lock:
             events, self._events = self._events, []
         for event in events:
@@ -460,25 +467,23 @@ class LogWidget(Widget):
         filt = self._filter()
         cursor_moved = self.paused_at != self._paused
         self._paused = self.paused_at
-        if store is None:
+        if store is None or self.reader is None:
             self.shown_ids = np.zeros(0, dtype=np.int64)
             self.error = "" if topic else "no topic: right-click the title \u203a Topic setup"
         else:
-            self.error = ""
-            for _ in range(3):  # a pattern RE2 refuses is named, and left out; the other filters apply
-                try:
-                    self.shown_ids, self.complete = store.select_within(
-                        filt, until=self.paused_at, budget=FILTER_BUDGET_S
-                    )
-                    break
-                except FilterError as exc:
-                    self.error = "; ".join(x for x in (self.error, str(exc)) if x)
-                    if str(exc).startswith("include"):
-                        filt = replace(filt, include="")
-                    else:
-                        filt = replace(filt, exclude="")
+            store.capacity = int(self.num("max_lines"))
+            self.reader.ask(filt)
+            store.step(SYNC_LINES, FILTER_BUDGET_S)  # with a worker: only takes its newest answer
+            shown = self._shown = self.reader.shown()
+            ids = shown.ids if shown is not None else np.zeros(0, dtype=np.int64)
+            if self.paused_at is not None and len(ids):
+                last = store.index_at(self.paused_at)
+                ids = ids[: int(np.searchsorted(ids, -1 if last is None else last, side="right"))]
+            self.shown_ids = ids
+            self.complete = shown is not None and shown.complete and shown.filt == filt
+            self.error = shown.error if shown is not None else ""
             if store.pending or not self.complete:
-                self._busy += 1  # more to do: the next turn of the loop updates again
+                self._busy += 1  # more to come: the next turn of the loop updates again
         total = len(self.shown_ids)
         if self.paused_at is not None and cursor_moved:
             if self._keep_top is not None:  # the user clicked a line: it stays under the mouse
@@ -537,7 +542,8 @@ class LogWidget(Widget):
         elif kind == "click" and isinstance(event[1], int):
             self._click(event[1], bool(event[2]))
         elif kind == "menu" and isinstance(event[1], int):
-            self._open_menu(event[1], float(event[2]), float(event[3]), float(event[4]))  # type: ignore[arg-type]
+            with contextlib.suppress(IndexError):  # the line was evicted since it was drawn
+                self._open_menu(event[1], float(event[2]), float(event[3]), float(event[4]))  # type: ignore[arg-type]
         elif kind == "plot" and isinstance(event[1], int) and isinstance(event[2], int):
             host = self.context.host
             if host is not None and self.store is not None and self.store.has(event[1]):
@@ -593,7 +599,7 @@ class LogWidget(Widget):
         self.selected = {line_id}
         self._last_click = line_id
         host = self.context.host
-        if host is not None:
+        if host is not None and self.store.has(line_id):
             self._keep_top = self.top
             host.seek(float(self.store.times([line_id])[0]))
 
@@ -646,8 +652,14 @@ class LogWidget(Widget):
 
     def _full(self, ids: Sequence[int] | npt.NDArray[np.int64]) -> list[tuple[float, int, str, str]]:
         assert self.store is not None
-        lines = [self.store.line(int(i)) for i in ids]
-        return [(line.time, line.level, line.node, line.message) for line in lines]
+        out = []
+        for i in ids:
+            try:
+                line = self.store.line(int(i))
+            except IndexError:  # evicted meanwhile
+                continue
+            out.append((line.time, line.level, line.node, line.message))
+        return out
 
     def _copy(self) -> None:
         """Copy the selected lines, or (none selected) the newest shown lines."""
@@ -656,7 +668,7 @@ class LogWidget(Widget):
         ids = [i for i in self.shown_ids.tolist() if i in self.selected] or self.shown_ids[
             -COPY_LINES:
         ].tolist()
-        dpg.set_clipboard_text(copy_text(self._full([i for i in ids if self.store.has(i)])))
+        dpg.set_clipboard_text(copy_text(self._full(ids)))
 
     def _refresh_nodes(self) -> None:
         """One toggle per logger, added as loggers first appear."""
@@ -679,9 +691,12 @@ class LogWidget(Widget):
             dpg.configure_item(self.nodes_button, label=label)
 
     def _draw_rows(self) -> None:
-        store = self.store
+        store, answer = self.store, self._shown
         ids = self.shown_ids[self.top : self.top + self.rows_n]
-        lines = store.rows(ids, DRAWN_BYTES) if store is not None and len(ids) else []
+        lines = store.window(answer, ids, DRAWN_BYTES) if store is not None and answer is not None else []
+        if lines is None:  # the store changed under the answer (a late batch merged in): the next one
+            self._busy += 1
+            return
         cursor_id = int(self.shown_ids[-1]) if self.paused_at is not None and len(self.shown_ids) else None
         node_chars = max(4, int(self._cols.node_w / (FONT * 0.5)))
         width = self._track[0] - 2
@@ -714,7 +729,9 @@ class LogWidget(Widget):
             dpg.configure_item(row.message, text=message, color=color if level not in (20, 0) else TEXT)
         empty = ""
         if not lines:
-            if store is None or not len(store):
+            if store is not None and answer is None:
+                empty = "reading the lines\u2026"
+            elif store is None or not len(store):
                 empty = f"no line on {self.topic} yet" if self.topic else "no topic set"
             else:
                 empty = "no line matches the filters" + (
@@ -736,7 +753,11 @@ class LogWidget(Widget):
         if self.store is None or index is None or index >= len(self.shown_ids):
             dpg.configure_item(self.tooltip, show=False)
             return
-        line = self.store.line(int(self.shown_ids[index]))
+        try:
+            line = self.store.line(int(self.shown_ids[index]))
+        except IndexError:  # evicted since the answer
+            dpg.configure_item(self.tooltip, show=False)
+            return
         head = f"{clock_text(line.time)}  {level_name(line.level)}  {line.node}".strip()
         site = line.site or "(no source location)"
         message = line.message if len(line.message) <= TIP_CHARS else line.message[:TIP_CHARS] + "\u2026"
