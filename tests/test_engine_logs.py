@@ -10,6 +10,7 @@ import os
 import subprocess
 import sys
 import textwrap
+import threading
 import uuid
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -193,6 +194,68 @@ def test_log_bindings_filter_by_node_and_level_live_and_from_the_past() -> None:
             engine.bind(glob)
             snap = _wait_values(engine, glob, 2 * 3 * 10)
             assert sorted(snap.values.tolist()) == sorted([i * 0.5 for i in range(40) if i % 4 == 3] * 6)
+
+
+def test_the_stores_worker_answers_a_console_whose_filter_changes_while_rosout_lines_arrive() -> None:
+    """The engine's store decodes and filters on its own thread: a console's reader asks one filter, then
+    another while a second phase of real /rosout lines is in flight, and is answered with exactly that
+    filter's lines of both phases, none missing."""
+    run = f"worker_{uuid.uuid4().hex[:6]}"
+    with Engine(node_name=f"logs_engine_{run}") as engine:
+        engine.bind(Binding("/rosout"))
+        store = engine.log_store("/rosout")
+        assert store.threaded
+        reader = store.reader()
+        warn = LogFilter(min_level=WARN, include="^(past|live) line")
+        reader.ask(warn)
+        with _loggers(run, 3, 40, "past") as proc:
+            _wait_lines(store, run, "past", 120)
+            store.step()
+            shown = reader.shown()
+            assert shown is not None
+            assert shown.filt == warn
+            ours = [line for line in map(store.line, map(int, shown.ids)) if line.node.startswith(run)]
+            assert len(ours) == 3 * 20
+            assert {line.level for line in ours} == {WARN, ERROR}
+            _again(proc, "live")  # written; still on their way to the engine while the filter changes
+            errors = LogFilter(min_level=ERROR, hidden=frozenset({f"{run}_0"}), include="line [0-9]*3 ")
+            reader.ask(errors)
+            _wait_lines(store, run, "live", 120)
+
+            def answered() -> bool:
+                store.step()
+                got = reader.shown()
+                return got is not None and got.filt == errors and got.complete
+
+            assert wait_until(answered, TIMEOUT)
+        shown = reader.shown()
+    assert shown is not None
+    got = {
+        (line.node, line.message)
+        for line in map(store.line, map(int, shown.ids))
+        if line.node.startswith(run)
+    }
+    want = {
+        (f"{run}_{k}", f"{phase} line {i} of {k}: value={i * 0.5}")
+        for phase in ("past", "live")
+        for i in range(40)
+        for k in (1, 2)
+        if i % 4 == 3 and i % 10 == 3
+    }
+    assert got == want
+
+
+def test_stopping_the_engine_ends_its_stores_workers() -> None:
+    """`Engine.stop` ends the worker thread of every log store it made; their lines stay readable."""
+    run = uuid.uuid4().hex[:6]
+    before = {t for t in threading.enumerate() if t.name == "dbglog-logs"}
+    with Engine(node_name=f"logs_engine_{run}") as engine:
+        store = engine.log_store("/rosout")
+        (worker,) = {t for t in threading.enumerate() if t.name == "dbglog-logs"} - before
+        assert worker.is_alive()
+    assert not worker.is_alive()
+    assert not store.threaded
+    assert store.select(LogFilter()).dtype == np.int64
 
 
 def test_a_node_filter_on_a_topic_without_nodes_is_an_error() -> None:

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import gc
 import struct
+import threading
 import time
 from dataclasses import dataclass
 
@@ -26,6 +28,7 @@ from dbglog.viewer._data._logstore import (
     level_name,
     level_of,
 )
+from tests._ros import wait_until
 
 LOG = "rcl_interfaces/msg/Log"
 STRING = "std_msgs/msg/String"
@@ -188,6 +191,184 @@ def test_waiting_batches_beyond_the_capacity_drop_the_oldest() -> None:
     store.sync()
     assert [store.line(i).message for i in store.select(LogFilter())][-1] == "line 29"
     assert store.evicted + len(store) == 30
+
+
+# --- the worker thread -------------------------------------------------------------------------------------
+
+
+def _workers() -> list[threading.Thread]:
+    return [t for t in threading.enumerate() if t.name == "dbglog-logs"]
+
+
+def _batch(k: int, size: int) -> tuple[list[float], list[bytes]]:
+    """Batch `k` of a stream: `size` lines, every 4th a WARN, numbered in their message."""
+    numbers = range(k * size, (k + 1) * size)
+    payloads = [
+        _log_cdr(f"node{i % 3}", f"line {i} {'wall' if i % 5 == 0 else 'tick'}", WARN if i % 4 == 0 else INFO)
+        for i in numbers
+    ]
+    return [float(i) for i in numbers], payloads
+
+
+def test_a_line_pushed_to_a_worker_is_held_and_answered_after_sync() -> None:
+    """With a worker, `sync` returns once every batch pushed before it is stored and every reader answered:
+    the line is held, its reader shows it, and the count goes with the answer."""
+    store = LogStore(worker=True)
+    try:
+        reader = store.reader()
+        reader.ask(LogFilter(min_level=WARN))
+        store.push(
+            LOG, [5.0, 6.0], [_log_cdr("planner", "speed 1.5", INFO), _log_cdr("driver", "stall", WARN)]
+        )
+        store.sync()
+        assert len(store) == 2
+        assert store.line(1).message == "stall"
+        shown = reader.shown()
+        assert shown is not None
+        assert shown.ids.tolist() == [1]
+        assert (shown.complete, shown.held, shown.filt) == (True, 2, LogFilter(min_level=WARN))
+        assert store.window(shown, shown.ids) == [(6.0, WARN, "driver", "stall")]
+        assert store.marks()[0].tolist() == [6.0]
+    finally:
+        store.close()
+
+
+def test_a_filter_changed_while_lines_arrive_answers_every_line() -> None:
+    """A pushing thread streams lines while the reader's filter changes, several times: once the stream
+    ends and the store has synced, the answer is exactly the filter's lines among all of them."""
+    store = LogStore(worker=True)
+    try:
+        reader = store.reader()
+        filters = [LogFilter(min_level=WARN), LogFilter(text="WALL"), LogFilter(include=r"line \d*7 ")]
+        filters.append(LogFilter(hidden=frozenset({"node1"}), exclude="tick"))
+        batches, size = 60, 50
+
+        def stream() -> None:
+            for k in range(batches):
+                store.push(LOG, *_batch(k, size))
+                time.sleep(0.002)
+
+        pusher = threading.Thread(target=stream)
+        pusher.start()
+        for k in range(12):
+            reader.ask(filters[k % len(filters)])
+            store.step()
+            time.sleep(0.01)
+        pusher.join()
+        reader.ask(filters[-1])
+        store.sync()
+        assert len(store) == batches * size
+
+        def answered() -> bool:
+            store.step()
+            got = reader.shown()
+            return got is not None and got.complete and got.filt == filters[-1]
+
+        assert wait_until(answered, 10.0)
+        shown = reader.shown()
+        assert shown is not None
+        want = [i for i in range(batches * size) if i % 3 != 1 and i % 5 == 0]  # node1 hidden, "tick" out
+        assert shown.ids.tolist() == want
+        assert shown.ids.tolist() == store.select(filters[-1]).tolist()
+    finally:
+        store.close()
+
+
+def test_the_ui_thread_never_waits_for_a_turn_of_the_worker() -> None:
+    """While the worker is in a turn (decoding, filtering: its writer lock held), taking the answer and
+    reading the rows in view, the count, the marks and the cursor's index all return at once."""
+    store = LogStore(worker=True)
+    reader = store.reader()
+    store.push(LOG, *_batch(0, 100))
+    store.sync()
+    shown = reader.shown()
+    assert shown is not None
+    in_turn, release = threading.Event(), threading.Event()
+
+    def turn() -> None:
+        with store._write:  # what a long turn of the worker holds
+            in_turn.set()
+            release.wait(30)
+
+    busy = threading.Thread(target=turn)
+    busy.start()
+    try:
+        assert in_turn.wait(10)
+        got: list[object] = []
+
+        def frame() -> None:
+            store.step()
+            got.extend(
+                (
+                    reader.shown(),
+                    store.window(shown, shown.ids[-5:]),
+                    len(store),
+                    store.line(99).message,
+                    store.marks()[0][-1],
+                    store.index_at(50.5),
+                    store.nodes(),
+                )
+            )
+
+        ui = threading.Thread(target=frame)
+        ui.start()
+        ui.join(5)
+        assert not ui.is_alive(), "a frame waited for the worker's turn"
+        assert got[2:] == [100, "line 99 tick", 96.0, 50, ["node0", "node1", "node2"]]
+    finally:
+        release.set()
+        busy.join()
+        store.close()
+
+
+def test_an_answer_given_stays_as_it_was_and_a_changed_store_refuses_its_window() -> None:
+    """An answer is immutable: more lines, evictions and a late batch leave its ids alone; once a late batch
+    rewrote the ids it refers to, `window` refuses it (None) until the next answer."""
+    store = LogStore(capacity=300, worker=True)
+    try:
+        reader = store.reader()
+        store.push(LOG, *_batch(0, 200))
+        store.sync()
+        first = reader.shown()
+        assert first is not None
+        ids = first.ids.tolist()
+        assert ids == list(range(200))
+        store.push(LOG, *_batch(2, 200))  # 400..599: 100 oldest evicted
+        store.sync()
+        assert first.ids.tolist() == ids
+        assert store.window(first, first.ids[-3:]) is not None
+        assert store.window(first, first.ids[:3]) is None  # evicted since
+        late_times, late = _batch(1, 100)
+        store.push(LOG, late_times, late)  # older than the newest: merged into the tail
+        store.sync()
+        assert store.window(first, first.ids[-3:]) is None
+        second = reader.shown()
+        assert second is not None
+        assert store.window(second, second.ids[-1:]) == [(599.0, INFO, "node2", "line 599 tick")]
+        assert first.ids.tolist() == ids
+    finally:
+        store.close()
+
+
+def test_close_and_a_dropped_store_leave_no_thread() -> None:
+    """`close` ends the worker (the store stays readable and syncs on the caller), and a store nobody holds
+    any more takes its worker with it."""
+    before = set(_workers())
+    store = LogStore(worker=True)
+    (worker,) = set(_workers()) - before
+    store.close()
+    assert not worker.is_alive()
+    assert not store.threaded
+    store.push(LOG, [1.0], [_log_cdr("n", "after close", INFO)])
+    assert store.sync() == 1
+    assert store.line(0).message == "after close"
+    dropped = LogStore(worker=True)
+    (worker,) = set(_workers()) - before
+    dropped.push(LOG, *_batch(0, 10))
+    del dropped
+    gc.collect()
+    assert wait_until(lambda: not worker.is_alive(), 10.0)
+    assert set(_workers()) <= before
 
 
 # --- bounds, ids, time order ----------------------------------------------------------------------------
