@@ -6,18 +6,26 @@ included). Two calibration figures come first so that runs on different machines
 loop and one call into the google-re2 binding. The output is Markdown tables.
 
 The flood: five child processes, one rclpy node each, log 20,000 lines/s in all through the real /rosout
-(rcutils' logging call, as a node's logger makes it); the viewer's engine takes them into a `LogStore` that a
-thread drains 20 times a second, as the console does; every sequence number must arrive.
+(rcutils' logging call, as a node's logger makes it); the viewer's engine takes them into its `LogStore`,
+whose worker decodes them, while a thread takes the answers 20 times a second as the console does; every
+sequence number must arrive.
 
 ``--viewer`` (under a display) times the real viewer's frames during that flood in three arms, rotated each
 round: a dashboard without the console; the same while another process takes and decodes /rosout (what
 receiving the flood costs this machine with no console in the viewer); the dashboard with the console.
+``--before DIR`` adds a fourth arm, in the same rotation: the console on the dbglog of source tree DIR (the
+viewer child runs this script with ``PYTHONPATH=DIR``). Besides the frame times, each viewer child reports
+the UI thread's CPU time per frame (``time.thread_time``), the part of it spent in the console's own
+methods (the Log widget's ``update``, ``redraw_key`` and ``status``, and the host's timeline ``marks``) and
+the part spent drawing the timeline bar (which draws the console's marks), and the CPU of the viewer's
+other threads (the engine's, the log store's worker).
 """
 
 from __future__ import annotations
 
 import argparse
 import gc
+import itertools
 import math
 import os
 import random
@@ -208,12 +216,12 @@ def _filter_rows(repeats: int) -> list[list[object]]:
     for name, filt in _FILTERS:
 
         def whole(filt: LogFilter = filt) -> object:
-            store._selection = None  # a filter changed: nothing about it cached
+            store._own.sel = None  # a filter changed: nothing about it cached
             store._masks.clear()
             return store.select(filt)
 
         def first(filt: LogFilter = filt) -> object:
-            store._selection = None
+            store._own.sel = None
             store._masks.clear()
             return store.select_within(filt, budget=0.03)
 
@@ -362,11 +370,16 @@ def bench_flood(rate: float, seconds: float, publishers: int = 5) -> list[list[o
         store.capacity = capacity
         stop = threading.Event()
         syncs: list[float] = []
+        reader = store.reader()
+        reader.ask(LogFilter())
 
-        def console() -> None:  # the UI thread's part: take the new lines 20 times a second
+        def console() -> None:  # the UI thread's part: take the newest answer and its last rows, 20 a second
             while not stop.is_set():
                 t0 = time.perf_counter()
-                store.sync()
+                store.step()
+                shown = reader.shown()
+                if shown is not None:
+                    store.window(shown, shown.ids[-40:])
                 syncs.append(time.perf_counter() - t0)
                 stop.wait(0.05)
 
@@ -490,6 +503,61 @@ def _dashboard(console: bool) -> dict[str, object]:
     }
 
 
+class _CpuMeter:
+    """The UI thread's CPU time, per frame and in the console's own methods (`time.thread_time`), and the
+    CPU of the viewer's other threads by name: set up by the viewer child, around the code it measures.
+
+    The console's methods are the Log widget's `update`, `redraw_key` and `status` and the host's `marks`
+    (the timeline's marks come from the console's store): the same names in the code before the worker,
+    so ``--before`` measures that code alike.
+    """
+
+    def __init__(self) -> None:
+        self.spent = {"console": 0.0, "bar": 0.0}
+        """CPU seconds the UI thread spent so far in the console's methods and in drawing the timeline bar."""
+        self.frames: list[tuple[float, float, float]] = []
+        """(UI thread CPU, console, bar) at the end of each frame's work."""
+        self.on = False
+
+    def wrap(self, cls: type, name: str, what: str = "console") -> None:
+        """Count the UI thread's CPU time in ``cls.name`` as `what` (not nested calls twice)."""
+        inner = getattr(cls, name)
+        spent = self.spent
+        depth = [0]
+
+        def counted(*args: object, **kwargs: object) -> object:
+            if depth[0]:
+                return inner(*args, **kwargs)
+            depth[0] += 1
+            t0 = time.thread_time()
+            try:
+                return inner(*args, **kwargs)
+            finally:
+                depth[0] -= 1
+                spent[what] += time.thread_time() - t0
+
+        setattr(cls, name, counted)
+
+    def frame_end(self) -> None:
+        """Note the UI thread's CPU and the console's share of it at the end of a frame's work."""
+        if self.on:
+            self.frames.append((time.thread_time(), self.spent["console"], self.spent["bar"]))
+
+    @staticmethod
+    def threads() -> dict[str, float]:
+        """CPU seconds of the process's named threads (the engine's, the log store's worker), by name."""
+        out: dict[str, float] = {}
+        for t in threading.enumerate():
+            if t.ident is None or not t.name.startswith("dbglog-"):
+                continue
+            try:
+                cpu = time.clock_gettime(time.pthread_getcpuclockid(t.ident))
+            except OSError:  # ended meanwhile
+                continue
+            out[t.name] = out.get(t.name, 0.0) + cpu
+        return out
+
+
 def _viewer_main(dashboard: str, seconds: float, warmup: float, nodes: int) -> int:
     """Child process: the viewer as ``dbglog view DASHBOARD`` builds it; its frame times, as JSON.
 
@@ -503,7 +571,23 @@ def _viewer_main(dashboard: str, seconds: float, warmup: float, nodes: int) -> i
     from dbglog.viewer._data._engine import Engine
     from dbglog.viewer._document._dashboard import load_dashboard
     from dbglog.viewer._ui import ViewerApp
+    from dbglog.viewer._ui._host import AppHost
+    from dbglog.viewer._ui._timebar import TimeBar
     from dbglog.viewer._widgets import WidgetRegistry
+    from dbglog.viewer._widgets._log import LogWidget
+
+    meter = _CpuMeter()
+    for name in ("update", "redraw_key", "status"):
+        meter.wrap(LogWidget, name)
+    meter.wrap(AppHost, "marks")
+    meter.wrap(TimeBar, "draw", "bar")  # (it draws the console's marks: one item per pixel column marked)
+    work = ViewerApp._work
+
+    def work_then_note(app: ViewerApp) -> None:
+        work(app)
+        meter.frame_end()
+
+    ViewerApp._work = work_then_note  # type: ignore[method-assign,assignment]
 
     registry = WidgetRegistry.discover()
     result = load_dashboard(dashboard, registry.get)
@@ -537,13 +621,30 @@ def _viewer_main(dashboard: str, seconds: float, warmup: float, nodes: int) -> i
         dropped0 = getattr(store, "dropped", 0)  # (a checkout from before the count: 0)
         app.frame_times = collections.deque()
         print("measuring", flush=True)
+        meter.on = True
+        meter.frame_end()
+        threads0 = meter.threads()
         cpu0, t0 = time.process_time(), time.perf_counter()
         app.run(seconds=seconds)
         cpu, elapsed = time.process_time() - cpu0, time.perf_counter() - t0
+        meter.on = False
+        threads = {k: v - threads0.get(k, 0.0) for k, v in meter.threads().items()}
         totals = list(app.frame_times)
+        marks = meter.frames
+        ui_cpu = [b[0] - a[0] for a, b in itertools.pairwise(marks)]
+        console_cpu = [b[1] - a[1] for a, b in itertools.pairwise(marks)]
+        bar_cpu = [b[2] - a[2] for a, b in itertools.pairwise(marks)]
         run_until(line_ready, seconds + 120.0)
         sys.stdin.readline()
-        out: dict[str, object] = {"totals": totals, "elapsed": elapsed, "cpu": cpu}
+        out: dict[str, object] = {
+            "totals": totals,
+            "elapsed": elapsed,
+            "cpu": cpu,
+            "ui_cpu": ui_cpu,
+            "console_cpu": console_cpu,
+            "bar_cpu": bar_cpu,
+            "threads": threads,
+        }
         if store is not None:
             last, quiet = -1, time.monotonic()
             while time.monotonic() - quiet < 2.0 or store.pending:  # every waiting line taken
@@ -618,6 +719,9 @@ def _expect(proc: subprocess.Popen[str], word: str) -> str:
             return line
 
 
+ROOT = Path(__file__).resolve().parent.parent
+
+
 def _viewer_run(
     dashboard: Path,
     console: bool,
@@ -626,10 +730,12 @@ def _viewer_run(
     warmup: float,
     publishers: int,
     tap: bool = False,
+    tree: Path = ROOT,
 ) -> dict[str, float]:
     """One measured run: the data publisher, the flood's nodes and a viewer child on `dashboard`.
 
-    With `tap`, a separate process (not the viewer) receives and decodes /rosout during the flood.
+    With `tap`, a separate process (not the viewer) receives and decodes /rosout during the flood. The
+    viewer child runs this script on the dbglog of source tree `tree` (``--before``: the code before).
     """
     import json
 
@@ -651,13 +757,15 @@ def _viewer_run(
     pubs = spawn_flood("benchmarks.bench_logs", publishers, rate, per_pub, _SPAN)
     ui = subprocess.Popen(
         [
-            *me,
+            *(sys.executable, str(Path(__file__).resolve())),
             *("--viewer-child", str(dashboard), "--seconds", str(seconds)),
             *("--warmup", str(warmup), "--nodes", str(publishers)),
         ],
         stdin=subprocess.PIPE,
         stdout=subprocess.PIPE,
         text=True,
+        env={**os.environ, "PYTHONPATH": str(tree)},
+        cwd=tree,
     )
     assert ui.stdin is not None
 
@@ -713,15 +821,26 @@ def _viewer_run(
             ui.kill()
         ui.wait()
     totals = sorted(t * 1e3 for t in out["totals"])
+    console_ms = sorted(t * 1e3 for t in out["console_cpu"])
+    ui_ms = sorted(t * 1e3 for t in out["ui_cpu"])
 
-    def pct(q: float) -> float:
-        return totals[min(len(totals) - 1, int(q * len(totals)))] if totals else math.nan
+    def pct(q: float, values: list[float] = totals) -> float:
+        return values[min(len(values) - 1, int(q * len(values)))] if values else math.nan
 
+    threads: dict[str, float] = out["threads"]
     res = {
         "frames": float(len(totals)),
         "p50": pct(0.50),
         "p95": pct(0.95),
         "p99": pct(0.99),
+        "console_p50": pct(0.50, console_ms),
+        "console_p95": pct(0.95, console_ms),
+        "console_mean": statistics.fmean(console_ms) if console_ms else math.nan,
+        "ui_p50": pct(0.50, ui_ms),
+        "ui_mean": statistics.fmean(ui_ms) if ui_ms else math.nan,
+        "bar_mean": 1e3 * statistics.fmean(out["bar_cpu"]) if out["bar_cpu"] else math.nan,
+        "worker_cpu": 100 * threads.get("dbglog-logs", 0.0) / out["elapsed"],
+        "engine_cpu": 100 * threads.get("dbglog-engine", 0.0) / out["elapsed"],
         "cpu": 100 * out["cpu"] / out["elapsed"],
         "rate": sent / max(elapsed, 1e-9),
         "sent": float(sent),
@@ -734,9 +853,14 @@ def _viewer_run(
     if tap:
         res["tap_taken"] = float(out["tap_taken"])
     arm = "with the console" if console else "another process takes /rosout" if tap else "without"
+    if tree != ROOT:
+        arm += f" ({tree})"
     print(
         f"  {arm}: p50 {res['p50']:.1f} ms, "
-        f"p95 {res['p95']:.1f} ms, {res['frames']:.0f} frames, load {load0:.1f}-{load1:.1f}"
+        f"p95 {res['p95']:.1f} ms, {res['frames']:.0f} frames, load {load0:.1f}-{load1:.1f}, "
+        f"console's UI CPU {res['console_p50']:.2f} / {res['console_p95']:.2f} ms a frame (p50 / p95), "
+        f"UI {res['ui_mean']:.1f}, bar {res['bar_mean']:.2f} ms a frame, "
+        f"worker {res['worker_cpu']:.0f} %, engine {res['engine_cpu']:.0f} %"
         + (
             f", lost {res['lost']:.0f} (dropped waiting {res['dropped']:.0f}), gaps {res['held_gaps']:.0f}, "
             f"engine took {res['taken']:.0f}"
@@ -753,25 +877,33 @@ def _viewer_run(
 
 _ARMS = ("without", "elsewhere", "with")
 """The ``--viewer`` arms: the dashboard without the console; the same while another process receives and
-decodes /rosout (what the flood costs the machine with no console in the viewer); with the console."""
+decodes /rosout (what the flood costs the machine with no console in the viewer); with the console; and
+with ``--before DIR``, with the console on DIR's code ("before")."""
 
 _ARM_NAMES = {
     "without": "without (the same dashboard)",
     "elsewhere": "without, /rosout taken and decoded by another process",
     "with": "with the Log console on /rosout",
+    "before": "with the Log console, the code before (--before)",
 }
 
 
 def bench_viewer(
-    rate: float, seconds: float, repeats: int, warmup: float = 5.0, publishers: int = 5
+    rate: float,
+    seconds: float,
+    repeats: int,
+    warmup: float = 5.0,
+    publishers: int = 5,
+    before: Path | None = None,
 ) -> tuple[list[list[object]], list[list[object]]]:
     """The viewer's frame times on one dashboard without and with a Log console on /rosout during the flood,
-    and without it while another process takes /rosout; the arms run in a new rotation each round,
-    `repeats` times each. Returns the table's rows and each round's rows."""
+    and without it while another process takes /rosout (and with it on the `before` source tree); the arms
+    run in a new rotation each round, `repeats` times each. Returns the table's rows and each round's rows."""
     import json
     import tempfile
 
-    runs: dict[str, list[dict[str, float]]] = {arm: [] for arm in _ARMS}
+    arms = (*_ARMS, "before") if before is not None else _ARMS
+    runs: dict[str, list[dict[str, float]]] = {arm: [] for arm in arms}
     rounds: list[list[object]] = []
     with tempfile.TemporaryDirectory() as tmp:
         paths = {}
@@ -779,29 +911,36 @@ def bench_viewer(
             paths[console] = Path(tmp) / f"{'with' if console else 'without'}.json"
             paths[console].write_text(json.dumps(_dashboard(console)))
         for r in range(repeats):
-            order = _ARMS[r % 3 :] + _ARMS[: r % 3]
-            for arm in order:
-                console = arm == "with"
+            k = r % len(arms)
+            for arm in arms[k:] + arms[:k]:
+                console = arm in ("with", "before")
+                tree = before if arm == "before" and before is not None else ROOT
                 one = _viewer_run(
-                    paths[console], console, rate, seconds, warmup, publishers, tap=arm == "elsewhere"
+                    paths[console],
+                    console,
+                    rate,
+                    seconds,
+                    warmup,
+                    publishers,
+                    tap=arm == "elsewhere",
+                    tree=tree,
                 )
                 runs[arm].append(one)
-            last = {arm: runs[arm][-1] for arm in _ARMS}
+            last = {arm: runs[arm][-1] for arm in arms}
             base = last["without"]["p95"]
             rounds.append(
                 [
                     str(r + 1),
-                    *(f"{last[arm]['p50']:.1f} / {last[arm]['p95']:.1f}" for arm in _ARMS),
-                    f"{100 * (last['elsewhere']['p95'] / base - 1):+.0f} %",
-                    f"{100 * (last['with']['p95'] / base - 1):+.0f} %",
-                    f"{last['with']['lost']:,.0f}",
+                    *(f"{last[arm]['p50']:.1f} / {last[arm]['p95']:.1f}" for arm in arms),
+                    *(f"{100 * (last[arm]['p95'] / base - 1):+.0f} %" for arm in arms[1:]),
+                    *(f"{last[arm]['lost']:,.0f}" for arm in arms if arm in ("with", "before")),
                     f"{min(x['load0'] for x in last.values()):.1f}-"
                     f"{max(x['load1'] for x in last.values()):.1f}",
                 ]
             )
     rows: list[list[object]] = []
     base95 = statistics.median(x["p95"] for x in runs["without"])
-    for arm in _ARMS:
+    for arm in arms:
         got = runs[arm]
         sent = sum(x["sent"] for x in got)
 
@@ -809,6 +948,7 @@ def bench_viewer(
             return statistics.median(x[key] for x in got)
 
         loads = [x[k] for x in got for k in ("load0", "load1")]
+        console = arm in ("with", "before")
         rows.append(
             [
                 _ARM_NAMES[arm],
@@ -817,14 +957,21 @@ def bench_viewer(
                 f"{med('p95'):.1f}",
                 f"{med('p99'):.1f}",
                 "" if arm == "without" else f"{100 * (med('p95') / base95 - 1):+.1f} %",
+                f"{med('console_mean'):.2f} / {med('console_p50'):.2f} / {med('console_p95'):.2f}"
+                if console
+                else "-",
+                f"{med('ui_mean'):.1f}",
+                f"{med('bar_mean'):.2f}",
+                f"{med('worker_cpu'):.0f} %" if console else "-",
+                f"{med('engine_cpu'):.0f} %",
                 f"{med('cpu'):.0f} %",
                 f"{med('rate'):,.0f}",
                 f"{sum(x['lost'] for x in got):,.0f} of {sent:,.0f}"
-                if arm == "with"
+                if console
                 else f"{sum(x['sent'] - x['tap_taken'] for x in got):,.0f} of {sent:,.0f}"
                 if arm == "elsewhere"
                 else "-",
-                f"{sum(x['held_gaps'] for x in got):,.0f}" if arm == "with" else "-",
+                f"{sum(x['held_gaps'] for x in got):,.0f}" if console else "-",
                 f"{min(loads):.1f}-{max(loads):.1f}",
             ]
         )
@@ -846,6 +993,13 @@ def main(argv: list[str] | None = None) -> int:
         'display: xvfb-run -a -s "-screen 0 1600x1000x24")',
     )
     parser.add_argument("--repeats", type=int, default=3, help="--viewer: runs each way (alternating)")
+    parser.add_argument(
+        "--before",
+        type=Path,
+        default=None,
+        help="--viewer: another source tree (e.g. git worktree add /tmp/dbglog-before main) whose console "
+        "runs as a fourth arm, alternating with the others",
+    )
     parser.add_argument("--warmup", type=float, default=5.0, help=argparse.SUPPRESS)
     parser.add_argument("--nodes", type=int, default=5, help=argparse.SUPPRESS)
     parser.add_argument("--viewer-child", default="", help=argparse.SUPPRESS)
@@ -864,7 +1018,8 @@ def main(argv: list[str] | None = None) -> int:
         local_ros_env(random.SystemRandom().randint(1, 100) if "ROS_DOMAIN_ID" not in os.environ else None)
         seconds = 10.0 if args.quick else args.seconds
         print(f"python {sys.version.split()[0]}; load average before: {os.getloadavg()}", flush=True)
-        rows, pairs = bench_viewer(args.rate, seconds, args.repeats, args.warmup, args.nodes)
+        rows, pairs = bench_viewer(args.rate, seconds, args.repeats, args.warmup, args.nodes, args.before)
+        arms = (*_ARMS, "before") if args.before is not None else _ARMS
         print_table(
             f"The viewer during the flood ({args.nodes} nodes, {args.rate:,.0f} lines/s, {seconds:g} s; "
             f"as dbglog view runs: 60 fps cap, data 20 fps; medians of {args.repeats} runs of each arm, "
@@ -876,6 +1031,11 @@ def main(argv: list[str] | None = None) -> int:
                 "frame p95 ms",
                 "frame p99 ms",
                 "p95 vs without",
+                "console's UI-thread CPU a frame, mean / p50 / p95 ms",
+                "UI thread CPU a frame, mean ms",
+                "of it the timeline bar, mean ms",
+                "log worker CPU",
+                "engine thread CPU",
                 "viewer CPU",
                 "sent lines/s",
                 "lost (not in the store)",
@@ -888,12 +1048,9 @@ def main(argv: list[str] | None = None) -> int:
             "Each round",
             [
                 "round",
-                "without: p50 / p95 ms",
-                "elsewhere: p50 / p95 ms",
-                "with: p50 / p95 ms",
-                "p95 elsewhere vs without",
-                "p95 with vs without",
-                "lost (with)",
+                *(f"{arm}: p50 / p95 ms" for arm in arms),
+                *(f"p95 {arm} vs without" for arm in arms[1:]),
+                *(f"lost ({arm})" for arm in arms if arm in ("with", "before")),
                 "load",
             ],
             pairs,
@@ -930,7 +1087,8 @@ def main(argv: list[str] | None = None) -> int:
         local_ros_env(random.SystemRandom().randint(1, 100) if "ROS_DOMAIN_ID" not in os.environ else None)
         seconds = 10.0 if args.quick else args.seconds
         print_table(
-            "Flood: nodes logging through real /rosout into the engine's log store (a thread syncs at 20 Hz)",
+            "Flood: nodes logging through real /rosout into the engine's log store (its worker decodes "
+            "them; a thread takes the answers at 20 Hz, as the console does)",
             [
                 "nodes",
                 "target lines/s",
@@ -940,7 +1098,7 @@ def main(argv: list[str] | None = None) -> int:
                 "in the store",
                 "lost",
                 "engine took",
-                "sync p95 ms",
+                "console's take p95 ms",
                 "evicted",
             ],
             bench_flood(args.rate, seconds),
