@@ -91,8 +91,9 @@ WORKER_LINES: Final = 20_000
 """Lines the worker decodes before it answers its readers again (a long history fills in over a few turns)."""
 WORKER_BUDGET_S: Final = 0.01
 """Time the worker gives each reader's older lines per turn (new lines are always answered whole)."""
-WORKER_PAUSE_S: Final = 0.008
-"""The worker's pause after a turn that left nothing to do: what arrives meanwhile is taken in one turn."""
+WORKER_PAUSE_S: Final = 0.015
+"""The worker's pause after a turn that left nothing to do (about a frame at 60 fps): what arrives meanwhile
+is taken in one turn, so the worker takes the GIL at most about 65 times a second for new lines."""
 SYNC_TIMEOUT_S: Final = 60.0
 """`sync` waits at most this long for the worker to take in what was pushed before it."""
 
