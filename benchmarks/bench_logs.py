@@ -17,8 +17,9 @@ receiving the flood costs this machine with no console in the viewer); the dashb
 viewer child runs this script with ``PYTHONPATH=DIR``). Besides the frame times, each viewer child reports
 the UI thread's CPU time per frame (``time.thread_time``), the part of it spent in the console's own
 methods (the Log widget's ``update``, ``redraw_key`` and ``status``, and the host's timeline ``marks``) and
-the part spent drawing the timeline bar (which draws the console's marks), and the CPU of the viewer's
-other threads (the engine's, the log store's worker).
+the part spent drawing the timeline bar (which draws the console's marks), how a frame's wall time splits
+into the UI thread's CPU, its wait for a CPU (``/proc/thread-self/schedstat``) and the rest, blocked (the
+GIL, the GPU, X), and the CPU of the viewer's other threads (the engine's, the log store's worker).
 """
 
 from __future__ import annotations
@@ -517,7 +518,29 @@ class _CpuMeter:
         """CPU seconds the UI thread spent so far in the console's methods and in drawing the timeline bar."""
         self.frames: list[tuple[float, float, float]] = []
         """(UI thread CPU, console, bar) at the end of each frame's work."""
+        self.inside: list[tuple[float, float, float]] = []
+        """Each frame's (wall, UI thread CPU, waiting for a CPU) seconds, from the start of its work to the
+        end of its render: for the rest of the wall time the thread was blocked (the GIL, a lock, GPU, X)."""
         self.on = False
+        self._start: tuple[float, float, float] | None = None
+        self._schedstat = os.open("/proc/thread-self/schedstat", os.O_RDONLY)
+
+    def _waited(self) -> float:
+        """Seconds this thread has been runnable but not running (the kernel's schedstat)."""
+        return int(os.pread(self._schedstat, 128, 0).split()[1]) * 1e-9
+
+    def frame_start(self) -> None:
+        """Note the wall clock, the UI thread's CPU and its wait for a CPU as a frame's work starts."""
+        self._start = (time.perf_counter(), time.thread_time(), self._waited())
+
+    def rendered(self) -> None:
+        """Note how the frame begun at `frame_start` spent its wall time, once it is rendered."""
+        if self.on and self._start is not None:
+            wall, cpu, waited = self._start
+            self.inside.append(
+                (time.perf_counter() - wall, time.thread_time() - cpu, self._waited() - waited)
+            )
+        self._start = None
 
     def wrap(self, cls: type, name: str, what: str = "console") -> None:
         """Count the UI thread's CPU time in ``cls.name`` as `what` (not nested calls twice)."""
@@ -581,13 +604,19 @@ def _viewer_main(dashboard: str, seconds: float, warmup: float, nodes: int) -> i
         meter.wrap(LogWidget, name)
     meter.wrap(AppHost, "marks")
     meter.wrap(TimeBar, "draw", "bar")  # (it draws the console's marks: one item per pixel column marked)
-    work = ViewerApp._work
+    work, render = ViewerApp._work, ViewerApp._render
 
     def work_then_note(app: ViewerApp) -> None:
+        meter.frame_start()
         work(app)
         meter.frame_end()
 
+    def render_then_note(app: ViewerApp, now: float) -> None:
+        render(app, now)
+        meter.rendered()
+
     ViewerApp._work = work_then_note  # type: ignore[method-assign,assignment]
+    ViewerApp._render = render_then_note  # type: ignore[method-assign,assignment]
 
     registry = WidgetRegistry.discover()
     result = load_dashboard(dashboard, registry.get)
@@ -634,6 +663,7 @@ def _viewer_main(dashboard: str, seconds: float, warmup: float, nodes: int) -> i
         ui_cpu = [b[0] - a[0] for a, b in itertools.pairwise(marks)]
         console_cpu = [b[1] - a[1] for a, b in itertools.pairwise(marks)]
         bar_cpu = [b[2] - a[2] for a, b in itertools.pairwise(marks)]
+        inside = list(meter.inside)
         run_until(line_ready, seconds + 120.0)
         sys.stdin.readline()
         out: dict[str, object] = {
@@ -643,6 +673,7 @@ def _viewer_main(dashboard: str, seconds: float, warmup: float, nodes: int) -> i
             "ui_cpu": ui_cpu,
             "console_cpu": console_cpu,
             "bar_cpu": bar_cpu,
+            "inside": inside,
             "threads": threads,
         }
         if store is not None:
@@ -839,6 +870,10 @@ def _viewer_run(
         "ui_p50": pct(0.50, ui_ms),
         "ui_mean": statistics.fmean(ui_ms) if ui_ms else math.nan,
         "bar_mean": 1e3 * statistics.fmean(out["bar_cpu"]) if out["bar_cpu"] else math.nan,
+        **{
+            key: 1e3 * statistics.fmean(f[k] for f in out["inside"]) if out["inside"] else math.nan
+            for k, key in enumerate(("in_wall", "in_cpu", "in_waited"))
+        },
         "worker_cpu": 100 * threads.get("dbglog-logs", 0.0) / out["elapsed"],
         "engine_cpu": 100 * threads.get("dbglog-engine", 0.0) / out["elapsed"],
         "cpu": 100 * out["cpu"] / out["elapsed"],
@@ -859,7 +894,9 @@ def _viewer_run(
         f"  {arm}: p50 {res['p50']:.1f} ms, "
         f"p95 {res['p95']:.1f} ms, {res['frames']:.0f} frames, load {load0:.1f}-{load1:.1f}, "
         f"console's UI CPU {res['console_p50']:.2f} / {res['console_p95']:.2f} ms a frame (p50 / p95), "
-        f"UI {res['ui_mean']:.1f}, bar {res['bar_mean']:.2f} ms a frame, "
+        f"UI {res['ui_mean']:.1f}, bar {res['bar_mean']:.2f} ms a frame; in a frame {res['in_wall']:.1f} ms: "
+        f"CPU {res['in_cpu']:.1f}, waiting for a CPU {res['in_waited']:.1f}, "
+        f"blocked {res['in_wall'] - res['in_cpu'] - res['in_waited']:.1f}; "
         f"worker {res['worker_cpu']:.0f} %, engine {res['engine_cpu']:.0f} %"
         + (
             f", lost {res['lost']:.0f} (dropped waiting {res['dropped']:.0f}), gaps {res['held_gaps']:.0f}, "
@@ -962,6 +999,8 @@ def bench_viewer(
                 else "-",
                 f"{med('ui_mean'):.1f}",
                 f"{med('bar_mean'):.2f}",
+                f"{med('in_wall'):.1f} = {med('in_cpu'):.1f} + {med('in_waited'):.1f} + "
+                f"{med('in_wall') - med('in_cpu') - med('in_waited'):.1f}",
                 f"{med('worker_cpu'):.0f} %" if console else "-",
                 f"{med('engine_cpu'):.0f} %",
                 f"{med('cpu'):.0f} %",
@@ -1034,6 +1073,7 @@ def main(argv: list[str] | None = None) -> int:
                 "console's UI-thread CPU a frame, mean / p50 / p95 ms",
                 "UI thread CPU a frame, mean ms",
                 "of it the timeline bar, mean ms",
+                "a frame's wall time = UI thread CPU + waiting for a CPU + blocked (GIL, GPU, X), mean ms",
                 "log worker CPU",
                 "engine thread CPU",
                 "viewer CPU",
