@@ -274,6 +274,34 @@ def test_a_filter_changed_while_lines_arrive_answers_every_line() -> None:
         store.close()
 
 
+def test_frames_with_nothing_new_give_no_new_answer_and_lines_come_without_frames() -> None:
+    """A frame's `step` starts a turn only when something changed (no answer, so no redraw, for nothing),
+    and lines pushed while no frame asks are taken in all the same."""
+    store = LogStore(worker=True)
+    try:
+        reader = store.reader()
+        store.push(LOG, *_batch(0, 20))
+        assert wait_until(lambda: store.pending == 0 and store.published > 0, 10.0)  # no step, no sync
+        store.step()
+        shown = reader.shown()
+        assert shown is not None
+        assert len(shown.ids) == 20
+        published = store.published
+        for _ in range(20):
+            store.step()
+            time.sleep(0.005)
+        assert store.published == published
+        store.capacity = 10  # a change without a push: answered at the next frame
+        store.step()
+        assert wait_until(lambda: store.published > published, 10.0)
+        store.step()
+        shown = reader.shown()
+        assert shown is not None
+        assert shown.ids.tolist() == list(range(10, 20))
+    finally:
+        store.close()
+
+
 def test_the_ui_thread_never_waits_for_a_turn_of_the_worker() -> None:
     """While the worker is in a turn (decoding, filtering: its writer lock held), taking the answer and
     reading the rows in view, the count, the marks and the cursor's index all return at once."""

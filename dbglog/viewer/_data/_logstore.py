@@ -91,9 +91,8 @@ WORKER_LINES: Final = 20_000
 """Lines the worker decodes before it answers its readers again (a long history fills in over a few turns)."""
 WORKER_BUDGET_S: Final = 0.01
 """Time the worker gives each reader's older lines per turn (new lines are always answered whole)."""
-WORKER_PAUSE_S: Final = 0.015
-"""The worker's pause after a turn that left nothing to do (about a frame at 60 fps): what arrives meanwhile
-is taken in one turn, so the worker takes the GIL at most about 65 times a second for new lines."""
+WORKER_IDLE_S: Final = 0.05
+"""How often the worker looks for pushed lines when no frame asks (`step` starts a turn at once)."""
 SYNC_TIMEOUT_S: Final = 60.0
 """`sync` waits at most this long for the worker to take in what was pushed before it."""
 
@@ -265,6 +264,8 @@ class _Published:
     serial: int
     held: int
     answers: dict[int, Shown]
+    version: int
+    """The store's `version` they answer (a later change, even without a push, asks for a turn)."""
 
 
 class LogReader:
@@ -307,23 +308,24 @@ class _Worker:
 
 
 def _work(ref: weakref.ref[LogStore], wake: threading.Event, stop: threading.Event) -> None:
-    """The worker's loop: a turn whenever lines were pushed or a reader asked; ends with its store."""
+    """The worker's loop: a turn when a frame took the answers (`step`), a reader asked, `sync` waits, or
+    every `WORKER_IDLE_S` while lines wait; it ends with its store.
+
+    A push does not wake it: in the viewer a turn follows the console's `step`, so it runs while the UI
+    thread renders (Dear PyGui's render releases the GIL) instead of taking the GIL from the frame's Python.
+    """
     while True:
-        wake.wait()
+        wake.wait(WORKER_IDLE_S)
         wake.clear()
         store = ref()
         if stop.is_set() or store is None:
             return
         try:
-            more = store._serve(WORKER_LINES, WORKER_BUDGET_S)
+            if store._has_work() and store._serve(WORKER_LINES, WORKER_BUDGET_S):
+                wake.set()  # more to do (a long history, a new filter's older lines): go on
         except Exception:  # a bug here must not end the thread: the next lines still come
             _log.exception("the log store's worker failed a turn")
-            more = False
         del store  # not held between turns: a store nobody uses goes, and its worker with it
-        if more:
-            wake.set()
-        else:
-            stop.wait(WORKER_PAUSE_S)
 
 
 def _stop_worker(wake: threading.Event, stop: threading.Event) -> None:
@@ -392,7 +394,7 @@ class LogStore:
         short both ways. Taken after `_write`, never before it."""
         self._readers: list[weakref.ref[LogReader]] = []
         self._reader_keys = 0
-        self._ready = self._current = _Published(0, 0, {})
+        self._ready = self._current = _Published(0, 0, {}, 0)
         """The newest answers given (`_ready`), and those the owner took (`_current`: `step`, `sync`)."""
         self._done = threading.Condition(threading.Lock())
         self._answered = 0
@@ -537,7 +539,6 @@ class LogStore:
                 dropped = self._pending.popleft()
                 self._pending_lines -= len(dropped[3])
                 self.dropped += len(dropped[3])
-        self._wake()
 
     def sync(self, max_lines: int | None = None) -> int:
         """Take in the lines pushed so far; return how many lines were added.
@@ -555,6 +556,7 @@ class LogStore:
             added = self._added
             with self._push_lock:
                 target = self._pushed
+            self._wake()
             with self._done:
                 done = self._done.wait_for(
                     lambda: self._answered >= target or self._worker is None, SYNC_TIMEOUT_S
@@ -575,6 +577,7 @@ class LogStore:
         """
         if self._worker is not None:
             self._current = self._ready
+            self._wake()  # the next turn: while this frame renders
             return
         self._serve(max_lines, budget)
         self._current = self._ready
@@ -587,6 +590,18 @@ class LogStore:
             self._readers.append(weakref.ref(made))
         self._wake()
         return made
+
+    def _has_work(self) -> bool:
+        """Whether a turn would change anything: lines wait, the store changed since the answers (lines
+        added, evicted, cleared), or a reader's answer is missing, for another filter, or incomplete."""
+        if self._pending_lines or self.version != self._ready.version:
+            return True
+        answers = self._ready.answers
+        for reader in self._live_readers():
+            shown = answers.get(reader.key)
+            if shown is None or shown.filt != reader.asked or not shown.complete:
+                return True
+        return False
 
     def _live_readers(self) -> list[LogReader]:
         with self._push_lock:
@@ -629,7 +644,7 @@ class LogStore:
             with self._push_lock:
                 answered = self._pending[0][0] - 1 if self._pending else self._pushed
                 more = more or bool(self._pending)
-            self._ready = _Published(self._ready.serial + 1, self._n - self._lo, answers)
+            self._ready = _Published(self._ready.serial + 1, self._n - self._lo, answers, self.version)
         with self._done:
             self._answered = max(self._answered, answered)
             self._done.notify_all()
