@@ -604,19 +604,26 @@ def _viewer_main(dashboard: str, seconds: float, warmup: float, nodes: int) -> i
         meter.wrap(LogWidget, name)
     meter.wrap(AppHost, "marks")
     meter.wrap(TimeBar, "draw", "bar")  # (it draws the console's marks: one item per pixel column marked)
-    work, render = ViewerApp._work, ViewerApp._render
+    try:  # a frame's work and render: the frame loop's (before it, the app's own `_work`, `_render`)
+        from dbglog.viewer._ui._loop import FrameLoop
 
-    def work_then_note(app: ViewerApp) -> None:
+        loop: type = FrameLoop
+        names = ("work", "render")
+    except ImportError:
+        loop, names = ViewerApp, ("_work", "_render")
+    work, render = (getattr(loop, name) for name in names)
+
+    def work_then_note(self: object) -> None:
         meter.frame_start()
-        work(app)
+        work(self)
         meter.frame_end()
 
-    def render_then_note(app: ViewerApp, now: float) -> None:
-        render(app, now)
+    def render_then_note(self: object, now: float) -> None:
+        render(self, now)
         meter.rendered()
 
-    ViewerApp._work = work_then_note  # type: ignore[method-assign,assignment]
-    ViewerApp._render = render_then_note  # type: ignore[method-assign,assignment]
+    setattr(loop, names[0], work_then_note)
+    setattr(loop, names[1], render_then_note)
 
     registry = WidgetRegistry.discover()
     result = load_dashboard(dashboard, registry.get)
