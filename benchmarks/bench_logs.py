@@ -655,7 +655,8 @@ def _viewer_main(dashboard: str, seconds: float, warmup: float, nodes: int) -> i
         sys.stdin.readline()
         added0 = store.added if store is not None else 0
         dropped0 = getattr(store, "dropped", 0)  # (a checkout from before the count: 0)
-        app.frame_times = collections.deque()
+        timed = getattr(app, "loop", app)  # the frame loop keeps the frame times (before it, the app)
+        timed.frame_times = collections.deque()  # (unbounded: the loop's own keeps the last 600)
         print("measuring", flush=True)
         meter.on = True
         meter.frame_end()
@@ -665,7 +666,7 @@ def _viewer_main(dashboard: str, seconds: float, warmup: float, nodes: int) -> i
         cpu, elapsed = time.process_time() - cpu0, time.perf_counter() - t0
         meter.on = False
         threads = {k: v - threads0.get(k, 0.0) for k, v in meter.threads().items()}
-        totals = list(app.frame_times)
+        totals = list(timed.frame_times)
         marks = meter.frames
         ui_cpu = [b[0] - a[0] for a, b in itertools.pairwise(marks)]
         console_cpu = [b[1] - a[1] for a, b in itertools.pairwise(marks)]
