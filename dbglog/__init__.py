@@ -37,6 +37,10 @@ if TYPE_CHECKING or enabled:
 
         _public.REPORTER.strict = _config.strict
         _public.RUNTIME.env_robot = _config.namespace
+        if _config.watch:  # docs/watch.md: the program's variables become readable on the ROS domain
+            from dbglog.watch import _agent as _watch_agent
+
+            _watch_agent.start()
 else:
     from dbglog.api._disabled import (
         flush,

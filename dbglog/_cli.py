@@ -33,6 +33,8 @@ _COMMANDS: dict[str, str] = {
     "logs": "dbglog.viewer._cli._cli_logs",
     "params": "dbglog._params._cli",
     "record": "dbglog.record._cli",
+    "watch": "dbglog.watch._cli_watch",
+    "run": "dbglog.watch._cli_run",
     "demo": "dbglog._demo._cli",
 }
 

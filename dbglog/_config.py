@@ -81,6 +81,8 @@ class Config:
     namespace: str = ""
     """``DBGLOG_NAMESPACE``: the robot namespace of the SDK's topics when neither the node given to
     ``dbglog.init`` nor the process's ``--ros-args`` names one (``""``: the root; ``/robot1``)."""
+    watch: bool = False
+    """``DBGLOG_WATCH``: the process can be watched (``dbglog watch``, docs/watch.md); off by default."""
 
 
 def load_config(environ: Mapping[str, str] | None = None) -> Config:
@@ -94,6 +96,7 @@ def load_config(environ: Mapping[str, str] | None = None) -> Config:
         enabled=env_bool("DBGLOG", not optimized, environ=environ),
         strict=env_bool("DBGLOG_STRICT", False, environ=environ),
         namespace=env_namespace("DBGLOG_NAMESPACE", environ=environ),
+        watch=env_bool("DBGLOG_WATCH", False, environ=environ),
     )
 
 

@@ -74,6 +74,7 @@ class Pipe:
         "_event",
         "_pid",
         "_thread",
+        "calls",
         "capacity",
         "lock",
         "pending",
@@ -99,6 +100,8 @@ class Pipe:
         self._pid = os.getpid()
         self.pending: dict[Channel, object] = {}
         """The newest value of each unwatched tag not yet on its topic (published every `_NEWEST_EVERY`)."""
+        self.calls: deque[Callable[[], object]] = deque()
+        """Work other dbglog packages hand to the publisher thread (`call_soon`), run before each flush."""
 
     # ----- calling threads ------------------------------------------------------------------------
 
@@ -108,6 +111,21 @@ class Pipe:
         if self._thread is None or self._pid != os.getpid():
             self._start_thread()
         self._event.set()
+
+    def call_soon(self, fn: Callable[[], object]) -> None:
+        """Run `fn` on the publisher thread before its next flush (its errors are swallowed there)."""
+        self.calls.append(fn)
+        self.wake()
+
+    def _run_calls(self) -> None:
+        calls = self.calls
+        while calls:
+            try:
+                fn = calls.popleft()
+            except IndexError:  # emptied meanwhile (a reset)
+                return
+            with contextlib.suppress(Exception):
+                fn()
 
     def _start_thread(self) -> None:
         with self.runtime._lock:
@@ -128,6 +146,7 @@ class Pipe:
         if not self.lock.acquire(timeout=max(0.0, timeout)):
             return False
         try:
+            self._run_calls()
             todo = len(self.queue)
             while todo > 0 and self.queue:
                 if time.monotonic() > deadline:
@@ -139,8 +158,9 @@ class Pipe:
             self.lock.release()
 
     def clear(self) -> None:
-        """Forget queued samples (a reset)."""
+        """Forget queued samples and calls (a reset)."""
         self.queue.clear()
+        self.calls.clear()
         with self.lock:  # the publisher thread walks `pending` under it
             self.pending.clear()
 
@@ -148,6 +168,7 @@ class Pipe:
         """The parent's thread does not exist here: start afresh (a new thread on first use)."""
         self.queue.clear()  # the same deque: the hot path holds it
         self.pending.clear()
+        self.calls.clear()
         self._event = threading.Event()
         self.lock = threading.RLock()
         self._thread = None
@@ -163,6 +184,8 @@ class Pipe:
         while True:
             if self._pid != os.getpid():  # pragma: no cover - a thread never survives a fork
                 return
+            if self.calls:
+                self._run_calls()
             # One batch at a time (a drain() on another thread may take its turn). What came in while
             # it was published waits for the next period unless a full batch is waiting: a flush costs
             # about as much for 10 samples as for 100 (docs/api.md).
@@ -181,7 +204,7 @@ class Pipe:
                     self._publish_pending(time.monotonic(), force=idle, yield_gil=True)
             if idle:
                 self.sleeping = True
-                if not self.queue:
+                if not self.queue and not self.calls:
                     self._event.wait()
                 self._event.clear()
                 self.sleeping = False
