@@ -1,0 +1,35 @@
+"""An rclpy node for the watch tests: a 100 Hz timer, dbglog imported (DBGLOG_WATCH=1 makes it watchable).
+
+Usage: talker.py STOP. It spins until the file STOP exists.
+"""
+
+import os
+import sys
+
+import rclpy
+
+import dbglog
+
+
+class Talker:
+    def __init__(self) -> None:
+        self.node = rclpy.create_node("watch_talker")
+        self.count = 0
+        self.node.create_timer(0.01, self.tick)
+
+    def tick(self) -> None:
+        self.count += 1
+        dbglog.logint("talker/count", self.count)  # L:tick
+
+
+def main() -> None:
+    rclpy.init()
+    talker = Talker()
+    while not os.path.exists(sys.argv[1]):
+        rclpy.spin_once(talker.node, timeout_sec=0.05)
+    talker.node.destroy_node()
+    rclpy.shutdown()
+
+
+if __name__ == "__main__":
+    main()
