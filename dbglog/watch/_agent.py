@@ -54,6 +54,8 @@ CPU_WINDOW_NS: Final = 1_000_000_000
 CLIENT_GONE_S: Final = 5.0
 """A watcher whose node has not been on the graph for this long (killed) loses its watches."""
 _TICK_S: Final = 0.25
+_PENDING_S: Final = 1.0
+"""How often a request whose file or line is not loaded yet is tried again (while its watcher lives)."""
 _IDLE_TICK_S: Final = 1.0
 _STATS_S: Final = 1.0
 _NODES_S: Final = 2.0
@@ -180,6 +182,28 @@ class _Sink:
                 "type": f"{module}/msg/{msg_class.__name__}",
             },
         )
+
+
+class _PendingArm:
+    """An arm request, checked, kept until its file and line are loaded."""
+
+    __slots__ = ("client", "exprs", "message", "spec", "watch_id", "when")
+
+    def __init__(
+        self,
+        client: str,
+        watch_id: str,
+        message: dict[str, Any],
+        spec: ArmSpec,
+        exprs: list[Expr],
+        when: Expr | None,
+    ) -> None:
+        self.client = client
+        self.watch_id = watch_id
+        self.message = message
+        self.spec = spec
+        self.exprs = exprs
+        self.when = when
 
 
 class _Expression:
@@ -419,6 +443,8 @@ class Agent:
         self._slow: collections.deque[tuple[_Sink, Kind, Any, int]] = collections.deque()
         self._slow_scheduled = False
         self._seen: dict[str, float] = {}
+        self._pending: dict[tuple[str, str], _PendingArm] = {}
+        self._pending_at = 0.0
         self._nodes: list[str] = []
         self._announced = ""
         self._lock = threading.RLock()
@@ -534,6 +560,10 @@ class Agent:
             raise
         self._refresh_nodes()
         self._announce(force=True)
+        # The SDK's node and batch writer now, on this thread: a watcher discovers them (a second or
+        # more on a busy graph) before the first watch, whose first values then arrive at once.
+        with contextlib.suppress(Exception):
+            feed.connect()
 
     def _publish(self, publisher: Any, text: str) -> None:
         publisher.publish(self._string(data=text))
@@ -643,20 +673,29 @@ class Agent:
             exprs = [parse_expr(text) for text in spec.exprs]
             when = parse_expr(spec.when) if spec.when else None
         except ExprError as exc:
-            return {"ok": False, "state": "expr_error", "error": f"not allowed: {exc}"}
+            return {"ok": False, "state": "expr_error", "error": f"not allowed: {exc}", "watch": watch_id}
         if spec.label is not None:
             problem = tag_problem(spec.label)
             if problem:
-                return {
-                    "ok": False,
-                    "state": "refused",
-                    "error": f"label {spec.label!r} is not a valid tag: {problem}",
-                }
+                error = f"label {spec.label!r} is not a valid tag: {problem}"
+                return {"ok": False, "state": "refused", "error": error, "watch": watch_id}
+        pending = _PendingArm(client, watch_id, message, spec, exprs, when)
+        answer = self._try_arm(pending)
+        if answer.get("state") in ("no_file", "no_line"):
+            # Not (yet) loaded: armed when it is (a module imported later, a program still starting).
+            answer["pending"] = True
+            with self._lock:
+                self._pending[(client, watch_id)] = pending
+        return answer
+
+    def _try_arm(self, pending: _PendingArm) -> dict[str, Any]:
+        """Arm a checked request; the answer says armed, or why not."""
+        spec, client, watch_id = pending.spec, pending.client, pending.watch_id
         try:
-            path, modules = self._resolve(message)
+            path, modules = self._resolve(pending.message)
             located = locate(path, spec.line, modules)
         except CodeLookupError as exc:
-            return {"ok": False, "state": exc.state, "error": str(exc)}
+            return {"ok": False, "state": exc.state, "error": str(exc), "watch": watch_id}
         with self._lock:
             if self.backend is None and self.backend_error is None:
                 try:
@@ -664,24 +703,23 @@ class Agent:
                 except BackendError as exc:
                     self.backend_error = str(exc)
             if self.backend is None:
-                return {"ok": False, "state": "refused", "error": f"cannot watch here: {self.backend_error}"}
+                error = f"cannot watch here: {self.backend_error}"
+                return {"ok": False, "state": "refused", "error": error, "watch": watch_id}
             from dbglog.api import feed
 
             if not feed.connect():
-                return {
-                    "ok": False,
-                    "state": "refused",
-                    "error": "dbglog cannot publish (no ROS 2 for the SDK)",
-                }
+                error = "dbglog cannot publish (no ROS 2 for the SDK)"
+                return {"ok": False, "state": "refused", "error": error, "watch": watch_id}
             key = (path, spec.line, *spec.shared_key())
             watch = self.watches.get(key)
             if watch is None or not watch.active:
-                tags = self._choose_tags(spec, exprs)
-                watch = Watch(self, key, spec, path, located.codes, exprs, when, tags)
+                tags = self._choose_tags(spec, pending.exprs)
+                watch = Watch(self, key, spec, path, located.codes, pending.exprs, pending.when, tags)
                 try:
                     self._install(watch)
                 except Exception as exc:
-                    return {"ok": False, "state": "refused", "error": f"cannot watch here: {exc}"}
+                    error = f"cannot watch here: {exc}"
+                    return {"ok": False, "state": "refused", "error": error, "watch": watch_id}
                 self.watches[key] = watch
             previous = self._by_client.get((client, watch_id))
             if previous is not None and previous is not watch:
@@ -705,6 +743,20 @@ class Agent:
         if self.backend.skipped:
             answer["skipped_threads"] = list(self.backend.skipped)
         return answer
+
+    def _retry_pending(self) -> None:
+        """Arm the requests whose file or line was not loaded yet, once it is (said as a status event)."""
+        for key, pending in list(self._pending.items()):
+            answer = self._try_arm(pending)
+            if answer.get("state") in ("no_file", "no_line"):
+                continue
+            self._pending.pop(key, None)
+            _log.info("dbglog: watch request of %s armed now: %s", pending.client, _answer_summary(answer))
+            event = {k: v for k, v in answer.items() if k not in ("watch", "ok")}
+            self._outbox.append(
+                (None, {"event": "status", "client": pending.client, "watch": pending.watch_id, **event})
+            )
+            self._announce()
 
     def _choose_tags(self, spec: ArmSpec, exprs: list[Expr]) -> list[str]:
         """``watch/<label>`` per expression; ``_2``... when another watch here publishes on it."""
@@ -779,6 +831,7 @@ class Agent:
 
     def _op_disarm(self, watch_id: str, client: str) -> dict[str, Any]:
         with self._lock:
+            self._pending.pop((client, watch_id), None)
             watch = self._by_client.get((client, watch_id))
             if watch is not None:
                 self._leave(watch, client, watch_id, "disarmed", f"disarmed by {client}")
@@ -788,6 +841,9 @@ class Agent:
     # ----- periodic work --------------------------------------------------------------------------------
 
     def _tick(self, now: float) -> None:
+        if self._pending and now - self._pending_at >= _PENDING_S:
+            self._pending_at = now
+            self._retry_pending()
         with self._lock:
             for watch in list(self.watches.values()):
                 watch.check_cpu()
@@ -796,7 +852,7 @@ class Agent:
                     self._end(watch, state, message)
                 else:
                     self._stats(watch)
-            if self.watches:
+            if self.watches or self._pending:
                 self._check_clients(now)
 
     def _stats(self, watch: Watch, *, force: bool = False) -> None:
@@ -814,6 +870,9 @@ class Agent:
         for name in present:
             if name in self._seen:
                 self._seen[name] = now
+        for client, watch_id in list(self._pending):
+            if now - self._seen.get(client, now) > CLIENT_GONE_S:
+                self._pending.pop((client, watch_id), None)
         for (client, watch_id), watch in list(self._by_client.items()):
             if now - self._seen.get(client, now) > CLIENT_GONE_S:
                 _log.info(
@@ -830,7 +889,7 @@ class Agent:
         while outbox:
             watch, message = outbox.popleft()
             base = {**self._who(), **message}
-            if watch is None:
+            if watch is None:  # addressed already (a pending request armed)
                 self._publish(self._answers_pub, dumps(base))
                 continue
             for client, watch_id in list(watch.clients.items()):

@@ -122,8 +122,7 @@ def _start_agent() -> None:
 
 def _program_frames(tb: TracebackType | None) -> TracebackType | None:
     """Skip this module's and runpy's frames, so a traceback starts in the program as python's does."""
-    skip = {os.path.abspath(__file__), os.path.abspath(runpy.__file__ or "")}
-    while tb is not None and os.path.abspath(tb.tb_frame.f_code.co_filename) in skip:
+    while tb is not None and tb.tb_frame.f_globals.get("__name__") in (__name__, "runpy"):
         tb = tb.tb_next
     return tb
 
@@ -169,6 +168,7 @@ def _print_exception(exc: BaseException) -> None:
     if tb is None and isinstance(exc, ImportError):  # runpy found no such module (python says it so too)
         print(f"dbglog run: {exc}", file=sys.stderr)
         return
+    exc.__traceback__ = tb  # the hook prints the exception's own traceback (3.12)
     try:
         sys.excepthook(type(exc), exc, tb)
     except Exception:

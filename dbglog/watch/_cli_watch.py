@@ -25,6 +25,8 @@ HELP = "Watch variables at a line of running Python processes: print them live a
 _POLL_S = 0.02
 _HINT_AFTER_S = 3.0
 """Without a process that armed the watch this long, say once why on stderr."""
+_LIST_MAX_S = 8.0
+"""``--list`` waits this long at most for a first watchable process (discovery on a busy machine)."""
 _DELIVERY_S = 5.0
 """After every process ended the watch, how long its last hits may still take to arrive."""
 _NOT_ARMED = frozenset({"no_file", "no_line", "expr_error", "refused"})
@@ -123,8 +125,23 @@ def _who(process: Process | None, pid: int) -> str:
     return f"{process.name} (pid {pid})" if process is not None else f"pid {pid}"
 
 
-def _list(client: WatchClient) -> int:
+def _settled(client: WatchClient) -> list[Process]:
+    """The processes, once discovery has settled: none new for a second after the discovery window (an
+    empty list is given up on after `_LIST_MAX_S`)."""
     processes = client.wait_for_processes()
+    started = last_change = time.monotonic()
+    while time.monotonic() - started < _LIST_MAX_S:
+        time.sleep(0.1)
+        now = client.processes()
+        if [p.agent for p in now] != [p.agent for p in processes]:
+            processes, last_change = now, time.monotonic()
+        elif processes and time.monotonic() - last_change >= 1.0:
+            break
+    return processes
+
+
+def _list(client: WatchClient) -> int:
+    processes = _settled(client)
     if not processes:
         print(
             "no watchable process (a Python process is watchable when started with dbglog run, or with "

@@ -658,38 +658,37 @@ class WatchClient:
         armed = watch._per.get(agent)
         if armed is None or armed.status.state != "asking":
             return
+        self._apply_arm(watch, armed, message)
+
+    def _apply_arm(self, watch: Watch, armed: _Armed, message: dict[str, Any]) -> None:
+        """Take an arm answer (or the event of a pending request armed later): state, tags, writer."""
         state = str(message.get("state", "refused"))
         tags = tuple(str(t) for t in message.get("tags", []))
-        armed.tags = dict(enumerate(tags))
+        if tags:
+            armed.tags = dict(enumerate(tags))
         writer = message.get("writer")
-        armed.writer = int(writer) if isinstance(writer, int) else None
+        if isinstance(writer, int):
+            armed.writer = writer
+        if state == "armed":
+            text = ", ".join(map(str, message.get("codes", [])))
+        else:
+            text = str(message.get("error", ""))
+            if message.get("pending"):
+                text += " (armed once it is loaded)"
         armed.status = _replace(
             armed.status,
             state=state,
-            message=str(message.get("error", ""))
-            if state != "armed"
-            else ", ".join(message.get("codes", [])),
-            path=str(message.get("path", "")),
-            tags=tags,
-            armed_at=int(message.get("armed_at", 0) or 0),
+            message=text,
+            path=str(message.get("path", armed.status.path)),
+            tags=tags or armed.status.tags,
+            armed_at=int(message.get("armed_at", 0) or armed.status.armed_at),
         )
-        watch._events.append(
-            WatchEvent(
-                armed.status.agent, armed.status.pid, armed.status.host, "status", state, armed.status.message
-            )
-        )
+        status = armed.status
+        watch._events.append(WatchEvent(status.agent, status.pid, status.host, "status", state, text))
         skipped = message.get("skipped_threads")
         if skipped:
-            watch._events.append(
-                WatchEvent(
-                    armed.status.agent,
-                    armed.status.pid,
-                    armed.status.host,
-                    "error",
-                    state,
-                    f"threads traced by another tool are not watched: {', '.join(map(str, skipped))}",
-                )
-            )
+            text = f"threads traced by another tool are not watched: {', '.join(map(str, skipped))}"
+            watch._events.append(WatchEvent(status.agent, status.pid, status.host, "error", state, text))
 
     def _on_event(self, message: dict[str, Any]) -> None:
         with self._lock:
@@ -707,6 +706,9 @@ class WatchClient:
             if kind == "stats":
                 stats = {k: int(v) for k, v in message.items() if k in _STATS and isinstance(v, int)}
                 armed.status = _replace(status, stats=stats)
+                return
+            if kind == "status" and message.get("state") == "armed":
+                self._apply_arm(watch, armed, message)
                 return
             if kind == "status":
                 armed.status = status = _replace(
@@ -754,19 +756,24 @@ class WatchClient:
     # ----- values -------------------------------------------------------------------------------------
 
     def _owners(self, tag: str, writer: int | None) -> list[tuple[Watch, _Armed, int, str]]:
-        """The (watch, process, expression, key) that `tag` belongs to (lock held)."""
+        """The (watch, process, expression, key) that `tag` belongs to (lock held).
+
+        When several processes publish the tag, the batch's writer tells which one sent it (a process
+        that reconnected its SDK has a new writer: then every owner gets it).
+        """
         out = []
         for watch in self._watches.values():
             for armed in watch._per.values():
                 if armed.status.state not in ("armed", "done", "cpu"):
-                    continue
-                if writer is not None and armed.writer is not None and armed.writer != writer:
                     continue
                 for index, base in armed.tags.items():
                     if tag == base:
                         out.append((watch, armed, index, ""))
                     elif tag.startswith(base + "/"):
                         out.append((watch, armed, index, tag[len(base) + 1 :]))
+        if writer is not None and len({armed.status.agent for _w, armed, _i, _k in out}) > 1:
+            mine = [o for o in out if o[1].writer == writer]
+            return mine or out
         return out
 
     def _on_batch(self, raw: bytes) -> None:
