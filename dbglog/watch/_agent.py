@@ -261,6 +261,8 @@ class Watch:
         self.hits = self.sent = self.filtered = self.throttled = self.dropped = self.errors = 0
         self.noted: set[tuple[int, str]] = set()
         self.throttle_ns = int(spec.throttle * 1e9) if spec.throttle else 0
+        self.unlimited = spec.throttle == 0
+        """``throttle=0``: every hit is sent (no `RATE_HZ` cap)."""
         self.last_pass = -(1 << 62)
         self.tokens = float(BURST)
         self.last_refill = time.perf_counter_ns()
@@ -309,7 +311,7 @@ class Watch:
                     self.throttled += 1
                     return True
                 self.last_pass = t0
-            else:
+            elif not self.unlimited:
                 tokens = self.tokens + (t0 - self.last_refill) * (RATE_HZ / 1e9)
                 self.last_refill = t0
                 if tokens < 1.0:

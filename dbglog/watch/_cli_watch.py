@@ -41,7 +41,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--throttle",
         type=float,
         metavar="S",
-        help="at most one hit per S seconds (default: every hit up to 1 kHz)",
+        help="at most one hit per S seconds (default: every hit up to 1 kHz; 0: every hit, no cap)",
     )
     parser.add_argument("--count", "-n", type=int, metavar="N", help="stop after N hits")
     parser.add_argument(

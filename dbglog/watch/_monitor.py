@@ -97,7 +97,8 @@ class MonitoringBackend:
     """Watches lines with ``sys.monitoring`` LINE events on the watched code objects only (3.12+)."""
 
     name = "sys.monitoring"
-    event_ns = 200
+    event_ns = 300
+    """The callback's call, frame and table look-ups around a hit (measured ~250-350 ns on 3.12)."""
 
     def __init__(self) -> None:
         self.table: dict[types.CodeType, CodeEntry] = {}
@@ -273,7 +274,9 @@ class TraceBackend:
     """Watches lines with a global trace function that traces only the watched code's frames (3.11)."""
 
     name = "settrace"
-    event_ns = 1500
+    event_ns = 600
+    """One call of the local trace function with CPython's locals sync around it (measured ~570 ns a
+    traced line on 3.11)."""
 
     def __init__(self) -> None:
         self.table: dict[types.CodeType, CodeEntry] = {}

@@ -114,7 +114,7 @@ class ArmSpec:
     exprs: tuple[str, ...]
     when: str | None = None
     throttle: float | None = None
-    """At most one published hit per this many seconds; None: every hit up to 1 kHz."""
+    """At most one published hit per this many seconds; None: every hit up to 1 kHz; 0: every hit."""
     count: int | None = None
     """Stop after this many published hits."""
     label: str | None = None

@@ -64,6 +64,8 @@ DISCOVERY_S: Final = 2.0
 RETRY_S: Final = 0.5
 """A request not answered within this is sent again (the first may go out before the process's
 subscription is matched)."""
+CLOSING_S: Final = 2.0
+"""After a disarm, values of hits from before it are still taken for this long."""
 GONE_GRACE_S: Final = 3.0
 """A process announced but not (yet) on the node graph counts as there for this long."""
 _GRAPH_POLL_S: Final = 0.25
@@ -161,7 +163,8 @@ class WatchSpec:
         line: the line number; values are read before the line runs.
         exprs: the expressions (docs/watch.md, *Expressions*).
         when: publish only the hits where this expression is true.
-        throttle: at most one published hit per this many seconds; None: every hit up to 1 kHz.
+        throttle: at most one published hit per this many seconds; None: every hit up to 1 kHz; 0: every
+            hit, uncapped.
         count: each process stops after this many published hits.
         label: the tag is ``watch/<label>`` (``watch/<label>/<expr>`` with several expressions); by
             default ``watch/<expr as a path>``.
@@ -370,6 +373,8 @@ class WatchClient:
         self._seen_on_graph: set[str] = set()
         self._pending: dict[str, _Pending] = {}
         self._watches: dict[str, Watch] = {}
+        self._closing: dict[str, tuple[Watch, float]] = {}
+        """Watches disarmed less than `CLOSING_S` ago: their last values are still taken."""
         self._array_subs: dict[str, Any] = {}
         self._values = values
         topics = watch_topics()
@@ -474,6 +479,8 @@ class WatchClient:
                 return
             watch.disarmed = True
             self._watches.pop(watch.id, None)
+            # Its last hits may still be on their way (the batch and the answer are different topics).
+            self._closing[watch.id] = (watch, time.monotonic() + CLOSING_S)
             targets = [
                 agent
                 for agent, armed in watch._per.items()
@@ -762,9 +769,10 @@ class WatchClient:
         that reconnected its SDK has a new writer: then every owner gets it).
         """
         out = []
-        for watch in self._watches.values():
+        closing = [w for w, _until in self._closing.values()]
+        for watch in [*self._watches.values(), *closing]:
             for armed in watch._per.values():
-                if armed.status.state not in ("armed", "done", "cpu"):
+                if armed.status.state not in ("armed", "done", "cpu", "disarmed"):
                     continue
                 for index, base in armed.tags.items():
                     if tag == base:
@@ -780,7 +788,7 @@ class WatchClient:
         from dbglog._ros._batch import BatchError, decode_batch
 
         with self._lock:
-            if not self._watches:
+            if not self._watches and not self._closing:
                 return
         try:
             batch = decode_batch(raw)
@@ -816,6 +824,9 @@ class WatchClient:
         """Arm each watch in each process not asked yet; repeat unanswered requests; say who is gone."""
         sends: list[str] = []
         with self._lock:
+            for watch_id, (_watch, until) in list(self._closing.items()):
+                if now > until:
+                    del self._closing[watch_id]
             for watch in list(self._watches.values()):
                 for agent, (process, _since) in list(self._announced.items()):
                     alive = self._alive(agent)
