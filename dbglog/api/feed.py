@@ -24,6 +24,7 @@ __all__ = [
     "call_soon",
     "channel_type",
     "connect",
+    "connected",
     "enqueue",
     "resolve_tag",
     "scalar_channel",
@@ -56,6 +57,11 @@ def enqueue(ch: Channel, value: object, stamp_ns: int) -> bool:
 def connect() -> bool:
     """Connect the SDK to ROS now if it is not (its node, batch writer); False when it cannot."""
     return bool(RUNTIME._ensure_ready(_API))
+
+
+def connected() -> bool:
+    """True while the SDK is connected to ROS (its node and batch writer are up)."""
+    return RUNTIME.state == "ready"
 
 
 def writer() -> int:

@@ -59,6 +59,9 @@ _PENDING_S: Final = 1.0
 _IDLE_TICK_S: Final = 1.0
 _STATS_S: Final = 1.0
 _NODES_S: Final = 2.0
+ANNOUNCE_S: Final = 3.0
+"""The announcement is sent again this often: a watcher that missed it (discovery races) sees the
+process within this, and learns of a watch armed for it whose status event it missed."""
 _ANSWERS_KEPT: Final = 256
 _NOTES_PER_WATCH: Final = 32
 _MAX_SOURCE_CONTEXT: Final = 200
@@ -419,6 +422,8 @@ class Watch:
             "when": self.spec.when,
             "tags": [e.sink.tag for e in self.exprs],
             "watchers": len(self.clients),
+            "ids": sorted(self.clients.values()),
+            "armed_at": self.armed_at,
             "state": self.state,
         }
 
@@ -449,6 +454,7 @@ class Agent:
         self._pending_at = 0.0
         self._nodes: list[str] = []
         self._announced = ""
+        self._announced_at = 0.0
         self._lock = threading.RLock()
         self._stop = threading.Event()
         self._ready = threading.Event()
@@ -500,6 +506,9 @@ class Agent:
             self._start_ros()
         except Exception as exc:
             self.error = f"{type(exc).__name__}: {exc}"
+            self._ready.set()
+            if self._stop.is_set() or sys.is_finalizing():
+                return  # the program ended while the node was coming up
             _log.warning(
                 "dbglog: the watch agent cannot start ROS 2 (%s): this process is not watchable", self.error
             )
@@ -535,6 +544,8 @@ class Agent:
                 if now - last_nodes >= _NODES_S:
                     last_nodes = now
                     self._refresh_nodes()
+                if now - self._announced_at >= ANNOUNCE_S:
+                    self._announce(force=True)
                 self._send_events()
             except Exception:  # the agent's loop survives anything; the program never sees it
                 _log.debug("dbglog: watch agent step failed", exc_info=True)
@@ -917,11 +928,13 @@ class Agent:
                     "cwd": _cwd(),
                     "nodes": self._nodes,
                     "backend": "sys.monitoring" if hasattr(sys, "monitoring") else "settrace",
+                    "writer": _writer(),
                     "watches": [w.describe() for w in self.watches.values()],
                 }
             )
         if text != self._announced or force:
             self._announced = text
+            self._announced_at = time.monotonic()
             self._publish(self._agents_pub, text)
 
     # ----- life cycle -----------------------------------------------------------------------------------
@@ -956,6 +969,13 @@ class Agent:
         self._by_client.clear()
         self._at.clear()
         self._ros = None
+
+
+def _writer() -> int | None:
+    """The SDK's batch writer id, once it is connected."""
+    from dbglog.api import feed
+
+    return feed.writer() if feed.connected() else None
 
 
 def _no_callback(_msg: object) -> None:

@@ -8,6 +8,8 @@ line per hit per expression (``EXPR = VALUE``), and removes the watch on exit, C
 from __future__ import annotations
 
 import argparse
+import os
+import socket
 import sys
 import time
 from typing import TYPE_CHECKING
@@ -141,7 +143,8 @@ def _settled(client: WatchClient) -> list[Process]:
 
 
 def _list(client: WatchClient) -> int:
-    processes = _settled(client)
+    here = socket.gethostname()
+    processes = [p for p in _settled(client) if not (p.pid == os.getpid() and p.host == here)]
     if not processes:
         print(
             "no watchable process (a Python process is watchable when started with dbglog run, or with "

@@ -66,8 +66,11 @@ RETRY_S: Final = 0.5
 subscription is matched)."""
 CLOSING_S: Final = 2.0
 """After a disarm, values of hits from before it are still taken for this long."""
-GONE_GRACE_S: Final = 3.0
-"""A process announced but not (yet) on the node graph counts as there for this long."""
+FRESH_S: Final = 3.5
+"""A process off the node graph counts as there while its last announcement (every 3 s) is this fresh."""
+UNSEEN_S: Final = 7.0
+"""A process announced but never seen on the node graph yet counts as there for this long after its
+last announcement."""
 _GRAPH_POLL_S: Final = 0.25
 _TICK_S: Final = 0.05
 _MAX_QUEUED: Final = 100_000
@@ -564,15 +567,18 @@ class WatchClient:
     # ----- the client's thread ------------------------------------------------------------------------
 
     def _alive(self, agent: str) -> bool:
+        """On the node graph, or announced lately (the graph learns a node's name later than its data,
+        more so on a busy machine); gone once off the graph and not announced for a while."""
         entry = self._announced.get(agent)
         if entry is None:
             return False
         process, since = entry
         if process.node in self._on_graph:
             return True
+        quiet = time.monotonic() - since
         if process.node in self._seen_on_graph:
-            return False  # it was on the graph and left: gone
-        return time.monotonic() - since < GONE_GRACE_S
+            return quiet < FRESH_S  # it left the graph: gone unless it still announces itself
+        return quiet < UNSEEN_S
 
     def _run(self) -> None:
         from dbglog._ros._node import WaitSet
@@ -641,6 +647,31 @@ class WatchClient:
             return
         with self._lock:
             self._announced[process.agent] = (process, time.monotonic())
+            self._reconcile(process, message)
+
+    def _reconcile(self, process: Process, message: dict[str, Any]) -> None:
+        """Take a watch of ours the announcement lists as armed when its status never came (lock held)."""
+        listed = message.get("watches", [])
+        for entry in listed if isinstance(listed, list) else []:
+            if not isinstance(entry, dict) or not isinstance(entry.get("ids"), list):
+                continue
+            for watch_id in entry["ids"]:
+                watch = self._watches.get(str(watch_id))
+                armed = None if watch is None else watch._per.get(process.agent)
+                if (
+                    watch is None
+                    or armed is None
+                    or armed.status.state not in ("asking", "no_file", "no_line")
+                ):
+                    continue
+                fields = {
+                    "state": "armed",
+                    "tags": entry.get("tags", []),
+                    "path": entry.get("file", ""),
+                    "armed_at": entry.get("armed_at", 0),
+                    "writer": message.get("writer"),
+                }
+                self._apply_arm(watch, armed, fields)
 
     def _on_answer(self, message: dict[str, Any]) -> None:
         with self._lock:
