@@ -264,7 +264,7 @@ def main() -> None:
     per = {k: statistics.median(v) for k, v in rows.items()}
     version = ".".join(map(str, sys.version_info[:2]))
     print_table(
-        f"Per hit and per call (Python {version}; ns a call, median of {args.repeats} x {args.bursts} bursts)",
+        f"Per hit and per call (Python {version}; ns a call, median of {args.repeats}x{args.bursts} bursts)",
         ["measure", "no watch", "armed", "removed", "armed - none", "removed - none"],
         [
             [
