@@ -399,3 +399,24 @@ def test_a_restarted_process_is_armed_again(client: WatchClient, tmp: Path) -> N
     finally:
         watch.disarm()
     assert pids[0] != pids[1]
+
+
+def test_a_robot_namespace_process(client: WatchClient, tmp: Path) -> None:
+    """A process whose tags are under a robot namespace (DBGLOG_NAMESPACE) is watched on its robot topics."""
+    stop = tmp / "robot.stop"
+    run = subprocess.Popen(
+        [sys.executable, "-m", "dbglog", "run", str(SHORT), "60", str(stop)],
+        stdout=subprocess.PIPE,
+        env=_env(DBGLOG_NAMESPACE="robot7"),
+    )
+    watch = client.arm(WatchSpec("short.py", line_of("short", SHORT), ("n",), node=None))
+    try:
+        samples, _ = _collect(watch, 10, START_S)
+        assert _process(client, run.pid).robot == "/robot7"
+    finally:
+        watch.disarm()
+        stop.touch()
+        run.communicate(timeout=30)
+    counts = [s.value for s in samples if s.pid == run.pid]
+    assert len(counts) >= 10
+    assert counts == list(range(int(counts[0]), int(counts[0]) + len(counts)))  # type: ignore[call-overload]

@@ -27,6 +27,7 @@ __all__ = [
     "connected",
     "enqueue",
     "resolve_tag",
+    "robot",
     "scalar_channel",
     "send_message",
     "writer",
@@ -62,6 +63,12 @@ def connect() -> bool:
 def connected() -> bool:
     """True while the SDK is connected to ROS (its node and batch writer are up)."""
     return RUNTIME.state == "ready"
+
+
+def robot() -> str:
+    """The robot namespace of the SDK's topics while connected (``""``: the root; ``/robot1``): its batch
+    is on ``batch_topic(robot)``, a tag on ``topic_for_tag(tag, robot)``."""
+    return str(RUNTIME.robot)
 
 
 def writer() -> int:

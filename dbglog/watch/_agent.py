@@ -16,6 +16,7 @@ import collections
 import contextlib
 import logging
 import os
+import re
 import socket
 import sys
 import threading
@@ -24,7 +25,7 @@ import types
 import uuid
 from typing import Any, Final
 
-from dbglog._ros._tags import sanitize_tag, tag_problem
+from dbglog._ros._tags import tag_problem
 from dbglog._ros._watch import agent_node_name, agents_qos, message_qos, watch_topics
 from dbglog.watch._code import (
     CodeLookupError,
@@ -68,10 +69,24 @@ _MAX_SOURCE_CONTEXT: Final = 200
 _STD: Final[dict[str, str]] = {"int": "Int64", "float": "Float64", "bool": "Bool", "text": "String"}
 
 
+_NOT_NAME = re.compile(r"[^A-Za-z0-9_/]+")
+_UNDERSCORES = re.compile(r"_{2,}")
+_SLASHES = re.compile(r"/{2,}")
+
+
+def plain_name(text: str) -> str:
+    """Map text to a plain tag name (its own topic name, nothing escaped): ``a-b`` -> ``a_b``, a part
+    starting with a digit gets ``_`` (``0`` -> ``_0``). Readable rather than reversible: the SDK's own
+    escaping (`dbglog._ros._tags.escape_tag`) would warn in the watched program for every such tag."""
+    name = _SLASHES.sub("/", _UNDERSCORES.sub("_", _NOT_NAME.sub("_", text))).strip("/")
+    parts = [("_" + p if p[:1].isdigit() else p) for p in name.split("/") if p]
+    return _UNDERSCORES.sub("_", "/".join(parts)) or "_"
+
+
 def label_for(text: str) -> str:
     """Return the default label of an expression: its path as a tag (``self.pose.x`` -> ``self/pose/x``)."""
     path = text.replace("]", "").replace("[", "/").replace(".", "/").replace('"', "").replace("'", "")
-    return sanitize_tag("".join(path.split()))
+    return plain_name("".join(path.split()))
 
 
 # ---------------------------------------------------------------------------------------------------------
@@ -123,7 +138,7 @@ class _Sink:
                 if child is None:
                     if len(self.children) >= 256:
                         continue
-                    child = self.children[key] = _Sink(self.expr, f"{self.tag}/{sanitize_tag(key)}")
+                    child = self.children[key] = _Sink(self.expr, f"{self.tag}/{plain_name(key)}")
                 child.publish(sub_kind, sub_value, stamp)
             return
         if kind == "array":
@@ -750,6 +765,7 @@ class Agent:
             "tags": [e.sink.tag for e in watch.exprs],
             "armed_at": watch.armed_at,
             "writer": feed.writer(),
+            "robot": feed.robot(),
             "backend": self.backend.name,
             "codes": [f"in {getattr(c, 'co_qualname', c.co_name)}" for c in located.codes],
         }
@@ -929,6 +945,7 @@ class Agent:
                     "nodes": self._nodes,
                     "backend": "sys.monitoring" if hasattr(sys, "monitoring") else "settrace",
                     "writer": _writer(),
+                    "robot": _robot(),
                     "watches": [w.describe() for w in self.watches.values()],
                 }
             )
@@ -976,6 +993,13 @@ def _writer() -> int | None:
     from dbglog.api import feed
 
     return feed.writer() if feed.connected() else None
+
+
+def _robot() -> str | None:
+    """The robot namespace of the SDK's topics, once it is connected (``""``: the root)."""
+    from dbglog.api import feed
+
+    return feed.robot() if feed.connected() else None
 
 
 def _no_callback(_msg: object) -> None:

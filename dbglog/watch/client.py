@@ -116,6 +116,9 @@ class Process:
     """The rclpy nodes an executor of it spins (fully qualified)."""
     backend: str
     watches: tuple[ArmedWatch, ...]
+    robot: str = ""
+    """The robot namespace of its tags (``""``: the root; ``/robot1``): a watch's tag ``watch/x`` is on
+    ``topic_for_tag("watch/x", robot)``."""
 
     @property
     def name(self) -> str:
@@ -280,10 +283,12 @@ class Sample:
 class _Armed:
     """A watch's dealings with one process (client thread)."""
 
-    __slots__ = ("asked_at", "request", "status", "tags", "writer")
+    __slots__ = ("asked_at", "request", "robot", "status", "tags", "writer")
 
     def __init__(self, status: WatchStatus) -> None:
         self.status = status
+        self.robot = ""
+        """The robot namespace of the process's tags."""
         self.request = ""
         self.asked_at = 0.0
         self.tags: dict[int, str] = {}
@@ -378,7 +383,10 @@ class WatchClient:
         self._watches: dict[str, Watch] = {}
         self._closing: dict[str, tuple[Watch, float]] = {}
         """Watches disarmed less than `CLOSING_S` ago: their last values are still taken."""
-        self._array_subs: dict[str, Any] = {}
+        self._array_subs: dict[tuple[str, str], Any] = {}
+        """(robot, tag) -> the subscription of an array tag's topic (``values=True``)."""
+        self._batch_subs: dict[str, Any] = {}
+        """robot namespace -> the subscription of its batch topic (``values=True``)."""
         self._values = values
         topics = watch_topics()
         try:
@@ -396,16 +404,6 @@ class WatchClient:
                     "answers",
                 ),
             ]
-            if values:
-                from std_msgs.msg import UInt8MultiArray
-
-                from dbglog._ros._batch import BATCH_TOPIC
-                from dbglog._ros._qos import batch_qos
-
-                batch = node.create_subscription(
-                    UInt8MultiArray, BATCH_TOPIC, _no_callback, batch_qos(), raw=True
-                )
-                self._subs.append((batch, UInt8MultiArray, "batch"))
             self._wake = self._ros.guard()
         except Exception:
             self._ros.close()
@@ -586,7 +584,8 @@ class WatchClient:
         wait_set = WaitSet(self._ros, self._wake)
         last_graph = 0.0
         while not self._stop.is_set():
-            subs = [sub for sub, _cls, _kind in self._subs] + list(self._array_subs.values())
+            subs = [sub for sub, _cls, _kind in self._subs]
+            subs += [*self._batch_subs.values(), *self._array_subs.values()]
             try:
                 wait_set.wait(subs, int(_TICK_S * 1e9))
             except Exception:
@@ -608,19 +607,35 @@ class WatchClient:
     def _take(self) -> None:
         for sub, cls, kind in self._subs:
             for _ in range(256):
-                got = sub.handle.take_message(cls, kind == "batch")
+                got = sub.handle.take_message(cls, False)
                 if got is None:
                     break
-                if kind == "batch":
-                    self._on_batch(got[0])
-                else:
-                    self._on_message(kind, got[0].data)
-        for tag, sub in list(self._array_subs.items()):
+                self._on_message(kind, got[0].data)
+        for robot, sub in list(self._batch_subs.items()):
+            for _ in range(256):
+                got = sub.handle.take_message(sub.msg_type, True)
+                if got is None:
+                    break
+                self._on_batch(got[0], robot)
+        for (robot, tag), sub in list(self._array_subs.items()):
             for _ in range(256):
                 got = sub.handle.take_message(sub.msg_type, False)
                 if got is None:
                     break
-                self._on_array(tag, got[0], int(got[1].get("source_timestamp", 0)))
+                self._on_array(robot, tag, got[0], int(got[1].get("source_timestamp", 0)))
+
+    def _follow_robot(self, robot: object) -> None:
+        """Subscribe to a robot namespace's batch topic, where its processes' values go (``values=True``)."""
+        if not self._values or not isinstance(robot, str) or robot in self._batch_subs:
+            return
+        from std_msgs.msg import UInt8MultiArray
+
+        from dbglog._ros._batch import batch_topic
+        from dbglog._ros._qos import batch_qos
+
+        self._batch_subs[robot] = self._ros.node.create_subscription(
+            UInt8MultiArray, batch_topic(robot), _no_callback, batch_qos(), raw=True
+        )
 
     def _poll_graph(self) -> None:
         names = {name for name, _ns in self._ros.node.get_node_names_and_namespaces() if is_agent_node(name)}
@@ -647,6 +662,7 @@ class WatchClient:
             return
         with self._lock:
             self._announced[process.agent] = (process, time.monotonic())
+            self._follow_robot(message.get("robot"))
             self._reconcile(process, message)
 
     def _reconcile(self, process: Process, message: dict[str, Any]) -> None:
@@ -670,6 +686,7 @@ class WatchClient:
                     "path": entry.get("file", ""),
                     "armed_at": entry.get("armed_at", 0),
                     "writer": message.get("writer"),
+                    "robot": message.get("robot"),
                 }
                 self._apply_arm(watch, armed, fields)
 
@@ -707,6 +724,10 @@ class WatchClient:
         writer = message.get("writer")
         if isinstance(writer, int):
             armed.writer = writer
+        robot = message.get("robot")
+        if isinstance(robot, str):
+            armed.robot = robot
+            self._follow_robot(robot)
         if state == "armed":
             text = ", ".join(map(str, message.get("codes", [])))
         else:
@@ -756,7 +777,7 @@ class WatchClient:
                 tag = str(message.get("tag", ""))
                 if index >= 0 and tag and not tag.startswith(armed.tags.get(index, "\0") + "/"):
                     armed.tags[index] = armed.tags.get(index, tag)
-                self._follow_array(tag, str(message.get("type", "")))
+                self._follow_array(armed.robot, tag, str(message.get("type", "")))
                 text = f"{tag} ({message.get('type')})"
                 watch._events.append(
                     WatchEvent(status.agent, status.pid, status.host, "tag", status.state, text, index)
@@ -774,9 +795,10 @@ class WatchClient:
                 )
             )
 
-    def _follow_array(self, tag: str, type_name: str) -> None:
+    def _follow_array(self, robot: str, tag: str, type_name: str) -> None:
         """Subscribe to an array tag's topic (arrays are not in the batch)."""
-        if not self._values or tag in self._array_subs or not type_name.startswith("std_msgs/msg/"):
+        key = (robot, tag)
+        if not self._values or key in self._array_subs or not type_name.startswith("std_msgs/msg/"):
             return
         if not type_name.endswith("MultiArray"):
             return
@@ -787,14 +809,14 @@ class WatchClient:
             cls = message_class(type_name)
         except TypeGateError:
             return
-        self._array_subs[tag] = self._ros.node.create_subscription(
-            cls, topic_for_tag(tag), _no_callback, tag_qos()
+        self._array_subs[key] = self._ros.node.create_subscription(
+            cls, topic_for_tag(tag, robot), _no_callback, tag_qos()
         )
 
     # ----- values -------------------------------------------------------------------------------------
 
-    def _owners(self, tag: str, writer: int | None) -> list[tuple[Watch, _Armed, int, str]]:
-        """The (watch, process, expression, key) that `tag` belongs to (lock held).
+    def _owners(self, robot: str, tag: str, writer: int | None) -> list[tuple[Watch, _Armed, int, str]]:
+        """The (watch, process, expression, key) that `tag` of `robot`'s namespace belongs to (lock held).
 
         When several processes publish the tag, the batch's writer tells which one sent it (a process
         that reconnected its SDK has a new writer: then every owner gets it).
@@ -803,7 +825,7 @@ class WatchClient:
         closing = [w for w, _until in self._closing.values()]
         for watch in [*self._watches.values(), *closing]:
             for armed in watch._per.values():
-                if armed.status.state not in ("armed", "done", "cpu", "disarmed"):
+                if armed.status.state not in ("armed", "done", "cpu", "disarmed") or armed.robot != robot:
                     continue
                 for index, base in armed.tags.items():
                     if tag == base:
@@ -815,7 +837,7 @@ class WatchClient:
             return mine or out
         return out
 
-    def _on_batch(self, raw: bytes) -> None:
+    def _on_batch(self, raw: bytes, robot: str) -> None:
         from dbglog._ros._batch import BatchError, decode_batch
 
         with self._lock:
@@ -828,7 +850,7 @@ class WatchClient:
         got: list[tuple[Watch, Sample]] = []
         with self._lock:
             for samples in batch.tags:
-                owners = self._owners(samples.tag, batch.writer)
+                owners = self._owners(robot, samples.tag, batch.writer)
                 if not owners:
                     continue
                 values = samples.values if isinstance(samples.values, list) else samples.values.tolist()
@@ -841,9 +863,9 @@ class WatchClient:
             for watch, sample in got:
                 watch._samples.append(sample)
 
-    def _on_array(self, tag: str, msg: Any, stamp: int) -> None:
+    def _on_array(self, robot: str, tag: str, msg: Any, stamp: int) -> None:
         with self._lock:
-            for watch, armed, index, key in self._owners(tag, None):
+            for watch, armed, index, key in self._owners(robot, tag, None):
                 status = armed.status
                 if stamp >= status.armed_at:
                     value = tuple(msg.data.tolist() if hasattr(msg.data, "tolist") else msg.data)
@@ -945,6 +967,7 @@ def _process(message: dict[str, Any]) -> Process:
         nodes=_strings(message.get("nodes")),
         backend=str(message.get("backend", "")),
         watches=tuple(watches),
+        robot=str(message.get("robot") or ""),
     )
 
 
