@@ -232,9 +232,9 @@ def main() -> None:
             watch = client.arm(hit_spec)
             _armed(watch)
             rows.setdefault("hit armed", []).append(program.ask(f"hits {args.bursts}"))
-            time.sleep(1.0)
-            received += len(watch.samples())
             watch.disarm()
+            time.sleep(1.0)  # the last batches on their way
+            received += len(watch.samples())
             hits_sent += _sent(watch)
             rows.setdefault("hit removed", []).append(program.ask(f"hits {args.bursts}"))
             watch = client.arm(never_spec)

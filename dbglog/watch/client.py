@@ -408,6 +408,11 @@ class WatchClient:
         except Exception:
             self._ros.close()
             raise
+        try:
+            self._follow_robot("")  # the root's batch now: its writers are matched before the first watch
+        except Exception:
+            self._ros.close()
+            raise
         self._thread = threading.Thread(target=self._run, name="dbglog-watcher", daemon=True)
         self._thread.start()
 
