@@ -123,8 +123,7 @@ def test_an_error_in_a_watcher_never_reaches_the_program(backend: Backend, targe
 
 
 def test_other_tools_are_left_alone(targets: types.ModuleType) -> None:
-    """Another tool keeps what it has: 3.11, a thread's tracer (a debugger, coverage), reported; 3.12, its
-    sys.monitoring tool id (dbglog takes another, or says none is free)."""
+    """Another tool keeps its thread tracer (3.11, reported) or its sys.monitoring tool id (3.12)."""
     if sys.version_info >= (3, 12):
         mon: Any = sys.monitoring  # type: ignore[attr-defined]
         mon.use_tool_id(4, "someone")

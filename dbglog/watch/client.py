@@ -24,7 +24,6 @@ import threading
 import time
 import uuid
 from collections import deque
-from collections.abc import Iterable
 from dataclasses import dataclass, field
 from types import TracebackType
 from typing import Any, Final, Self
@@ -347,10 +346,11 @@ class Watch:
 
 
 class _Pending:
-    __slots__ = ("agent", "answer", "done", "text")
+    __slots__ = ("agent", "answer", "done", "req_id", "text")
 
-    def __init__(self, agent: str, text: str) -> None:
+    def __init__(self, agent: str, req_id: str, text: str) -> None:
         self.agent = agent
+        self.req_id = req_id
         self.text = text
         self.done = threading.Event()
         self.answer: dict[str, Any] | None = None
@@ -534,13 +534,10 @@ class WatchClient:
     def _agent_of(self, process: Process | str) -> str:
         return process.agent if isinstance(process, Process) else process
 
-    def _send(self, agent: str, op: str, fields: dict[str, Any], req_id: str | None = None) -> _Pending:
-        req_id = req_id or uuid.uuid4().hex[:16]
-        text = dumps({"op": op, "id": req_id, "client": self.node_name, "to": agent, **fields})
-        pending = _Pending(agent, text)
+    def _send(self, agent: str, op: str, fields: dict[str, Any]) -> _Pending:
         with self._lock:
-            self._pending[req_id] = pending
-        self._publish(text)
+            pending = self._pending[self._send_locked(agent, op, fields)]
+        self._publish(pending.text)
         return pending
 
     def _publish(self, text: str) -> None:
@@ -554,6 +551,8 @@ class WatchClient:
                 return pending.answer
             with self._lock:
                 gone = pending.agent in self._announced and not self._alive(pending.agent)
+                if gone or time.monotonic() >= deadline:
+                    self._pending.pop(pending.req_id, None)
             if gone:
                 raise WatchError("the process is gone", "gone")
             if time.monotonic() >= deadline:
@@ -901,6 +900,7 @@ class WatchClient:
                         continue
                     state = armed.status.state
                     if not alive and state not in ("gone", "disarmed"):
+                        self._pending.pop(armed.request, None)
                         armed.status = _replace(armed.status, state="gone", message="the process exited")
                         watch._events.append(
                             WatchEvent(
@@ -918,7 +918,7 @@ class WatchClient:
     def _send_locked(self, agent: str, op: str, fields: dict[str, Any]) -> str:
         req_id = uuid.uuid4().hex[:16]
         text = dumps({"op": op, "id": req_id, "client": self.node_name, "to": agent, **fields})
-        self._pending[req_id] = _Pending(agent, text)
+        self._pending[req_id] = _Pending(agent, req_id, text)
         return req_id
 
 
@@ -974,7 +974,3 @@ def _process(message: dict[str, Any]) -> Process:
         watches=tuple(watches),
         robot=str(message.get("robot") or ""),
     )
-
-
-def _unused(_items: Iterable[object]) -> None:
-    """Placeholder kept out of the API."""
