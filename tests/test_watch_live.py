@@ -360,10 +360,10 @@ def test_a_process_that_did_not_opt_in_is_never_touched(client: WatchClient, loo
     )
     try:
         started = time.monotonic()
-        out = _dbglog("watch", f"plain.py:{line_of('short', SHORT)}", "n", "--timeout", "4")
+        out = _dbglog("watch", f"plain.py:{line_of('short', SHORT)}", "n", "--timeout", "6")
         assert time.monotonic() - started < 30
         assert out.returncode == 1
-        assert "no watchable process has plain.py" in out.stderr
+        assert "no watchable process" in out.stderr  # "...has plain.py loaded", or none at all yet
         assert proc.pid not in {p.pid for p in client.processes()}
     finally:
         stop.touch()
