@@ -401,18 +401,22 @@ def test_a_restarted_process_is_armed_again(client: WatchClient, tmp: Path) -> N
     assert pids[0] != pids[1]
 
 
-def test_a_robot_namespace_process(client: WatchClient, tmp: Path) -> None:
-    """A process whose tags are under a robot namespace (DBGLOG_NAMESPACE) is watched on its robot topics."""
-    stop = tmp / "robot.stop"
+@pytest.mark.parametrize("how", ["env", "ros-args"])
+def test_a_robot_namespace_process(client: WatchClient, tmp: Path, how: str) -> None:
+    """A process whose tags are in a robot namespace (DBGLOG_NAMESPACE, or ``--ros-args -r __ns:=`` as
+    ros2 launch passes it) is watched on its robot's topics."""
+    stop = tmp / f"robot-{how}.stop"
+    extra = ["--ros-args", "-r", "__ns:=/robot8"] if how == "ros-args" else []
+    env = _env(DBGLOG_NAMESPACE="robot8") if how == "env" else _env()
     run = subprocess.Popen(
-        [sys.executable, "-m", "dbglog", "run", str(SHORT), "60", str(stop)],
+        [sys.executable, "-m", "dbglog", "run", str(SHORT), "60", str(stop), *extra],
         stdout=subprocess.PIPE,
-        env=_env(DBGLOG_NAMESPACE="robot7"),
+        env=env,
     )
-    watch = client.arm(WatchSpec("short.py", line_of("short", SHORT), ("n",), node=None))
+    watch = client.arm(WatchSpec("short.py", line_of("short", SHORT), ("n",)))
     try:
         samples, _ = _collect(watch, 10, START_S)
-        assert _process(client, run.pid).robot == "/robot7"
+        assert _process(client, run.pid).robot == "/robot8"
     finally:
         watch.disarm()
         stop.touch()

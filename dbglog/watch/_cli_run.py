@@ -141,7 +141,6 @@ def run(args: argparse.Namespace) -> int:
                 reconfigure(write_through=True)
     if "no_bytecode" in flags:
         sys.dont_write_bytecode = True
-    _start_agent()
     if kind == "module":
         sys.argv = [target, *rest]  # run_module sets argv[0] to the module's file, as python -m does
         sys.path[0] = os.getcwd()
@@ -149,6 +148,7 @@ def run(args: argparse.Namespace) -> int:
         path = os.path.abspath(target)
         sys.argv = [path, *rest]
         sys.path[0] = os.path.dirname(os.path.realpath(path))
+    _start_agent()  # after sys.argv is the program's: its --ros-args name the robot namespace
     try:
         if kind == "module":
             runpy.run_module(target, run_name="__main__", alter_sys=True)

@@ -628,6 +628,15 @@ class WatchClient:
                     break
                 self._on_array(robot, tag, got[0], int(got[1].get("source_timestamp", 0)))
 
+    def _follow_writer(self, armed: _Armed, message: dict[str, Any]) -> None:
+        """Take a process's current batch writer and robot namespace from its announcement (lock held)."""
+        writer, robot = message.get("writer"), message.get("robot")
+        if isinstance(writer, int):
+            armed.writer = writer
+        if isinstance(robot, str) and robot != armed.robot:
+            armed.robot = robot
+            self._follow_robot(robot)
+
     def _follow_robot(self, robot: object) -> None:
         """Subscribe to a robot namespace's batch topic, where its processes' values go (``values=True``)."""
         if not self._values or not isinstance(robot, str) or robot in self._batch_subs:
@@ -678,11 +687,12 @@ class WatchClient:
             for watch_id in entry["ids"]:
                 watch = self._watches.get(str(watch_id))
                 armed = None if watch is None else watch._per.get(process.agent)
-                if (
-                    watch is None
-                    or armed is None
-                    or armed.status.state not in ("asking", "no_file", "no_line")
-                ):
+                if watch is None or armed is None:
+                    continue
+                if armed.status.state == "armed":  # the program may have reconnected its SDK (dbglog.init)
+                    self._follow_writer(armed, message)
+                    continue
+                if armed.status.state not in ("asking", "no_file", "no_line"):
                     continue
                 fields = {
                     "state": "armed",
