@@ -163,8 +163,11 @@ def test_processes_are_listed_with_their_nodes(client: WatchClient, loop: Child,
     assert script.program[0] == str(LOOP)
     assert wait_until(lambda: _process(client, talker.proc.pid).nodes == ("/watch_talker",), 10), node
     assert script.backend == ("sys.monitoring" if sys.version_info >= (3, 12) else "settrace")
-    out = _dbglog("watch", "--list")
-    assert out.returncode == 0, out.stderr
+    for _ in range(3):  # a fresh process discovers the two at its own pace on a loaded machine
+        out = _dbglog("watch", "--list")
+        assert out.returncode == 0, out.stderr
+        if str(loop.proc.pid) in out.stdout and "/watch_talker" in out.stdout:
+            break
     assert str(loop.proc.pid) in out.stdout
     assert "/watch_talker" in out.stdout
 

@@ -128,8 +128,8 @@ def _who(process: Process | None, pid: int) -> str:
 
 
 def _settled(client: WatchClient) -> list[Process]:
-    """The processes, once discovery has settled: none new for a second after the discovery window (an
-    empty list is given up on after `_LIST_MAX_S`)."""
+    """The processes, once discovery has settled: none new for a second after the discovery window and
+    every watchable node on the graph announced (given up on after `_LIST_MAX_S`)."""
     processes = client.wait_for_processes()
     started = last_change = time.monotonic()
     while time.monotonic() - started < _LIST_MAX_S:
@@ -137,7 +137,7 @@ def _settled(client: WatchClient) -> list[Process]:
         now = client.processes()
         if [p.agent for p in now] != [p.agent for p in processes]:
             processes, last_change = now, time.monotonic()
-        elif processes and time.monotonic() - last_change >= 1.0:
+        elif processes and time.monotonic() - last_change >= 1.0 and not client.discovering():
             break
     return processes
 

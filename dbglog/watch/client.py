@@ -433,6 +433,12 @@ class WatchClient:
             self._stop.wait(remaining)
         return self.processes()
 
+    def discovering(self) -> bool:
+        """True while a watchable process's node is on the graph but its announcement has not come yet."""
+        with self._lock:
+            announced = {process.node for process, _since in self._announced.values()}
+            return bool(self._on_graph - announced)
+
     def files(self, process: Process | str, *, everything: bool = False, timeout: float = 5.0) -> list[str]:
         """The source files `process` has loaded: those of the user's tree, or all with `everything`.
 
