@@ -43,8 +43,12 @@ def _load(module: str) -> _Command:
     return cast(_Command, importlib.import_module(module))
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """Build the argument parser with every subcommand."""
+def build_parser(only: str | None = None) -> argparse.ArgumentParser:
+    """Build the argument parser with every subcommand, or with subcommand `only` alone.
+
+    Each subcommand's module is imported to declare its options; `main` builds the one it runs alone, so
+    that ``dbglog run`` does not load the other commands' modules into the program it runs.
+    """
     from dbglog import __version__
 
     parser = argparse.ArgumentParser(
@@ -54,6 +58,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"dbglog {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name, module in _COMMANDS.items():
+        if only is not None and name != only:
+            continue
         command = _load(module)
         child = sub.add_parser(name, help=command.HELP, description=command.HELP)
         command.add_arguments(child)
@@ -73,8 +79,10 @@ def interruptible() -> None:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the ``dbglog`` command line and return its exit code."""
-    parser = build_parser()
-    args = parser.parse_args(argv)
+    arguments = list(sys.argv[1:] if argv is None else argv)
+    first = arguments[0] if arguments else None
+    parser = build_parser(first if first in _COMMANDS else None)
+    args = parser.parse_args(arguments)
     if args.command is None:  # as argparse answers a missing argument: usage on stderr, status 2
         parser.print_help(sys.stderr)
         return 2

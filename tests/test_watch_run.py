@@ -59,6 +59,22 @@ def test_a_script_runs_as_main(tmp_path: Path) -> None:
     assert "switched off" in out.stderr
 
 
+def test_the_program_does_not_load_the_other_commands(tmp_path: Path) -> None:
+    """`dbglog run` loads only its own command's module: the viewer's, bridge's and recorder's stay out."""
+    script = _script(
+        tmp_path,
+        "mods.py",
+        """
+        import sys
+        others = ("dbglog.viewer", "dbglog.regex_bridge", "dbglog.record", "dbglog._demo", "re2", "yaml")
+        print(",".join(sorted(m for m in sys.modules if m.startswith(others))))
+        """,
+    )
+    out = _run(str(script), cwd=tmp_path)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == ""
+
+
 def test_a_module_runs_as_main(tmp_path: Path) -> None:
     """``-m MODULE`` runs the module as __main__, the current folder first on sys.path, as python -m."""
     pkg = tmp_path / "pkg"
