@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import itertools
+import random
+
 import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
@@ -14,6 +17,7 @@ from dbglog._ros._tags import (
     dotted_namespace,
     escape_tag,
     logger_namespace,
+    natural_key,
     normalize_robot,
     parse_target,
     parse_topic,
@@ -289,3 +293,28 @@ def test_ros_args_namespace_reads_argv_as_rcl_does(args: list[str]) -> None:
     finally:
         context.try_shutdown()
     assert (ros_args_namespace(argv) or "/") == rcl_namespace
+
+
+def test_natural_key_orders_numbers_by_value() -> None:
+    """Digit runs sort by their value (s2 before s10), letters without case first, ties by the text."""
+    assert sorted(["s10", "s2", "s1", "s0", "s11"], key=natural_key) == ["s0", "s1", "s2", "s10", "s11"]
+    assert sorted(["b", "A", "a2", "a10", "a"], key=natural_key) == ["A", "a", "a2", "a10", "b"]
+    assert sorted(["robot10:x", "robot2:x", "robot1:y"], key=natural_key) == [
+        "robot1:y",
+        "robot2:x",
+        "robot10:x",
+    ]
+    assert sorted(["a1", "a01", "a001"], key=natural_key) == ["a001", "a01", "a1"]
+    assert sorted(["x/10/a", "x/9/b", "x/9"], key=natural_key) == ["x/9", "x/9/b", "x/10/a"]
+
+
+@given(st.lists(st.text(alphabet="ab01_/9", max_size=8), max_size=12), st.randoms())
+def test_natural_key_is_a_total_order(texts: list[str], rnd: random.Random) -> None:
+    """Any texts sort without error, in one order however they come; equal keys only for equal texts."""
+    once = sorted(texts, key=natural_key)
+    shuffled = list(texts)
+    rnd.shuffle(shuffled)
+    assert sorted(shuffled, key=natural_key) == once
+    for a, b in itertools.pairwise(once):
+        assert natural_key(a) <= natural_key(b)
+        assert (natural_key(a) == natural_key(b)) == (a == b)

@@ -26,6 +26,7 @@ __all__ = [
     "escape_tag",
     "logger_namespace",
     "name_problem",
+    "natural_key",
     "normalize_robot",
     "parse_target",
     "parse_topic",
@@ -53,11 +54,30 @@ EMPTY_TAG = "__"
 _NAME_CHARS = re.compile(r"[^A-Za-z0-9_/]")
 _NAMESPACE = re.compile(r"(?:/[A-Za-z_][A-Za-z0-9_]*)+")
 _ESCAPE = re.compile(r"__([0-9a-f]{2,6})_")
+_DIGITS = re.compile(r"(\d+)")
 _CHAR_CODES = 0x10FFFF
 
 
 class TagError(ValueError):
     """A tag or robot name that cannot be turned into a topic (not a string, or too long)."""
+
+
+# ----- order --------------------------------------------------------------------------------------
+
+
+def natural_key(text: str) -> tuple[tuple[str | int, ...], str]:
+    """Return a sort key that orders text as people read it: runs of digits by their value.
+
+    ``sorted(["s10", "s2", "S1"], key=natural_key)`` is ``["S1", "s2", "s10"]``. Letters compare without
+    case first; texts that differ only in case or leading zeros (``a01``, ``a1``) then compare as they
+    are, so the order is total. Every key is a tuple of alternating text and numbers starting with text,
+    so any two keys compare (never a number against a text).
+
+    Args:
+        text: the text (a tag, a label, a topic name).
+    """
+    parts = _DIGITS.split(text)
+    return tuple(int(p) if i % 2 else p.casefold() for i, p in enumerate(parts)), text
 
 
 # ----- tags ---------------------------------------------------------------------------------------
