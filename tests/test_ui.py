@@ -159,7 +159,7 @@ def scenario_toolbox_lists_every_widget_with_drag_payload(
 ) -> None:
     """The toolbox has a draggable button per registered widget, and the canvas accepts that payload."""
     assert list(app.canvas.tools.buttons) == [
-        *("plot", "dial", "knob", "compass", "thermo", "string", "led", "log"),
+        *("plot", "dial", "knob", "compass", "thermo", "string", "led", "states", "log"),
         *("toggle", "slider", "button", "text_field", "publish"),
     ]
     for button in app.canvas.tools.buttons.values():

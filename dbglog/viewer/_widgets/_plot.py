@@ -193,13 +193,13 @@ def _line_theme(color: tuple[int, int, int, int], weight: float) -> int | str:
 
 
 class PlotWidget(Widget):
-    """A time plot of up to six series; it never sends more points to the GPU than it has pixels."""
+    """A time plot of up to eight series; it never sends more points to the GPU than it has pixels."""
 
     type_name = "plot"
     label = "Plot"
     description = "Time plot of one or more series"
     accepts = frozenset({ValueKind.NUMBER, ValueKind.BOOL})
-    max_bindings = 6
+    max_bindings = 8
     properties = (
         Property("window", PropKind.NUMBER, 10.0, minimum=0.5, maximum=3600, label="Time window (s)"),
         Property("scale", PropKind.CHOICE, "auto", choices=("auto", "fixed")),

@@ -27,6 +27,7 @@ BUILTIN_WIDGETS: dict[str, str] = {
     "thermo": "dbglog.viewer._widgets._gauges:ThermoWidget",
     "string": "dbglog.viewer._widgets._text:StringWidget",
     "led": "dbglog.viewer._widgets._text:LedWidget",
+    "states": "dbglog.viewer._widgets._states:StatesWidget",
     "log": "dbglog.viewer._widgets._log:LogWidget",
     "toggle": "dbglog.viewer._widgets._controls:ToggleWidget",
     "slider": "dbglog.viewer._widgets._controls:SliderWidget",
