@@ -21,7 +21,7 @@ from dbglog.viewer._ui._frame import TITLE_H, CanvasItem, FrameSnapshots
 from dbglog.viewer._ui._modal import Dialogs
 from dbglog.viewer._ui._plotnumber import NumberPlan
 from dbglog.viewer._widgets import WidgetRegistry
-from dbglog.viewer._widgets._geometry import Rect, free_spot, snap_rect
+from dbglog.viewer._widgets._geometry import Rect, free_spot, overlaps, snap_rect
 from dbglog.viewer.widget_api import TimeRange, Widget, WidgetHost
 
 __all__ = ["TEXT_ENTRY_TYPES", "Canvas"]
@@ -329,14 +329,23 @@ class Canvas:
 
     # -- each frame -----------------------------------------------------------------------------------
 
+    def in_view(self) -> list[CanvasItem]:
+        """The widgets the canvas shows now, in drawing order: those out of view cost nothing (not read, not
+        redrawn) and catch up when scrolled into view, since the timeline holds every series' state."""
+        w, h = self.size()
+        if w <= 1 or h <= 1:  # no frame rendered yet: no view to go by
+            return list(self.doc.items)
+        view = self.view_rect()
+        return [item for item in self.doc.items if overlaps(view, item.rect)]
+
     def changed(self, at: float | None) -> bool:
-        """Between frames: whether a widget's series changed (each read once a frame: `FrameSnapshots`)."""
+        """Between frames: whether a widget in view changed (each series read once: `FrameSnapshots`)."""
         self.snaps.begin()
-        return any(item.changed(self.snaps, paused_at=at) for item in self.doc.items)
+        return any(item.changed(self.snaps, paused_at=at) for item in self.in_view())
 
     def refresh(self, now: float, at: float | None) -> None:
-        """Redraw the widgets whose series changed; a control that changed its own value marks the file."""
-        for item in self.doc.items:
+        """Redraw the widgets in view whose series changed; a control that changed its value marks the doc."""
+        for item in self.in_view():
             item.refresh(self.snaps, now, paused_at=at)
             if item.edited:  # a control changed its own saved value (a toggle switched, a slider moved)
                 item.edited = False

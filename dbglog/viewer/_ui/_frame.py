@@ -339,6 +339,20 @@ class CanvasItem:
             return None
         return max(0.0, seconds)
 
+    def current_status(self, source: SnapshotReader) -> tuple[Status, str]:
+        """The status and reason `refresh` would show now, read from `source` without drawing anything.
+
+        A widget out of view is not refreshed (`Canvas.refresh`): its pill shows what it showed last, and
+        this says what it would show.
+        """
+        if self.widget is None or self.failed:
+            return self.status, self.reason
+        try:
+            own = self.widget.status()
+        except Exception as exc:  # `refresh` disables the widget and says why
+            return Status.ERROR, f"widget failed to report its status: {exc!r}"
+        return own if own is not None else combined_status(self._snapshots(source))
+
     def changed(self, source: SnapshotReader, *, paused_at: float | None = None) -> bool:
         """Whether `refresh` would redraw now (a count, status or reason changed, the cursor moved)."""
         if self.widget is None or self.failed:
