@@ -142,6 +142,15 @@ def test_cli_replay_screenshot_at_a_cursor_reports_the_recorded_values(display: 
         assert [w["name"] for w in data["widgets"] if w["status"] == "error"] == []
 
 
+def shown_by_topic(report: dict[str, Any]) -> dict[str, tuple[str, Any]]:
+    """Each topic's widget type and the value shown for it (a widget may show several topics)."""
+    return {
+        b["topic"]: (w["type"], value)
+        for w in report["widgets"]
+        for b, value in zip(w["bindings"], w["values"], strict=True)
+    }
+
+
 def test_cli_replay_without_a_dashboard_shows_every_topic_and_its_end(display: str, tmp_path: Path) -> None:
     """Without DASH the automatic dashboard has a widget per tag and topic of the file, shown at its end."""
     rec = write_recording(tmp_path / "run.mcap")
@@ -162,12 +171,12 @@ def test_cli_replay_without_a_dashboard_shows_every_topic_and_its_end(display: s
     assert data["cursor"] == pytest.approx(T0 + 59.9)
     bound = {b["topic"] for w in data["widgets"] for b in w["bindings"]}
     assert bound == {SPEED, MODE, NEAR, CMD}
-    by_topic = {w["bindings"][0]["topic"]: w for w in data["widgets"]}
-    assert by_topic[SPEED]["values"] == [speed_at(T0 + 59.9)]
-    assert by_topic[MODE]["values"] == ["mode 11"]
-    assert by_topic[MODE]["type"] == "string"
-    assert by_topic[NEAR]["type"] == "led"
-    assert by_topic[CMD]["bindings"][0]["field"] == "linear.x"
+    shown = shown_by_topic(data)
+    assert shown[SPEED][1] == speed_at(T0 + 59.9)
+    assert shown[MODE] == ("states", "mode 11")
+    assert shown[NEAR][0] == "states"
+    cmd = next(w for w in data["widgets"] if w["bindings"][0]["topic"] == CMD)
+    assert cmd["bindings"][0]["field"] == "linear.x"
 
 
 def test_cli_replay_of_files_without_an_index_plays_every_message(display: str, tmp_path: Path) -> None:
@@ -195,10 +204,17 @@ def test_cli_replay_of_files_without_an_index_plays_every_message(display: str, 
         assert len(notes) == 1, done.stderr
         assert f"{rec}: no " in notes[0]
         assert f"read by scanning the whole file: {3 * n} messages in " in notes[0]
-        widgets = {w["bindings"][0]["topic"]: w for w in json.loads(report.read_text())["widgets"]}
-        assert widgets["/rosdashboard/speed"]["samples"] == [n]
-        assert widgets["/rosdashboard/speed"]["values"] == [(n - 1) * 0.5]
-        assert set(widgets["/cmd_vel"]["samples"]) == {n}  # one binding per Twist field
+        widgets = json.loads(report.read_text())["widgets"]
+        samples = {
+            (b["topic"], b["field"]): held
+            for w in widgets
+            for b, held in zip(w["bindings"], w["samples"], strict=True)
+        }
+        assert samples[("/rosdashboard/speed", "")] == n
+        assert shown_by_topic({"widgets": widgets})["/rosdashboard/speed"][1] == (n - 1) * 0.5
+        assert {held for (topic, _f), held in samples.items() if topic == "/cmd_vel"} == {
+            n
+        }  # each Twist field
 
 
 # A window over a recording takes a screenshot to a new file, then one that fails (no time to capture) over

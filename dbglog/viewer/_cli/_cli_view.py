@@ -21,6 +21,7 @@ if TYPE_CHECKING:
     from dbglog.viewer._data._replay import ReplaySource
     from dbglog.viewer._publishing._republish import Republisher
     from dbglog.viewer._ui import ViewerApp
+    from dbglog.viewer._ui._auto import AutoDashboard
 
 __all__ = [
     "HELP",
@@ -287,6 +288,7 @@ def run(args: argparse.Namespace) -> int:
             print(f"dbglog view: {args.dashboard}: {message}", file=sys.stderr)
 
     from dbglog.viewer._ui import ViewerApp
+    from dbglog.viewer._ui._auto import AutoDashboard
     from dbglog.viewer._ui._display import x_display_problem
 
     display_problem = x_display_problem(
@@ -382,7 +384,7 @@ def run(args: argparse.Namespace) -> int:
                 app.frame()
             newest = place_cursor(app, args.cursor) if args.cursor is not None else None
             if args.report_json is not None:
-                write_full_report(app, args.report_json, cursor_from=newest)
+                write_full_report(app, args.report_json, cursor_from=newest, auto=auto)
             try:
                 path = app.screenshot(args.screenshot)
             except (OSError, TimeoutError) as exc:
@@ -392,7 +394,7 @@ def run(args: argparse.Namespace) -> int:
             return 0
         app.run()
         if args.report_json is not None:
-            write_full_report(app, args.report_json)
+            write_full_report(app, args.report_json, auto=auto)
         return 0
     finally:
         app.close()
@@ -424,15 +426,17 @@ def events_of_source(source: object) -> EventStore | None:
     return made if isinstance(made, EventStore) else None
 
 
-def write_full_report(app: ViewerApp, path: Path, *, cursor_from: float | None = None) -> Path:
-    """Write ``--report-json``: the widgets' report and ``events``, every parameter change (and deletion)
-    the viewer saw and every user marker, oldest first."""
+def write_full_report(
+    app: ViewerApp, path: Path, *, cursor_from: float | None = None, auto: AutoDashboard | None = None
+) -> Path:
+    """Write ``--report-json``: the widgets' report (with the automatic dashboard's panels, `auto`) and
+    ``events``, every parameter change (and deletion) the viewer saw and every user marker, oldest first."""
     import json
 
     from dbglog.viewer._data._events import event_json
     from dbglog.viewer._ui._auto import widget_report
 
-    report = widget_report(app, cursor_from=cursor_from)
+    report = widget_report(app, cursor_from=cursor_from, auto=auto)
     events = events_of_source(app.source)
     report["events"] = [event_json(e) for e in events.all()] if events is not None else []
     path.parent.mkdir(parents=True, exist_ok=True)
