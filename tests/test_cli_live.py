@@ -141,6 +141,28 @@ def test_tags_lists_every_tag_of_two_processes_every_run(robots: Callable[..., R
         assert out.stderr == "", out.stderr
 
 
+def test_tags_lists_in_natural_order_and_settle_sets_the_least_wait(robots: Callable[..., Robot]) -> None:
+    """Rows in natural order (t2 before t10); --settle shortens the least wait for discovery (default 4 s),
+    and a negative one is refused."""
+    robot = robots("lv_nat", 12, 20.0)
+    _until_published(robot.tags[0])
+    begun = time.monotonic()
+    default = _dbglog("tags")
+    took_default = time.monotonic() - begun
+    begun = time.monotonic()
+    quick = _dbglog("tags", "--settle", "0.5")
+    took_quick = time.monotonic() - begun
+    for out in (default, quick):
+        assert out.returncode == 0, out.stderr
+        listed = [tag for tag in _table(out.stdout) if tag.startswith("lv_nat/")]
+        assert listed == [f"lv_nat/t{k}" for k in range(12)], out.stdout
+    assert took_default >= 4.0
+    assert took_quick < took_default
+    refused = _dbglog("tags", "--settle", "-1")
+    assert refused.returncode == 2
+    assert "--settle must be >= 0" in refused.stderr
+
+
 def test_tags_rates_are_true_and_stale_tags_have_none(robots: Callable[..., Robot]) -> None:
     """Rates match 2 Hz and 20 Hz publishers; a tag set once long ago and a killed process show no rate."""
     fast = robots("lv_rate20", 3, 20.0, "latched")

@@ -11,7 +11,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from dbglog._ros._tags import robot_label, tag_of
+from dbglog._ros._tags import natural_key, robot_label, tag_of
 from dbglog.viewer._data._suggest import DISCOVERY_HORIZON_S
 
 if TYPE_CHECKING:
@@ -66,8 +66,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=_DEFAULT_WAIT_S,
         metavar="S",
         help="at most this many seconds for DDS discovery and first values (default %(default)g); "
-        f"the table prints as soon as the graph has settled (usually after {DISCOVERY_HORIZON_S:g}-5 s) and "
+        "the table prints as soon as the graph has settled (after --settle, usually by a second more) and "
         "every tag has its first value, or says on stderr which tags it gave up on",
+    )
+    parser.add_argument(
+        "--settle",
+        type=float,
+        default=DISCOVERY_HORIZON_S,
+        metavar="S",
+        help="the least time given to DDS discovery before the table prints (default %(default)g s: a robot "
+        "that missed the handshake shows up at its next announcement, up to ~3.4 s on a loaded machine); "
+        "lower it to print sooner when every robot is found at once",
     )
     parser.add_argument(
         "--interval", type=float, default=1.0, metavar="S", help="refresh period with --watch (default 1 s)"
@@ -216,14 +225,22 @@ def _header(topics: list[TopicInfo], show_all: bool) -> list[str]:
     return ["robot", *head] if _robots(topics, show_all) else head
 
 
+def _order(info: TopicInfo, show_all: bool) -> tuple[object, ...]:
+    """A row's place: by robot, then by the tag as logged (by topic name with --all), in natural order."""
+    tag = info.tag_name
+    if show_all or tag is None:
+        return ((), natural_key(info.name))
+    return (natural_key(tag.robot), natural_key(tag.text))
+
+
 def _rows(engine: Engine, topics: list[TopicInfo], seen: dict[str, _Seen], show_all: bool) -> list[list[str]]:
     from dbglog.viewer._data._model import Binding, Status
 
     now = time.monotonic()
     robots = _robots(topics, show_all)
     rows = []
-    if robots:  # each robot's tags together, the root's first
-        topics = sorted(topics, key=lambda t: (t.robot, t.tag_name.text if t.tag_name else t.name))
+    # Natural order (s2 before s10); each robot's tags together, the root's first.
+    topics = sorted(topics, key=lambda t: _order(t, show_all))
     for info in topics:
         tag = info.tag_name
         name = info.name if show_all or tag is None else (tag.text if robots else tag.label)
@@ -284,7 +301,7 @@ def _settle(engine: Engine, args: argparse.Namespace, seen: dict[str, _Seen]) ->
             early = bool(topics) and now - changed_at < _QUIET_S
             break
         waiting = _waiting_for(engine, topics, seen, now, _VALUE_GRACE_S)
-        if topics and now - started >= DISCOVERY_HORIZON_S and now - changed_at >= _QUIET_S and not waiting:
+        if topics and now - started >= args.settle and now - changed_at >= _QUIET_S and not waiting:
             break
         time.sleep(_POLL_S)
     waiting = _waiting_for(engine, topics, seen, now, math.inf)
@@ -322,8 +339,8 @@ def run(args: argparse.Namespace) -> int:
         return _of_file(args)
     from dbglog.viewer._data._engine import Engine
 
-    if args.wait < 0 or args.interval <= 0:
-        print("dbglog tags: --wait must be >= 0 and --interval > 0", file=sys.stderr)
+    if args.wait < 0 or args.settle < 0 or args.interval <= 0:
+        print("dbglog tags: --wait must be >= 0, --settle must be >= 0 and --interval > 0", file=sys.stderr)
         return 2
     seen: dict[str, _Seen] = {}
     with Engine(node_name="dbglog_tags", hold_tags=False) as engine:
