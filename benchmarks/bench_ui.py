@@ -24,6 +24,13 @@ graph), 20 widgets idle, 20 widgets paused in a replay's history (``--replay-min
 of 50 topics x 100 Hz; the *replay* rows), 20 widgets live. ``--compare TREE`` runs the same rows, with the
 same caps, with the ``dbglog`` package of another checkout (e.g. ``git worktree add /tmp/old HEAD~1``)
 beside this one.
+
+The *fleet* rows (``--scenarios fleet,fleet-run``) start two robot processes (`benchmarks/_fleet.py`,
+``--fleet-tags`` tags each in subsystems of 20, at ``--fleet-rate`` Hz, through the dbglog SDK, in
+``/robot1`` and ``/robot2``) and let the automatic dashboard build itself on the live graph; the frames are
+measured once every tag is placed and every widget live (the first screen in view, the rest below it),
+and the time that took is printed with the widget count. ``--compare TREE`` runs them with the other
+checkout too (its own automatic dashboard).
 """
 
 from __future__ import annotations
@@ -175,6 +182,7 @@ def _ui(args: argparse.Namespace) -> None:
     engine: Any = None
     source: _DataSource
     recording = False
+    auto: Any = None
     if args.source == "replay":  # a recording's history, paused in its middle: nothing changes
         import numpy as np
 
@@ -191,7 +199,7 @@ def _ui(args: argparse.Namespace) -> None:
                 store.append_numbers(name, t, np.sin(t * (0.1 + k * 0.01)))
         source = ReplaySource(store, dict.fromkeys(names, "std_msgs/msg/Float64"))
         recording = True
-    elif args.source in ("engine", "crowd"):
+    elif args.source in ("engine", "crowd", "fleet"):
         from dbglog.viewer import Engine
 
         engine = Engine(stale_after=2.0)
@@ -213,8 +221,23 @@ def _ui(args: argparse.Namespace) -> None:
     app.start()
     dpg.set_viewport_vsync(args.vsync)
     app.set_snap(False)
+    ready_s = math.nan
+    if args.source == "fleet":  # the automatic dashboard builds itself; measured once every tag is live
+        from dbglog.viewer._ui._auto import AutoDashboard, all_live
+
+        auto = AutoDashboard(app)
+        auto.install()
+        begun = time.monotonic()
+        expected = 2 * args.fleet_tags
+
+        def placed() -> bool:
+            return bool(len({b.topic for i in app.items for b in i.bindings}) >= expected)
+
+        while time.monotonic() - begun < 120 and (auto.pending or not placed() or not all_live(app)):
+            app.frame()
+        ready_s = time.monotonic() - begun if placed() and all_live(app) else math.nan
     cell_w, cell_h = (width - 220) // 5, (height - 90) // 4
-    for n, (kind, topics) in enumerate(_layout() if args.source not in ("empty", "crowd") else []):
+    for n, (kind, topics) in enumerate(_layout() if args.source not in ("empty", "crowd", "fleet") else []):
         item = app.add_widget(kind, 0, 0)
         assert item is not None
         rect = type(item.rect)  # the viewer's Rect, wherever this checkout keeps it
@@ -262,6 +285,7 @@ def _ui(args: argparse.Namespace) -> None:
     taken = (engine.stats().taken - taken0) if engine is not None else 0
     updates = sum(i.updates for i in app.items) - updates0
     live = sum(1 for i in app.items if i.status.value == "live")
+    app_items = list(app.items)
     info = {"gl": _gl_info(), "screen": _x_depth()}
     if args.shot:
         app.screenshot(args.shot)
@@ -279,6 +303,8 @@ def _ui(args: argparse.Namespace) -> None:
         "taken": taken,
         "updates": updates,
         "live": live,
+        "widgets": len(app_items),
+        "ready_s": ready_s,
         **info,
     }
     print(json.dumps(out), flush=True)
@@ -317,6 +343,7 @@ def _measure(
         pub = _role("crowd", "--crowd", args.crowd, "--duration", args.warmup + args.duration + 30)
         assert pub.stdout is not None
         pub.stdout.readline()  # "up": every publisher exists
+    robots = _fleet(args) if source == "fleet" else []
     cmd = [
         sys.executable,
         "-m",
@@ -349,6 +376,8 @@ def _measure(
         str(args.warmup),
         "--shot",
         shot,
+        "--fleet-tags",
+        str(args.fleet_tags),
     ]
     if vsync:
         cmd.append("--vsync")
@@ -362,9 +391,10 @@ def _measure(
             check=False,
         )
     finally:
-        if pub is not None:
-            pub.kill()
-            pub.wait()
+        for proc in [pub, *robots]:
+            if proc is not None:
+                proc.kill()
+                proc.wait()
     if ui.returncode != 0:
         raise RuntimeError(f"ui child failed:\n{ui.stderr}")
     data = json.loads(ui.stdout.strip().splitlines()[-1])
@@ -390,9 +420,36 @@ def _measure(
         "msgs": data["taken"] / data["elapsed"],
         "ups": data["updates"] / data["elapsed"],
         "live": data["live"],
+        "widgets": data.get("widgets", math.nan),
+        "ready_s": data.get("ready_s", math.nan),
         "gl": data["gl"],
         "screen": data["screen"],
     }
+
+
+def _fleet(args: argparse.Namespace) -> list[subprocess.Popen[str]]:
+    """Start the two robots of the fleet rows; return once both have logged every tag."""
+    robots = []
+    for namespace in ("robot1", "robot2"):
+        options = [
+            "--subsystems",
+            str(max(1, args.fleet_tags // 20)),
+            "--tags",
+            "20",
+            "--rate",
+            str(args.fleet_rate),
+        ]
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "benchmarks._fleet", *options],
+            cwd=_ROOT,
+            stdout=subprocess.PIPE,
+            text=True,
+            env={**os.environ, "DBGLOG_NAMESPACE": namespace},
+        )
+        assert proc.stdout is not None
+        assert proc.stdout.readline().strip() == "publishing", f"the {namespace} process did not start"
+        robots.append(proc)
+    return robots
 
 
 def _fmt(value: float, spec: str = ".1f") -> str:
@@ -404,7 +461,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0] if __doc__ else None)
     parser.add_argument("--role", choices=("main", "publisher", "crowd", "ui"), default="main")
     parser.add_argument(
-        "--source", choices=("empty", "static", "engine", "replay", "crowd"), default="engine"
+        "--source", choices=("empty", "static", "engine", "replay", "crowd", "fleet"), default="engine"
     )
     parser.add_argument("--width", type=int, default=1440)
     parser.add_argument("--height", type=int, default=900)
@@ -413,6 +470,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--crowd", type=int, default=300, help="topics on the graph beside the crowd-run row (default 300)"
     )
+    parser.add_argument("--fleet-tags", type=int, default=300, help="tags of each robot of the fleet rows")
+    parser.add_argument("--fleet-rate", type=float, default=10.0, help="Hz of each tag of the fleet rows")
     parser.add_argument("--duration", type=float, default=8.0, help="measured seconds per repeat")
     parser.add_argument("--warmup", type=float, default=3.0)
     parser.add_argument("--repeats", type=int, default=3)
@@ -463,6 +522,8 @@ def main(argv: list[str] | None = None) -> int:
         "static-run": ("static", False, "20 widgets, nothing changing"),
         "replay-run": ("replay", False, "20 widgets paused in a replay's history, nothing changing"),
         "engine-run": ("engine", False, "20 widgets live: 50 topics x 100 Hz"),
+        "fleet": ("fleet", False, f"automatic dashboard, 2 robots x {args.fleet_tags} tags, vsync off"),
+        "fleet-run": ("fleet", False, f"automatic dashboard, 2 robots x {args.fleet_tags} tags"),
     }
     chosen = [s.strip() for s in args.scenarios.split(",") if s.strip()]
     unknown = [s for s in chosen if s not in labels]
@@ -471,11 +532,12 @@ def main(argv: list[str] | None = None) -> int:
     load_before = os.getloadavg()
     rows = []
     run_rows = []
+    notes: list[str] = []
     env_line = ""
     for name in chosen:
         source, vsync, label = labels[name]
         loop = "run" if name.endswith("-run") else "frames"
-        codes = [""] + ([args.compare] if args.compare and loop == "run" else [])
+        codes = [""] + ([args.compare] if args.compare and (loop == "run" or source == "fleet") else [])
         for code in codes:
             runs = [
                 _measure(
@@ -490,6 +552,12 @@ def main(argv: list[str] | None = None) -> int:
             ]
             env_line = f"GL: {runs[0]['gl']}; X screen {runs[0]['screen']}"
             med = {k: statistics.median(r[k] for r in runs) for k in runs[0] if k not in ("gl", "screen")}
+            if source == "fleet":
+                label = f"{labels[name][2]} ({code or 'this checkout'})"
+                notes.append(
+                    f"{label}: {med['widgets']:.0f} widgets, every one live "
+                    f"{_fmt(med['ready_s'])} s after the dashboard started (median of {args.repeats})"
+                )
             if loop == "run":
                 run_rows.append(
                     [
@@ -506,7 +574,7 @@ def main(argv: list[str] | None = None) -> int:
                 continue
             rows.append(
                 [
-                    label,
+                    f"{label} [{code}]" if code else label,
                     f"{med['frames']:.0f}",
                     _fmt(med["p50"]),
                     _fmt(med["p95"]),
@@ -560,6 +628,8 @@ def main(argv: list[str] | None = None) -> int:
             ],
             rows,
         )
+    for note in notes:
+        print(f"\n{note}")
     env = {
         k: os.environ.get(k, "unset") for k in ("LIBGL_ALWAYS_SOFTWARE", "GALLIUM_DRIVER", "LP_NUM_THREADS")
     }

@@ -363,6 +363,7 @@ def test_two_robots_of_300_tags_get_a_panel_each_subsystem(
     try:
         state = v.wait_for(lambda s: s["widgets"] >= 90 and not s["pending"] and s["live"], timeout=60)
         print(f"\nfleet: every tag placed and live {state['since']:.1f} s after the dashboard started")
+        assert state["since"] <= 15.0, "every tag bound and live within 15 s"
         report = v.report()
         widgets = [w for w in report["widgets"] if (w["panel"] or "").startswith(("robot1:", "robot2:"))]
         assert len(widgets) <= 100

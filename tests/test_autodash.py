@@ -13,6 +13,7 @@ from hypothesis import strategies as st
 
 from dbglog._ros._tags import natural_key
 from dbglog.viewer._data._model import Binding, FieldInfo, TopicInfo
+from dbglog.viewer._data._suggest import DISCOVERY_HORIZON_S
 from dbglog.viewer._document._autodash import (
     LARGE_GROUP,
     MAX_WAIT_S,
@@ -63,7 +64,7 @@ def _extent(tag: AutoTag) -> float:
 def _plan_all(
     tags: list[AutoTag], plan: AutoPlan | None = None, **step: object
 ) -> tuple[AutoPlan, list[AddWidget]]:
-    plan = plan if plan is not None else AutoPlan()
+    plan = plan if plan is not None else AutoPlan(first_wait_s=0.0)
     for tag in tags:
         plan.offer(tag, 0.0)
     actions = plan.step(MAX_WAIT_S, lambda t: Observed(20, _extent(t)), **step)  # type: ignore[arg-type]
@@ -175,7 +176,7 @@ def test_similar_magnitudes_share_a_plot_when_the_budget_allows() -> None:
     """A panel's numbers spanning decades are split by magnitude while within budget, never otherwise."""
     tags = [_tag(f"arm/{n}") for n in ("small_a", "small_b", "big")]
     extents = {"small_a": 0.5, "small_b": 0.8, "big": 1000.0}
-    plan = AutoPlan()
+    plan = AutoPlan(first_wait_s=0.0)
     for tag in tags:
         plan.offer(tag, 0.0)
     actions = plan.step(MAX_WAIT_S, lambda t: Observed(20, extents[t.text.rsplit("/", 1)[-1]]))
@@ -183,7 +184,7 @@ def test_similar_magnitudes_share_a_plot_when_the_budget_allows() -> None:
         [b.topic.rsplit("/", 1)[-1] for b in a.config.bindings] for a in actions if isinstance(a, AddWidget)
     ]
     assert plots == [["big"], ["small_a", "small_b"]]
-    tight = AutoPlan(budget=1)
+    tight = AutoPlan(budget=1, first_wait_s=0.0)
     for tag in tags:
         tight.offer(tag, 0.0)
     (one,) = tight.step(MAX_WAIT_S, lambda t: Observed(20, extents[t.text.rsplit("/", 1)[-1]]))
@@ -232,7 +233,7 @@ def test_robots_and_names_sort_naturally() -> None:
 
 def test_tags_wait_for_a_quiet_graph_and_their_values() -> None:
     """Nothing is placed while tags keep appearing or a number has no values yet; then all at once."""
-    plan = AutoPlan()
+    plan = AutoPlan(first_wait_s=0.0)
     plan.offer(_tag("a/x"), 0.0)
     plan.offer(_tag("a/flag", "bool"), 0.5)
     values = {"/rosdashboard/a/x": Observed()}
@@ -248,13 +249,25 @@ def test_tags_wait_for_a_quiet_graph_and_their_values() -> None:
     assert plan.waiting == []
 
 
+def test_the_first_panels_wait_for_discovery_to_settle() -> None:
+    """Nothing is placed before the discovery horizon: a robot found at its next announcement still lands
+    in natural order with the first panels (robot1 before robot2, however the graph showed them)."""
+    plan = AutoPlan()
+    plan.offer(_tag("s1/x", "bool", "/robot2"), 0.0)
+    assert plan.step(0.0, lambda t: None) == []
+    assert plan.step(DISCOVERY_HORIZON_S - 0.5, lambda t: None) == []
+    plan.offer(_tag("s1/x", "bool", "/robot1"), DISCOVERY_HORIZON_S - 0.5)
+    adds = plan.step(DISCOVERY_HORIZON_S + QUIET_S, lambda t: None)
+    assert [a.panel for a in adds if isinstance(a, AddWidget)] == ["robot1:s1", "robot2:s1"]
+
+
 def test_a_silent_tag_or_a_busy_graph_does_not_hold_placement_forever() -> None:
     """A number that never sends is placed after TAG_WAIT_S; tags keep being placed on a graph never quiet."""
-    plan = AutoPlan()
+    plan = AutoPlan(first_wait_s=0.0)
     plan.offer(_tag("a/silent"), 0.0)
     assert plan.step(TAG_WAIT_S - 0.1, lambda t: Observed()) == []
     assert len(plan.step(TAG_WAIT_S, lambda t: Observed())) == 1
-    busy = AutoPlan()
+    busy = AutoPlan(first_wait_s=0.0)
     for i in range(20):  # a new tag every half second, forever
         busy.offer(_tag(f"b/t{i}", "bool"), i * 0.5)
         busy.step(i * 0.5, lambda t: None)
@@ -369,7 +382,7 @@ def test_whatever_arrives_widgets_never_overlap(
 ) -> None:
     """Tags of any groups, kinds and magnitudes, arriving in any batches: every tag bound once, widgets and
     panels never overlap each other, widgets stay in their panel and the panels within the canvas."""
-    plan = AutoPlan(columns=columns)
+    plan = AutoPlan(columns=columns, first_wait_s=0.0)
     mags: dict[str, int] = {}
     rects: list[Rect] = []
     bound: Counter[str] = Counter()
@@ -450,7 +463,7 @@ def test_magnitude_is_the_decade_of_the_largest_value() -> None:
 
 def test_fit_width_fills_the_canvas() -> None:
     """Cells of at least the minimum width fill a panel as wide as the canvas; never fewer than two."""
-    plan = AutoPlan()
+    plan = AutoPlan(first_wait_s=0.0)
     plan.fit_width(1226, min_cell=180)
     assert plan.columns == 6
     assert plan.right == pytest.approx(1226 - plan.origin[0])

@@ -21,6 +21,7 @@ from dataclasses import dataclass, field, replace
 
 from dbglog._ros._tags import natural_key, robot_label
 from dbglog.viewer._data._model import Binding, FieldInfo, TopicInfo
+from dbglog.viewer._data._suggest import DISCOVERY_HORIZON_S
 from dbglog.viewer._document._dashboard import WidgetConfig
 from dbglog.viewer._widgets._geometry import Rect, overlaps
 from dbglog.viewer.widget_api import PropertyError, PropValue, Widget
@@ -418,6 +419,9 @@ class AutoPlan:
         budget: the widgets the dashboard aims to stay within (`WIDGET_BUDGET`).
         quiet_s: how long the graph must show no new tag before tags are placed (`QUIET_S`; 0 for a
             recording, whose topics are all there at once).
+        first_wait_s: nothing is placed before this long after the first `step` (the discovery horizon:
+            robots already running are all on the graph by then, so the first panels come complete and in
+            natural order; 0 for a recording, or a graph already known).
     """
 
     def __init__(
@@ -430,11 +434,14 @@ class AutoPlan:
         origin: tuple[float, float] = (10.0, 10.0),
         budget: int = WIDGET_BUDGET,
         quiet_s: float = QUIET_S,
+        first_wait_s: float = DISCOVERY_HORIZON_S,
     ) -> None:
         self.columns, self.cell_width, self.cell_height, self.gap = columns, cell_width, cell_height, gap
         self.origin = origin
         self.budget = budget
         self.quiet_s = quiet_s
+        self.first_wait_s = first_wait_s
+        self._started: float | None = None
         self.panels: list[Panel] = []
         self.version = 0
         """Changes whenever a panel is added or grows (the UI redraws the frames)."""
@@ -526,7 +533,9 @@ class AutoPlan:
                 only such a widget: one the user changed or deleted is left as it is).
             free: whether a rectangle of the canvas holds no widget (the user's placed ones included).
         """
-        if not self._pending:
+        if self._started is None:
+            self._started = now
+        if not self._pending or now - self._started < self.first_wait_s:
             return []
         seen = {topic: observe(p.tag) for topic, p in self._pending.items()}
         ready = {t for t, p in self._pending.items() if self._ready(p, seen[t], now)}

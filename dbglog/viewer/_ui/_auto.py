@@ -23,7 +23,6 @@ import numpy as np
 from dbglog.viewer._data._model import Binding, Status, TopicInfo, ValueKind
 from dbglog.viewer._document._autodash import (
     PANEL_TITLE_H,
-    QUIET_S,
     Action,
     AddWidget,
     AutoPlan,
@@ -120,7 +119,8 @@ class AutoDashboard:
         """The plan's widget key -> the bindings the plan last gave it (one changed since is left alone)."""
         self._queue: collections.deque[Action] = collections.deque()
         self._queued: set[int] = set()
-        self._frames_key: object = None
+        self._told = 0
+        """The number of waiting tags the status bar last said."""
         self._known: set[int] = set()
         self._menu_item: int | str | None = None
 
@@ -198,6 +198,12 @@ class AutoDashboard:
                 if better is not None and better != tag:
                     self.plan.retag(better)
         actions = self.plan.step(now, self._observe, alive=self._alive, free=self._free)
+        waiting = len(self.plan.waiting)
+        if waiting and not self.plan.panels and waiting != self._told:
+            self._told = waiting
+            self.app.set_status(
+                f"auto-dashboard: {waiting} tags found; their panels come once discovery settles"
+            )
         for action in actions:
             self._queue.append(action)
             if isinstance(action, AddWidget):
@@ -345,7 +351,7 @@ class AutoDashboard:
 
     def _restart(self) -> None:
         self._drop_probes()
-        self.plan = self._new_plan()
+        self.plan = self._new_plan(graph_known=True)
         self.added = 0
         self._items.clear()
         self._given.clear()
@@ -361,9 +367,12 @@ class AutoDashboard:
             self.plan.skip_to(bottom + self.plan.gap)
         self._last = -math.inf
 
-    def _new_plan(self) -> AutoPlan:
-        """A plan for this viewer: a recording's topics are all there at once (no quiet graph to wait for)."""
-        return AutoPlan(quiet_s=0.0 if self.app.timeline.recording else QUIET_S)
+    def _new_plan(self, *, graph_known: bool = False) -> AutoPlan:
+        """A plan for this viewer: a recording's topics are all there at once (no quiet graph to wait for);
+        a live graph is given the discovery horizon first, unless it is known already (switched back on)."""
+        if self.app.timeline.recording:
+            return AutoPlan(quiet_s=0.0, first_wait_s=0.0)
+        return AutoPlan(first_wait_s=0.0) if graph_known else AutoPlan()
 
     def _drop_probes(self) -> None:
         for probe in self._probes.values():
