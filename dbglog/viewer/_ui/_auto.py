@@ -119,8 +119,8 @@ class AutoDashboard:
         """The plan's widget key -> the bindings the plan last gave it (one changed since is left alone)."""
         self._queue: collections.deque[Action] = collections.deque()
         self._queued: set[int] = set()
-        self._told = 0
-        """The number of waiting tags the status bar last said."""
+        self._told: tuple[int, int, int] = (0, 0, 0)
+        """The panels, waiting and placed tags the status bar last said."""
         self._known: set[int] = set()
         self._menu_item: int | str | None = None
 
@@ -198,12 +198,7 @@ class AutoDashboard:
                 if better is not None and better != tag:
                     self.plan.retag(better)
         actions = self.plan.step(now, self._observe, alive=self._alive, free=self._free)
-        waiting = len(self.plan.waiting)
-        if waiting and not self.plan.panels and waiting != self._told:
-            self._told = waiting
-            self.app.set_status(
-                f"auto-dashboard: {waiting} tags found; their panels come once discovery settles"
-            )
+        self._say()
         for action in actions:
             self._queue.append(action)
             if isinstance(action, AddWidget):
@@ -211,6 +206,23 @@ class AutoDashboard:
         self._run_queue()
         self._draw_frames()
         return self.added - before
+
+    def _say(self) -> None:
+        """Say in the status bar how many tags wait for discovery to settle, then how many were placed."""
+        panels, waiting = len(self.plan.panels), len(self.plan.waiting)
+        placed = len({b.topic for p in self.plan.panels for w in p.widgets for b in w.bindings})
+        told = (panels, waiting, placed)
+        if told == self._told or not (panels or waiting):
+            return
+        self._told = told
+        if not panels:
+            self.app.set_status(
+                f"auto-dashboard: {waiting} tags found; their panels come once discovery settles"
+            )
+        else:
+            self.app.set_status(
+                f"auto-dashboard: {placed} tags in {panels} panels; tags seen later join their panel"
+            )
 
     def _wanted(self, info: TopicInfo) -> bool:
         if not info.types or info.publishers <= 0:
