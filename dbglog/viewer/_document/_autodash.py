@@ -31,6 +31,7 @@ __all__ = [
     "SERIES_PER_PLOT",
     "STATES_PER_WIDGET",
     "WIDGET_BUDGET",
+    "Action",
     "AddWidget",
     "AutoPlan",
     "AutoTag",
@@ -560,7 +561,7 @@ class AutoPlan:
 
     def _group_of(self, tag: AutoTag) -> GroupKey:
         """The group a tag belongs to: its first level, deeper where that group was split."""
-        parts = tag.parts if tag.is_tag else [p for p in tag.text.split("/") if p]
+        parts = tag.parts
         depth = 1
         key = GroupKey(tag.robot, "/".join(parts[:depth]) if len(parts) > 1 else "", not tag.is_tag)
         while key in self._split and depth + 1 < len(parts):
