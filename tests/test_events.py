@@ -171,6 +171,38 @@ def test_between_neighbour_and_version() -> None:
     assert len(store) == 4
 
 
+def test_value_at_a_time_from_the_changes_held() -> None:
+    """A parameter's value at a past time: its last change's new value then, before its first change that
+    change's old value (None when unknown, not declared yet or deleted), a never-changed one its known value;
+    after trimming, what is left still answers."""
+    store = EventStore(capacity=20)
+    store.seed("/still", {"k": ParamValue.of(7)}, asked_at=0.0)
+    store.push(
+        PARAMETER_EVENTS,
+        [10.0, 20.0, 30.0, 40.0],
+        [
+            _event("/n", new={"kp": 1.0}),
+            _event("/n", changed={"kp": 2.0}),
+            _event("/n", changed={"kp": 3.0}),
+            _event("/n", deleted=("kp",)),
+        ],
+    )
+    store.push(PARAMETER_EVENTS, [15.0], [_event("/m", changed={"ki": 0.5})])  # first seen changing
+    value = ParamValue.of
+    assert store.value_at("/n", "kp", 5.0) is None  # not declared yet
+    assert store.value_at("/n", "kp", 10.0) == value(1.0)
+    assert store.value_at("/n", "kp", 25.0) == value(2.0)
+    assert store.value_at("/n", "kp", 39.9) == value(3.0)
+    assert store.value_at("/n", "kp", 45.0) is None  # deleted
+    assert store.value_at("/m", "ki", 1.0) is None  # unknown before its first change
+    assert store.value_at("/m", "ki", 15.0) == value(0.5)
+    assert store.value_at("/still", "k", 1.0) == value(7)
+    assert store.value_at("/nobody", "k", 1.0) is None
+    store.push(PARAMETER_EVENTS, np.arange(50.0, 70.0), [_event("/n", new={"kp": 9.0})] * 20)
+    assert store.value_at("/n", "kp", 60.5) == value(9.0)
+    assert len(store.between(0, 100, kinds=None)) <= 20
+
+
 def test_capacity_drops_oldest_changes_never_markers() -> None:
     """Past the capacity the oldest changes go (a tenth at once); markers stay."""
     store = EventStore(capacity=10)

@@ -165,6 +165,8 @@ class EventStore:
         self._updated: dict[tuple[str, str], float] = {}
         """When an event last set each (node, parameter), on `clock`: a seed asked before that is older."""
         self._marker_ids: set[str] = set()
+        self._by_param: dict[tuple[str, str], tuple[list[float], list[ParamChange]]] = {}
+        """Each (node, parameter)'s changes held, in time order (what `value_at` searches)."""
         self._version = 0
         self._unreadable = 0
         self._changes = 0
@@ -227,6 +229,18 @@ class EventStore:
         with self._lock:
             return self._values.get(node, {}).get(name)
 
+    def value_at(self, node: str, name: str, t: float) -> ParamValue | None:
+        """The value a node's parameter had at source time `t`, as the events held tell it: the new value of
+        its last change at or before `t`, else the old value of its first change after `t`, else (no change
+        held) its last known value. None: unknown then, not declared yet, or deleted. A binary search."""
+        with self._lock:
+            held = self._by_param.get((node, name))
+            if held is None:
+                return self._values.get(node, {}).get(name)
+            times, changes = held
+            i = bisect.bisect_right(times, t)
+            return changes[i - 1].new if i else changes[0].old
+
     def values(self, node: str) -> dict[str, ParamValue]:
         """Every last known parameter value of `node`, by name."""
         with self._lock:
@@ -281,7 +295,9 @@ class EventStore:
                         else:
                             known[name] = new = value
                         self._updated[(message.node, name)] = now
-                        self._insert(ParamChange(t, message.node, name, old, new, kind, message.stamp))
+                        change = ParamChange(t, message.node, name, old, new, kind, message.stamp)
+                        self._insert(change)
+                        self._index(change)
                         added += 1
             if added:
                 self._changes += added
@@ -363,6 +379,17 @@ class EventStore:
         self._times.insert(i, event.time)
         self._events.insert(i, event)
 
+    def _index(self, change: ParamChange) -> None:
+        """Add a change to its parameter's changes, in time order (lock held)."""
+        times, changes = self._by_param.setdefault((change.node, change.name), ([], []))
+        if not times or change.time >= times[-1]:
+            times.append(change.time)
+            changes.append(change)
+            return
+        i = bisect.bisect_right(times, change.time)
+        times.insert(i, change.time)
+        changes.insert(i, change)
+
     def _trim(self) -> None:
         """Past the capacity, drop the oldest parameter changes (a tenth of the capacity at once)."""
         if self._changes <= self.capacity:
@@ -377,6 +404,10 @@ class EventStore:
         self._events = kept
         self._times = [e.time for e in kept]
         self._changes = sum(1 for e in kept if isinstance(e, ParamChange))
+        self._by_param = {}
+        for event in kept:
+            if isinstance(event, ParamChange):
+                self._index(event)
 
 
 def events_of(history: History, *, capacity: int = DEFAULT_CAPACITY) -> EventStore:
