@@ -46,6 +46,7 @@ from typing import ClassVar, Protocol
 
 import numpy as np
 
+from dbglog._ros._params import ParamRange, ParamType, ParamValue
 from dbglog._ros._tags import tag_of
 from dbglog.viewer._data._interfaces import (
     InterfaceError,
@@ -66,6 +67,7 @@ from dbglog.viewer._data._logstore import (
     level_of,
 )
 from dbglog.viewer._data._model import Binding, SeriesSnapshot, Status, ValueKind
+from dbglog.viewer._publishing._params import ParamState
 from dbglog.viewer._publishing._requests import DEFAULT_RATE_LIMIT_HZ, PublishRequest, PublishState, Value
 
 __all__ = [
@@ -73,12 +75,17 @@ __all__ = [
     "LEVEL_NAMES",
     "Binding",
     "Color",
+    "EventMark",
     "FilterError",
     "InterfaceError",
     "LogFilter",
     "LogLine",
     "LogReader",
     "LogStore",
+    "ParamRange",
+    "ParamState",
+    "ParamType",
+    "ParamValue",
     "PropKind",
     "PropValue",
     "Property",
@@ -254,8 +261,28 @@ class PublishService(Protocol):
         """Forget control `key`."""
 
 
+@dataclass(frozen=True, slots=True)
+class EventMark:
+    """An event on the timeline, as a widget draws it: a parameter change (``pid_node.kp 1.25 → 2.5``) or a
+    user's marker (its note)."""
+
+    time: float
+    """Source time, epoch seconds (the time axis of every series)."""
+    kind: str
+    """``changed``, ``deleted``, ``declared`` or ``marker``."""
+    label: str
+    """One line: ``pid_node.kp 1.25 → 2.5``, ``pid_node.kp deleted (was 1.25)``, a marker's note."""
+    subject: str = ""
+    """A change's parameter, ``pid_node.kp`` (the node without its leading ``/``); "" for a marker."""
+    old: str = ""
+    """A change's old value as text (``?`` when unknown)."""
+    new: str = ""
+    """A change's new value as text."""
+
+
 class WidgetHost(Protocol):
-    """What the viewer offers a widget besides its series: log lines, the time cursor, "plot this number".
+    """What the viewer offers a widget besides its series: log lines, the time cursor, "plot this number",
+    node parameters and the events on the timeline.
 
     Widgets reach it as ``self.context.host`` (None outside a viewer); every method is for the UI thread.
     """
@@ -280,6 +307,25 @@ class WidgetHost(Protocol):
 
     def plot_number(self, topic: str, line_id: int, number: int) -> None:
         """Open "Plot this number" for number `number` (0-based) of stored line `line_id` of `topic`."""
+
+    def parameter(self, target: str) -> ParamState:
+        """Return what a widget bound to a node's parameter (``/pid_node:kp``) shows now: its value (live, or
+        as it was at the time cursor), its descriptor, whether it may be set, its status and note. The first
+        call asks the node; nothing waits on it. Cheap: a widget may ask every frame."""
+
+    def set_parameter(
+        self, target: str, value: object, *, final: bool, rate_hz: float = DEFAULT_RATE_LIMIT_HZ
+    ) -> None:
+        """Set a node's parameter to `value` (made its type, on its range's grid): while dragged (not
+        `final`) at most `rate_hz` values a second, the newest waiting; a `final` one (released, Enter) at
+        once. Ignored while `parameter(target).editable` is False. The node's answer (a rejection and its
+        reason) shows in later states."""
+
+    def events(self, t0: float, t1: float) -> Sequence[EventMark]:
+        """Return the parameter changes (and deletions) and user markers from `t0` to `t1`, oldest first."""
+
+    def events_version(self) -> int:
+        """Return a number that changes whenever `events` may answer differently (redraw when it moved)."""
 
 
 class TimeRange:
@@ -437,7 +483,9 @@ class WidgetContext:
 
     Args:
         targets: where a control publishes: its bindings (topic, and the field a single value sets); empty
-            for a display widget, whose bindings are series the data engine fills instead.
+            for a display widget, whose bindings are series the data engine fills instead. A widget that
+            declares `Widget.parameters` finds its bindings to a node's parameter here too
+            (``Binding.parameter``): shown and set through `WidgetHost.parameter`.
         publisher: the app's publishing service (None for a widget mounted outside a viewer).
         host: the viewer's other services (`WidgetHost`); None for a widget mounted outside a viewer.
         time_range: the time range the dashboard's time plots share (`TimeRange`, one per viewer); None for
@@ -481,6 +529,10 @@ class Widget(abc.ABC):
     min_size: ClassVar[tuple[int, int]] = (120, 90)
     default_topic: ClassVar[str] = ""
     """The topic a new widget of this kind is bound to (its Topic setup starts there); empty: none."""
+    parameters: ClassVar[bool] = False
+    """True for a widget that may bind to a node's parameter (``/pid_node:kp``) instead of a topic: such a
+    binding is no series but a target (`WidgetContext.targets`), shown and set through the viewer
+    (`WidgetHost.parameter`, `WidgetHost.set_parameter`); Topic setup then suggests parameters too."""
     paused_at: float | None = None
     """The source time (epoch seconds) the dashboard is paused at, or None while live; set by the viewer
     before each `update`. The snapshots are already as they stood then, so most widgets never look at it;

@@ -12,6 +12,7 @@ from typing import Protocol
 import numpy as np
 import numpy.typing as npt
 
+from dbglog._ros._params import split_name
 from dbglog._ros._tags import TagName, parse_topic, tag_of
 from dbglog.viewer._values._transforms import Transform
 
@@ -51,7 +52,11 @@ class ValueKind(enum.StrEnum):
 
 @dataclass(frozen=True, slots=True)
 class Binding:
-    """A topic, a field path inside its messages (``""`` = the whole single-valued message), a regex."""
+    """A topic, a field path inside its messages (``""`` = the whole single-valued message), a regex.
+
+    A topic written ``NODE:PARAMETER`` (``/pid_node:kp``: no topic name has a colon) is a node's parameter
+    instead (`parameter`): a widget that declares `parameters` shows and sets it.
+    """
 
     topic: str
     field: str = ""
@@ -65,6 +70,17 @@ class Binding:
     level: str = ""
     """Log topics: only lines at this level or above (``debug``, ``info``, ``warn``, ``error``, ``fatal``),
     as a bridge rule's ``level``; empty: every level."""
+
+    @property
+    def parameter(self) -> tuple[str, str] | None:
+        """The node and the parameter of a binding to a node's parameter (``/pid_node:kp`` ->
+        ``("/pid_node", "kp")``), None for a topic."""
+        if ":" not in self.topic:
+            return None
+        try:
+            return split_name(self.topic)
+        except ValueError:
+            return None
 
 
 def judge_age(age_s: float, stale_after: float) -> tuple[Status, str]:
