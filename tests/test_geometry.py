@@ -30,6 +30,7 @@ from dbglog.viewer._widgets._geometry import (
     gap_mask,
     gauge_angle,
     hit_test,
+    knob_value_at,
     led_on,
     minmax_decimate,
     nice_ticks,
@@ -113,6 +114,25 @@ def test_gauge_angle_maps_range_to_sweep() -> None:
     assert gauge_angle(0, -8, 8, start_deg=-120, sweep_deg=240) == 0
     assert gauge_angle(8, -8, 8, start_deg=-120, sweep_deg=240) == 120
     assert gauge_angle(99, -8, 8, start_deg=-120, sweep_deg=240) == 120
+
+
+@given(st.floats(0.0, 1.0), st.floats(5.0, 300.0))
+def test_knob_value_at_is_the_inverse_of_gauge_angle(fraction: float, radius: float) -> None:
+    """A pointer where the knob's pointer stands for a value reads that value back, at any distance."""
+    lo, hi = -2.0, 8.0
+    value = lo + fraction * (hi - lo)
+    x, y = polar(0.0, 0.0, radius, gauge_angle(value, lo, hi, start_deg=-135, sweep_deg=270))
+    assert knob_value_at(x, y, lo, hi, start_deg=-135, sweep_deg=270) == pytest.approx(value, abs=1e-6)
+
+
+def test_knob_value_at_the_gap_and_the_centre() -> None:
+    """Straight up is the middle; in the gap below the scale the nearer end stop; the centre has none."""
+    kw = {"start_deg": -135.0, "sweep_deg": 270.0}
+    assert knob_value_at(0, -10, 0, 10, **kw) == pytest.approx(5.0)
+    assert knob_value_at(-10, 0, 0, 10, **kw) == pytest.approx(5 - 5 * 90 / 135)
+    assert knob_value_at(1, 10, 0, 10, **kw) == 10.0  # just right of straight down: the maximum
+    assert knob_value_at(-1, 10, 0, 10, **kw) == 0.0
+    assert knob_value_at(0, 0, 0, 10, **kw) is None
 
 
 def test_polar_zero_is_up_and_clockwise() -> None:

@@ -1,4 +1,5 @@
-"""Shared look and small helpers of the built-in widgets: the palette, value extraction, gauge scales."""
+"""Shared look and small helpers of the built-in widgets: the palette, value extraction, gauge scales, and a
+widget's binding to a node's parameter (`ParamLink`)."""
 
 from __future__ import annotations
 
@@ -10,7 +11,15 @@ import dearpygui.dearpygui as dpg
 import numpy as np
 
 from dbglog.viewer._widgets._geometry import arc_step, format_tick, nice_ticks, polar
-from dbglog.viewer.widget_api import Color, SeriesSnapshot
+from dbglog.viewer.widget_api import (
+    DEFAULT_RATE_LIMIT_HZ,
+    Color,
+    ParamState,
+    ParamType,
+    SeriesSnapshot,
+    Status,
+    Widget,
+)
 
 TEXT: Color = (222, 226, 232, 255)
 DIM: Color = (138, 146, 158, 255)
@@ -20,6 +29,8 @@ TRACK: Color = (52, 57, 68, 255)
 ACCENT: Color = (86, 166, 240, 255)
 NEEDLE: Color = (246, 102, 72, 255)
 HUB: Color = (200, 205, 212, 255)
+ERROR: Color = (236, 96, 110, 255)
+"""A problem written in a widget's body (a rejected set, a value of the wrong type)."""
 
 SERIES_COLORS: tuple[Color, ...] = (
     (86, 166, 240, 255),
@@ -249,3 +260,62 @@ def draw_title(parent: int | str, text: str, x: float, y: float, size: float) ->
     """Draw a small dim caption (used for units and labels)."""
     if text:
         draw_centered_text(text, x, y, size, DIM, parent)
+
+
+class ParamLink:
+    """A widget's binding to a node's parameter (``/pid_node:kp``; `Widget.parameters`): which one, what
+    the viewer says of it now (`WidgetHost.parameter`), and the sets it sends (`WidgetHost.set_parameter`).
+
+    Args:
+        widget: the widget; its context's first binding to a parameter is the target.
+    """
+
+    def __init__(self, widget: Widget) -> None:
+        self.widget = widget
+        self.target = ""
+        """The parameter, as bound (``/pid_node:kp``), "" when the widget is bound to a topic (or nothing)."""
+
+    def retarget(self) -> bool:
+        """Take the target from the widget's context (at mount, and when its bindings change); True when it
+        changed."""
+        target = next((b.topic for b in self.widget.context.targets if b.parameter is not None), "")
+        changed = target != self.target
+        self.target = target
+        return changed
+
+    def state(self) -> ParamState:
+        """What the viewer says of the parameter now (cheap: asked every frame)."""
+        host = self.widget.context.host
+        if host is None:
+            return ParamState(self.target, Status.ERROR, "mounted outside a viewer: no parameters")
+        return host.parameter(self.target)
+
+    def set(self, value: object, *, final: bool, rate_hz: float = DEFAULT_RATE_LIMIT_HZ) -> None:
+        """Send a value (rate limited while dragged; at once when `final`: released, clicked, Enter)."""
+        host = self.widget.context.host
+        if host is not None and self.target:
+            host.set_parameter(self.target, value, final=final, rate_hz=rate_hz)
+
+
+NUMBER_TYPES = (ParamType.INTEGER, ParamType.DOUBLE)
+"""The parameter types a slider or a knob sets."""
+
+
+def param_bounds(state: ParamState, low: float, high: float) -> tuple[float, float, float, bool]:
+    """The (low, high, step, integer) a slider or knob shows for a parameter: its descriptor's range and step,
+    else `low` to `high` (the widget's own minimum and maximum) with no step."""
+    span = state.range
+    integer = state.type is ParamType.INTEGER
+    if span is not None:
+        lo, hi = sorted((float(span.low), float(span.high)))
+        return lo, hi, float(span.step), integer
+    return min(low, high), max(low, high), 1.0 if integer else 0.0, integer
+
+
+def param_kind_problem(state: ParamState, wanted: tuple[ParamType, ...], widget: str, use: str) -> str:
+    """Why a widget cannot set a parameter of this type (``a Slider sets numbers; frame is a string: use a
+    Text field``), "" when it can or the type is not known yet."""
+    ptype = state.type
+    if ptype is ParamType.NOT_SET or ptype in wanted:
+        return ""
+    return f"a {widget} sets {use}; {state.name} is {ptype.article}: use a Text field"

@@ -6,6 +6,11 @@ in its `WidgetContext` (the data engine does not subscribe to it). The type come
 the topic exists, else from the ``msg_type`` property or the control's default; a clash is the widget's
 error. The app's publishing service sends off the UI thread, at most ``rate_limit`` messages per second. The
 value logic (parsing a message property, stepping a slider) is in plain functions tested without a display.
+
+Toggle, Slider and Text field may bind to a node's parameter instead (``/pid_node:kp``, `ParamLink`): they
+show the node's value (the one it had at the time cursor while paused, read-only) and set it, a slider on
+its descriptor's range and step, as it is released (rate limited while dragged). Their input is read on the
+UI thread each frame (`redraw_key`); Dear PyGui's callbacks only count clicks and Enter presses.
 """
 
 from __future__ import annotations
@@ -17,10 +22,19 @@ from typing import Any, ClassVar
 
 import dearpygui.dearpygui as dpg
 
-from dbglog.viewer._widgets._common import DIM
+from dbglog.viewer._widgets._common import (
+    DIM,
+    ERROR,
+    NUMBER_TYPES,
+    ParamLink,
+    param_bounds,
+    param_kind_problem,
+)
 from dbglog.viewer.widget_api import (
     DEFAULT_RATE_LIMIT_HZ,
     InterfaceError,
+    ParamState,
+    ParamType,
     Property,
     PropKind,
     PublishRequest,
@@ -119,11 +133,24 @@ class _Control(Widget):
         self.problem = ""
         """A configuration problem found by the widget itself (bad message JSON), shown as its error."""
         self.note: int | str = 0
+        self.link = ParamLink(self)
+        """The node's parameter the control is bound to instead of a topic (`parameters` controls)."""
+        self.param_note = ""
+        """A problem the control found with what it was to set (typed text of another type), "" for none."""
+        self.asks = 0
+        """Clicks (Toggle) or Enter presses and Send clicks (Text field) while bound to a parameter: Dear
+        PyGui's callback thread counts them, `update` (the UI thread) sets the parameter."""
+        self._asks_done = 0
+        self._param_shown: tuple[str, bool] | None = None
 
     # -- the viewer's calls -------------------------------------------------------------------------
 
     def status(self) -> tuple[Status, str] | None:
-        """The publisher's state: error (type clash...), waiting (no subscriber) or live."""
+        """The publisher's state: error (type clash...), waiting (no subscriber) or live; bound to a node's
+        parameter, the parameter's (asked, answered, the node's error)."""
+        if self.link.target:
+            param = self.link.state()
+            return param.status, param.reason
         if not self.topic:
             return None
         if self.problem:
@@ -132,13 +159,51 @@ class _Control(Widget):
         return state.status, state.reason
 
     def update(self, snapshots: Sequence[SeriesSnapshot], now: float) -> None:
-        """Show the target line (a control reads no series: its target comes with its context)."""
+        """Show the target line (a control reads no series: its target comes with its context); bound to a
+        node's parameter, send what the user did and show the parameter."""
+        if self.link.target:
+            self.show_parameter(self.link.state())
+            return
         self._show_note()
+
+    def redraw_key(self) -> object:
+        """Bound to a node's parameter: its state and the user's input (a drag, a click, Enter)."""
+        if not self.link.target:
+            return None
+        return (self.link.state().version, self.input_key())
+
+    def input_key(self) -> object:
+        """What the user did to the control (read every frame while bound to a parameter)."""
+        return None
+
+    def show_parameter(self, state: ParamState) -> None:
+        """Send what the user did, and show the parameter's value and note (bound to a parameter)."""
+        self._show_param_note(state)
+
+    def _show_param_note(self, state: ParamState, problem: str = "") -> None:
+        """The line under the control: a problem, the last set's outcome, or the target and its range."""
+        if not self.note or not dpg.does_item_exist(self.note):
+            return
+        text, bad = problem, bool(problem)
+        if not text:
+            text, bad = state.note, state.problem
+        if not text:
+            span = state.range
+            text = f"\u2192 {self.link.target}" + (f"   {span.text}" if span is not None else "")
+        if (text, bad) != self._param_shown:
+            self._param_shown = (text, bad)
+            dpg.set_value(self.note, text)
+            dpg.configure_item(self.note, color=ERROR if bad else DIM)
 
     def set_context(self, context: WidgetContext) -> None:
         """Take the new target (the user changed the binding) and keep the publisher ready."""
         super().set_context(context)
+        was = self.link.target
         if self._retarget():
+            if self.link.target or was:  # built for a parameter, or for a topic again
+                if self.link.target:
+                    self.publisher().release(self)  # a topic no more: nothing to publish
+                self.resize(self.width, self.height)
             self._prepare(send=self.repeat_hz() > 0)
         self._show_note()
 
@@ -156,11 +221,13 @@ class _Control(Widget):
         self._prepare(send=self.repeat_hz() > 0)
 
     def _retarget(self) -> bool:
-        """Take topic and field from the context's first target; True when they changed."""
+        """Take topic and field from the context's first target (or the node's parameter it names, for a
+        control that sets parameters); True when they changed."""
         targets = self.context.targets
         target = (targets[0].topic, targets[0].field) if targets else ("", "")
+        param = self.link.retarget() if self.parameters else False
         if target == (self.topic, self.field):
-            return False
+            return param
         self.topic, self.field = target
         return True
 
@@ -182,7 +249,7 @@ class _Control(Widget):
         )
 
     def _prepare(self, *, send: bool = False) -> None:
-        if not self.topic:
+        if not self.topic or self.link.target:
             return
         self.publisher().update(
             self,
@@ -198,6 +265,8 @@ class _Control(Widget):
 
     def send(self) -> None:
         """Publish the current value (rate limited; never blocks)."""
+        if self.link.target:
+            return  # a parameter is set from `update`, on the UI thread
         if not self.topic:
             self.problem = ""
             self._show_note("no topic: right-click \u203a Topic setup")
@@ -205,7 +274,7 @@ class _Control(Widget):
         self._prepare(send=True)
 
     def _show_note(self, text: str | None = None) -> None:
-        if not self.note or not dpg.does_item_exist(self.note):
+        if not self.note or not dpg.does_item_exist(self.note) or self.link.target:
             return
         if text is None:
             if self.problem:
@@ -224,18 +293,20 @@ class _Control(Widget):
             self.note = 0
             return
         self.note = dpg.add_text("", parent=parent, color=DIM, wrap=max(60, width - 4))
+        self._param_shown = None
         self._show_note()
 
 
 class ToggleWidget(_Control):
-    """Publishes true/false (std_msgs/msg/Bool) each time it is switched."""
+    """Publishes true/false (std_msgs/msg/Bool) each time it is switched, or sets a boolean parameter."""
 
     type_name = "toggle"
     label = "Toggle"
-    description = "Publishes true/false (std_msgs/Bool) when switched"
+    description = "Publishes true/false (std_msgs/Bool) when switched, or sets a node's boolean parameter"
     accepts = frozenset({ValueKind.BOOL})
     default_type = "std_msgs/msg/Bool"
     value_kind = "bool"
+    parameters = True
     properties = (
         Property("state", PropKind.BOOL, False, help="The current state; saved with the dashboard."),
         Property("on_text", PropKind.TEXT, "ON"),
@@ -260,7 +331,11 @@ class ToggleWidget(_Control):
             dpg.add_theme_color(dpg.mvThemeCol_ButtonHovered, (56, 140, 84, 255))
             dpg.add_theme_color(dpg.mvThemeCol_ButtonActive, (66, 160, 96, 255))
         self._add_note(parent, width, room)
-        self._draw()
+        self._look: tuple[bool, bool] | None = None
+        if self.link.target:
+            dpg.configure_item(self.button, label="\u2014", enabled=False)  # until the node's value is known
+        else:
+            self._draw()
 
     def destroy(self) -> None:
         """Release the publisher and delete the items and theme."""
@@ -268,9 +343,12 @@ class ToggleWidget(_Control):
         if dpg.does_item_exist(self._on_theme):
             dpg.delete_item(self._on_theme)
 
-    def _draw(self) -> None:
-        on = bool(self.prop("state"))
-        dpg.configure_item(self.button, label=str(self.prop("on_text" if on else "off_text")))
+    def _draw(self, on: bool | None = None, *, enabled: bool = True) -> None:
+        if on is None:
+            on = bool(self.prop("state"))
+        dpg.configure_item(
+            self.button, label=str(self.prop("on_text" if on else "off_text")), enabled=enabled
+        )
         dpg.bind_item_theme(self.button, self._on_theme if on else 0)
 
     def value(self) -> Value | None:
@@ -278,8 +356,29 @@ class ToggleWidget(_Control):
         return bool(self.prop("state"))
 
     def on_click(self, *_: object) -> None:
-        """Switch and publish the new state."""
+        """Switch and publish the new state (bound to a parameter: counted, and set by `update`)."""
+        if self.link.target:
+            self.asks += 1
+            return
         self.set_state(not bool(self.prop("state")))
+
+    def input_key(self) -> object:
+        """The clicks so far."""
+        return self.asks
+
+    def show_parameter(self, state: ParamState) -> None:
+        """A click sets the parameter to the opposite of the node's value; show the node's value."""
+        problem = param_kind_problem(state, (ParamType.BOOL,), "Toggle", "true or false")
+        if self.asks != self._asks_done:
+            self._asks_done = self.asks
+            if state.editable and not problem and state.value is not None:
+                self.link.set(not bool(state.value.value), final=True, rate_hz=self.num("rate_limit"))
+        on = state.value is not None and state.value.value is True
+        look = (on, state.editable and not problem)
+        if look != self._look:
+            self._look = look
+            self._draw(on, enabled=look[1])
+        self._show_param_note(state, problem)
 
     def set_state(self, on: bool) -> None:
         """Show `on` and publish it."""
@@ -289,12 +388,14 @@ class ToggleWidget(_Control):
 
 
 class SliderWidget(_Control):
-    """Publishes a number within min/max: when moved, or continuously at a set rate."""
+    """Publishes a number within min/max: when moved, or continuously at a set rate; or sets a node's number
+    parameter on its descriptor's range and step."""
 
     type_name = "slider"
     label = "Slider"
     description = "Publishes a number (Float64, or a field such as linear.x of a Twist) when moved"
     accepts = frozenset({ValueKind.NUMBER})
+    parameters = True
     properties = (
         Property("value", PropKind.NUMBER, 0.0, help="The current value; saved with the dashboard."),
         Property("minimum", PropKind.NUMBER, -1.0),
@@ -310,18 +411,24 @@ class SliderWidget(_Control):
     min_size = (160, 24)
 
     def create(self, parent: int | str, width: int, height: int) -> None:
-        """Build the slider, a zero button and the target line."""
+        """Build the slider, a zero button (not for a parameter) and the target line."""
         decimals = int(self.num("decimals"))
+        param = bool(self.link.target)
+        self._look: tuple[object, ...] | None = None
+        self._dragged: float | None = None
         with dpg.group(horizontal=True, parent=parent):
             self.slider = dpg.add_slider_double(
                 default_value=self.num("value"),
                 min_value=min(self.num("minimum"), self.num("maximum")),
                 max_value=max(self.num("minimum"), self.num("maximum")),
                 format=f"%.{decimals}f",
-                width=max(60, width - 56),
+                width=max(60, width - 4 if param else width - 56),
                 callback=self.on_change,
+                enabled=not param,
             )
-            self.zero = dpg.add_button(label="0", width=40, callback=lambda *_: self.set_value(0.0))
+            self.zero = dpg.add_button(
+                label="0", width=40, callback=lambda *_: self.set_value(0.0), show=not param
+            )
         self._add_note(parent, width, height - ROW_H)
 
     def value(self) -> Value | None:
@@ -333,9 +440,48 @@ class SliderWidget(_Control):
         return self.num("rate") if self.prop("send") == "at rate" else 0.0
 
     def on_change(self, sender: object = None, app_data: object = None, *_: object) -> None:
-        """Slider callback: take the new position and publish it."""
+        """Slider callback: take the new position and publish it (a parameter's is read by `update`)."""
+        if self.link.target:
+            return
         value = app_data if isinstance(app_data, int | float) else dpg.get_value(self.slider)
         self.set_value(float(value))
+
+    def input_key(self) -> object:
+        """Whether the slider is held, and where."""
+        if not dpg.does_item_exist(self.slider):
+            return None
+        active = bool(dpg.is_item_active(self.slider))
+        return (active, float(dpg.get_value(self.slider)) if active else None)
+
+    def show_parameter(self, state: ParamState) -> None:
+        """While the slider is dragged, send its value (rate limited); let go, send the last one at once;
+        otherwise show the node's value, on the descriptor's range (or the slider's minimum and maximum)."""
+        problem = param_kind_problem(state, NUMBER_TYPES, "Slider", "numbers")
+        lo, hi, _step, integer = param_bounds(state, self.num("minimum"), self.num("maximum"))
+        editable = state.editable and not problem
+        decimals = 0 if integer else int(self.num("decimals"))
+        look = (lo, hi, decimals, editable)
+        if look != self._look:
+            self._look = look
+            dpg.configure_item(
+                self.slider, min_value=lo, max_value=hi, format=f"%.{decimals}f", enabled=editable
+            )
+        active = bool(dpg.is_item_active(self.slider))
+        at = float(dpg.get_value(self.slider))
+        rate = self.num("rate_limit")
+        if active and editable:
+            if at != self._dragged:
+                self._dragged = at
+                self.link.set(at, final=False, rate_hz=rate)
+        elif self._dragged is not None:  # let go: the last value goes out now
+            last, self._dragged = self._dragged, None
+            if editable:
+                self.link.set(last, final=True, rate_hz=rate)
+        else:
+            shown = state.number
+            if shown is not None and shown != at:
+                dpg.set_value(self.slider, shown)
+        self._show_param_note(state, problem)
 
     def set_value(self, value: float) -> None:
         """Show `value` (clamped and snapped) and publish it."""
@@ -347,14 +493,16 @@ class SliderWidget(_Control):
 
 
 class TextFieldWidget(_Control):
-    """Publishes the typed text (std_msgs/msg/String) on Enter or Send."""
+    """Publishes the typed text (std_msgs/msg/String) on Enter or Send, or sets a node's parameter to the
+    typed value (read as ``ros2 param set`` reads it)."""
 
     type_name = "text_field"
     label = "Text field"
-    description = "Publishes the typed text (std_msgs/String) on Enter or Send"
+    description = "Publishes the typed text (std_msgs/String) on Enter or Send, or sets a node's parameter"
     accepts = frozenset({ValueKind.TEXT})
     default_type = "std_msgs/msg/String"
     value_kind = "string"
+    parameters = True
     properties = (
         Property("text", PropKind.TEXT, "", help="The text last sent; saved with the dashboard."),
         Property("msg_type", PropKind.TEXT, "", label="Message type", help=_TYPE_HELP),
@@ -375,18 +523,52 @@ class TextFieldWidget(_Control):
             )
             dpg.add_button(label="Send", width=56, callback=lambda *_: self.submit())
         self._add_note(parent, width, height - ROW_H)
+        self._readonly: bool | None = None
+        self._param_text: str | None = None
 
     def value(self) -> Value | None:
         """The text shown."""
         return str(self.prop("text"))
 
     def submit(self, text: str | None = None) -> None:
-        """Publish `text` (default: what is typed)."""
+        """Publish `text` (default: what is typed); bound to a parameter, counted and set by `update`."""
+        if self.link.target:
+            self.asks += 1
+            return
         typed = str(dpg.get_value(self.input)) if text is None else text
         self.save_property("text", typed[:1000])
         if text is not None:
             dpg.set_value(self.input, typed)
         self.send()
+
+    def input_key(self) -> object:
+        """Enter presses and Send clicks so far, and whether the field is being typed in."""
+        active = bool(dpg.does_item_exist(self.input) and dpg.is_item_active(self.input))
+        return (self.asks, active)
+
+    def show_parameter(self, state: ParamState) -> None:
+        """Enter or Send sets the parameter to the typed value; while not typed in, the field shows the
+        node's value (read-only when it may not be set)."""
+        if self.asks != self._asks_done:
+            self._asks_done = self.asks
+            typed = str(dpg.get_value(self.input))
+            self.param_note = ""
+            if state.editable:
+                try:
+                    self.link.set(state.parse(typed), final=True, rate_hz=self.num("rate_limit"))
+                except ValueError as exc:
+                    self.param_note = f"not set: {exc}"
+        readonly = not state.editable
+        if readonly != self._readonly:
+            self._readonly = readonly
+            dpg.configure_item(self.input, readonly=readonly)
+        if not dpg.is_item_active(self.input):
+            text = "" if state.value is None else state.value.text
+            if text != self._param_text:
+                self._param_text = text
+                dpg.set_value(self.input, text)
+                self.param_note = ""
+        self._show_param_note(state, self.param_note)
 
 
 class ButtonWidget(_Control):

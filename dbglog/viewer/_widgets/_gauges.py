@@ -1,4 +1,9 @@
-"""Needle and bar widgets drawn with Dear PyGui draw items: Dial, Knob, Compass, Thermo."""
+"""Needle and bar widgets drawn with Dear PyGui draw items: Dial, Knob, Compass, Thermo.
+
+The Knob may also bind to a node's number parameter (``/pid_node:kp``, `ParamLink`): its scale is the
+descriptor's range, it shows the node's value (the one it had at the time cursor while paused), and a drag
+round it sets the parameter: rate limited while dragged, the value let go at once.
+"""
 
 from __future__ import annotations
 
@@ -9,11 +14,14 @@ import dearpygui.dearpygui as dpg
 
 from dbglog.viewer._widgets._common import (
     DIM,
+    ERROR,
     FACE,
     FACE_EDGE,
     HUB,
+    NUMBER_TYPES,
     TEXT,
     TRACK,
+    ParamLink,
     arc_points,
     draw_centered_text,
     draw_disc,
@@ -23,6 +31,8 @@ from dbglog.viewer._widgets._common import (
     knob_scale_radius,
     latest_number,
     nonfinite_text,
+    param_bounds,
+    param_kind_problem,
     scale_ticks,
     text_size,
     value_at_cursor_only,
@@ -31,12 +41,23 @@ from dbglog.viewer._widgets._geometry import (
     compass_label,
     format_tick,
     gauge_angle,
+    knob_value_at,
     nice_ticks,
     normalize_heading,
     polar,
     thermo_fill,
 )
-from dbglog.viewer.widget_api import Property, PropKind, SeriesSnapshot, ValueKind, Widget
+from dbglog.viewer.widget_api import (
+    DEFAULT_RATE_LIMIT_HZ,
+    ParamState,
+    Property,
+    PropKind,
+    SeriesSnapshot,
+    Status,
+    ValueKind,
+    Widget,
+    WidgetContext,
+)
 
 __all__ = ["CompassWidget", "DialWidget", "KnobWidget", "ThermoWidget"]
 
@@ -135,11 +156,12 @@ class DialWidget(Widget):
 
 
 class KnobWidget(DialWidget):
-    """A rotary knob over 270 degrees: a filled value arc and a pointer on a round cap."""
+    """A rotary knob over 270 degrees: a filled value arc and a pointer on a round cap; bound to a node's
+    number parameter, a drag round it sets the parameter."""
 
     type_name = "knob"
     label = "Knob"
-    description = "Rotary knob with a value arc over 270 degrees"
+    description = "Rotary knob with a value arc over 270 degrees; sets a node's parameter when bound to one"
     properties = (
         *_RANGE,
         _UNIT,
@@ -147,10 +169,31 @@ class KnobWidget(DialWidget):
         Property("color", PropKind.COLOR, "#56a6f0ff", label="Arc colour"),
     )
     START, SWEEP = -135.0, 270.0
+    parameters = True
+
+    def __init__(self, props: dict[str, float | str | bool] | None = None) -> None:
+        super().__init__(props)
+        self.link = ParamLink(self)
+        """The node's parameter the knob shows and sets, when bound to one."""
+        self.dragged: float | None = None
+        """The value the pointer points at while the knob is dragged (bound to a parameter), else None."""
+        self._let_go: float | None = None
+        self._left_was = False
+        self._drawn: tuple[float, float] = (0.0, 0.0)
+        self._sent: float | None = None
+        self._note_shown: tuple[str, bool] | None = None
+
+    def _bounds(self) -> tuple[float, float]:
+        """The scale: a parameter's range (its descriptor's), else the minimum and maximum properties."""
+        lo, hi = self.num("minimum"), self.num("maximum")
+        if self.link.target:
+            lo, hi, _step, _integer = param_bounds(self.link.state(), lo, hi)
+        return lo, hi
 
     def create(self, parent: int | str, width: int, height: int) -> None:
         """Draw the scale and cap once; the arc, pointer and readout are updated in place."""
-        lo, hi = self.num("minimum"), self.num("maximum")
+        self.link.retarget()
+        lo, hi = self._drawn = self._bounds()
         self.drawlist = dpg.add_drawlist(width, height, parent=parent)
         dl = self.drawlist
         r = knob_scale_radius(width, height)
@@ -183,12 +226,105 @@ class KnobWidget(DialWidget):
         self._needle = dpg.draw_line((cx, cy), (cx, cy), color=HUB, thickness=4, parent=dl)
         self._size = max(14.0, min(26.0, r / 3.4))
         self._readout = draw_centered_text("\u2014", cx, cy + r * 0.9, self._size, TEXT, dl)
+        self._note = (
+            dpg.draw_text((4, height - 15), "", size=12, color=DIM, parent=dl) if self.link.target else 0
+        )
+        self._note_shown = None
+
+    def set_context(self, context: WidgetContext) -> None:
+        """Take new bindings: a parameter bound (or unbound) redraws the scale."""
+        super().set_context(context)
+        if self.link.retarget():
+            self.dragged = self._let_go = self._sent = None
+            self.resize(self.width, self.height)
+
+    def status(self) -> tuple[Status, str] | None:
+        """Bound to a parameter: the parameter's status (asked, answered, the node's error)."""
+        if not self.link.target:
+            return None
+        state = self.link.state()
+        return state.status, state.reason
+
+    def redraw_key(self) -> object:
+        """Bound to a parameter: its state, and the pointer dragging the knob."""
+        if not self.link.target:
+            return None
+        self._poll_pointer()
+        return (self.link.state().version, self.dragged, self._let_go)
+
+    def _poll_pointer(self) -> None:
+        """A press on the knob starts a drag (when the parameter may be set); the pointer's direction from
+        the centre is the value; letting go ends it."""
+        if not dpg.does_item_exist(self.drawlist):
+            return
+        left = bool(dpg.is_mouse_button_down(dpg.mvMouseButton_Left))
+        pressed = left and not self._left_was
+        self._left_was = left
+        if not left:
+            if self.dragged is not None:
+                self._let_go, self.dragged = self.dragged, None
+            return
+        if not pressed and self.dragged is None:
+            return
+        (x0, y0) = dpg.get_item_rect_min(self.drawlist)
+        mx, my = dpg.get_mouse_pos(local=False)
+        cx, cy, r = self._geom
+        dx, dy = float(mx) - (float(x0) + cx), float(my) - (float(y0) + cy)
+        if pressed:
+            state = self.link.state()
+            hovered = bool(dpg.is_item_hovered(self.drawlist))
+            if not (hovered and math.hypot(dx, dy) <= r + 6 and state.editable):
+                return
+        lo, hi = self._drawn
+        value = knob_value_at(dx, dy, lo, hi, start_deg=self.START, sweep_deg=self.SWEEP)
+        if value is not None:
+            self.dragged = value
+        elif pressed:
+            self.dragged = self.link.state().number
 
     def update(self, snapshots: Sequence[SeriesSnapshot], now: float) -> None:
-        """Turn the pointer and grow the arc to the latest value (±inf: at the end stop; NaN: neither)."""
-        value = latest_number(snapshots[0] if snapshots else None)
+        """Turn the pointer and grow the arc to the latest value (±inf: at the end stop; NaN: neither); bound
+        to a parameter, send the dragged value and show the node's."""
+        if self.link.target:
+            self._update_parameter()
+            return
+        self._show(latest_number(snapshots[0] if snapshots else None))
+
+    def _update_parameter(self) -> None:
+        state = self.link.state()
+        if self._bounds() != self._drawn:  # the descriptor's range arrived: a new scale
+            self.resize(self.width, self.height)
+        problem = param_kind_problem(state, NUMBER_TYPES, "Knob", "numbers")
+        editable = state.editable and not problem
+        shown = state.number
+        if self._let_go is not None:
+            last, self._let_go, self._sent = self._let_go, None, None
+            if editable:
+                self.link.set(last, final=True, rate_hz=DEFAULT_RATE_LIMIT_HZ)
+                shown = self._snapped(state, last)
+        elif self.dragged is not None and editable:
+            if self.dragged != self._sent:
+                self._sent = self.dragged
+                self.link.set(self.dragged, final=False, rate_hz=DEFAULT_RATE_LIMIT_HZ)
+            shown = self._snapped(state, self.dragged)
+        self._show(shown)
+        note, bad = (problem, True) if problem else (state.note, state.problem)
+        if self._note and (note, bad) != self._note_shown:
+            self._note_shown = (note, bad)
+            dpg.configure_item(self._note, text=note, color=ERROR if bad else DIM)
+
+    @staticmethod
+    def _snapped(state: ParamState, value: float) -> float:
+        """`value` on the parameter's grid, as the node would take it (what the readout shows)."""
+        try:
+            typed = state.typed(value).value
+        except ValueError:
+            return value
+        return float(typed) if isinstance(typed, int | float) else value
+
+    def _show(self, value: float | None) -> None:
         cx, cy, r = self._geom
-        lo, hi = self.num("minimum"), self.num("maximum")
+        lo, hi = self._drawn
         known = value is not None and not math.isnan(value)
         angle = gauge_angle(
             value if known and value is not None else lo, lo, hi, start_deg=self.START, sweep_deg=self.SWEEP

@@ -26,6 +26,7 @@ __all__ = [
     "gap_mask",
     "gauge_angle",
     "hit_test",
+    "knob_value_at",
     "led_on",
     "minmax_decimate",
     "minmax_indices",
@@ -300,6 +301,25 @@ def gauge_angle(value: float, lo: float, hi: float, *, start_deg: float, sweep_d
     range pin the needle at the end stops.
     """
     return start_deg + sweep_deg * value_fraction(value, lo, hi)
+
+
+def knob_value_at(
+    dx: float, dy: float, lo: float, hi: float, *, start_deg: float, sweep_deg: float
+) -> float | None:
+    """Return the value a knob points at when the pointer is (`dx`, `dy`) pixels from its centre (screen
+    axes: y down): the inverse of `gauge_angle`. A pointer in the gap below the scale takes the nearer end
+    stop; None at the very centre (no direction)."""
+    if math.hypot(dx, dy) < 1e-9:
+        return None
+    angle = math.degrees(math.atan2(dx, -dy))  # 0 up, clockwise
+    end = start_deg + sweep_deg
+    while angle < start_deg:
+        angle += 360.0
+    while angle > start_deg + 360.0:
+        angle -= 360.0
+    if angle > end:  # in the gap: the end stop it is nearer to
+        angle = end if angle - end < start_deg + 360.0 - angle else start_deg
+    return lo + (hi - lo) * (angle - start_deg) / sweep_deg
 
 
 def polar(cx: float, cy: float, radius: float, angle_deg: float) -> tuple[float, float]:

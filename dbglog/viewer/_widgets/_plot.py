@@ -6,7 +6,8 @@ zooms (following on, with a new length), a drag pans and a right drag zooms to a
 where the user put it while data arrive), a double click follows again; hovering shows a line and each
 series' value under the pointer. The range is the dashboard's shared `TimeRange`, so every linked plot
 shows the same one (the header's *Link* box, saved as the ``link`` property, unlinks a plot). ImPlot does
-the zoom and pan; `_timeaxis` reads them back and keeps the axis and the range in step.
+the zoom and pan; `_timeaxis` reads them back and keeps the axis and the range in step. The parameter
+changes and user markers of the range are thin labelled lines (`_eventlines`: close ones share a line).
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ import dearpygui.dearpygui as dpg
 import numpy as np
 
 from dbglog.viewer._widgets._common import SERIES_COLORS, clock_text, latest_number, nonfinite_text, text_size
+from dbglog.viewer._widgets._eventlines import EventLine, event_lines
 from dbglog.viewer._widgets._geometry import spread
 from dbglog.viewer._widgets._plotfit import (
     ROW_H,
@@ -94,6 +96,14 @@ HEADER_FIXED = 150
 """Pixels of the header before its range label (Pause, Link) until the first frame measures them."""
 SWATCH_W, SWATCH_GAP = 6, 2
 """The collapsed legend: a colour swatch per series in the header, this wide, this far apart."""
+CHANGE_LINE = (90, 210, 210, 150)
+"""A parameter change's line (the timeline bar's diamonds' colour, lighter)."""
+MARKER_LINE = (246, 160, 60, 190)
+"""A user's marker's line (the timeline bar's flags' colour)."""
+EVENT_LABEL_BG = {False: (28, 70, 72, 235), True: (96, 62, 26, 235)}
+"""An event label's box: a change's, a marker's (dark: ImPlot writes light text on it)."""
+EVENT_ROW_PX = 18
+"""Pixels from one row of event labels to the next, from the plot area's bottom."""
 DIM = (138, 146, 158, 255)
 """Secondary text (the header's range label, notes in tooltips): the viewer's dim grey."""
 TEXT_WIDTHS_KEPT = 512
@@ -240,6 +250,8 @@ class PlotWidget(Widget):
         self.view: Limits | None = None
         """The source times the time axis shows (after the last update), None before it."""
         self.plot: int | str = 0
+        self.event_lines: list[EventLine] = []
+        """The event lines drawn over the range (with their labels as drawn), after the last update."""
         self._own: TimeRange | None = None
         self._lives_seen: int | None = None
 
@@ -332,6 +344,15 @@ class PlotWidget(Widget):
         dpg.bind_item_theme(self._cursor_line, _line_theme(CURSOR_COLOR, 1.5))
         self._hover_line = dpg.add_inf_line_series([0.0], label="##hover", parent=self.y_axis, show=False)
         dpg.bind_item_theme(self._hover_line, _line_theme(HOVER_COLOR, 1.0))
+        # Parameter changes and user markers: thin lines, labelled along the top (`_draw_events`).
+        self._event_series = {
+            marker: dpg.add_inf_line_series([0.0], label=f"##events{marker}", parent=self.y_axis, show=False)
+            for marker in (False, True)
+        }
+        for marker, tag in self._event_series.items():
+            dpg.bind_item_theme(tag, _line_theme(MARKER_LINE if marker else CHANGE_LINE, 1.0))
+        self._event_notes: list[int | str] = []
+        self._events_drawn: object = None
 
     def destroy(self) -> None:
         """Delete the plot's items; the pointer is no longer over it for the plots sharing its range."""
@@ -541,6 +562,7 @@ class PlotWidget(Widget):
             self._visible and self._sync.due(self._frame),
             self.paused,
             self.lines_later,  # a new task's lines, computed while the last frame rendered: shown in this one
+            self.context.host.events_version() if self.context.host is not None else 0,
         )
 
     # -- drawing -------------------------------------------------------------------------------------
@@ -605,6 +627,7 @@ class PlotWidget(Widget):
         self.view = (start, stop)
         self._draw_series(snaps, start, stop, origin, at)
         self._draw_ticks(start, stop, origin)
+        self._draw_events(start, stop, origin)
         mine = None
         if hover_x is not None and hover_limits is not None and sync.shown is not None:
             mine = remap(hover_x, hover_limits, sync.shown) + origin
@@ -712,6 +735,46 @@ class PlotWidget(Widget):
             self._older.clear()
         self._older[snap.binding] = (key, part)
         return part
+
+    def _draw_events(self, start: float, stop: float, origin: float) -> None:
+        """The parameter changes and user markers from `start` to `stop`: a thin line each (close ones
+        share one), labelled in two rows along the bottom where there is room (`event_lines`)."""
+        host = self.context.host
+        if host is None:
+            return
+        key = (host.events_version(), start, stop, origin, self.width, self._plot_h, self._limits)
+        if key == self._events_drawn:
+            return
+        self._events_drawn = key
+        area = max(40, self.width - PLOT_MARGIN)
+        lines = event_lines(host.events(start, stop), start, stop, area, self._measure)
+        self.event_lines = lines
+        for marker, tag in self._event_series.items():
+            xs = [line.time - origin for line in lines if line.marker is marker]
+            if xs or self._configured.get(tag, {}).get("show", False):
+                dpg.set_value(tag, [xs or [0.0]])
+                self._configure(tag, show=bool(xs))
+        labelled = [line for line in lines if line.label]
+        while len(self._event_notes) < len(labelled):
+            self._event_notes.append(
+                dpg.add_plot_annotation(parent=self.plot, label="", clamped=True, show=False)
+            )
+        lo, hi = self._limits if self._limits is not None else (0.0, 1.0)
+        per_px = ((hi - lo) or 1.0) / max(20.0, self._plot_h - 34)
+        for i, note in enumerate(self._event_notes):
+            if i >= len(labelled):
+                self._configure(note, show=False)
+                continue
+            line = labelled[i]
+            y = lo + (EVENT_ROW_PX * (line.row + 0.5) + 2) * per_px
+            self._configure(
+                note,
+                show=True,
+                label=line.label,
+                default_value=(line.time - origin, y),
+                offset=(-4 if line.left else 4, 0),
+                color=EVENT_LABEL_BG[line.marker],
+            )
 
     def _draw_ticks(self, start: float, stop: float, origin: float) -> None:
         """Label the time axis with the local clock (ticks move with the data; linked plots read alike); a
