@@ -345,6 +345,7 @@ def run(args: argparse.Namespace) -> int:
         fps=args.fps,
         data_fps=args.data_fps,
         recording=args.replay is not None,
+        params=params,
     )
     app.recordings.republisher = republisher  # View › Republish on ROS 2 shows for it
     try:

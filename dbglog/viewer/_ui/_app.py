@@ -14,7 +14,7 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 from types import TracebackType
-from typing import Self
+from typing import TYPE_CHECKING, Self
 
 import dearpygui.dearpygui as dpg
 
@@ -28,6 +28,7 @@ from dbglog.viewer._ui._bindings import KeyBindings, MenuBar, keys_hint
 from dbglog.viewer._ui._canvas import Canvas
 from dbglog.viewer._ui._chrome import PAYLOAD_TYPE, CanvasPaint
 from dbglog.viewer._ui._dialogs import Dialog
+from dbglog.viewer._ui._eventlist import EventsPanel
 from dbglog.viewer._ui._files import FileCommands, FileDialogs
 from dbglog.viewer._ui._frame import CanvasItem, FrameSnapshots
 from dbglog.viewer._ui._host import AppHost
@@ -43,6 +44,9 @@ from dbglog.viewer._ui._timebar import TIMEBAR_H, TimeBar
 from dbglog.viewer._ui._window import install_input, main_window, open_viewport
 from dbglog.viewer._widgets import WidgetRegistry
 from dbglog.viewer.widget_api import TimeRange
+
+if TYPE_CHECKING:
+    from dbglog._ros._paramclient import ParamClient
 
 __all__ = ["PAYLOAD_TYPE", "ViewerApp", "keep_freed_memory"]
 
@@ -64,6 +68,8 @@ class ViewerApp:
         fps: the frame cap of `run` (which also skips frames while nothing changes).
         data_fps: how often `run` draws new data at most while the user does nothing.
         recording: `source` is a recording (a `ReplaySource`): it opens paused at its end, Space plays.
+        params: the parameter client widgets bound to a node's parameter use (``dbglog view`` makes one
+            when live); None: parameters are only read from the events, as in a recording.
     """
 
     def __init__(
@@ -77,6 +83,7 @@ class ViewerApp:
         fps: float = DEFAULT_FPS,
         data_fps: float = DEFAULT_DATA_FPS,
         recording: bool = False,
+        params: ParamClient | None = None,
     ) -> None:
         self.registry = registry if registry is not None else WidgetRegistry.discover()
         self.width, self.height, self.title = width, height, title
@@ -116,8 +123,17 @@ class ViewerApp:
             registry=self.registry,
             dialogs=self.dialogs,
             add_plan=self.canvas.add_plan,
+            params=params,
         )
-        """What widgets get besides their series: log stores, the time cursor, "plot this number"."""
+        """What widgets get besides their series: log stores, the time cursor, "plot this number", node
+        parameters and the events."""
+        self.frame_hooks.append(self.host.tick)
+        self.dialogs.parameters = self.host.parameter_list  # Topic setup suggests them
+        self.events_panel = EventsPanel(
+            self.host, self.dialogs, self.set_status, self.actions.call_soon, self._make_room
+        )
+        """View › Events list beside the canvas, and File › Add marker…."""
+        self.frame_hooks.append(self.events_panel.poll)
         self.canvas.host = self.host
         self.pointer_input = PointerInput(
             self.canvas,
@@ -151,7 +167,7 @@ class ViewerApp:
 
     def _register(self) -> None:
         """Register every command once: each concern its own, then the window's."""
-        for concern in (self.time, self.canvas, self.recordings, self.dialogs):
+        for concern in (self.time, self.canvas, self.recordings, self.dialogs, self.events_panel):
             concern.register(self.actions)
         self.files.register(self.actions, modal=lambda: self.dialogs.current is not None)
         self.actions.register(
@@ -176,6 +192,7 @@ class ViewerApp:
             # goes in this group too, before or after the canvas.
             with dpg.group(horizontal=True) as self.body_group:
                 self.canvas.build(height=-BOTTOM_H)
+                self.events_panel.build(height=-BOTTOM_H)
             actions, control = self.actions, self.time
             self.timebar = TimeBar(
                 self.timeline,
@@ -187,6 +204,7 @@ class ViewerApp:
                 on_loop=lambda: actions.run("time.loop"),
                 marks=self.host.mark_columns,  # the Log console's warnings and errors
                 keys=keys_hint(actions, KEYS_HINT),
+                events=self.host,  # parameter changes and user markers
             )
             self.status.build()
         self.canvas.finish()
@@ -346,6 +364,10 @@ class ViewerApp:
         """Show `source` in place of the current data source: a recording opened, or live again."""
         self.time.use_source(source, recording=recording, bound=list(self.doc.refs))
         self._update_title()
+
+    def _make_room(self, pixels: int) -> None:
+        """Narrow the canvas by `pixels` for a panel beside it (0: its whole width again)."""
+        dpg.configure_item(self.canvas.window, width=-pixels if pixels > 0 else -1)
 
     def set_status(self, text: str) -> None:
         """Show a message in the status bar."""

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import os
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import replace
 from pathlib import Path
 from typing import Protocol
@@ -11,6 +11,7 @@ from typing import Protocol
 import dearpygui.dearpygui as dpg
 
 from dbglog._regex._compile import RegexError, compile_regex
+from dbglog._ros._params import ParamValue, join_name, resolve_node, split_name
 from dbglog._ros._tags import TagError, robot_target
 from dbglog.viewer._data._model import (
     Binding,
@@ -37,6 +38,7 @@ from dbglog.viewer.widget_api import PropertyError, PropKind, PropValue, format_
 __all__ = [
     "TRANSFORM_KINDS",
     "Dialog",
+    "MarkerDialog",
     "MessageDialog",
     "PropertiesDialog",
     "RenameDialog",
@@ -46,8 +48,10 @@ __all__ = [
     "dashboard_file_name",
     "file_name",
     "formula_check",
+    "parameter_suggestions",
     "regex_preview",
     "topic_widget_name",
+    "typed_target",
 ]
 
 TRANSFORM_KINDS: dict[str, tuple[str, str, str]] = {
@@ -194,6 +198,44 @@ class RenameDialog(Dialog):
             dpg.set_value(self.error, "The name cannot be empty.")
             return False
         self.item.rename(text[:200])
+        self.close()
+        return True
+
+
+class MarkerDialog(Dialog):
+    """A note for a marker at a moment ("robot bumped here"): Enter or Add adds it, Esc cancels.
+
+    Args:
+        when: the moment marked, as the dialog says it (``12:03:04.512, the cursor``).
+        add: adds the marker with the note typed; returns "" or why it could not.
+        on_close: the dialogs' close callback.
+    """
+
+    def __init__(self, when: str, add: Callable[[str], str], on_close: Callable[[Dialog], None]) -> None:
+        super().__init__("Add a marker", 460, on_close)
+        self._add = add
+        dpg.add_text(f"A note at {when}", color=DIM, parent=self.window)
+        self.input = dpg.add_input_text(
+            width=-1,
+            hint="e.g. robot bumped here",
+            parent=self.window,
+            on_enter=True,
+            callback=lambda *_: self.apply(),
+        )
+        self.error = dpg.add_text("", color=ERROR_COLOR, parent=self.window, wrap=430)
+        self._buttons("Add", self.apply)
+        self.focus_soon(self.input)
+
+    def apply(self, note: str | None = None) -> bool:
+        """Add the marker with the note (typed, or `note`); a blank note is refused."""
+        text = (note if note is not None else str(dpg.get_value(self.input))).strip()
+        if not text:
+            dpg.set_value(self.error, "Type a note: what happened here?")
+            return False
+        problem = self._add(text)
+        if problem:
+            dpg.set_value(self.error, problem)
+            return False
         self.close()
         return True
 
@@ -510,6 +552,45 @@ def typed_topic(text: str) -> str:
     return name.topic if name is not None else text.strip()
 
 
+def parameter_suggestions(params: Sequence[tuple[str, ParamValue]], typed: str) -> list[str]:
+    """The suggestion lines of nodes' parameters (``/pid_node:kp``) that hold `typed`, prefix matches first
+    (a name typed alone, ``kp``, matches every node's): the parameter, its type and its value."""
+    typed = typed.strip().lower()
+    named = [(target, value) for target, value in params if typed in target.lower()]
+
+    def rank(item: tuple[str, ParamValue]) -> tuple[int, str]:
+        target = item[0].lower()
+        name = target.rpartition(":")[2]
+        return (0 if target.startswith(typed) or name.startswith(typed) else 1, target)
+
+    lines = []
+    for target, value in sorted(named, key=rank):
+        text = value.text if len(value.text) <= 40 else value.text[:39] + "\u2026"
+        lines.append(f"{target}   [parameter: {value.type.label} = {text}]")
+    return lines
+
+
+def typed_target(text: str, parameters: Sequence[str] | None = None) -> str:
+    """The binding typed in the Topic field. For a widget that takes parameters (`parameters` lists the
+    known ones, ``/pid_node:kp``): ``NODE:NAME`` is a node's parameter when that node is known (a bare
+    ``pid_node`` found in any namespace) or the text starts with ``/``; anything else, and every text for
+    other widgets, is `typed_topic` (``robot1:speed`` is a robot's tag)."""
+    text = text.strip()
+    if parameters is None or ":" not in text:
+        return typed_topic(text)
+    if text in parameters:
+        return text
+    try:
+        node, name = split_name(text)
+    except ValueError:
+        return typed_topic(text)
+    nodes = sorted({target.rpartition(":")[0] for target in parameters})
+    found = resolve_node(text.rpartition(":")[0], nodes)
+    if isinstance(found, str):
+        return join_name(found, name)
+    return join_name(node, name) if text.startswith("/") else typed_topic(text)
+
+
 class TopicHost(Protocol):
     """What the Topic setup dialog reaches: the graph, a previewed series, and where its result goes."""
 
@@ -543,11 +624,14 @@ class TopicDialog(Dialog):
         item: CanvasItem,
         setup: TopicHost,
         on_close: Callable[[Dialog], None],
+        parameters: Callable[[], list[tuple[str, ParamValue]]] = list,
     ) -> None:
         super().__init__(f"Topic setup \u2014 {item.name}", 620, on_close)
         self.item = item
         self.setup = setup
         """The graph to choose from, the preview's series, and where the result goes."""
+        self.params = parameters if item.widget_cls is not None and item.widget_cls.parameters else None
+        """The nodes' parameters known (``/pid_node:kp`` and value), for a widget that takes parameters."""
         cls = item.widget_cls
         self.max_bindings = cls.max_bindings if cls is not None else 1
         self.accepts = cls.accepts if cls is not None else frozenset()
@@ -569,8 +653,10 @@ class TopicDialog(Dialog):
                 dpg.add_button(label="Add series", callback=lambda *_: self.add_series())
                 dpg.add_button(label="Remove", callback=lambda *_: self.remove_series())
         topic_help = "Topic this control publishes to" if self.control else "Topic"
+        if self.params is not None:
+            topic_help += ", or a node's parameter NODE:NAME"
         dpg.add_text(
-            f"{topic_help}   (Enter takes the highlighted topic, \u2191/\u2193 pick another)",
+            f"{topic_help}   (Enter takes the highlighted one, \u2191/\u2193 pick another)",
             color=DIM,
             parent=w,
         )
@@ -660,8 +746,13 @@ class TopicDialog(Dialog):
         self._refresh_fields(b.field)
         self._show_transforms()
 
+    def _known_parameters(self) -> list[tuple[str, ParamValue]]:
+        """The parameters Topic setup knows (none for a widget that does not take them)."""
+        return self.params() if self.params is not None else []
+
     def _store(self) -> None:
-        topic = typed_topic(str(dpg.get_value(self.topic_input)))
+        known = [target for target, _ in self._known_parameters()] if self.params is not None else None
+        topic = typed_target(str(dpg.get_value(self.topic_input)), known)
         field = self._selected_field()
         regex = str(dpg.get_value(self.regex_input))
         # A log binding's node and level while the topic is a Log topic (none otherwise: they would be its
@@ -690,8 +781,14 @@ class TopicDialog(Dialog):
         self._store()
 
     def suggestions(self) -> list[str]:
-        """Return the topics on the graph matching what is typed (prefix matches first)."""
-        return topic_suggestions(self.setup.topics(), str(dpg.get_value(self.topic_input)))
+        """Return the topics on the graph matching what is typed (prefix matches first), and for a widget
+        that takes parameters the nodes' parameters (first when the text has a colon)."""
+        typed = str(dpg.get_value(self.topic_input))
+        lines = topic_suggestions(self.setup.topics(), typed)
+        if self.params is None:
+            return lines
+        params = parameter_suggestions(self._known_parameters(), typed)
+        return params + lines if ":" in typed else lines + params
 
     def _refresh_suggestions(self) -> None:
         self._suggestions = self.suggestions()
@@ -718,7 +815,7 @@ class TopicDialog(Dialog):
     def enter(self) -> None:
         """Enter in the topic field: take the highlighted suggestion; once a known topic is there, OK."""
         typed = str(dpg.get_value(self.topic_input)).strip()
-        known = {t.name for t in self.setup.topics()}
+        known = {t.name for t in self.setup.topics()} | {p for p, _ in self._known_parameters()}
         choice = self.highlighted()
         if typed in known or choice is None:
             self.apply()  # a topic not on the graph yet (its node not started) is taken as typed
@@ -750,6 +847,13 @@ class TopicDialog(Dialog):
 
     def _refresh_fields(self, selected: str) -> None:
         topic = str(dpg.get_value(self.topic_input)).strip()
+        known = [target for target, _ in self._known_parameters()]
+        if self.params is not None and Binding(typed_target(topic, known)).parameter is not None:
+            dpg.configure_item(self.field_combo, items=[])
+            dpg.set_value(self.field_combo, "")
+            dpg.set_value(self.field_note, "A node's parameter: the widget shows its value and sets it.")
+            self._fields = []
+            return
         dpg.configure_item(self.log_group, show=self._is_log_topic(topic))
         self._fields = self.setup.fields(topic) if topic else []
         labels = ["(whole message)"] + [self._field_label(f) for f in self._fields]
@@ -912,7 +1016,7 @@ class TopicDialog(Dialog):
             self._typed = typed
             self._on_topic_typed()
         b = self.bindings[self.index]
-        want = Binding(b.topic, b.field) if b.topic else None
+        want = Binding(b.topic, b.field) if b.topic and b.parameter is None else None
         if want != self._preview_binding:
             if self._preview_binding is not None:
                 self.setup.end_preview(self._preview_binding)
@@ -920,7 +1024,15 @@ class TopicDialog(Dialog):
                 self.setup.preview(want)
             self._preview_binding = want
         latest: str | None = None
-        if want is not None:
+        if b.parameter is not None:
+            value = dict(self._known_parameters()).get(b.topic)
+            dpg.set_value(
+                self.latest,
+                f"value now: {value.text}   ({value.type.label})"
+                if value is not None
+                else "the node's value is not known yet (not on the graph?)",
+            )
+        elif want is not None:
             snap = self.setup.snapshot(want)
             if snap.last is not None:
                 latest = str(snap.last)

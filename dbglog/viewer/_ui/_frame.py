@@ -194,14 +194,23 @@ class CanvasItem:
 
     @property
     def series(self) -> tuple[Binding, ...]:
-        """The bindings the data source fills: none for a control (its bindings are where it publishes)."""
-        publishes = self.widget_cls is not None and self.widget_cls.publishes
-        return () if publishes else self.bindings
+        """The bindings the data source fills: none for a control (its bindings are where it publishes), nor
+        a binding to a node's parameter of a widget that shows parameters."""
+        cls = self.widget_cls
+        if cls is not None and cls.publishes:
+            return ()
+        if cls is not None and cls.parameters:
+            return tuple(b for b in self.bindings if b.parameter is None)
+        return self.bindings
 
     def context(self) -> WidgetContext:
-        """What the widget is given at mount: a control's publish targets, and the app's publisher."""
-        publishes = self.widget_cls is not None and self.widget_cls.publishes
-        return WidgetContext(self.bindings if publishes else (), self.publisher, self.host, self.time_range)
+        """What the widget is given at mount: a control's publish targets (a widget's parameters), and the
+        app's publisher."""
+        cls = self.widget_cls
+        targets = self.bindings if cls is not None and cls.publishes else ()
+        if cls is not None and cls.parameters and not cls.publishes:
+            targets = tuple(b for b in self.bindings if b.parameter is not None)
+        return WidgetContext(targets, self.publisher, self.host, self.time_range)
 
     @property
     def label(self) -> str | None:

@@ -19,10 +19,12 @@ MENUS: tuple[tuple[str, tuple[str | None, ...]], ...] = (
             "recording.export_csv",
             "recording.back_to_live",
             None,
+            "events.add_marker",
+            None,
             "file.quit",
         ),
     ),
-    ("View", ("view.snap", "view.load_messages", "view.log_console", "view.republish")),
+    ("View", ("view.snap", "view.load_messages", "view.log_console", "view.events", "view.republish")),
 )
 """The menu bar: (title, entries); an entry is an action's name, None a separator."""
 CONTEXT_MENU = ("widget.topic_setup", "widget.properties", "widget.rename", "widget.to_front")

@@ -10,6 +10,7 @@ import functools
 from collections.abc import Callable
 from typing import TypeVar
 
+from dbglog._ros._params import ParamValue
 from dbglog.viewer._document._canvas_doc import CanvasDoc, TopicSetup
 from dbglog.viewer._ui._actions import Actions
 from dbglog.viewer._ui._dialogs import Dialog, MessageDialog, PropertiesDialog, RenameDialog, TopicDialog
@@ -33,6 +34,8 @@ class Dialogs:
         self.say = say
         self.current: Dialog | None = None
         """The open dialog, or None."""
+        self.parameters: Callable[[], list[tuple[str, ParamValue]]] = list
+        """The nodes' parameters known (``/pid_node:kp`` and value), for Topic setup's suggestions."""
 
     def open(self, dialog: D) -> D:
         """Make `dialog` the open one (one modal at a time: open it after `close`)."""
@@ -81,7 +84,7 @@ class Dialogs:
         if item.widget_cls is None:
             return None
         self.close()
-        return self.open(TopicDialog(item, TopicSetup(self.doc, item), self.closed))
+        return self.open(TopicDialog(item, TopicSetup(self.doc, item), self.closed, self.parameters))
 
     def properties(self, item: CanvasItem) -> PropertiesDialog | None:
         """Open the properties dialog for `item`."""

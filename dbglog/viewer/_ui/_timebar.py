@@ -2,22 +2,28 @@
 
 A click or a drag on the track moves the cursor there (pausing); the round button plays and pauses, the
 speed button picks a playback speed, the loop toggle (recordings) plays again from the start at the end,
-and the Pause/Live button (live) pauses or returns to live. It reads the app's `Timeline` and draws only
-when what it shows changed; the maths is `_timescale`.
+and the Pause/Live button (live) pauses or returns to live. Parameter changes and the user's markers are
+marks on the rail (one a pixel column); the pointer over one shows its label, and a click on it puts the
+cursor at its very time. It reads the app's `Timeline` and draws only when what it shows changed; the maths
+is `_timescale`.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
+from typing import Protocol
 
 import dearpygui.dearpygui as dpg
+import numpy as np
+import numpy.typing as npt
 
 from dbglog.viewer._data._model import Status
 from dbglog.viewer._data._timeline import Timeline
 from dbglog.viewer._ui import _theme as theme
 from dbglog.viewer._ui._timescale import (
     TimeScale,
+    event_columns,
     format_ago,
     format_clock,
     format_offset,
@@ -25,9 +31,20 @@ from dbglog.viewer._ui._timescale import (
 )
 from dbglog.viewer._widgets._common import text_size
 from dbglog.viewer._widgets._geometry import Rect
-from dbglog.viewer.widget_api import Color
+from dbglog.viewer.widget_api import Color, EventMark
 
-__all__ = ["BUTTON_W", "ICON_W", "PILL_W", "SPEED_W", "TIMEBAR_H", "TimeBar", "speed_text"]
+__all__ = [
+    "BUTTON_W",
+    "CHANGE_COLOR",
+    "ICON_W",
+    "MARKER_COLOR",
+    "PILL_W",
+    "SPEED_W",
+    "TIMEBAR_H",
+    "TimeBar",
+    "TimelineEvents",
+    "speed_text",
+]
 
 TIMEBAR_H = 36
 """Height of the bar in pixels."""
@@ -55,8 +72,26 @@ NONE: Color = (0, 0, 0, 0)
 MARK_COLORS: dict[int, Color] = {30: (240, 190, 60, 255), 40: (240, 90, 90, 255), 50: (225, 110, 235, 255)}
 """Timeline marks of log lines: WARN yellow, ERROR red, FATAL magenta (as the Log console colours them)."""
 PLAYING: Color = theme.ACCENT
+CHANGE_COLOR: Color = (90, 210, 210, 255)
+"""A parameter change's mark on the rail (a diamond), and its line on time plots."""
+MARKER_COLOR: Color = (246, 160, 60, 255)
+"""A user's marker on the rail (a flag), and its line on time plots."""
+EVENT_NEAR_PX = 5
+"""The pointer this close to an event's mark (pixels) shows its label; a press there seeks to its time."""
 ICON_BG: Color = (48, 53, 64, 255)
 ICON_HOVER: Color = (62, 92, 130, 255)
+
+
+class TimelineEvents(Protocol):
+    """Where the bar reads the parameter changes and user markers it marks (the app's host)."""
+
+    def event_times(self) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.bool_]]:
+        """Every event's time, oldest first, and whether each is a user's marker (cheap: cached)."""
+        ...
+
+    def events(self, t0: float, t1: float) -> Sequence[EventMark]:
+        """The events from `t0` to `t1`, oldest first (a few: those under the pointer)."""
+        ...
 
 
 def speed_text(speed: float) -> str:
@@ -77,6 +112,7 @@ class TimeBar:
         on_loop: the loop toggle's action (seen by `poll` on the UI thread).
         marks: the log lines to mark on the track for a scale (the Log console's warnings and errors).
         keys: the keys that move the cursor, as the track's tooltip lists them.
+        events: the parameter changes and user markers to mark on the rail.
     """
 
     def __init__(
@@ -91,8 +127,17 @@ class TimeBar:
         on_loop: Callable[[], None] = lambda: None,
         marks: Callable[[TimeScale], Sequence[tuple[int, int]]] | None = None,
         keys: str = "",
+        events: TimelineEvents | None = None,
     ) -> None:
         self.timeline = timeline
+        self._events = events
+        self.event_marks: tuple[tuple[int, bool], ...] = ()
+        """The events' marks as last laid out: (pixel in the track, is a user's marker), one a column."""
+        self._event_key: object = None
+        self.hovered_event: tuple[float, str] | None = None
+        """The event mark under the pointer: (its pixel in the track, its label), else None."""
+        self._snapped_at: float | None = None
+        """The pointer's x where a press snapped the cursor to an event (dragging on seeks again)."""
         self._on_speed = on_speed
         self._speed_chosen: float | None = None
         """A speed chosen in the speed menu (its callback thread), taken by the next `poll`."""
@@ -248,18 +293,49 @@ class TimeBar:
             if self._pressed is not None and self._pressed == self._hover:
                 (self._on_play if self._pressed == "play" else self._on_loop)()
             self._pressed = None
+        near = self._event_near(pos) if not blocked and not self.dragging else None
+        self.hovered_event = None if near is None else (near[0], near[2])
         if pressed and not blocked and self.scale is not None and self.track_rect().contains(*pos):
             self.dragging = True
+            if near is not None:  # a press on an event's mark: the cursor at its very time
+                self._snapped_at = pos[0]
+                self._on_seek(near[1])
+                return True
         if not left:
-            self.dragging = False
+            self.dragging, self._snapped_at = False, None
         if not self.dragging or self.scale is None:
             return False
+        if self._snapped_at is not None and abs(pos[0] - self._snapped_at) < 1:
+            return False
+        self._snapped_at = None
         x0 = self.track_rect().x
         t = self.scale.t_of(pos[0] - x0)
         if t == self.timeline.cursor:
             return False
         self._on_seek(t)
         return True
+
+    def _event_near(self, pos: tuple[float, float]) -> tuple[float, float, str] | None:
+        """The event mark within `EVENT_NEAR_PX` of the pointer over the track: (its pixel, the time of its
+        newest event, its label: the newest event's, with how many more the column holds)."""
+        scale = self.scale
+        if self._events is None or scale is None or not self.event_marks:
+            return None
+        rect = self.track_rect()
+        if not rect.contains(*pos):
+            return None
+        x = pos[0] - rect.x
+        best = min(self.event_marks, key=lambda m: abs(m[0] - x))
+        if abs(best[0] - x) > EVENT_NEAR_PX:
+            return None
+        half = 0.5 * scale.seconds / max(1.0, scale.x1 - scale.x0)
+        t = scale.t_of(best[0])
+        found = list(self._events.events(t - half, t + half))
+        if not found:
+            return None
+        newest = found[-1]
+        more = f"  (+{len(found) - 1} more)" if len(found) > 1 else ""
+        return float(best[0]), newest.time, newest.label + more
 
     # -- drawing ------------------------------------------------------------------------------------
 
@@ -287,6 +363,8 @@ class TimeBar:
             None if cursor is None else (round(scale.x_of(cursor)), cursor, round(scale.newest - cursor, 1)),
             controls,
             self._marked_for(scale),
+            self._event_marks_for(scale),
+            self.hovered_event,
         )
         return scale, key
 
@@ -294,6 +372,18 @@ class TimeBar:
         """The marks for `scale` (kept for `_draw_track`; part of what the picture depends on)."""
         self._marked = tuple(self._marks(scale)) if self._marks is not None else ()
         return self._marked
+
+    def _event_marks_for(self, scale: TimeScale) -> tuple[tuple[int, bool], ...]:
+        """The events' marks for `scale` (kept for `_draw_track`), laid out again when the events or the
+        scale's pixels changed."""
+        if self._events is None:
+            return ()
+        times, markers = self._events.event_times()
+        key = (id(times), len(times), round(scale.x_of(scale.oldest)), scale.oldest, scale.newest, scale.x1)
+        if key != self._event_key:
+            self._event_key = key
+            self.event_marks = tuple(event_columns(times, markers, scale))
+        return self.event_marks
 
     def stale(self) -> bool:
         """Whether the bar would look different if drawn now (the history grew, the cursor moved)."""
@@ -492,4 +582,33 @@ class TimeBar:
         for x, level in self._marked:  # the Log console's warnings and errors, above the rail
             mark = MARK_COLORS.get(level, MARK_COLORS[50] if level > 50 else MARK_COLORS[30])
             dpg.draw_line((x, top - 9), (x, top - 1), color=mark, thickness=2, parent=dl)
+        self._draw_events(dl)
         dpg.draw_circle((knob_x, RAIL_Y), 6.5, color=(20, 22, 27, 255), fill=color, thickness=2, parent=dl)
+        hovered = self.hovered_event
+        if hovered is not None:  # the label of the event under the pointer, in the label row
+            text = hovered[1]
+            tw = text_size(text, LABEL_SIZE)[0] + 12
+            left = label_left(hovered[0], tw, 0, width)
+            box = (30, 33, 40, 255)
+            dpg.draw_rectangle(
+                (left, LABEL_Y - 1.5),
+                (left + tw, LABEL_Y + 14),
+                color=CHANGE_COLOR,
+                fill=box,
+                rounding=4,
+                parent=dl,
+            )
+            dpg.draw_text((left + 6, LABEL_Y - 0.5), text, size=LABEL_SIZE, color=theme.TEXT, parent=dl)
+
+    def _draw_events(self, dl: int | str) -> None:
+        """Parameter changes as small diamonds on the rail, user markers as flags above it."""
+        for x, marker in self.event_marks:
+            if marker:
+                dpg.draw_line((x, RAIL_Y + 3), (x, 0.5), color=MARKER_COLOR, thickness=2, parent=dl)
+                dpg.draw_triangle(
+                    (x, 0.5), (x + 6, 2.75), (x, 5), color=MARKER_COLOR, fill=MARKER_COLOR, parent=dl
+                )
+            else:
+                d = 4.0
+                points = [(x, RAIL_Y - d), (x + d, RAIL_Y), (x, RAIL_Y + d), (x - d, RAIL_Y), (x, RAIL_Y - d)]
+                dpg.draw_polygon(points, color=(20, 22, 27, 255), fill=CHANGE_COLOR, thickness=1, parent=dl)

@@ -10,10 +10,14 @@ import math
 import time
 from dataclasses import dataclass
 
+import numpy as np
+import numpy.typing as npt
+
 __all__ = [
     "MIN_SPAN_S",
     "TICK_STEPS",
     "TimeScale",
+    "event_columns",
     "format_ago",
     "format_bytes",
     "format_clock",
@@ -177,3 +181,21 @@ def label_left(center: float, width: float, lo: float, hi: float) -> float:
     """Return where a label `width` wide centred on `center` starts, kept within lo..hi."""
     left = center - width / 2
     return max(lo, min(left, hi - width))
+
+
+def event_columns(
+    times: npt.NDArray[np.float64], markers: npt.NDArray[np.bool_], scale: TimeScale
+) -> list[tuple[int, bool]]:
+    """(pixel, marker) for each pixel column of a timeline track that holds events at `times`, by pixel:
+    however many there are, one mark a column, a user's marker (`markers`) before a parameter change."""
+    if not len(times) or scale.seconds <= 0:
+        return []
+    keep = (times >= scale.oldest) & (times <= scale.newest)
+    t, m = times[keep], markers[keep]
+    if not len(t):
+        return []
+    x = np.round(scale.x0 + (t - scale.oldest) / scale.seconds * (scale.x1 - scale.x0)).astype(np.int64)
+    order = np.lexsort((m, x))  # by column, then markers last: the last of a column says whether it has one
+    xs, ms = x[order], m[order]
+    last = np.append(xs[1:] != xs[:-1], True)
+    return list(zip(xs[last].tolist(), ms[last].tolist(), strict=True))
