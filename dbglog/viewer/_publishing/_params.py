@@ -248,12 +248,25 @@ class ParamBoard:
             return
         now = self._clock()
         entry.rate_hz = max(0.1, float(rate_hz))
+        if self._asked_already(entry, typed):
+            return  # the same value again (a drag that stays on one step, its release): nothing to change
         entry.shown, entry.shown_until, entry.outcome = typed, math.inf, ""
         entry.changes += 1
         if final or now - entry.sent_at >= 1.0 / entry.rate_hz:
             self._send(entry, typed, now)
         else:
             entry.pending = typed
+
+    def _asked_already(self, entry: _Entry, value: ParamValue) -> bool:
+        """Whether setting `value` would change nothing: it waits already, it is the newest sent and not
+        answered yet, or (nothing under way) the node has it."""
+        if entry.pending is not None:
+            return entry.pending == value
+        if entry.sending:
+            return entry.shown == value
+        store = self._events()
+        current = store.value(entry.node, entry.name) if store is not None else None
+        return (current if current is not None else entry.got) == value
 
     def tick(self) -> bool:
         """Once a frame (UI thread): take the nodes' answers, send what the rate limit held, ask again the
@@ -392,9 +405,9 @@ class ParamBoard:
             )
         status, reason = self._status(entry, current)
         if cursor is not None:
-            note = "paused: the value then (read-only; go live to set)"
+            note = "paused: the value then, read-only"
             if then is None:
-                note = "paused: no value known then (go live to set)"
+                note = "paused: no value known then"
             return ParamState(target, status, reason, then, descriptor, note=note, version=version)
         value = entry.shown if holding and entry.shown is not None else current
         editable = status is Status.LIVE and descriptor is not None and not descriptor.read_only

@@ -1,4 +1,5 @@
-"""The Events list panel (View \u203a Events list) and the marker command (File \u203a Add marker…, M).
+"""The Events list panel (View \u203a Events list, Ctrl+E) and the marker command (File \u203a Add marker…,
+Ctrl+M).
 
 The panel lists the parameter changes (time, node, name, old → new) and the user's markers of the data
 source's events store, newest first; a click on one puts the time cursor at it (pausing), and the row at
@@ -126,13 +127,13 @@ class EventsPanel:
     # -- commands -------------------------------------------------------------------------------------
 
     def register(self, actions: Actions) -> None:
-        """Register View \u203a Events list (E) and File \u203a Add marker… (M)."""
+        """Register View \u203a Events list (Ctrl+E) and File \u203a Add marker… (Ctrl+M)."""
         actions.register(
             "view.events",
             "Events list",
             "The parameter changes and markers; click one to put the cursor there",
             self.toggle,
-            keys=("E",),
+            keys=("Ctrl+E",),
             scope="canvas",
             repeat=False,
             checked=lambda: self.shown,
@@ -142,7 +143,7 @@ class EventsPanel:
             "Add marker\u2026",
             "A note at the cursor (live: now), on the timeline and saved with recordings",
             self.add_marker,
-            keys=("M",),
+            keys=("Ctrl+M",),
             scope="canvas",
             repeat=False,
         )

@@ -133,6 +133,8 @@ class TimeBar:
         self._events = events
         self.event_marks: tuple[tuple[int, bool], ...] = ()
         """The events' marks as last laid out: (pixel in the track, is a user's marker), one a column."""
+        self.events_marked = 0
+        """How many events those marks stand for (the tests time a change's way to the screen by it)."""
         self._event_key: object = None
         self.hovered_event: tuple[float, str] | None = None
         """The event mark under the pointer: (its pixel in the track, its label), else None."""
@@ -383,6 +385,7 @@ class TimeBar:
         if key != self._event_key:
             self._event_key = key
             self.event_marks = tuple(event_columns(times, markers, scale))
+            self.events_marked = int(np.count_nonzero((times >= scale.oldest) & (times <= scale.newest)))
         return self.event_marks
 
     def stale(self) -> bool:

@@ -473,11 +473,12 @@ class SliderWidget(_Control):
             if at != self._dragged:
                 self._dragged = at
                 self.link.set(at, final=False, rate_hz=rate)
-        elif self._dragged is not None:  # let go: the last value goes out now
-            last, self._dragged = self._dragged, None
-            if editable:
-                self.link.set(last, final=True, rate_hz=rate)
         else:
+            if self._dragged is not None:  # let go: the last value goes out now
+                last, self._dragged = self._dragged, None
+                if editable:
+                    self.link.set(last, final=True, rate_hz=rate)
+                    state = self.link.state()  # what was sent (on the step), or the node's value
             shown = state.number
             if shown is not None and shown != at:
                 dpg.set_value(self.slider, shown)
@@ -521,7 +522,7 @@ class TextFieldWidget(_Control):
                 hint="type, then Enter",
                 callback=lambda *_: self.submit(),
             )
-            dpg.add_button(label="Send", width=56, callback=lambda *_: self.submit())
+            self.send_button = dpg.add_button(label="Send", width=56, callback=lambda *_: self.submit())
         self._add_note(parent, width, height - ROW_H)
         self._readonly: bool | None = None
         self._param_text: str | None = None
@@ -562,12 +563,14 @@ class TextFieldWidget(_Control):
         if readonly != self._readonly:
             self._readonly = readonly
             dpg.configure_item(self.input, readonly=readonly)
-        if not dpg.is_item_active(self.input):
+            dpg.configure_item(self.send_button, enabled=not readonly)
+        if not dpg.is_item_active(self.input):  # not being typed in: the node's value (a refused one undone)
             text = "" if state.value is None else state.value.text
             if text != self._param_text:
                 self._param_text = text
-                dpg.set_value(self.input, text)
                 self.param_note = ""
+            if text != dpg.get_value(self.input):
+                dpg.set_value(self.input, text)
         self._show_param_note(state, self.param_note)
 
 

@@ -226,9 +226,10 @@ class KnobWidget(DialWidget):
         self._needle = dpg.draw_line((cx, cy), (cx, cy), color=HUB, thickness=4, parent=dl)
         self._size = max(14.0, min(26.0, r / 3.4))
         self._readout = draw_centered_text("\u2014", cx, cy + r * 0.9, self._size, TEXT, dl)
-        self._note = (
-            dpg.draw_text((4, height - 15), "", size=12, color=DIM, parent=dl) if self.link.target else 0
-        )
+        self._note: int | str = 0
+        self._note_chars = max(8, int(width / 6.6))
+        if self.link.target:  # the parameter's note (read-only, a rejection) in the top left corner
+            self._note = dpg.draw_text((2, 0), "", size=12, color=DIM, parent=dl)
         self._note_shown = None
 
     def set_context(self, context: WidgetContext) -> None:
@@ -309,6 +310,8 @@ class KnobWidget(DialWidget):
             shown = self._snapped(state, self.dragged)
         self._show(shown)
         note, bad = (problem, True) if problem else (state.note, state.problem)
+        if len(note) > self._note_chars:
+            note = note[: self._note_chars - 1] + "\u2026"
         if self._note and (note, bad) != self._note_shown:
             self._note_shown = (note, bad)
             dpg.configure_item(self._note, text=note, color=ERROR if bad else DIM)
