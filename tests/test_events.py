@@ -363,6 +363,32 @@ def test_record_keeps_changes_and_markers_for_the_replay(nodes: ParamNodes, tmp_
     assert replay.events() is store
 
 
+def test_markers_added_to_a_replay_are_saved_with_its_history(tmp_path: Path) -> None:
+    """A marker added while replaying a recording is written when its history is saved as a recording (in
+    time order, the file's own marker once), so the new file's replay shows both."""
+    from dbglog._ros._markers import MARKER_TYPE
+    from dbglog.record import McapWriter
+    from dbglog.viewer._data._events import unsaved_markers
+    from dbglog.viewer._data._export import save_recording
+
+    first = tmp_path / "run.mcap"
+    with McapWriter(first) as writer:
+        channel = writer.add_channel(MARKER_TOPIC, MARKER_TYPE)
+        mark = Marker(100.0, "from the robot")
+        writer.write(channel, round(101e9), encode_marker(mark), round(101e9))
+    replay = load_replay(first)
+    store = replay.events()
+    added = store.add_marker("seen in the replay", 100.5)
+    times, payloads = unsaved_markers(store, replay.store)
+    assert times.tolist() == [100.5]
+    second = tmp_path / "again.mcap"
+    extra = [(MARKER_TOPIC, MARKER_TYPE, times, payloads)]
+    assert save_recording(replay.store, replay.held_types(), second, extra=extra) == 2
+    again = load_replay(second).events()
+    assert [(m.note, m.id) for m in again.markers()] == [(mark.note, mark.id), (added.note, added.id)]
+    assert unsaved_markers(again, load_replay(second).store)[1] == []
+
+
 def test_recorder_topic_choice_includes_events_unless_left_out() -> None:
     """Any targets record /parameter_events and /_dbglog/markers; --no-events leaves them out unless named
     (or with --all, which records every topic)."""

@@ -38,6 +38,7 @@ __all__ = [
     "event_kind",
     "event_label",
     "events_of",
+    "unsaved_markers",
 ]
 
 _log = logging.getLogger("dbglog.viewer.events")
@@ -418,3 +419,18 @@ def events_of(history: History, *, capacity: int = DEFAULT_CAPACITY) -> EventSto
             times, payloads = history.payloads(topic, -np.inf, np.inf)
             store.push(topic, times, payloads)
     return store
+
+
+def unsaved_markers(store: EventStore, history: History) -> tuple[npt.NDArray[np.float64], list[bytes]]:
+    """The markers of `store` that `history` does not hold (added to a replay, or while ROS was off), as
+    ``/_dbglog/markers`` messages at their own times: what saving `history` as a recording adds so that the
+    file keeps them."""
+    held: set[str] = set()
+    if history.kind(MARKER_TOPIC) == "payloads":
+        for payload in history.payloads(MARKER_TOPIC, -np.inf, np.inf)[1]:
+            try:
+                held.add(decode_marker(payload).id)
+            except ValueError:
+                continue
+    fresh = [m for m in store.markers() if m.id not in held]
+    return np.array([m.time for m in fresh], dtype=np.float64), [encode_marker(m) for m in fresh]

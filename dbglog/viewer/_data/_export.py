@@ -202,6 +202,7 @@ def save_recording(
     t0: float = -math.inf,
     t1: float = math.inf,
     force: bool = False,
+    extra: Sequence[tuple[str, str, npt.NDArray[np.float64], Sequence[bytes]]] = (),
 ) -> int:
     """Write every topic `store` holds between `t0` and `t1` to an MCAP file; return the messages written.
 
@@ -212,11 +213,16 @@ def save_recording(
         t0: the first source time written (epoch seconds).
         t1: the last source time written.
         force: replace an existing file.
+        extra: messages the history lacks, written with its own in time order: (topic, ROS type, source
+            times, CDR payloads) each (the markers added to a replay).
 
     Raises:
         ExportError: nothing held in the range, or the file exists (without `force`) or cannot be written.
     """
+    added = {topic: (msg_type, times, list(payloads)) for topic, msg_type, times, payloads in extra}
     topics = [n for n in store.topics() if n.startswith("/") and n in types]
+    topics += [n for n in added if n not in topics]
+    types = {**{n: t for n, (t, _, _) in added.items()}, **types}
     target = Path(path)
     _check_target(target, force=force)
     written = 0
@@ -235,6 +241,13 @@ def save_recording(
                 payloads = [encode(v) for v in values.tolist()]
             else:
                 times, payloads = store.payloads(name, t0, t1)
+            if name in added:
+                _, more_times, more = added[name]
+                keep = (more_times >= t0) & (more_times <= t1)
+                times = np.concatenate([times, more_times[keep]])
+                payloads = [*payloads, *(p for p, k in zip(more, keep.tolist(), strict=True) if k)]
+                order = np.argsort(times, kind="stable")
+                times, payloads = times[order], [payloads[i] for i in order.tolist()]
             if not len(times):
                 continue
             channel = writer.add_channel(name, msg_type)

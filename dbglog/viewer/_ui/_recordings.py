@@ -23,7 +23,9 @@ from typing import Generic, TypeVar
 
 import dearpygui.dearpygui as dpg
 
+from dbglog._ros._markers import MARKER_TOPIC, MARKER_TYPE
 from dbglog.record import RecordingError
+from dbglog.viewer._data._events import unsaved_markers
 from dbglog.viewer._data._export import ExportError, export_csv, save_recording
 from dbglog.viewer._data._model import Binding, DataSource
 from dbglog.viewer._data._replay import ReplaySource, load_replay
@@ -403,11 +405,14 @@ class RecordingCommands:
             chosen = self.chosen_range()
             self.folder = path.parent
             held = dict(types())
+            events = getattr(source, "events", None)
+            markers = unsaved_markers(events(), store) if callable(events) else None
+            extra = [(MARKER_TOPIC, MARKER_TYPE, *markers)] if markers is not None and markers[1] else []
             self._run(
                 dialog,
                 f"saving {path.name}\u2026",
                 lambda: save_recording(
-                    store, held, path, t0=chosen.bounds[0], t1=chosen.bounds[1], force=True
+                    store, held, path, t0=chosen.bounds[0], t1=chosen.bounds[1], force=True, extra=extra
                 ),
                 lambda n: self.say(f"saved {n:,} messages ({chosen.what.lower()}) to {path}"),
             )
