@@ -691,7 +691,7 @@ def _recording(path: Path, t0: float) -> list[tuple[float, str]]:
 def test_a_replay_shows_the_markers_lines_and_values_then(display: str, tmp_path: Path) -> None:
     """A recording replayed: its changes and marker are on the timeline and as lines on the plot; the
     widgets show the values the parameters had at the cursor, read-only; a click on the track moves
-    them there."""
+    them there; a marker added with Ctrl+M goes at the cursor."""
     t0 = 1_767_225_600.0
     marked = _recording(tmp_path / "run.mcap", t0)
     v = Viewer("replay", tmp_path, display, "test_ui_params")
@@ -714,5 +714,16 @@ def test_a_replay_shows_the_markers_lines_and_values_then(display: str, tmp_path
         assert state["items"]["Gain"]["shown"] == 2.5
         assert state["items"]["Gain text"]["shown"] == "2.5"
         assert state["items"]["Count"]["shown"] == "10"
+        # A marker added while replaying goes at the cursor, on the timeline with the file's.
+        at = state["cursor"]
+        v.key("ctrl+m")
+        v.wait_for(lambda s: (s["dialog"] or {}).get("active"))
+        v.type("seen in the replay")
+        v.key("Return")
+        state = v.wait_for(lambda s: s["dialog"] is None and len(s["events"]) == 4)
+        assert [(e["time"], e["label"]) for e in state["events"] if e["kind"] == "marker"] == sorted(
+            [(t0 + 4.5, "gain about to change"), (at, "seen in the replay")]
+        )
+        v.wait_for(lambda s: sum(1 for _x, m in s["marks"] if m) == 2)
     finally:
         v.stop()
