@@ -271,6 +271,11 @@ def test_a_recording_is_read_only_from_its_events() -> None:
     assert state.status is Status.WAITING
     assert state.value is None
     assert "no value known at the cursor" in state.note
+    cursor.at = None
+    offline = ParamBoard(None, lambda: store, cursor)  # live, but ROS could not start: read-only too
+    state = offline.state("/rec:kp")
+    assert (state.value, state.editable) == (ParamValue.of(2.5), False)
+    assert state.note == "read-only: no parameter client (no ROS)"
 
 
 def test_typed_values_take_the_parameters_type() -> None:

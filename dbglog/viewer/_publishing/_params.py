@@ -394,13 +394,14 @@ class ParamBoard:
                     note=f"no value known {where}",
                     version=version,
                 )
+            recording = not self._live()
             return ParamState(
                 target,
                 Status.LIVE,
                 "",
                 value,
                 descriptor,
-                note="a recording: read-only",
+                note="a recording: read-only" if recording else "read-only: no parameter client (no ROS)",
                 version=version,
             )
         status, reason = self._status(entry, current)
