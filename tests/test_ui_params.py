@@ -202,9 +202,11 @@ class Probe:
             "panel": {
                 "shown": panel.shown,
                 "rows": [
-                    {"time": ev.time, "rect": _rect(pick), "selected": bool(dpg.get_value(pick))}
-                    for ev, _row, pick in panel.rows[:20]
+                    {"time": ev.time, "rect": _rect(pick), "selected": bool(dpg.get_value(pick)), "id": row}
+                    for ev, row, pick in panel.rows[:20]
                 ],
+                "count": len(panel.rows),
+                "oldest": panel.rows[-1][0].time if panel.rows else None,
             },
             "dialog": dialog,
             "toolbox": {dpg.get_item_label(b): _rect(b) for b in app.canvas.tools.buttons.values()},
@@ -725,5 +727,49 @@ def test_a_replay_shows_the_markers_lines_and_values_then(display: str, tmp_path
             [(t0 + 4.5, "gain about to change"), (at, "seen in the replay")]
         )
         v.wait_for(lambda s: sum(1 for _x, m in s["marks"] if m) == 2)
+    finally:
+        v.stop()
+
+
+def test_the_events_list_keeps_the_newest_500_and_adds_new_ones_on_top(display: str, tmp_path: Path) -> None:
+    """Of a recording's 600 changes the Events list holds the newest 500, newest first; a marker added at
+    the end goes on top without the other rows being made again; a click on a row highlights it and
+    puts the cursor there."""
+    from rcl_interfaces.msg import Parameter, ParameterEvent
+    from rclpy.serialization import serialize_message
+
+    from dbglog._ros._params import PARAMETER_EVENTS, PARAMETER_EVENTS_TYPE, ParamValue
+    from dbglog.record import McapWriter
+
+    t0 = 1_767_225_600.0
+    with McapWriter(tmp_path / "run.mcap") as writer:
+        params = writer.add_channel(PARAMETER_EVENTS, PARAMETER_EVENTS_TYPE)
+        for k in range(600):
+            msg = ParameterEvent(node=FQN)
+            msg.changed_parameters = [Parameter(name="count", value=ParamValue.of(k).to_msg())]
+            ns = round((t0 + k * 0.01) * 1e9)
+            writer.write(params, ns, bytes(serialize_message(msg)), ns)
+    v = Viewer("replay", tmp_path, display, "test_ui_params")
+    try:
+        v.ready(timeout=WAIT)
+        v.wait_for(lambda s: s["events_count"] == 600)
+        v.key("ctrl+e")
+        state = v.wait_for(lambda s: s["panel"]["shown"] and s["panel"]["count"] == 500)
+        rows = state["panel"]["rows"]
+        assert [r["time"] for r in rows[:3]] == pytest.approx([t0 + k * 0.01 for k in (599, 598, 597)])
+        assert state["panel"]["oldest"] == pytest.approx(t0 + 100 * 0.01)
+        v.key("ctrl+m")
+        v.wait_for(lambda s: (s["dialog"] or {}).get("active"))
+        v.type("the end")
+        v.key("Return")
+        state = v.wait_for(lambda s: s["dialog"] is None and s["panel"]["rows"][0]["time"] == s["cursor"])
+        after = state["panel"]["rows"]
+        assert [r["id"] for r in after[1:5]] == [r["id"] for r in rows[:4]], "rows were made again"
+        assert state["panel"]["count"] == 500
+        assert state["panel"]["oldest"] == pytest.approx(t0 + 101 * 0.01)
+        target = after[6]
+        v.click(target["rect"][0] + 30, target["rect"][1] + target["rect"][3] / 2)
+        state = v.wait_for(lambda s: s["cursor"] == target["time"])
+        assert [r["selected"] for r in state["panel"]["rows"][:8]] == [False] * 6 + [True, False]
     finally:
         v.stop()

@@ -98,6 +98,8 @@ class EventsPanel:
         self._store: EventStore | None = None
         self._version = -1
         self._selected: int | str | None = None
+        self._total = 0
+        """How many events the store held at the last fill (more by as many as are new: only appended)."""
         self._cursor_key: object = None
 
     def build(self, height: int) -> None:
@@ -194,24 +196,25 @@ class EventsPanel:
             self._highlight(cursor)
 
     def _fill(self, store: EventStore | None) -> None:
-        events = store.all(kinds=CHANGES)[-MAX_ROWS:] if store is not None else []
-        shown = [row[0] for row in self.rows]  # newest first
-        oldest_first = shown[::-1]
-        grew = (
-            store is self._store
-            and bool(oldest_first)
-            and len(events) >= len(oldest_first)
-            and events[0] is oldest_first[0]
-            and events[len(oldest_first) - 1] is oldest_first[-1]
-        )
-        if not grew:
+        """Show the newest `MAX_ROWS` events: the ones after the newest row go on top (the oldest rows past
+        the limit leave from the bottom); another store, or a change among older events, fills it anew."""
+        everything = store.all(kinds=CHANGES) if store is not None else []
+        events = everything[-MAX_ROWS:]
+        newest = self.rows[0][0] if self.rows else None
+        at = next((i for i in range(len(events) - 1, -1, -1) if events[i] is newest), None)
+        appended = at is not None and len(everything) - self._total == len(events) - 1 - at
+        self._total = len(everything)
+        if store is not self._store or not appended:  # another store, or one placed among older events
             dpg.delete_item(self.table, children_only=True, slot=1)
             self.rows = []
-            new = events
+            fresh = events
         else:
-            new = events[len(oldest_first) :]
-        for event in new:
+            fresh = events[at + 1 :] if at is not None else events
+        for event in fresh:
             self._add_row(event)
+        while len(self.rows) > MAX_ROWS:
+            _event, row, _pick = self.rows.pop()
+            dpg.delete_item(row)
         dpg.set_value(self.count, f"{len(self.rows)}" + (" (newest)" if len(self.rows) >= MAX_ROWS else ""))
         dpg.configure_item(self.empty, show=not self.rows)
 
@@ -241,8 +244,9 @@ class EventsPanel:
         chosen: int | str | None = None
         if cursor is not None:
             chosen = next((pick for event, _row, pick in self.rows if event.time <= cursor), None)
-        for _event, _row, pick in self.rows:
-            want = pick == chosen
-            if bool(dpg.get_value(pick)) != want:
-                dpg.set_value(pick, want)
+        before = self._selected
+        if before is not None and before != chosen and dpg.does_item_exist(before):
+            dpg.set_value(before, False)
+        if chosen is not None:
+            dpg.set_value(chosen, True)  # (a click toggles a row: set it again)
         self._selected = chosen
