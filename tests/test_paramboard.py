@@ -246,6 +246,21 @@ def test_paused_shows_the_value_then_read_only(live: tuple[Engine, ParamClient],
     assert nodes.value("enabled") is False, "nothing was set while paused"
 
 
+def test_a_parameter_first_shown_from_a_recording_is_asked_once_live_again(
+    live: tuple[Engine, ParamClient], nodes: ParamNodes
+) -> None:
+    """A widget that came while a recording was shown (nothing asked) asks its node when the viewer is
+    live again (File > Back to live), and becomes editable."""
+    recording = [True]
+    engine, client = live
+    board = ParamBoard(client, engine.events, Cursor(), live=lambda: not recording[0])
+    target = f"{nodes.fqn}:count"
+    assert not board.state(target).editable
+    board.tick()
+    recording[0] = False
+    _until(board, target, lambda s: s.editable and s.range is not None)
+
+
 def test_a_recording_is_read_only_from_its_events() -> None:
     """Without a client (a recording), values come from the events at the cursor, read-only."""
     from rcl_interfaces.msg import Parameter, ParameterEvent

@@ -278,8 +278,9 @@ class ParamBoard:
             self._take_answers(entry, now)
             if entry.pending is not None and now - entry.sent_at >= 1.0 / entry.rate_hz:
                 self._send(entry, entry.pending, now)
-            if entry.error and now >= entry.retry_at and entry.describing is None and entry.getting is None:
-                self._ask(entry, now)
+            idle = entry.describing is None and entry.getting is None
+            if idle and ((entry.error and now >= entry.retry_at) or self._unasked(entry)):
+                self._ask(entry, now)  # again after a failure; or first, live again after a recording
             if entry.shown is not None and not entry.sending and now >= entry.shown_until:
                 entry.shown = None
                 entry.changes += 1
@@ -296,6 +297,10 @@ class ParamBoard:
             if self.client is not None and self._live():
                 self._ask(entry, self._clock())
         return entry
+
+    def _unasked(self, entry: _Entry) -> bool:
+        """Whether `entry` was never asked though it could be now (it came while a recording was shown)."""
+        return not math.isfinite(entry.asked_at) and self.client is not None and self._live()
 
     def _ask(self, entry: _Entry, now: float) -> None:
         """Ask the node for the descriptor (and the value, when the events store has none)."""
