@@ -27,8 +27,10 @@ Example::
 
 Only the viewer's UI thread calls these methods; a widget must not start threads that call Dear PyGui.
 At mount the viewer hands each widget a `WidgetContext` (``self.context``): the publish targets of a
-control's bindings, the app's publishing service (``self.publisher()``), its other services (`WidgetHost`)
-and the time range the time plots share (`TimeRange`); the app owns them.
+control's bindings (and the node parameters a widget that declares `Widget.parameters` is bound to), the
+app's publishing service (``self.publisher()``), its other services (`WidgetHost`: log lines, the time
+cursor, node parameters, the events on the timeline) and the time range the time plots share
+(`TimeRange`); the app owns them.
 Everything a plugin needs is importable from this module (the data types `SeriesSnapshot`, `ValueKind`,
 `Status` and `Binding` are re-exported here); the ``_``-prefixed modules are private. The full reference
 and a step-by-step tutorial are in ``docs/plugins.md``.

@@ -44,7 +44,8 @@ loaded whole; the engine's stays the same)."""
 
 class AppHost:
     """The app's `WidgetHost`: hands log stores out (the engine's, or built from a recording's history),
-    moves the cursor, opens "Plot this number", and collects the stores' marks for the timeline bar.
+    moves the cursor, opens "Plot this number", and collects the stores' marks for the timeline bar; owns
+    the parameter service (`params`) and hands out the events store's changes and markers.
 
     Args:
         timeline: the window's time cursor over its data source.
