@@ -52,11 +52,7 @@ class ValueKind(enum.StrEnum):
 
 @dataclass(frozen=True, slots=True)
 class Binding:
-    """A topic, a field path inside its messages (``""`` = the whole single-valued message), a regex.
-
-    A topic written ``NODE:PARAMETER`` (``/pid_node:kp``: no topic name has a colon) is a node's parameter
-    instead (`parameter`): a widget that declares `parameters` shows and sets it.
-    """
+    """A topic, a field path inside its messages (``""`` = the whole single-valued message), a regex."""
 
     topic: str
     field: str = ""
@@ -73,8 +69,9 @@ class Binding:
 
     @property
     def parameter(self) -> tuple[str, str] | None:
-        """The node and the parameter of a binding to a node's parameter (``/pid_node:kp`` ->
-        ``("/pid_node", "kp")``), None for a topic."""
+        """The node and the parameter of a binding to a node's parameter, None for a topic: a topic written
+        ``NODE:PARAMETER`` (``/pid_node:kp`` -> ``("/pid_node", "kp")``; no topic name has a colon) is one,
+        which a widget that declares ``parameters`` shows and sets."""
         if ":" not in self.topic:
             return None
         try:
