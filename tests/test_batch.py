@@ -303,15 +303,17 @@ def test_a_big_int_tag_another_node_also_publishes_keeps_every_sample_exactly_on
 
 def test_a_publisher_whose_node_rmw_does_not_know_yet_is_waited_for(monkeypatch: pytest.MonkeyPatch) -> None:
     """rmw names an endpoint's node `_NODE_NAME_UNKNOWN_` until it learns it (or once the node is going
-    away): the engine waits (the grace time) before deciding how to read the topic, then goes on."""
+    away): the engine and the recorder wait (the grace time) before deciding how to read the topic, then
+    go on."""
     from rclpy.topic_endpoint_info import TopicEndpointInfo
 
-    from dbglog.viewer._data import _batchsub
-    from dbglog.viewer._data._batchsub import UNKNOWN_NODE, BatchIngest
+    from dbglog._ros import _grace
+    from dbglog._ros._grace import UNKNOWN_NODE, PublisherGrace
+    from dbglog.viewer._data._batchsub import BatchIngest
     from dbglog.viewer._data._history import History
 
-    monkeypatch.setattr(_batchsub, "_GRACE_S", 0.2)
-    monkeypatch.setattr(_batchsub, "_UNKNOWN_GAP_S", 0.1)
+    monkeypatch.setattr(_grace, "GRACE_S", 0.2)
+    monkeypatch.setattr(_grace, "UNKNOWN_GAP_S", 0.1)
 
     def unused(*_args: object) -> None:
         raise AssertionError("not called")
@@ -332,3 +334,29 @@ def test_a_publisher_whose_node_rmw_does_not_know_yet_is_waited_for(monkeypatch:
     time.sleep(0.15)  # unseen for longer than the gap: the next unknown stretch has its own grace
     assert ingest.should_wait("/rosdashboard/a", unknown)
     assert ingest.should_wait("/rosdashboard/b", unknown)  # each topic its own
+    grace = PublisherGrace()  # the recorder's own
+    assert grace.should_wait("/rosdashboard/a", unknown, [])
+
+
+def test_a_new_sdk_node_is_waited_for_until_it_shows_its_batch_writer(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A ``dbglog_<pid>`` node publishing a scalar tag is waited for until it is seen writing batches, at
+    most the grace time; its other tags (arrays, messages) and other nodes' are never waited for."""
+    from rclpy.topic_endpoint_info import TopicEndpointInfo
+
+    from dbglog._ros import _grace
+    from dbglog._ros._grace import PublisherGrace
+
+    monkeypatch.setattr(_grace, "GRACE_S", 0.2)
+    sdk = ("/", "dbglog_4242")
+
+    def pub(node: str, msg_type: str = "std_msgs/msg/Float64") -> list[TopicEndpointInfo]:
+        return [TopicEndpointInfo(node_name=node, node_namespace="/", topic_type=msg_type)]
+
+    grace = PublisherGrace()
+    assert grace.should_wait("/rosdashboard/a", pub("dbglog_4242"), [])
+    assert not grace.should_wait("/rosdashboard/a", pub("dbglog_4242"), [frozenset({sdk})])  # now seen
+    assert not grace.should_wait("/rosdashboard/v", pub("dbglog_4242", "std_msgs/msg/Float64MultiArray"), [])
+    assert not grace.should_wait("/rosdashboard/a", pub("talker"), [])
+    assert wait_until(lambda: not grace.should_wait("/rosdashboard/a", pub("dbglog_4242"), []), 5.0)

@@ -2,11 +2,15 @@
 
 from __future__ import annotations
 
+import os
+import random
+import threading
 from array import array
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+import pytest
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 
@@ -14,6 +18,7 @@ from dbglog._ros._batch import SLOT_FORMATS, encode_batch, pack_values, type_cod
 from dbglog.record import McapWriter
 from dbglog.record._expand import BatchExpander
 from tests._children import run_dbglog
+from tests._ros import RosPeer, wait_until
 
 T0 = 1_700_000_000_000_000_000
 
@@ -108,3 +113,59 @@ def test_record_rejects_a_queue_depth_below_one(tmp_path: Path) -> None:
     assert done.returncode == 2
     assert "--queue-depth must be at least 1, not 0" in done.stderr
     assert not (tmp_path / "q.mcap").exists()
+
+
+def test_a_tag_whose_sdk_node_shows_its_batch_writer_late_is_recorded_from_the_batches(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Discovery tells a node's endpoints in any order: a recorder that saw an SDK node's tag before its
+    batch writer subscribed to the tag for good, and the file's topic missed what came before that
+    subscription matched (in 1 of 4 runs it started at sample 822 of 5000). It now waits (the grace,
+    here 5 s so that a loaded machine cannot outlast it) and writes the tag from the batches: every sample."""
+    from std_msgs.msg import Float64, UInt8MultiArray
+
+    from dbglog._ros import _grace
+    from dbglog._ros._batch import BATCH_TOPIC
+    from dbglog._ros._qos import batch_qos, tag_qos
+    from dbglog.record._recorder import Recorder, parse_targets
+
+    monkeypatch.setattr(_grace, "GRACE_S", 5.0)
+    tag = f"late_writer_{os.getpid()}_{random.randrange(1 << 20)}"
+    topic = f"/rosdashboard/{tag}"
+    path = tmp_path / "late.mcap"
+    n = 50
+    with McapWriter(path) as writer, RosPeer(f"dbglog_{random.randrange(10**6, 10**7)}") as sdk:
+        recorder = Recorder(parse_targets([], everything=False), writer, node_name=f"late_writer_rec_{tag}")
+        thread = threading.Thread(target=recorder.run)
+        thread.start()
+        try:
+            sdk.publisher(topic, Float64, tag_qos())  # the tag's publisher, and no batch writer yet
+            assert wait_until(lambda: "late_writer_rec_" + tag in sdk.node.get_node_names(), 20)
+            # A few graph polls (every 0.25 s) of the recorder see the tag and no batch writer of its node.
+            assert not wait_until(lambda: bool(_recorders(sdk, topic)), 1.0), "subscribed to the tag itself"
+            batches = sdk.publisher(BATCH_TOPIC, UInt8MultiArray, batch_qos())
+            assert wait_until(lambda: batches.get_subscription_count() > 0, 20)
+            for seq in range(n // 5):
+                batches.publish(_tag_batch(tag, seq, 5))
+            assert wait_until(lambda: recorder.stats.from_batch >= n, 20), recorder.stats
+            assert not _recorders(sdk, topic)
+        finally:
+            recorder.stop()
+            thread.join(10)
+    got = _read(path)
+    assert [m.data for _, m, _ in got[topic]] == [float(i) for i in range(n)]
+
+
+def _recorders(peer: RosPeer, topic: str) -> list[str]:
+    """The recorders subscribed to `topic`."""
+    return [i.node_name for i in peer.node.get_subscriptions_info_by_topic(topic) if "_rec_" in i.node_name]
+
+
+def _tag_batch(tag: str, seq: int, k: int) -> bytes:
+    """The `seq`-th batch of `k` Float64 samples of one tag, values and times counting on from it."""
+    index = array("H", [0] * k)
+    times = array("q", [T0 + (seq * k + i) * 1000 for i in range(k)])
+    values = [float(seq * k + i) for i in range(k)]
+    return encode_batch(
+        1, seq, [(type_code("Float64"), tag.encode())], index, times, pack_values("d" * k, values), []
+    )

@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from dbglog._ros._batch import BATCH_DEPTH, SCALAR_TYPES, batch_robot, batch_topic, is_sdk_node
+from dbglog._ros._grace import PublisherGrace
 from dbglog._ros._markers import MARKER_TOPIC
 from dbglog._ros._params import PARAMETER_EVENTS
 from dbglog._ros._tags import TagError, TagName, parse_target, parse_topic
@@ -214,6 +215,8 @@ class Recorder:
         self._subs: dict[str, _Sub] = {}
         self.via_batch: set[str] = set()
         """Tag topics only SDK nodes publish, recorded from the batch topic instead of subscribed."""
+        self._grace = PublisherGrace()
+        """A tag whose publisher is too new or unknown to tell whether it writes batches is decided later."""
         self._expander: BatchExpander | None = None
         self._version = 0
         self._running = True
@@ -332,19 +335,23 @@ class Recorder:
                 batch_nodes[robot] = {
                     (i.node_namespace, i.node_name) for i in infos if is_sdk_node(i.node_name)
                 }
-            elif (
-                name not in self._subs
-                and tag_robot is not None
-                and batch_topic(tag_robot) in self._subs
-                and pub_types[0] in _BATCHED_TYPES
-                and all((i.node_namespace, i.node_name) in batch_nodes.get(tag_robot, ()) for i in infos)
-            ):
-                # Only SDK nodes that send the batch publish it: its samples come from the batches (a
-                # subscriber here would make each SDK publish every sample twice).
-                if name not in self.via_batch:
-                    self.via_batch.add(name)
-                    self._count_topics()
-                continue
+            elif name not in self._subs and tag_robot is not None and pub_types[0] in _BATCHED_TYPES:
+                if batch_topic(tag_robot) in self._subs and all(
+                    (i.node_namespace, i.node_name) in batch_nodes.get(tag_robot, ()) for i in infos
+                ):
+                    # Only SDK nodes that send the batch publish it: its samples come from the batches (a
+                    # subscriber here would make each SDK publish every sample twice).
+                    if name not in self.via_batch:
+                        self.via_batch.add(name)
+                        self._count_topics()
+                    continue
+                if self.targets.wants(batch_topic(tag_robot)) and self._grace.should_wait(
+                    name, infos, batch_nodes.values()
+                ):
+                    # Its publisher may be an SDK's whose batch writer (or node, for rmw) is not known yet:
+                    # subscribed now, the tag would be read apart from its batches for good, and the
+                    # file's topic would miss the samples sent before the subscription matched.
+                    continue
             best_effort = any(i.qos_profile.reliability == ReliabilityPolicy.BEST_EFFORT for i in infos)
             transient = all(i.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL for i in infos)
             old = self._subs.get(name)

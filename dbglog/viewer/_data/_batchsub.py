@@ -26,9 +26,9 @@ from dbglog._ros._batch import (
     batch_robot,
     batch_topic,
     decode_batch,
-    is_sdk_node,
 )
 from dbglog._ros._cdr import read_string, string_payload
+from dbglog._ros._grace import PublisherGrace
 from dbglog._ros._node import no_callback
 from dbglog._ros._numbers import as_numbers
 from dbglog._ros._qos import batch_qos
@@ -38,23 +38,11 @@ from dbglog.viewer._data._model import Binding, ValueKind
 from dbglog.viewer._data._series import NO_MESSAGE_YET, Series
 from dbglog.viewer._data._sinks import as_received, number_type
 
-__all__ = ["UNKNOWN_NODE", "BatchIngest", "BatchStats"]
+__all__ = ["BatchIngest", "BatchStats"]
 
 _log = logging.getLogger("dbglog.viewer.engine")
 _MAX_TAKE = 2000
 """Batches taken per wake-up at most (others get their turn)."""
-_GRACE_S = 0.75
-"""dbglog's own node (``dbglog_<pid>``) seen this recently publishing a scalar topic may not show its
-batch publisher yet (discovery announces a node's endpoints in any order): the per-tag subscription
-waits that long, or the switch to batches later would lose the samples in between. A publisher whose node
-rmw does not know (yet, or any more) waits as long: see `UNKNOWN_NODE`."""
-UNKNOWN_NODE = "_NODE_NAME_UNKNOWN_"
-"""The node name rmw gives an endpoint whose node it does not know. DDS announces an endpoint and rmw its
-node (``ros_discovery_info``) in separate messages, so a new publisher shows under this name for 1-80 ms,
-and a publisher of a node that is going away can show under it before it goes: a graph poll that landed
-there read an SDK tag per tag, as if another node published it."""
-_UNKNOWN_GAP_S = 0.5
-"""A topic's publisher seen under `UNKNOWN_NODE` again after this long is a new stretch (its own grace)."""
 _SCALAR_TYPE_NAMES = frozenset(f"std_msgs/msg/{name}" for name in SCALAR_TYPES)
 
 
@@ -122,10 +110,8 @@ class BatchIngest:
         self._cls: Any = None
         self._writer_nodes: dict[str, frozenset[tuple[str, str]]] = {}
         """Robot namespace -> the nodes writing its batches."""
-        self._first_seen: dict[tuple[str, str], float] = {}
-        """When each scalar topic's publisher node was first seen (for the grace period)."""
-        self._unknown: dict[str, tuple[float, float]] = {}
-        """Per topic, when a publisher under `UNKNOWN_NODE` was first and last seen in the current stretch."""
+        self._grace = PublisherGrace()
+        """When new SDK nodes and unknown publishers were first seen (see `should_wait`)."""
         self._covered: dict[str, _Covered] = {}
         self._types: dict[str, str] = {}
         """The std_msgs type each tag seen in batches has (its newest)."""
@@ -164,28 +150,9 @@ class BatchIngest:
         )
 
     def should_wait(self, name: str, infos: list[Any]) -> bool:
-        """True while topic `name` has a publisher too new (or too unknown) to tell whether it sends batches.
-
-        A ``dbglog_<pid>`` node seen publishing a scalar topic less than `_GRACE_S` ago and not yet seen
-        writing batches; or a publisher whose node rmw does not know (`UNKNOWN_NODE`) since less than that.
-        """
-        now = time.monotonic()
-        wait = False
-        if any(i.node_name == UNKNOWN_NODE for i in infos):
-            first, last = self._unknown.get(name, (now, now))
-            if now - last > _UNKNOWN_GAP_S:
-                first = now
-            self._unknown[name] = (first, now)
-            wait = now - first < _GRACE_S
-        for i in infos:
-            if not is_sdk_node(i.node_name):
-                continue
-            key = (i.node_namespace, i.node_name)
-            fresh = now - self._first_seen.setdefault(key, now) < _GRACE_S
-            writing = any(key in writers for writers in self._writer_nodes.values())
-            if fresh and i.topic_type in _SCALAR_TYPE_NAMES and not writing:
-                wait = True
-        return wait
+        """True while topic `name` has a publisher too new (or too unknown) to tell whether it sends batches
+        (`PublisherGrace.should_wait`)."""
+        return self._grace.should_wait(name, infos, self._writer_nodes.values())
 
     def types(self) -> dict[str, str]:
         """Return the std_msgs type of every tag seen in batches (its newest)."""
