@@ -3,7 +3,8 @@
 Run from the repository root: ``.venv/bin/python -m benchmarks.bench_engine`` (``--help`` for options).
 Every receiver and publisher is its own process; the script orchestrates them and prints Markdown
 tables: flood ingest (50 topics and 1 topic, engine vs ``SingleThreadedExecutor``), loss and
-publish-to-buffer latency at a fixed rate, and RSS over a soak run.
+publish-to-buffer latency at a fixed rate, RSS over a soak run, and (``--only take``) messages per take
+against fast and slow publishers, the engine's gathering off and on side by side.
 """
 
 from __future__ import annotations
@@ -69,7 +70,16 @@ def _publisher(args: argparse.Namespace) -> None:
     sent = 0
     start = time.monotonic()
     end = start + args.duration
-    while True:
+    while args.even and rate > 0:  # one message at a time, each at its own due time (busy between them)
+        now = time.monotonic()
+        if now >= end:
+            break
+        due = start + sent / rate
+        while now < due:
+            now = time.monotonic()
+        pubs[sent % n_topics].publish(header + pack(float(sent)))
+        sent += 1
+    while not args.even:
         now = time.monotonic()
         if now >= end:
             break
@@ -122,7 +132,9 @@ def _receiver(args: argparse.Namespace) -> None:
         while not stop.wait(_SAMPLE_S):
             stats = engine.stats()
             now, cpu = time.monotonic(), time.process_time()
-            samples.append((now, stats.taken, cpu, _rss_bytes(), stats.thread_cpu_s, stats.cycles))
+            samples.append(
+                (now, stats.taken, cpu, _rss_bytes(), stats.thread_cpu_s, stats.cycles, stats.takes)
+            )
         snaps = [engine.snapshot(b) for b in bindings]
         lat = engine.latencies()
         result["landed"] = sum(s.count for s in snaps)
@@ -176,7 +188,7 @@ def _receiver(args: argparse.Namespace) -> None:
 
 _CHILD_ARGS: list[str] = []
 """Options every receiver child gets (set from the command line)."""
-_ENGINE_OPTIONS = ("queue_budget", "min_cycle", "max_stretch")
+_ENGINE_OPTIONS = ("queue_budget", "queue_depth", "min_cycle", "max_stretch", "max_gather")
 """Command-line options that are `Engine` settings of the same name (None: the engine's default)."""
 
 
@@ -191,17 +203,28 @@ def _child(role: str, *extra: str) -> subprocess.Popen[str]:
 
 
 def _run_once(
-    receiver: str, topics: int, rate: float, duration: float, *, latency: bool = True
+    receiver: str,
+    topics: int,
+    rate: float,
+    duration: float,
+    *,
+    latency: bool = True,
+    even: bool = False,
+    engine: tuple[str, ...] = (),
 ) -> dict[str, Any]:
-    """Run one receiver against one publisher process; return both reports."""
+    """Run one receiver against one publisher process; return both reports.
+
+    `even`: the publisher sends each message at its own time (no bursts); `engine`: more engine options.
+    """
     prefix = f"{_PREFIX}{random.randrange(1 << 30)}_"
     common = ["--topics", str(topics), "--prefix", prefix]
-    rx = _child(receiver, *common, "--latency", "1" if latency else "0")
+    rx = _child(receiver, *common, "--latency", "1" if latency else "0", *engine)
     assert rx.stdout is not None
     assert rx.stdin is not None
     if rx.stdout.readline().strip() != "ready":
         raise RuntimeError(f"{receiver} receiver did not start")
-    tx = _child("publisher", *common, "--rate", str(rate), "--duration", str(duration))
+    pace = ["--even"] if even else []
+    tx = _child("publisher", *common, "--rate", str(rate), "--duration", str(duration), *pace)
     out, _ = tx.communicate(timeout=duration + 60)
     pub = json.loads(out.strip().splitlines()[-1])
     time.sleep(1.5)  # let the receiver drain its queues
@@ -212,25 +235,49 @@ def _run_once(
     return {"pub": pub, "rx": rec}
 
 
-def _window_rate(run: dict[str, Any]) -> tuple[float, float]:
-    """Return (messages/s, CPU microseconds/message) inside the publishing window."""
-    pub, samples = run["pub"], run["rx"]["samples"]
+def _window(run: dict[str, Any]) -> dict[str, float]:
+    """Return a run's figures inside the publishing window (from 0.5 s after its start).
+
+    rate: messages/s taken; cpu: the receiver process's CPU µs a message (all threads); sent: messages/s
+    published; lost: the share of the messages published that never reached the receiver (counted once it
+    has drained); and for the engine, thread: its own thread's CPU µs a message, per_take: messages a take
+    that found any, latency p50 / p99 (ms) when recorded.
+    """
+    pub, rx = run["pub"], run["rx"]
+    nan = float("nan")
+    figures = {
+        "sent": pub["sent"] / (pub["end"] - pub["start"]),
+        "lost": max(0.0, 1 - rx["landed"] / pub["sent"]) if pub["sent"] else nan,
+        "rate": 0.0,
+        "cpu": nan,
+        "thread": nan,
+        "per_take": nan,
+        "p50": rx.get("lat_p50", nan) * 1e3,
+        "p99": rx.get("lat_p99", nan) * 1e3,
+    }
     lo, hi = pub["start"] + 0.5, pub["end"]
-    inside = [s for s in samples if lo <= s[0] <= hi]
+    inside = [s for s in rx["samples"] if lo <= s[0] <= hi]
     if len(inside) < 2:
-        return 0.0, float("nan")
-    (t0, c0, cpu0), (t1, c1, cpu1) = inside[0][:3], inside[-1][:3]
-    n = c1 - c0
-    return n / (t1 - t0), ((cpu1 - cpu0) / n * 1e6 if n else float("nan"))
+        return figures
+    first, last = inside[0], inside[-1]
+    n = last[1] - first[1]
+    figures["rate"] = n / (last[0] - first[0])
+    if n:
+        figures["cpu"] = (last[2] - first[2]) / n * 1e6
+    if n and len(first) > 6:  # the engine's own counters
+        figures["thread"] = (last[4] - first[4]) / n * 1e6
+        takes = last[6] - first[6]
+        figures["per_take"] = n / takes if takes else nan
+    return figures
 
 
-def _flood(receiver: str, topics: int, duration: float, repeats: int) -> tuple[float, float]:
-    rates, cpus = [], []
-    for _ in range(repeats):
-        rate, cpu = _window_rate(_run_once(receiver, topics, 0, duration))
-        rates.append(rate)
-        cpus.append(cpu)
-    return statistics.median(rates), statistics.median(cpus)
+def _median(runs: list[dict[str, float]]) -> dict[str, float]:
+    """Return each figure's median over runs."""
+    return {key: statistics.median(r[key] for r in runs) for key in runs[0]}
+
+
+def _flood(receiver: str, topics: int, duration: float, repeats: int) -> dict[str, float]:
+    return _median([_window(_run_once(receiver, topics, 0, duration)) for _ in range(repeats)])
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -240,6 +287,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--topics", type=int, default=50)
     parser.add_argument("--prefix", default=_PREFIX)
     parser.add_argument("--rate", type=float, default=0.0, help="total messages/s (0: flat out)")
+    parser.add_argument(
+        "--even",
+        action="store_true",
+        help="with --rate: send each message at its own time, none in bursts (a publisher slower than "
+        "the engine)",
+    )
     parser.add_argument("--duration", type=float, default=5.0, help="seconds per flood run")
     parser.add_argument("--history", type=int, default=10_000)
     parser.add_argument(
@@ -252,6 +305,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--queue-budget", type=int, default=None, help="the engine's queue_budget (default: the engine's)"
     )
+    parser.add_argument(
+        "--queue-depth", type=int, default=None, help="the engine's queue_depth (default: the engine's)"
+    )
     parser.add_argument("--min-cycle", type=float, default=None, help="the engine's min_cycle in seconds")
     parser.add_argument(
         "--max-stretch",
@@ -259,9 +315,24 @@ def main(argv: list[str] | None = None) -> int:
         default=None,
         help="the engine's max_stretch in seconds (default: the engine's; 0 = rest only min_cycle)",
     )
+    parser.add_argument(
+        "--max-gather",
+        type=float,
+        default=None,
+        help="the engine's max_gather in seconds (default: the engine's; 0 = every cycle min_cycle)",
+    )
     parser.add_argument("--latency", type=int, choices=[0, 1], default=1, help=argparse.SUPPRESS)
     parser.add_argument(
-        "--only", choices=["flood", "rate", "soak"], default=None, help="run one part of the benchmark"
+        "--only",
+        choices=["flood", "rate", "soak", "take"],
+        default=None,
+        help="run one part of the benchmark ('take' is run only when named)",
+    )
+    parser.add_argument(
+        "--slow-rate",
+        type=float,
+        default=13_500.0,
+        help="'take': the rate of the publisher slower than the engine (sent evenly, no bursts)",
     )
     parser.add_argument("--repeats", type=int, default=3, help="flood runs per figure (median)")
     parser.add_argument("--loss-rate", type=float, default=20_000.0)
@@ -292,24 +363,88 @@ def main(argv: list[str] | None = None) -> int:
         _rate_table(args)
     if args.only in (None, "soak"):
         _soak_table(args)
+    if args.only == "take":
+        _take_table(args)
     return 0
 
 
 def _flood_table(args: argparse.Namespace) -> None:
     n = args.topics
-    eng_many, eng_many_cpu = _flood("engine", n, args.duration, args.repeats)
-    exe_many, exe_many_cpu = _flood("executor", n, args.duration, args.repeats)
-    eng_one, eng_one_cpu = _flood("engine", 1, args.duration, args.repeats)
-    exe_one, exe_one_cpu = _flood("executor", 1, args.duration, args.repeats)
+    rows = []
+    for topics in (n, 1):
+        engine = _flood("engine", topics, args.duration, args.repeats)
+        executor = _flood("executor", topics, args.duration, args.repeats)
+        for name, f, ratio in (
+            ("dbglog engine", engine, f"{engine['rate'] / executor['rate']:.1f}×"),
+            ("rclpy SingleThreadedExecutor", executor, "1.0×"),
+        ):
+            rows.append([name, topics, *_flood_cells(f), ratio])
     print_table(
         "Flood ingest (publisher flat out, Float64, median of repeats)",
-        ["receiver", "topics", "msg/s", "CPU µs/msg", "vs executor"],
         [
-            ["dbglog engine", n, f"{eng_many:,.0f}", f"{eng_many_cpu:.1f}", f"{eng_many / exe_many:.1f}×"],
-            ["rclpy SingleThreadedExecutor", n, f"{exe_many:,.0f}", f"{exe_many_cpu:.1f}", "1.0×"],
-            ["dbglog engine", 1, f"{eng_one:,.0f}", f"{eng_one_cpu:.1f}", f"{eng_one / exe_one:.1f}×"],
-            ["rclpy SingleThreadedExecutor", 1, f"{exe_one:,.0f}", f"{exe_one_cpu:.1f}", "1.0×"],
+            "receiver",
+            "topics",
+            "sent msg/s",
+            "msg/s",
+            "lost",
+            "msg a take",
+            "CPU µs/msg",
+            "thread µs/msg",
+            "vs executor",
         ],
+        rows,
+    )
+
+
+def _flood_cells(f: dict[str, float]) -> list[str]:
+    """A flood row's figures: sent and taken rates, loss, messages a take, process and thread CPU."""
+    return [
+        f"{f['sent']:,.0f}",
+        f"{f['rate']:,.0f}",
+        f"{f['lost'] * 100:.1f} %",
+        "-" if f["per_take"] != f["per_take"] else f"{f['per_take']:.1f}",
+        f"{f['cpu']:.1f}",
+        "-" if f["thread"] != f["thread"] else f"{f['thread']:.1f}",
+    ]
+
+
+def _take_table(args: argparse.Namespace) -> None:
+    """Messages per take and CPU per message, the engine gathering off (``max_gather`` 0) and on,
+    alternating run by run: publishers flat out, one slower than the engine (even, no bursts), and the
+    rate table's 20,000 msg/s for latency."""
+    n = args.topics
+    scenarios = [
+        (f"flood, {n} topics", n, 0.0, False),
+        ("flood, 1 topic", 1, 0.0, False),
+        (f"slow publisher {args.slow_rate:,.0f} msg/s even, {n} topics", n, args.slow_rate, True),
+        (f"slow publisher {args.slow_rate:,.0f} msg/s even, 1 topic", 1, args.slow_rate, True),
+        (f"{args.loss_rate:,.0f} msg/s, {n} topics", n, args.loss_rate, False),
+    ]
+    arms = {"off": ("--max-gather", "0"), "on": ()}
+    rows = []
+    for title, topics, rate, even in scenarios:
+        runs: dict[str, list[dict[str, float]]] = {arm: [] for arm in arms}
+        for _ in range(args.repeats):
+            for arm, options in arms.items():
+                run = _run_once("engine", topics, rate, args.duration, even=even, engine=options)
+                runs[arm].append(_window(run))
+        for arm in arms:
+            f = _median(runs[arm])
+            rows.append([title, arm, *_flood_cells(f), f"{f['p50']:.1f} / {f['p99']:.1f}"])
+    print_table(
+        f"Messages a take: gathering off (max_gather 0) and on, alternating, median of {args.repeats}",
+        [
+            "case",
+            "gather",
+            "sent msg/s",
+            "msg/s",
+            "lost",
+            "msg a take",
+            "CPU µs/msg",
+            "thread µs/msg",
+            "latency p50 / p99 (ms)",
+        ],
+        rows,
     )
 
 

@@ -21,7 +21,15 @@ from std_msgs.msg import Bool, Float64, Float64MultiArray, MultiArrayDimension, 
 
 from dbglog._ros._qos import tag_qos
 from dbglog.viewer._data import _engine as engine_module
-from dbglog.viewer._data._engine import _RECOUNT_S, Engine, _stretch, queue_depth_for, wait_saying
+from dbglog.viewer._data._engine import (
+    _FEW_PER_TAKE,
+    _RECOUNT_S,
+    Engine,
+    _gather,
+    _stretch,
+    queue_depth_for,
+    wait_saying,
+)
 from dbglog.viewer._data._model import Binding, SeriesSnapshot, Status, ValueKind
 from dbglog.viewer._data._series import NO_MESSAGE_YET
 from tests._ros import RosPeer, wait_until
@@ -440,6 +448,56 @@ def test_a_busy_cycle_rests_as_long_as_it_worked_within_bounds() -> None:
     assert _stretch(0.012, 0.020, 0.5, 0.005, 0.05) == 0.0
     assert _stretch(0.030, 0.020, 0.45, 0.005, 0.05) == 0.0
     assert _stretch(0.0, 0.020, 0.0, 0.0, 0.05) == 0.0
+
+
+def test_a_cycle_of_small_takes_gathers_longer_within_bounds() -> None:
+    """After a cycle whose takes found few messages each, the next lasts long enough for each take to find
+    about `_FEW_PER_TAKE`, never past the cap or half a queue's depth; big takes and empty cycles keep the
+    cycle."""
+    # 4 takes of 8 messages that came in 5 ms: 16 a take come in 10 ms.
+    assert _gather(32, 4, 0.005, 0.008, 0.005, 0.050) == pytest.approx(0.010)
+    # 50 takes of 2 messages: 40 ms; the cap (10 ms) decides.
+    assert _gather(100, 50, 0.005, 0.002, 0.005, 0.010) == pytest.approx(0.010)
+    # Takes of `_FEW_PER_TAKE` or more, or none at all (a guard, a graph poll): the cycle as before.
+    assert _gather(_FEW_PER_TAKE * 3, 3, 0.005, 0.016, 0.005, 0.010) == 0.005
+    assert _gather(0, 0, 0.005, 0.0, 0.005, 0.010) == 0.005
+    # Off (a cap no longer than the cycle), and never shorter than the cycle.
+    assert _gather(10, 10, 0.005, 0.001, 0.005, 0.0) == 0.005
+    assert _gather(10, 10, 0.005, 0.001, 0.005, 0.005) == 0.005
+    assert _gather(15, 1, 0.001, 0.015, 0.005, 0.010) == 0.005
+    # A queue that took 40 % of its depth in 5 ms may wait 5 ms x 0.5 / 0.4 = 6.25 ms in all.
+    assert _gather(400, 100, 0.005, 0.4, 0.005, 0.010) == pytest.approx(0.00625)
+    assert _gather(400, 100, 0.002, 0.6, 0.005, 0.010) == 0.005
+
+
+def test_a_stream_of_few_messages_a_cycle_is_taken_in_fewer_bigger_takes(peer: RosPeer) -> None:
+    """A publisher slower than the engine (a message every millisecond over five topics) is taken in
+    cycles `max_gather` apart, not `min_cycle`: an engine that took them every 5 ms, about one message a
+    take, woke 200 times a second."""
+    topics = [_topic(f"trickle{i}") for i in range(5)]
+    qos = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
+    with Engine(graph_period=0.1, max_gather=0.05) as engine:
+        bindings = [Binding(t) for t in topics]
+        for b in bindings:
+            engine.bind(b)
+        pubs = [peer.publisher(t, Float64, qos) for t in topics]
+        assert wait_until(lambda: all(p.get_subscription_count() > 0 for p in pubs), TIMEOUT)
+        assert wait_until(lambda: len(engine.stats().per_topic) == len(topics), TIMEOUT)
+        before = engine.stats()
+        start = time.monotonic()
+        k = 0
+        while time.monotonic() - start < 2.0:
+            pubs[k % len(pubs)].publish(Float64(data=float(k)))
+            k += 1
+            time.sleep(0.001)
+        elapsed = time.monotonic() - start
+        after = engine.stats()
+    taken, takes = after.taken - before.taken, after.takes - before.takes
+    cycles = after.cycles - before.cycles
+    print(f"{taken} messages in {takes} takes, {cycles} cycles in {elapsed:.2f} s")
+    assert taken > 200, "the stream arrived"
+    assert cycles <= elapsed / 0.05 * 1.25 + 5, "cycles about 50 ms apart, not 5"
+    assert taken / takes >= 5, "each take found several messages"
 
 
 def test_bindings_on_one_topic_share_one_subscription(engine: Engine, peer: RosPeer) -> None:

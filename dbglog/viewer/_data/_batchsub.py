@@ -121,6 +121,8 @@ class BatchIngest:
         self._batches = 0
         self._samples = 0
         self._lost = 0
+        self.taken = 0
+        """Messages taken from the batch topics, re-sent ones included (the engine's take counter)."""
 
     # --- graph (engine thread) ----------------------------------------------------------------------
 
@@ -233,19 +235,27 @@ class BatchIngest:
 
     # --- ingest (engine thread) ---------------------------------------------------------------------
 
-    def drain(self, ready: set[int]) -> None:
+    def drain(self, ready: set[int]) -> tuple[int, int]:
         """Take the batches of the subscriptions in `ready` (handle pointers), keep every sample in the
-        history and feed covered topics' sinks."""
+        history and feed covered topics' sinks; return (batches taken, takes that found any)."""
+        taken = takes = 0
         for robot, sub in list(self.subs.items()):
             if sub.handle.pointer in ready:
-                self._drain(sub, robot)
+                n = self._drain(sub, robot)
+                taken += n
+                takes += n > 0
+        self.taken += taken
+        return taken, takes
 
-    def _drain(self, sub: Any, robot: str) -> None:
+    def _drain(self, sub: Any, robot: str) -> int:
+        """Take up to `_MAX_TAKE` batches of one robot's subscription; return how many it took."""
         take = sub.handle.take_message
-        for _ in range(_MAX_TAKE):
+        n = 0
+        while n < _MAX_TAKE:
             got = take(self._cls, True)
             if got is None:
-                return
+                break
+            n += 1
             try:
                 batch = decode_batch(got[0])
             except BatchError as exc:
@@ -261,6 +271,7 @@ class BatchIngest:
             self._samples += batch.samples
             for samples in batch.tags:
                 self._ingest(samples, robot)
+        return n
 
     def _ingest(self, samples: TagSamples, robot: str = "") -> None:
         name = topic_for_tag(samples.tag, robot)

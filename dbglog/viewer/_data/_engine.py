@@ -64,6 +64,8 @@ _MAX_BATCH = 20_000
 _RESUBSCRIBE_DEDUP_S = 1.0
 _FILL_LIMIT = 0.5
 """A rest after a busy cycle never lets a subscription's queue fill past this share of its depth."""
+_FEW_PER_TAKE = 16
+"""A cycle whose takes found fewer messages than this each, on average, rests longer (see `_gather`)."""
 _LATENCY_SAMPLES = 1 << 20
 _MIN_DEPTH = 50
 """No subscription queues fewer messages than this, however many topics share the budget."""
@@ -113,6 +115,26 @@ def _stretch(busy: float, window: float, fullest: float, cycle: float, most: flo
     return max(0.0, rest)
 
 
+def _gather(taken: int, takes: int, window: float, fullest: float, cycle: float, most: float) -> float:
+    """Return how long the next cycle lasts, at least, after one whose `takes` takes found `taken` messages
+    that had come in the last `window` seconds.
+
+    A take costs about as much as a few messages (the call that finds the queue empty, a history append,
+    the series' lock, numpy calls on a short column), so when a faster machine drains the queues faster
+    than the publishers fill them, each take finds a message or two and those costs are paid per message.
+    Then the cycle lasts longer, up to `most`, so that each take finds about `_FEW_PER_TAKE` messages: the
+    latency a sample can gain is `most`, and only while messages are few. A cycle that took nothing (the
+    guard, a graph poll) or took enough a take lasts `cycle`, as before; no queue passes half its depth:
+    the fullest took `fullest` of its depth in those `window` seconds.
+    """
+    if takes <= 0 or most <= cycle or taken >= _FEW_PER_TAKE * takes:
+        return cycle
+    rest = min(most, window * _FEW_PER_TAKE * takes / max(1, taken))
+    if fullest > 0.0:
+        rest = min(rest, window * _FILL_LIMIT / fullest)
+    return max(cycle, rest)
+
+
 def queue_depth_for(n_topics: int, message_size: int | None, *, max_depth: int, budget: int) -> int:
     """Return the KEEP_LAST depth of one subscription among `n_topics` sharing a queue budget.
 
@@ -138,6 +160,10 @@ class EngineStats:
     """KEEP_LAST queue depth of each subscription, by topic."""
     cycles: int
     """Wait-set wake-ups so far."""
+    takes: int
+    """Takes that found messages (a subscription's queue drained in one go; the batch topic's included)."""
+    batches_taken: int
+    """Messages taken from the batch topics so far (each holds many samples; not in `taken`)."""
     subscriptions: int
     thread_cpu_s: float
     """CPU seconds used by the engine's own thread (DDS's receive threads not included)."""
@@ -246,6 +272,9 @@ class Engine(SeriesTimes):
             and are decoded as one batch (bounded extra latency, far less per-message overhead).
         max_stretch: after a cycle whose work took longer than `min_cycle` (a flood), the engine rests
             as long as it worked, at most this long: bigger batches, half the CPU (see ``_stretch``).
+        max_gather: after a cycle whose takes found few messages each (the engine drains faster than the
+            publishers write), the next one comes up to this long after it instead of `min_cycle`, so
+            that a take finds more (see ``_gather``); at most `min_cycle`: off.
         queue_depth: the deepest KEEP_LAST queue of one subscription (absorbs bursts and pauses).
         queue_budget: messages queued in DDS across all subscriptions; each subscription's depth is
             its share of this (see ``queue_depth_for``), which bounds memory after a long pause.
@@ -269,6 +298,7 @@ class Engine(SeriesTimes):
         graph_period: float = 0.25,
         min_cycle: float = 0.005,
         max_stretch: float = 0.02,
+        max_gather: float = 0.01,
         queue_depth: int = 1000,
         queue_budget: int = 35_000,
         node_name: str = "dbglog_viewer",
@@ -292,6 +322,7 @@ class Engine(SeriesTimes):
         self.graph_period = graph_period
         self.min_cycle = max(0.0, min_cycle)
         self.max_stretch = max(0.0, max_stretch)
+        self.max_gather = max(0.0, max_gather)
         self.queue_depth = queue_depth
         self.queue_budget = queue_budget
         self.node_name = node_name
@@ -326,6 +357,7 @@ class Engine(SeriesTimes):
         self.identity: NodeIdentity | None = None
         """The engine node's identity on the graph once started (publishers tell its endpoints by it)."""
         self._taken = 0
+        self._takes = 0
         self._cycles = 0
         self._thread_cpu = 0.0
         self._graph_polls = 0
@@ -486,6 +518,8 @@ class Engine(SeriesTimes):
             per_topic={name: s.taken for name, s in subs.items()},
             depths={name: int(s.sub.qos_profile.depth) for name, s in subs.items()},
             cycles=self._cycles,
+            takes=self._takes,
+            batches_taken=self._batches.taken,
             subscriptions=len(subs),
             thread_cpu_s=self._thread_cpu,
             graph_polls=self._graph_polls,
@@ -552,6 +586,7 @@ class Engine(SeriesTimes):
             cycle_start = time.monotonic()
             woke, woke_cpu = cycle_start, self._thread_cpu
             fullest = 0.0
+            taken = takes = 0
             try:
                 if self._dirty.is_set():
                     self._dirty.clear()
@@ -570,9 +605,15 @@ class Engine(SeriesTimes):
                 if ready:
                     for topic in wait_subs:
                         if topic.sub.handle.pointer in ready:
-                            fullest = max(fullest, self._drain(topic) / topic.depth)
+                            n = self._drain(topic)
+                            fullest = max(fullest, n / topic.depth)
+                            taken += n
+                            takes += n > 0
                     if batch_subs:
-                        self._batches.drain(ready)
+                        n, k = self._batches.drain(ready)
+                        taken += n
+                        takes += k
+                    self._takes += takes
             except Exception:
                 if not (self._running and context.ok()):
                     return
@@ -582,8 +623,10 @@ class Engine(SeriesTimes):
             self._thread_cpu = time.thread_time()
             now = time.monotonic()
             busy = self._thread_cpu - woke_cpu
-            stretch = _stretch(busy, woke - previous_woke, fullest, self.min_cycle, self.max_stretch)
-            rest = max(self.min_cycle - (now - cycle_start), stretch)
+            window = woke - previous_woke
+            stretch = _stretch(busy, window, fullest, self.min_cycle, self.max_stretch)
+            cycle = _gather(taken, takes, window, fullest, self.min_cycle, self.max_gather)
+            rest = max(cycle - (now - cycle_start), stretch)
             previous_woke = woke
             if rest > 0 and self._running:
                 time.sleep(rest)
