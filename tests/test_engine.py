@@ -24,6 +24,7 @@ from dbglog.viewer._data import _engine as engine_module
 from dbglog.viewer._data._engine import (
     _FEW_PER_TAKE,
     _RECOUNT_S,
+    _SETTLE_S,
     Engine,
     _gather,
     _stretch,
@@ -32,7 +33,7 @@ from dbglog.viewer._data._engine import (
 )
 from dbglog.viewer._data._model import Binding, SeriesSnapshot, Status, ValueKind
 from dbglog.viewer._data._series import NO_MESSAGE_YET
-from tests._ros import RosPeer, wait_until
+from tests._ros import RosPeer, wait_quiet, wait_until
 
 _ids = itertools.count()
 TIMEOUT = 20.0
@@ -579,7 +580,12 @@ CROWD = 300
 def test_a_crowded_steady_graph_is_counted_every_few_seconds_not_on_every_poll() -> None:
     """The engine counts the endpoints of every graph topic (tens of µs each) only when the graph's topics
     change and every recount period: beside a steady 300-topic graph an idle viewer's engine asked rmw
-    over 600 questions every graph poll (14 ms, 5 % of a core at 4 polls a second), now about four."""
+    over 600 questions every graph poll (14 ms, 5 % of a core at 4 polls a second), now about four.
+
+    Steady means all of it: the new engine also discovers the module's other participants (the shared
+    engine and peer, the topics of the tests before), and each node or topic it finds is a change counted
+    at once and again when it settles, so the test waits until a count has had no follower for longer
+    than the settling time (the recounts alone are `_RECOUNT_S` apart)."""
     names = [_topic(f"crowd/t{k}") for k in range(CROWD)]
     with RosPeer("crowd") as crowd, Engine(graph_period=0.1) as engine:
         for name in names:
@@ -588,6 +594,7 @@ def test_a_crowded_steady_graph_is_counted_every_few_seconds_not_on_every_poll()
         engine.bind(wanted)
         assert wait_until(lambda: set(names) <= {t.name for t in engine.topics()}, TIMEOUT)
         assert _snap_when(engine, wanted, lambda s: s.reason == NO_MESSAGE_YET).status == Status.WAITING
+        assert wait_quiet(lambda: engine.stats().graph_counts, _SETTLE_S + 0.3, TIMEOUT), "never steady"
         before = engine.stats()
         time.sleep(2.5)
         after = engine.stats()

@@ -172,6 +172,9 @@ class EngineStats:
     graph_queries: int
     """Questions asked of the ROS graph so far: topic lists, endpoint counts, publisher lists (each costs
     tens of µs, and more as the graph grows)."""
+    graph_counts: int
+    """Counts of every graph topic's endpoints so far (when the graph changed, once more when it settled,
+    and every ``_RECOUNT_S``)."""
 
 
 @dataclass(eq=False, slots=True)
@@ -362,6 +365,7 @@ class Engine(SeriesTimes):
         self._thread_cpu = 0.0
         self._graph_polls = 0
         self._graph_queries = 0
+        self._graph_counts = 0
         self._subs: dict[str, _TopicSub] = {}
         self._held_seen: dict[str, tuple[int, tuple[str, ...]]] = {}
         """Each unbound tag topic's (publishers, types) when the engine last decided how to hold it."""
@@ -524,6 +528,7 @@ class Engine(SeriesTimes):
             thread_cpu_s=self._thread_cpu,
             graph_polls=self._graph_polls,
             graph_queries=self._graph_queries,
+            graph_counts=self._graph_counts,
         )
 
     def batch_stats(self) -> BatchStats:
@@ -756,6 +761,7 @@ class Engine(SeriesTimes):
         ):
             return False
         self._counted_at = now
+        self._graph_counts += 1
         counts = {}
         for name, _ in names_types:
             own = 1 if name in self._subs else 0
