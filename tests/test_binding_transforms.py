@@ -200,6 +200,39 @@ def test_persistent_runtime_failure_is_an_error_until_values_are_good(ros: tuple
     assert engine.snapshot(root).last == 4.0
 
 
+def test_a_stateful_transform_takes_samples_in_source_time_order() -> None:
+    """Samples in order pass at once; one older than a sample already taken is left out and from then on
+    samples wait for older ones (1.5 times the lateness seen), so an interleaved batch is differentiated in
+    source time order; what waited goes out when its wait is over, nothing newer coming (`release`)."""
+    from dbglog.viewer._data._series import Series
+    from dbglog.viewer._data._sinks import feed_numbers, make_sink, prepare, release
+
+    binding = Binding("/t", transforms=(Derivative(),))
+    series = Series(binding, 100)
+    prepared = prepare(binding)
+    assert not isinstance(prepared, str)
+    sink = make_sink(binding, series, Float64, "std_msgs/msg/Float64", *prepared)
+    assert sink.reorder is not None
+
+    def feed(times: list[float], now: float) -> None:
+        t = np.array(times)
+        feed_numbers(sink, t, 10.0 * t, now)  # the slope is 10 everywhere
+
+    feed([1.000, 1.002, 1.004], now=0.0)
+    assert series.snapshot(1e9).times.tolist() == [1.000, 1.002, 1.004]  # in order: at once
+    feed([1.001, 1.003], now=0.001)  # too late: left out, and samples now wait 1.5 x 3 ms
+    assert sink.reorder.dropped == 2
+    assert sink.reorder.hold == pytest.approx(0.0045)
+    feed([1.006, 1.010], now=0.002)
+    feed([1.005, 1.007], now=0.003)  # older than the newest arrival, within the wait: in order
+    assert series.snapshot(1e9).times.tolist() == [1.000, 1.002, 1.004, 1.005]  # 1.005 <= 1.010 - 0.0045
+    release(sink, now=0.003 + 0.0045)  # nothing newer came: what waited that long goes out
+    snap = series.snapshot(1e9)
+    assert snap.times.tolist() == [1.000, 1.002, 1.004, 1.005, 1.006, 1.007, 1.010]
+    assert math.isnan(snap.values[0])
+    assert snap.values[1:] == pytest.approx([10.0] * 6)
+
+
 def test_engine_rejects_bad_transforms_without_evaluating(
     ros: tuple[RosPeer, Engine], tmp_path: Path
 ) -> None:

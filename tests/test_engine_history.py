@@ -24,7 +24,7 @@ from dbglog._ros._tags import topic_for_tag
 from dbglog.viewer._data._engine import Engine
 from dbglog.viewer._data._model import Binding, SeriesSnapshot, Status, ValueKind
 from dbglog.viewer._data._timeline import NOT_YET, Timeline
-from dbglog.viewer._values._transforms import Scale
+from dbglog.viewer._values._transforms import Derivative, Scale
 from tests._children import run_sdk
 from tests._ros import RosPeer, wait_until
 
@@ -321,6 +321,43 @@ def test_two_publishers_of_one_tag_are_drawn_in_source_time_order(engine: Engine
     exported = np.loadtxt(tmp_path / "two.csv", delimiter=",", skiprows=1, usecols=0)
     assert rows == len(exported) == len(np.unique(times))
     assert np.all(np.diff(exported) >= 0)  # (to the microsecond: two writers' samples may share one)
+
+
+def test_a_derivative_of_two_publishers_of_one_tag_is_taken_in_source_time_order(engine: Engine) -> None:
+    """Two real SDK publishers of one tag, their batches' source times interleaved: a derivative binding
+    differentiates consecutive samples by source time, as the raw series holds them (it took them in
+    arrival order: NaN for every sample older than the last it took, and slopes across the wrong pairs)."""
+    tag = f"{_RUN}/slope"
+    topic = topic_for_tag(tag)
+    raw, slope = Binding(topic), Binding(topic, transforms=(Derivative(),))
+    engine.bind(raw)
+    engine.bind(slope)
+    start = time.time() + 5.0
+    children = _two_writers(tag, start, 0.6)
+    try:
+        _wait_snap(engine, raw, lambda s: s.count >= 2)
+        assert time.time() < start, "the viewer took the tag too late for the test to mean anything"
+        counts = [int(child.communicate(timeout=60)[0].split()[-1]) for child in children]
+    finally:
+        for child in children:
+            if child.poll() is None:
+                child.kill()
+                child.wait()
+    total = 2 + sum(counts)
+    values = _wait_snap(engine, raw, lambda s: s.count >= total)
+    assert values.count == total
+    switches = int(np.count_nonzero(np.diff(values.values[values.times >= start])))
+    assert switches > 20, f"the writers' samples interleave in time ({switches} switches)"
+    wait_until(lambda: len(engine.snapshot(slope).times) >= 0.95 * total, TIMEOUT)  # the last waited
+    d = engine.snapshot(slope)
+    assert len(d.times) >= 0.95 * total, f"{total - len(d.times)} of {total} samples left out"
+    assert np.all(np.diff(d.times) > 0)
+    by_time = dict(zip(values.times.tolist(), values.values.tolist(), strict=True))
+    v = np.array([by_time[t] for t in d.times.tolist()])
+    expected = np.diff(v) / np.diff(d.times)  # between the samples it took, consecutive by source time
+    assert np.isnan(d.values[0])
+    wrong = ~np.isclose(d.values[1:], expected, rtol=1e-9, atol=0.0)
+    assert not wrong.any(), f"{int(wrong.sum())} of {len(expected)} slopes differ"
 
 
 def test_a_publisher_that_stops_is_drawn_with_a_gap_and_integers_as_steps(

@@ -50,6 +50,7 @@ from dbglog.viewer._data._sinks import (
     feed_numbers,
     make_sink,
     prepare,
+    release,
     same_values,
     scalar_plan,
 )
@@ -399,6 +400,8 @@ class Engine(SeriesTimes):
         """Parameter changes and markers (`events`), fed every batch of `EVENT_TOPICS` once made."""
         self._kept: set[str] = set()
         """Topics subscribed and kept in the history with no binding (the events store's)."""
+        self._ordering: weakref.WeakSet[Sink] = weakref.WeakSet()
+        """Sinks of stateful transforms, whose samples may wait for older ones (`release` each cycle)."""
 
     # --- lifecycle ----------------------------------------------------------------------------------
 
@@ -619,6 +622,8 @@ class Engine(SeriesTimes):
                         taken += n
                         takes += k
                     self._takes += takes
+                if self._ordering:
+                    self._release(time.monotonic())
             except Exception:
                 if not (self._running and context.ok()):
                     return
@@ -690,6 +695,8 @@ class Engine(SeriesTimes):
         regex, chain = self._regexes.get(binding), self._chains.get(binding)
         sink = make_sink(binding, series, cls, msg_type, regex, chain)
         series.share(_normalize(binding.topic) if same_values(sink, cls, msg_type) else None)
+        if sink.reorder is not None:
+            self._ordering.add(sink)
         return sink
 
     @staticmethod
@@ -1048,6 +1055,14 @@ class Engine(SeriesTimes):
             except Exception as exc:  # this binding's error alone; the others keep going
                 break_sink(sink, exc)
         self._record_latency(times)
+
+    def _release(self, now: float) -> None:
+        """Push the samples of stateful transforms that waited long enough for older ones."""
+        for sink in list(self._ordering):
+            try:
+                release(sink, now)
+            except Exception as exc:  # this binding's error alone
+                break_sink(sink, exc)
 
     def _remember(
         self,

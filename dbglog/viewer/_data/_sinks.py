@@ -3,11 +3,14 @@
 The engine (live ROS topics) and a replay (a recording's history) turn messages into a binding's
 values with the same code: `make_sink` resolves a binding once per topic type, `feed` extracts from
 typed messages, `feed_numbers` takes a column already decoded from CDR, `backfill` feeds a new binding
-the past its topic has in a `History`. No Dear PyGui; rclpy only to deserialize a payload.
+the past its topic has in a `History`. A binding with a stateful transform (derivative, moving average,
+unwrap) gets its samples in source time order, whatever the arrival order (`Reorder`, `release`). No Dear
+PyGui; rclpy only to deserialize a payload.
 """
 
 from __future__ import annotations
 
+import bisect
 import logging
 import math
 import time
@@ -27,10 +30,17 @@ from dbglog.viewer._data._history import History
 from dbglog.viewer._data._logstore import LOG_TYPE, level_of
 from dbglog.viewer._data._model import Binding, ValueKind
 from dbglog.viewer._data._series import Series
-from dbglog.viewer._values._transforms import TransformChain, TransformError
+from dbglog.viewer._values._transforms import (
+    Derivative,
+    MovingAverage,
+    TransformChain,
+    TransformError,
+    Unwrap,
+)
 
 __all__ = [
     "LineFilter",
+    "Reorder",
     "Sink",
     "as_received",
     "backfill",
@@ -39,6 +49,7 @@ __all__ = [
     "feed_numbers",
     "make_sink",
     "number_type",
+    "release",
     "same_values",
     "scalar_plan",
 ]
@@ -46,9 +57,15 @@ __all__ = [
 _log = logging.getLogger("dbglog.viewer.engine")
 _FAIL_STREAK = 5
 """A binding's transforms that yield NaN with a reason this many samples in a row put it in ERROR."""
+_STATEFUL = (Derivative, MovingAverage, Unwrap)
+"""Transforms whose output depends on the samples before: they must see them in source time order."""
+_REORDER_MAX_S = 0.5
+"""The longest a stateful transform's sample waits for older ones that may still arrive."""
+_REORDER_DECAY_S = 10.0
+"""A wait not needed for this long (no sample arrived too late) is halved."""
 
 
-@dataclass(eq=False, slots=True)
+@dataclass(eq=False, slots=True, weakref_slot=True)
 class Sink:
     """One binding fed by a topic subscription."""
 
@@ -66,6 +83,36 @@ class Sink:
     fail_streak: int = 0
     lines: LineFilter | None = None
     """A log binding's node and minimum level: only those lines give values."""
+    reorder: Reorder | None = None
+    """The transforms' input in source time order, when a transform is stateful."""
+
+
+@dataclass(eq=False, slots=True)
+class Reorder:
+    """A stateful transform's input, put in source time order: what arrived, waiting for older samples.
+
+    Two publishers of one tag (or a batch that comes late) deliver samples out of source time order, but a
+    derivative, a moving average or an unwrap is only right over the samples in order. While the samples
+    come in order they pass at once. Once one arrives older than a sample the transforms already took, it
+    is left out (the transforms never go back in time) and from then on each sample waits `hold` seconds
+    (of source time, or of arrival when nothing newer comes) for older ones: 1.5 times the lateness seen,
+    at most `_REORDER_MAX_S`, halved after `_REORDER_DECAY_S` without a late sample.
+    """
+
+    hold: float = 0.0
+    released: float = -math.inf
+    """The newest source time the transforms have taken."""
+    newest: float = -math.inf
+    """The newest source time that arrived."""
+    late_at: float = 0.0
+    """When (monotonic) the wait was last lengthened or halved."""
+    dropped: int = 0
+    """Samples left out: they arrived after newer ones had been transformed."""
+    times: list[float] = field(default_factory=list)
+    """Waiting samples, by source time (ties in arrival order), with their values, fields and arrivals."""
+    values: list[float] = field(default_factory=list)
+    columns: dict[str, list[float]] = field(default_factory=dict)
+    arrived: list[float] = field(default_factory=list)
 
 
 @dataclass(eq=False, slots=True)
@@ -184,6 +231,8 @@ def _build_sink(
                 return sink
             sink.extra[path] = other
         sink.chain = chain.fresh()
+        if any(isinstance(t, _STATEFUL) for t in chain.transforms):
+            sink.reorder = Reorder()
         kind = ValueKind.NUMBER  # a transformed bool is a number
     sink.resolved = resolved
     sink.kind = kind
@@ -278,9 +327,7 @@ def feed_numbers(
     if not len(values):
         return
     if sink.chain is not None:
-        out = _transform(sink, times, values, None)
-        sink.series.push_numbers(times, out, float(out[-1]), now)
-        _check_failures(sink, out, (float(times[-1]), float(values[-1]), {}))
+        _push_transformed(sink, times, values, None, now)
     else:
         last = (
             newest
@@ -390,10 +437,7 @@ def feed(sink: Sink, messages: Iterable[Any], times: list[float], now: float) ->
             series.push_array(len(values), values[-1], value_times[-1], now)
         elif sink.chain is not None:
             t_arr = np.asarray(value_times, dtype=np.float64)
-            out = _transform(sink, t_arr, np.asarray(values, dtype=np.float64), columns)
-            series.push_numbers(t_arr, out, float(out[-1]), now)
-            last_fields = {k: v[-1] for k, v in columns.items()}
-            _check_failures(sink, out, (value_times[-1], float(values[-1]), last_fields))
+            _push_transformed(sink, t_arr, np.asarray(values, dtype=np.float64), columns, now)
         else:
             series.push_numbers(
                 np.asarray(value_times, dtype=np.float64),
@@ -405,3 +449,112 @@ def feed(sink: Sink, messages: Iterable[Any], times: list[float], now: float) ->
         series.set_error(error)
     elif unmatched and not values and series.count == 0:
         series.set_waiting(f"no message matched the regex {regex.pattern if regex else ''!r} yet")
+
+
+def _push_transformed(
+    sink: Sink,
+    times: npt.NDArray[np.float64],
+    values: npt.NDArray[np.float64],
+    columns: dict[str, list[float]] | None,
+    now: float,
+) -> None:
+    """Transform samples and push them (a stateful chain's in source time order: `Reorder`)."""
+    reorder = sink.reorder
+    if reorder is not None:
+        if reorder.times or reorder.hold or times[0] <= reorder.released or _unsorted(times):
+            _arrive(reorder, times, values, columns or {}, now)
+            _release(sink, now)
+            return
+        reorder.released = reorder.newest = float(times[-1])  # in order, nothing waits: at once
+    _transform_push(sink, times, values, columns, now)
+
+
+def _unsorted(times: npt.NDArray[np.float64]) -> bool:
+    """Whether a batch's source times go back somewhere."""
+    return len(times) > 1 and bool((times[1:] < times[:-1]).any())
+
+
+def _transform_push(
+    sink: Sink,
+    times: npt.NDArray[np.float64],
+    values: npt.NDArray[np.float64],
+    columns: dict[str, list[float]] | None,
+    now: float,
+) -> None:
+    """Transform a batch (in the order given), push it to the series and watch for failing transforms."""
+    out = _transform(sink, times, values, columns)
+    sink.series.push_numbers(times, out, float(out[-1]), now)
+    last_fields = {k: float(v[-1]) for k, v in columns.items()} if columns else {}
+    _check_failures(sink, out, (float(times[-1]), float(values[-1]), last_fields))
+
+
+def _arrive(
+    reorder: Reorder,
+    times: npt.NDArray[np.float64],
+    values: npt.NDArray[np.float64],
+    columns: dict[str, list[float]],
+    now: float,
+) -> None:
+    """Put arriving samples among the waiting ones by source time; leave out those that came too late."""
+    t_list: list[float] = times.tolist()
+    v_list: list[float] = values.tolist()
+    released = reorder.released
+    late = [t for t in t_list if t <= released]
+    if late:
+        reorder.dropped += len(late)
+        reorder.hold = min(_REORDER_MAX_S, max(reorder.hold, 1.5 * (released - min(late))))
+        reorder.late_at = now
+    waiting = reorder.times
+    for name in columns:
+        reorder.columns.setdefault(name, [math.nan] * len(waiting))
+    for i, t in enumerate(t_list):
+        if t <= released:
+            continue
+        at = bisect.bisect_right(waiting, t)
+        waiting.insert(at, t)
+        reorder.values.insert(at, v_list[i])
+        reorder.arrived.insert(at, now)
+        for name, column in reorder.columns.items():
+            given = columns.get(name)
+            column.insert(at, float(given[i]) if given is not None else math.nan)
+        if t > reorder.newest:
+            reorder.newest = t
+
+
+def release(sink: Sink, now: float) -> None:
+    """Transform and push a stateful binding's samples that waited long enough (the engine, every cycle)."""
+    if sink.reorder is not None and sink.reorder.times and sink.resolved is not None:
+        _release(sink, now)
+
+
+def _release(sink: Sink, now: float) -> None:
+    """Transform and push, in source time order, the waiting samples whose wait is over."""
+    reorder = sink.reorder
+    assert reorder is not None
+    if reorder.hold and now - reorder.late_at > _REORDER_DECAY_S:
+        reorder.hold = reorder.hold / 2 if reorder.hold > 0.002 else 0.0
+        reorder.late_at = now
+    waiting = reorder.times
+    if not waiting:
+        return
+    if reorder.hold:
+        # Due: older than the newest arrival by the wait, or waited that long (nothing newer came). An
+        # earlier sample goes with a due one: the order is all that matters.
+        edge = reorder.newest - reorder.hold
+        since = now - reorder.hold
+        n = 0
+        for i, (t, arrived) in enumerate(zip(waiting, reorder.arrived, strict=True)):
+            if t <= edge or arrived <= since:
+                n = i + 1
+        if n == 0:
+            return
+    else:
+        n = len(waiting)
+    times = np.asarray(waiting[:n], dtype=np.float64)
+    values = np.asarray(reorder.values[:n], dtype=np.float64)
+    columns = {name: column[:n] for name, column in reorder.columns.items()} or None
+    del waiting[:n], reorder.values[:n], reorder.arrived[:n]
+    for column in reorder.columns.values():
+        del column[:n]
+    reorder.released = float(times[-1])
+    _transform_push(sink, times, values, columns, now)
