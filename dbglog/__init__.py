@@ -37,6 +37,7 @@ if TYPE_CHECKING or enabled:
 
         _public.REPORTER.strict = _config.strict
         _public.RUNTIME.env_robot = _config.namespace
+        _public.RUNTIME.exit_wait = _config.exit_wait
         if _config.watch:  # docs/watch.md: the program's variables become readable on the ROS domain
             from dbglog.watch import _agent as _watch_agent
 

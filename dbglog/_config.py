@@ -83,6 +83,9 @@ class Config:
     ``dbglog.init`` nor the process's ``--ros-args`` names one (``""``: the root; ``/robot1``)."""
     watch: bool = False
     """``DBGLOG_WATCH``: the process can be watched (``dbglog watch``, docs/watch.md); off by default."""
+    exit_wait: float = 2.0
+    """``DBGLOG_EXIT_WAIT``: the most seconds a young process waits at exit for dbglog's readers on the graph
+    to match it (0: not at all; docs/api.md)."""
 
 
 def load_config(environ: Mapping[str, str] | None = None) -> Config:
@@ -97,6 +100,7 @@ def load_config(environ: Mapping[str, str] | None = None) -> Config:
         strict=env_bool("DBGLOG_STRICT", False, environ=environ),
         namespace=env_namespace("DBGLOG_NAMESPACE", environ=environ),
         watch=env_bool("DBGLOG_WATCH", False, environ=environ),
+        exit_wait=env_float("DBGLOG_EXIT_WAIT", 2.0, environ=environ),
     )
 
 

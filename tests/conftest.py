@@ -24,6 +24,9 @@ os.environ.setdefault("RMW_IMPLEMENTATION", "rmw_fastrtps_cpp")
 # (SCHED_IDLE, the product's default) then gets almost no CPU: against three busy loops one did not show
 # its first value within 60 s, and CI's busiest moments made such viewers start late or fail.
 os.environ.setdefault("DBGLOG_CPU", "normal")  # (dbglog._sched.CPU_ENV: nothing of dbglog imported yet)
+# SDK processes a test starts exit at once (no wait for readers still discovering them: up to 2 s each
+# where a child sees no other node yet) unless the test is about that wait (test_probe_delivery).
+os.environ.setdefault("DBGLOG_EXIT_WAIT", "0")
 
 
 @pytest.fixture(autouse=True)

@@ -40,6 +40,14 @@ def test_any_other_word_is_an_error_naming_the_variable(word: str) -> None:
         env_bool("DBGLOG", True, environ={"DBGLOG": word})
 
 
+def test_exit_wait_is_read_from_the_environment() -> None:
+    """DBGLOG_EXIT_WAIT: 2 s unless set; 0 turns the exit's wait for readers off; nonsense is refused."""
+    assert load_config({}).exit_wait == 2.0
+    assert load_config({"DBGLOG_EXIT_WAIT": "0"}).exit_wait == 0.0
+    with pytest.raises(ConfigError, match="DBGLOG_EXIT_WAIT"):
+        load_config({"DBGLOG_EXIT_WAIT": "soon"})
+
+
 def test_env_float_reads_and_validates() -> None:
     """env_float accepts finite numbers >= minimum and names the variable otherwise."""
     assert env_float("R", 2.0, environ={}) == 2.0

@@ -22,7 +22,7 @@ from std_msgs.msg import Float64
 
 import dbglog
 from dbglog import DbglogWarning
-from dbglog._ros._batch import BATCH_TOPIC, is_sdk_node, sdk_node_name
+from dbglog._ros._batch import BATCH_TOPIC, is_reader_node, is_sdk_node, sdk_node_name
 from dbglog._ros._qos import subscription_qos
 from dbglog.api._public import RUNTIME
 from dbglog.viewer._data._engine import Engine
@@ -387,6 +387,53 @@ def test_plain_ros_subscriber_gets_every_sample_of_a_1khz_tag_in_order() -> None
             sorted(set(range(-1, 500)) - {int(v) for v in got.values()})[:20],
         )
         assert got.values() == [-1.0, *map(float, range(500))]
+
+
+_EXIT_AT_ONCE = """
+    import sys, time
+    import dbglog
+    for k in range(5):
+        dbglog.logfloat(sys.argv[1], float(k))
+    dbglog.flush()
+    print(time.monotonic(), flush=True)
+"""
+
+
+def test_a_node_that_exits_at_once_waits_for_a_waiting_reader_to_match() -> None:
+    """A script that logs a few values and ends at once, a viewer already running: at exit the SDK waits
+    (at most DBGLOG_EXIT_WAIT) until the viewer, which discovery tells of it only now, has matched it and
+    taken its values (without the wait they were lost in 6 of 6 such runs)."""
+    tag = f"probe/exit_at_once_{os.getpid()}"
+    topic = f"/rosdashboard/{tag}"
+    with Engine() as viewer:  # named dbglog_viewer, as the viewer's
+        assert is_reader_node(viewer.node_name)
+        started = time.monotonic()
+        proc = subprocess.run(
+            [sys.executable, "-c", textwrap.dedent(_EXIT_AT_ONCE), tag],
+            env=_env(DBGLOG_EXIT_WAIT="5"),
+            capture_output=True,
+            text=True,
+            timeout=90,
+            cwd=ROOT,
+            check=False,
+        )
+        ended = time.monotonic()
+        assert proc.returncode == 0, proc.stderr
+        assert wait_until(lambda: viewer.store.count(topic) == 5, 5.0), viewer.store.count(topic)
+    print(f"the script's exit took {ended - float(proc.stdout.split()[-1]):.2f} s")
+    assert ended - started < 30
+
+
+def test_dbglog_readers_are_known_by_their_node_names() -> None:
+    """The nodes the SDK waits for at exit: the viewer's engine, echo, tags and the recorder; no other."""
+    from dbglog.record._recorder import Recorder, parse_targets
+
+    assert is_reader_node(Engine().node_name)
+    assert is_reader_node(Recorder(parse_targets([], everything=False), None).node_name)
+    for name in ("dbglog_echo", "dbglog_tags"):  # dbglog/viewer/_cli/_cli_echo.py, _cli_tags.py
+        assert is_reader_node(name), name
+    for other in ("dbglog_4242", "dbglog_viewer_controls", "dbglog_params_7", "dbglog_record_", "talker"):
+        assert not is_reader_node(other), other
 
 
 def test_sdk_node_names_are_told_apart_from_the_viewers_own() -> None:

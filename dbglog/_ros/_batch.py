@@ -47,6 +47,7 @@ __all__ = [
     "batch_topic",
     "decode_batch",
     "encode_batch",
+    "is_reader_node",
     "is_sdk_node",
     "pack_values",
     "sdk_node_name",
@@ -87,6 +88,15 @@ def sdk_node_name(pid: int) -> str:
 def is_sdk_node(name: str) -> bool:
     """True for a node named by `sdk_node_name` (not the viewer's, the CLI's or a user's own node)."""
     return _SDK_NODE.fullmatch(name) is not None
+
+
+_READER_NODE = re.compile(r"dbglog_(?:viewer|echo|tags|record_[0-9]+)")
+
+
+def is_reader_node(name: str) -> bool:
+    """True for the node of a dbglog reader of the batches: the viewer's engine (``dbglog_viewer``),
+    ``dbglog echo`` and ``dbglog tags``, ``dbglog record`` (``dbglog_record_<pid>``)."""
+    return _READER_NODE.fullmatch(name) is not None
 
 
 BATCH_DEPTH = 1000
