@@ -17,6 +17,8 @@ from dbglog._ros._tags import TagName, parse_topic, tag_of
 from dbglog.viewer._values._transforms import Transform
 
 __all__ = [
+    "EVERY_ROBOT",
+    "SELECTED_ROBOT",
     "Binding",
     "DataSource",
     "FieldInfo",
@@ -50,9 +52,20 @@ class ValueKind(enum.StrEnum):
     ARRAY = "array"
 
 
+SELECTED_ROBOT = "$selected"
+"""`Binding.robot` of a binding that follows the robot the viewer's switcher selects."""
+EVERY_ROBOT = "$every"
+"""`Binding.robot` of a binding with one series per robot (an overlay across robots)."""
+
+
 @dataclass(frozen=True, slots=True)
 class Binding:
-    """A topic, a field path inside its messages (``""`` = the whole single-valued message), a regex."""
+    """A topic, a field path inside its messages (``""`` = the whole single-valued message), a regex.
+
+    A robot-relative binding (`robot` set) names its topic as in the root namespace (``/rosdashboard/speed``,
+    ``/odom``): the dashboard resolves it to each robot's own topic (``/robot1/rosdashboard/speed``) before
+    a data source sees it (`dbglog.viewer._data._robots.Fleet`).
+    """
 
     topic: str
     field: str = ""
@@ -66,6 +79,9 @@ class Binding:
     level: str = ""
     """Log topics: only lines at this level or above (``debug``, ``info``, ``warn``, ``error``, ``fatal``),
     as a bridge rule's ``level``; empty: every level."""
+    robot: str = ""
+    """``""``: the topic as written; `SELECTED_ROBOT`: in the namespace of the robot the viewer selects;
+    `EVERY_ROBOT`: in every robot's namespace that has it (one series each)."""
 
     @property
     def parameter(self) -> tuple[str, str] | None:
