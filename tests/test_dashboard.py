@@ -12,9 +12,10 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from dbglog.viewer._data._model import Binding
+from dbglog.viewer._data._model import EVERY_ROBOT, SELECTED_ROBOT, Binding
 from dbglog.viewer._document._dashboard import (
     FORMAT,
+    ROBOT_VERSION,
     VERSION,
     Dashboard,
     DashboardError,
@@ -158,7 +159,7 @@ def test_unknown_entries_save_back_unchanged(tmp_path: Path) -> None:
     saved = json.loads(out.read_text())
     assert saved["widgets"][1] == original["widgets"][1]
     assert saved["format"] == FORMAT
-    assert saved["version"] == VERSION
+    assert saved["version"] == 1, "nothing in it needs a newer version"
 
 
 def test_legacy_saves_in_current_format(tmp_path: Path) -> None:
@@ -304,11 +305,13 @@ def _config(type_name: str) -> st.SearchStrategy[WidgetConfig]:
             props[p.name] = st.from_regex(r"#[0-9a-f]{8}", fullmatch=True)
         else:
             props[p.name] = st.text(SAFE_CHARS, max_size=20)
+    several = cls.max_bindings > 1 and not cls.publishes
     binding = st.builds(
         Binding,
         st.from_regex(r"/[a-z][a-z0-9_/]{0,20}", fullmatch=True),
         st.from_regex(r"[a-z_.]{0,12}", fullmatch=True).map(str.strip),
         st.sampled_from(["", "x=(\\d+)", "^(.*)$"]),
+        robot=st.sampled_from(["", SELECTED_ROBOT, *([EVERY_ROBOT] if several else [])]),
     )
     mw, mh = cls.min_size
     return st.builds(
@@ -340,3 +343,68 @@ def test_round_trip_is_identity(dashboard: Dashboard) -> None:
     result = parse_dashboard(json.loads(dumps(dashboard)), LOOKUP)
     assert result.messages == []
     assert result.dashboard == dashboard
+
+
+def _robot_file(version: int, *bindings: dict[str, Any], type_name: str = "plot") -> dict[str, Any]:
+    entry = {"type": type_name, "name": "Speed", "x": 0, "y": 0, "width": 400, "height": 300}
+    return {"format": FORMAT, "version": version, "widgets": [{**entry, "bindings": list(bindings)}]}
+
+
+def test_bindings_to_the_selected_robot_and_every_robot_load_and_save_as_version_2(tmp_path: Path) -> None:
+    """Version 2: ``"robot"`` makes the topic relative to the robot's namespace; it saves back as written."""
+    data = _robot_file(
+        2,
+        {"robot": "$selected", "topic": "rosdashboard/speed", "field": "", "regex": ""},
+        {"robot": "$every", "topic": "/odom", "field": "pose.x", "regex": ""},
+        {"topic": "/robot1/rosdashboard/speed", "field": "", "regex": ""},
+    )
+    result = parse_dashboard(data, LOOKUP)
+    assert result.messages == []
+    (plot,) = _widgets(result.dashboard.widgets)
+    assert plot.bindings == (
+        Binding("/rosdashboard/speed", robot=SELECTED_ROBOT),
+        Binding("/odom", "pose.x", robot=EVERY_ROBOT),
+        Binding("/robot1/rosdashboard/speed"),
+    )
+    out = tmp_path / "robots.json"
+    save_dashboard(result.dashboard, out)
+    saved = json.loads(out.read_text())
+    assert saved["version"] == ROBOT_VERSION == VERSION
+    assert saved["widgets"][0]["bindings"][:2] == [
+        {"robot": "$selected", "topic": "rosdashboard/speed", "field": "", "regex": ""},
+        {"robot": "$every", "topic": "odom", "field": "pose.x", "regex": ""},
+    ]
+    assert "robot" not in saved["widgets"][0]["bindings"][2]
+
+
+def test_files_of_version_1_load_unchanged_and_stay_version_1() -> None:
+    """A version-1 file's topics stay absolute (a stray "robot" is an unknown field), and a dashboard with
+    no robot-relative binding saves as version 1, which older viewers open."""
+    data = _robot_file(1, {"robot": "$selected", "topic": "rosdashboard/speed", "field": "", "regex": ""})
+    result = parse_dashboard(data, LOOKUP)
+    (plot,) = _widgets(result.dashboard.widgets)
+    assert plot.bindings == (Binding("/rosdashboard/speed"),)
+    assert result.messages == ["widget #1 'Speed': bindings[0]: unknown field 'robot' ignored"]
+    assert json.loads(dumps(result.dashboard))["version"] == 1
+    kept = Dashboard([RawWidget({"type": "x", "bindings": [{"robot": "$every", "topic": "a"}]}, "no plugin")])
+    assert kept.needed_version() == ROBOT_VERSION, "an entry kept verbatim keeps what it needs"
+
+
+def test_a_bad_robot_value_keeps_the_topic_as_written() -> None:
+    """An unknown "robot" is named; every robot on a one-series widget or a control follows the selected
+    robot instead; a newer version than 2 is refused."""
+    bad = parse_dashboard(_robot_file(2, {"robot": "robot1", "topic": "/x"}), LOOKUP)
+    assert _widgets(bad.dashboard.widgets)[0].bindings == (Binding("/x"),)
+    assert bad.messages == [
+        "widget #1 'Speed': bindings[0]: field 'robot' must be '$selected' or '$every', got \"robot1\"; "
+        "the topic '/x' is used as written"
+    ]
+    for type_name, what in (("dial", "shows one series"), ("toggle", "publishes to one topic")):
+        one = parse_dashboard(_robot_file(2, {"robot": "$every", "topic": "x"}, type_name=type_name), LOOKUP)
+        assert _widgets(one.dashboard.widgets)[0].bindings == (Binding("/x", robot=SELECTED_ROBOT),)
+        assert one.messages == [
+            f"widget #1 'Speed': bindings[0]: a {type_name} {what}: it follows the selected robot instead "
+            "of every robot"
+        ]
+    with pytest.raises(DashboardError, match="version 3 is newer than this viewer understands"):
+        parse_dashboard(_robot_file(3), LOOKUP)

@@ -32,7 +32,7 @@ import numpy as np
 
 from dbglog._regex._compile import RegexError, compile_regex, parse_number
 from dbglog._ros._loglevels import LEVELS
-from dbglog.viewer._data._model import Binding
+from dbglog.viewer._data._model import EVERY_ROBOT, SELECTED_ROBOT, Binding
 from dbglog.viewer._values._transforms import Invalid, transforms_or_invalid, written_transforms
 from dbglog.viewer.widget_api import PropertyError, PropValue, Widget
 
@@ -59,7 +59,11 @@ __all__ = [
 ]
 
 FORMAT = "dbglog-dashboard"
-VERSION = 1
+VERSION = 2
+"""The newest version this viewer reads. A file is written as version 1 unless it needs version 2 (a binding
+to the selected robot or to every robot), so older viewers still open every other dashboard."""
+ROBOT_VERSION = 2
+"""The first version whose bindings may have a ``"robot"`` (``"$selected"``, ``"$every"``)."""
 MAX_FILE_BYTES = 16 << 20
 """Largest dashboard file read (16 MiB)."""
 MAX_WIDGETS = 1000
@@ -150,6 +154,8 @@ class WidgetConfig:
 
 def _binding_dict(b: Binding) -> dict[str, Any]:
     out: dict[str, Any] = {"topic": b.topic, "field": b.field, "regex": b.regex}
+    if b.robot:  # robot-relative: the topic written relative, as ROS writes a name inside a namespace
+        out = {"robot": b.robot, "topic": b.topic.lstrip("/"), "field": b.field, "regex": b.regex}
     if b.transforms:
         # Rejected transforms are kept as the user wrote them (any JSON), valid ones with sorted keys.
         out["transforms"] = written_transforms(b.transforms)
@@ -229,13 +235,25 @@ class Dashboard:
     snap: bool = True
 
     def to_dict(self) -> dict[str, Any]:
-        """Return the JSON form (current format)."""
+        """Return the JSON form (current format), as the lowest version that holds it (`needed_version`)."""
         return {
             "format": FORMAT,
-            "version": VERSION,
+            "version": self.needed_version(),
             "grid": {"size": self.grid_size, "snap": self.snap},
             "widgets": [w.to_dict() for w in self.widgets],
         }
+
+    def needed_version(self) -> int:
+        """The lowest file version that holds this dashboard: 2 when a binding is robot-relative (an entry
+        kept verbatim counts too), else 1."""
+        for w in self.widgets:
+            if isinstance(w, RawWidget):
+                raw = w.data.get("bindings")
+                if isinstance(raw, list) and any(isinstance(b, dict) and "robot" in b for b in raw):
+                    return ROBOT_VERSION
+            elif any(b.robot for b in w.bindings):
+                return ROBOT_VERSION
+        return 1
 
 
 @dataclass
@@ -249,6 +267,8 @@ class LoadResult:
     left_out: int = 0
     """Whole widget entries not loaded (more than `MAX_WIDGETS`, nested too deep, unsafe text in an
     entry kept verbatim); saving over the file would lose them."""
+    version: int = VERSION
+    """The file's format version (a legacy file counts as 1)."""
 
     @property
     def complete(self) -> bool:
@@ -433,7 +453,7 @@ def parse_dashboard(data: object, lookup: TypeLookup, *, max_widgets: int = MAX_
     if "format" not in data:
         if not isinstance(widgets, list):
             raise DashboardError("not a dashboard: no 'format' key and no 'widgets' list")
-        result = LoadResult(Dashboard(), legacy=True)
+        result = LoadResult(Dashboard(), legacy=True, version=1)
         result.dashboard.snap = False
         _parse_entries(widgets, lookup, result, max_widgets, _parse_legacy_widget)
         return _finish(result)
@@ -452,7 +472,7 @@ def parse_dashboard(data: object, lookup: TypeLookup, *, max_widgets: int = MAX_
         raise DashboardError(f"version {_short(version)} is not a valid version")
     if not isinstance(widgets, list):
         raise DashboardError(f"'widgets' must be a list, got {_kind(widgets)}")
-    result = LoadResult(Dashboard())
+    result = LoadResult(Dashboard(), version=version)
     _parse_grid(data.get("grid"), result)
     for key in data:
         if key not in {"format", "version", "grid", "widgets"}:
@@ -642,7 +662,8 @@ def _parse_known(
     y = _coord(entry, "y", 0.0, 0.0, where, msgs)
     width = _coord(entry, "width", float(dw), float(mw), where, msgs)
     height = _coord(entry, "height", float(dh), float(mh), where, msgs)
-    bindings = _parse_bindings(entry.get("bindings", []), cls, where, msgs)
+    robots = result.version >= ROBOT_VERSION
+    bindings = _parse_bindings(entry.get("bindings", []), cls, where, msgs, robots=robots)
     props = _parse_properties(entry.get("properties", {}), cls, where, msgs)
     stale_after = _stale_after(entry, where, msgs)
     for key in entry:
@@ -697,7 +718,10 @@ def _coord(
     return value
 
 
-def _parse_bindings(raw: object, cls: type[Widget], where: str, msgs: list[str]) -> tuple[Binding, ...]:
+def _parse_bindings(
+    raw: object, cls: type[Widget], where: str, msgs: list[str], *, robots: bool = False
+) -> tuple[Binding, ...]:
+    """A widget's bindings; with `robots` (version 2 on), a binding's ``"robot"`` is read too."""
     if not isinstance(raw, list):
         msgs.append(f"{where}: field 'bindings' must be a list, got {_kind(raw)}; widget left unbound")
         return ()
@@ -715,12 +739,37 @@ def _parse_bindings(raw: object, cls: type[Widget], where: str, msgs: list[str])
             binding = _with_transforms(binding, item["transforms"], at, msgs)
         if binding is not None and ("node" in item or "level" in item):
             binding = _with_log_filter(binding, item.get("node"), item.get("level"), at, msgs)
+        if binding is not None and robots and "robot" in item:
+            binding = _with_robot(binding, item["robot"], cls, at, msgs)
         if binding is not None:
             out.append(binding)
         for key in item:
-            if key not in {"topic", "field", "regex", "transforms", "node", "level"}:
+            if key not in {"topic", "field", "regex", "transforms", "node", "level"} and (
+                key != "robot" or not robots
+            ):
                 msgs.append(f"{at}: unknown field {_q(key)} ignored")
     return tuple(out)
+
+
+def _with_robot(binding: Binding, robot: object, cls: type[Widget], at: str, msgs: list[str]) -> Binding:
+    """A binding's ``"robot"``: the selected robot's namespace or every robot's, its topic relative to it.
+
+    Anything else leaves the topic as written (in the root namespace), with a message; a widget of one
+    series (or a control, which publishes to one topic) follows the selected robot instead of every robot.
+    """
+    if robot is None or robot == "":
+        return binding
+    if robot not in (SELECTED_ROBOT, EVERY_ROBOT):
+        msgs.append(
+            f"{at}: field 'robot' must be {SELECTED_ROBOT!r} or {EVERY_ROBOT!r}, got {_short(robot)}; "
+            f"the topic {binding.topic!r} is used as written"
+        )
+        return binding
+    if robot == EVERY_ROBOT and (cls.max_bindings < 2 or cls.publishes):
+        what = "publishes to one topic" if cls.publishes else "shows one series"
+        msgs.append(f"{at}: a {cls.type_name} {what}: it follows the selected robot instead of every robot")
+        robot = SELECTED_ROBOT
+    return replace(binding, robot=str(robot))
 
 
 LOG_LEVELS = tuple(LEVELS)
