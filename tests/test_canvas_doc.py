@@ -7,7 +7,8 @@ import sys
 from dataclasses import dataclass, replace
 from pathlib import Path
 
-from dbglog.viewer._data._model import Binding, FieldInfo
+from dbglog.viewer._data._model import EVERY_ROBOT, SELECTED_ROBOT, Binding, FieldInfo, TopicInfo
+from dbglog.viewer._data._robots import Fleet
 from dbglog.viewer._data._static_source import StaticSource
 from dbglog.viewer._document._canvas_doc import CanvasDoc, TopicSetup
 from dbglog.viewer._document._dashboard import Dashboard, RawWidget, WidgetConfig
@@ -24,6 +25,7 @@ class Item:
     config: WidgetConfig | RawWidget
     label: str | None = "Dial"
     publishes: bool = False
+    resolved: tuple[Binding, ...] = ()
 
     @property
     def name(self) -> str:
@@ -32,8 +34,13 @@ class Item:
 
     @property
     def series(self) -> tuple[Binding, ...]:
-        """The bindings filled by the source (none for a control)."""
-        return () if self.publishes else self.config.bindings
+        """The bindings filled by the source (none for a control), as last resolved."""
+        return () if self.publishes else self.resolved
+
+    def resolve(self, fleet: Fleet) -> tuple[Binding, ...]:
+        """Resolve robot-relative bindings: the series to fill."""
+        self.resolved = fleet.expand_all(self.config.bindings)
+        return self.series
 
     @property
     def rect(self) -> Rect:
@@ -251,3 +258,58 @@ def test_the_document_loads_no_dear_pygui() -> None:
         "sys.exit(1 if any(m.startswith('dearpygui') for m in sys.modules) else 0)"
     )
     assert subprocess.run([sys.executable, "-c", code], timeout=60).returncode == 0
+
+
+def robots_doc(selected: str | None = None) -> tuple[CanvasDoc[Item], StaticSource]:
+    """A document whose fleet has seen robot1 and robot2 publish speed (robot2 also rpm)."""
+    doc, source, _ = make_doc()
+    doc.fleet = Fleet(selected)
+    names = ("/robot1/rosdashboard/speed", "/robot2/rosdashboard/speed", "/robot2/rosdashboard/rpm")
+    doc.fleet.observe([TopicInfo(n, ("std_msgs/msg/Float64",), 1) for n in names])
+    return doc, source
+
+
+def test_a_widget_on_the_selected_robot_binds_that_robots_topic_and_follows_a_switch() -> None:
+    """Switching robots rebinds the widget (the new robot's series first), and is no edit of the file."""
+    doc, source = robots_doc()
+    relative = Binding("/rosdashboard/speed", robot=SELECTED_ROBOT)
+    item = doc.add(dial("speed", relative))
+    assert source.bound == {Binding("/robot1/rosdashboard/speed")}
+    assert item.series == (Binding("/robot1/rosdashboard/speed"),)
+    assert doc.sync_robots() == 0, "nothing changed since"
+    doc.fleet.select("/robot2")
+    assert doc.sync_robots() == 1
+    assert source.bound == {Binding("/robot2/rosdashboard/speed")}
+    assert item.series == (Binding("/robot2/rosdashboard/speed"),)
+    assert not doc.dirty
+    assert doc.dashboard().widgets[0].bindings == (relative,), "the file keeps the relative binding"
+    assert doc.remove(item)
+    assert source.bound == set()
+
+
+def test_an_overlay_binds_every_robot_and_grows_as_robots_appear() -> None:
+    """An every-robot binding binds each robot's topic; a robot that shows up later is bound too."""
+    doc, source = robots_doc()
+    item = doc.add(dial("all", Binding("/rosdashboard/rpm", robot=EVERY_ROBOT)))
+    assert source.bound == {Binding("/robot2/rosdashboard/rpm")}
+    doc.fleet.observe(
+        [TopicInfo(f"/robot{i}/rosdashboard/rpm", ("std_msgs/msg/Float64",), 1) for i in (1, 2)]
+    )
+    doc.sync_robots()
+    assert item.series == (Binding("/robot2/rosdashboard/rpm"), Binding("/robot1/rosdashboard/rpm"))
+    assert source.bound == set(item.series)
+
+
+def test_topic_setup_shows_the_selected_robots_topic_and_makes_bindings_relative() -> None:
+    """Topic setup edits the concrete topic of the selected robot and gives back a relative binding."""
+    doc, _ = robots_doc("/robot2")
+    relative = Binding("/rosdashboard/speed", robot=SELECTED_ROBOT)
+    item = doc.add(dial("speed", relative))
+    setup = TopicSetup(doc, item)
+    assert setup.shown(relative) == Binding("/robot2/rosdashboard/speed")
+    assert setup.relative(Binding("/robot1/rosdashboard/rpm"), EVERY_ROBOT) == Binding(
+        "/rosdashboard/rpm", robot=EVERY_ROBOT
+    )
+    assert setup.robot() == "robot2"
+    plain, _, _ = make_doc()
+    assert TopicSetup(plain, plain.add(dial("d"))).robot() is None, "no robots: nothing to follow"

@@ -1,7 +1,9 @@
 """The open dashboard as a headless document: its widgets, their bindings' reference counts, selection, file.
 
 No Dear PyGui here: the window draws what this holds, and every edit that changes what would be saved
-marks it modified (`on_change` tells the window, e.g. to retitle itself).
+marks it modified (`on_change` tells the window, e.g. to retitle itself). A widget's robot-relative bindings
+(the selected robot's, every robot's) are resolved against the document's `Fleet`: switching robots rebinds
+them (`sync_robots`), which is viewer state, not an edit.
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ from typing import Generic, Protocol, TypeVar
 
 from dbglog._ros._tags import tag_of
 from dbglog.viewer._data._model import Binding, DataSource, FieldInfo, SeriesSnapshot, TopicInfo
+from dbglog.viewer._data._robots import Fleet, robot_name
 from dbglog.viewer._document._dashboard import Dashboard, RawWidget, WidgetConfig
 from dbglog.viewer._widgets._geometry import Part, Rect, hit_test
 
@@ -41,7 +44,7 @@ class DocItem(Protocol):
 
     @property
     def series(self) -> tuple[Binding, ...]:
-        """The bindings the data source fills for it."""
+        """The bindings the data source fills for it (concrete: as last resolved)."""
         ...
 
     @property
@@ -54,6 +57,11 @@ class DocItem(Protocol):
 
     def rename(self, name: str) -> None:
         """Change the title."""
+
+    def resolve(self, fleet: Fleet) -> tuple[Binding, ...]:
+        """Resolve its robot-relative bindings against `fleet` (its `series`, a control's publish targets)
+        and return the concrete series the data source is to fill."""
+        ...
 
 
 ItemT = TypeVar("ItemT", bound=DocItem)
@@ -97,9 +105,16 @@ class CanvasDoc(Generic[ItemT]):
         on_change: called when the saved state or the file changes (title, modified mark).
     """
 
-    def __init__(self, source: DataSource, on_change: Callable[[], None] | None = None) -> None:
+    def __init__(
+        self, source: DataSource, on_change: Callable[[], None] | None = None, *, fleet: Fleet | None = None
+    ) -> None:
         self.source = source
         self.on_change = on_change
+        self.fleet = fleet if fleet is not None else Fleet()
+        """The robots seen and the one selected: what robot-relative bindings resolve to."""
+        self._held: dict[ItemT, tuple[Binding, ...]] = {}
+        """Widget -> the concrete series bound for it (what `sync_robots` releases when they change)."""
+        self._fleet_seen = self.fleet.version
         self.items: list[ItemT] = []
         self.selected: ItemT | None = None
         self.path: Path | None = None
@@ -134,6 +149,30 @@ class CanvasDoc(Generic[ItemT]):
         for binding in list(self.refs):
             self.source.unbind(binding)
         self.refs.clear()
+        self._held.clear()
+
+    def _hold(self, item: ItemT) -> bool:
+        """Resolve `item`'s bindings and bind its series (the new ones first); True if they changed."""
+        new = item.resolve(self.fleet)
+        old = self._held.get(item, ())
+        for b in new:
+            self.bind(b)
+        self._held[item] = new
+        for b in old:
+            self.unbind(b)
+        return new != old
+
+    def _release(self, item: ItemT) -> None:
+        for b in self._held.pop(item, ()):
+            self.unbind(b)
+
+    def sync_robots(self) -> int:
+        """After the fleet changed (a robot selected, robots or topics seen): resolve every widget's
+        robot-relative bindings again and rebind what changed. Not an edit. Returns the widgets changed."""
+        if self.fleet.version == self._fleet_seen:
+            return 0
+        self._fleet_seen = self.fleet.version
+        return sum(self._hold(item) for item in self.items)
 
     # -- state --------------------------------------------------------------------------------------
 
@@ -206,16 +245,14 @@ class CanvasDoc(Generic[ItemT]):
     def add(self, item: ItemT) -> ItemT:
         """Put `item` on top of the others and bind its series (not an edit by itself: see `mark_dirty`)."""
         self.items.append(item)
-        for b in item.series:
-            self.bind(b)
+        self._hold(item)
         return item
 
     def remove(self, item: ItemT) -> bool:
         """Take `item` off and release its series; False if it was not there."""
         if item not in self.items:
             return False
-        for b in item.series:
-            self.unbind(b)
+        self._release(item)
         self.items.remove(item)
         if self.selected is item:
             self.selected = None
@@ -226,8 +263,7 @@ class CanvasDoc(Generic[ItemT]):
         """Take every widget off and release their series; return them (the window destroys them)."""
         removed = list(self.items)
         for item in removed:
-            for b in item.series:
-                self.unbind(b)
+            self._release(item)
         self.items.clear()
         self.selected = None
         return removed
@@ -237,10 +273,8 @@ class CanvasDoc(Generic[ItemT]):
         self.items[self.items.index(old)] = new
         if self._auto_names.get(old) == old.name:
             self._auto_names[new] = new.name
-        for b in new.series:
-            self.bind(b)
-        for b in old.series:
-            self.unbind(b)
+        self._hold(new)
+        self._release(old)
         if self.selected is old:
             self.selected = None
         self.mark_dirty()
@@ -274,12 +308,8 @@ class CanvasDoc(Generic[ItemT]):
         after its new topic; a name the user gave it stays.
         """
         auto = self._auto_named(item)
-        old = item.series
         item.set_bindings(bindings)
-        for b in item.series:  # a control's bindings are where it publishes: no series for them
-            self.bind(b)
-        for b in old:
-            self.unbind(b)
+        self._hold(item)  # a control's bindings are where it publishes: no series for them
         if auto:
             name = topic_widget_name(bindings, {i.name for i in self.items if i is not item})
             if name is not None and name != item.name:
@@ -308,6 +338,19 @@ class TopicSetup(Generic[ItemT]):
     def topics(self) -> list[TopicInfo]:
         """The topics of the live graph."""
         return self.doc.source.topics()
+
+    def shown(self, binding: Binding) -> Binding:
+        """The concrete binding the dialog edits for `binding` (a relative one: the selected robot's)."""
+        return self.doc.fleet.shown(binding)
+
+    def relative(self, binding: Binding, mode: str) -> Binding:
+        """A concrete binding made to follow the selected robot, show every robot (`mode`), or stay."""
+        return self.doc.fleet.relative(binding, mode)
+
+    def robot(self) -> str | None:
+        """The selected robot's name when the viewer has seen robots in namespaces (None: there are none)."""
+        fleet = self.doc.fleet
+        return robot_name(fleet.selected) if fleet.namespaced else None
 
     def fields(self, topic: str) -> list[FieldInfo]:
         """The fields of `topic`'s message type."""

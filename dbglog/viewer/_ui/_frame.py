@@ -11,7 +11,8 @@ from typing import Protocol
 
 import dearpygui.dearpygui as dpg
 
-from dbglog.viewer._data._model import Binding, SeriesSnapshot, Status
+from dbglog.viewer._data._model import EVERY_ROBOT, SELECTED_ROBOT, Binding, SeriesSnapshot, Status
+from dbglog.viewer._data._robots import Fleet, is_relative
 from dbglog.viewer._data._timeline import Timeline
 from dbglog.viewer._document._dashboard import RawWidget, WidgetConfig
 from dbglog.viewer._ui._theme import DIM, HEADER, STATUS_COLORS, TEXT
@@ -105,7 +106,8 @@ class FrameSnapshots:
         if held is not None and (held[0] is None or (past is not None and past <= held[0])):
             return held[1]
         snap = self.timeline.snapshot(binding, past)
-        self._memo[binding] = (past, snap)
+        if snap.count:  # nothing yet is no search to save, and a binding just made fills within a frame
+            self._memo[binding] = (past, snap)
         self.reads += 1
         return snap
 
@@ -141,6 +143,9 @@ class CanvasItem:
         """The app's other services for widgets (log stores, the time cursor), in the `WidgetContext` too."""
         self.time_range = time_range
         """The time range the app's time plots share, in the `WidgetContext` too."""
+        self._resolved: tuple[Binding, ...] = tuple(b for b in config.bindings if not is_relative(b))
+        """Its bindings as resolved for the selected robot (`resolve`): a control's publish targets, or the
+        series the data source fills."""
         self.widget: Widget | None = None
         self.failed = ""
         """Why the widget was disabled after raising, or empty."""
@@ -193,24 +198,51 @@ class CanvasItem:
         return self.config.bindings
 
     @property
+    def publishes(self) -> bool:
+        """Whether the widget is a control (its bindings are where it publishes)."""
+        return self.widget_cls is not None and self.widget_cls.publishes
+
+    @property
     def series(self) -> tuple[Binding, ...]:
-        """The bindings the data source fills: none for a control (its bindings are where it publishes), nor
-        a binding to a node's parameter of a widget that shows parameters."""
+        """The bindings the data source fills, robot-relative ones resolved: none for a control (its bindings
+        are where it publishes), nor a binding to a node's parameter of a widget that shows parameters."""
         cls = self.widget_cls
         if cls is not None and cls.publishes:
             return ()
         if cls is not None and cls.parameters:
-            return tuple(b for b in self.bindings if b.parameter is None)
-        return self.bindings
+            return tuple(b for b in self._resolved if b.parameter is None)
+        return self._resolved
 
     def context(self) -> WidgetContext:
-        """What the widget is given at mount: a control's publish targets (a widget's parameters), and the
-        app's publisher."""
+        """What the widget is given at mount: a control's publish targets (a widget's parameters), robot-
+        relative ones resolved, and the app's publisher."""
+        return WidgetContext(self._targets(), self.publisher, self.host, self.time_range)
+
+    def _targets(self) -> tuple[Binding, ...]:
         cls = self.widget_cls
-        targets = self.bindings if cls is not None and cls.publishes else ()
-        if cls is not None and cls.parameters and not cls.publishes:
-            targets = tuple(b for b in self.bindings if b.parameter is not None)
-        return WidgetContext(targets, self.publisher, self.host, self.time_range)
+        if cls is not None and cls.publishes:
+            return self._resolved
+        if cls is not None and cls.parameters:
+            return tuple(b for b in self._resolved if b.parameter is not None)
+        return ()
+
+    def resolve(self, fleet: Fleet) -> tuple[Binding, ...]:
+        """Resolve the bindings against `fleet` (the selected robot; every robot's for an overlay) and return
+        the series to fill; a control that publishes to the selected robot gets its new target."""
+        bindings = self.bindings
+        resolved = tuple(fleet.shown(b) for b in bindings) if self.publishes else fleet.expand_all(bindings)
+        if resolved != self._resolved:
+            targets = self._targets()
+            self._resolved = resolved
+            self.invalidate()
+            if self.widget is not None and self._targets() != targets and not self.failed:
+                try:
+                    self.widget.set_context(self.context())  # publishes to the robot now selected
+                except Exception as exc:
+                    self._fail(f"widget failed to take its new bindings: {exc!r}")
+            if dpg.does_item_exist(self.header):
+                self._draw_header(int(self.geometry()[2]))
+        return self.series
 
     @property
     def label(self) -> str | None:
@@ -306,8 +338,12 @@ class CanvasItem:
             tip = f"{tip} at the cursor time (the dashboard is paused)"
         bindings = "\n".join(
             f"{b.topic}" + (f" \u203a {b.field}" if b.field else "") + (f"  /{b.regex}/" if b.regex else "")
-            for b in self.bindings
+            for b in self._resolved
         )
+        following = {b.robot for b in self.bindings} & {SELECTED_ROBOT, EVERY_ROBOT}
+        if following:
+            whose = "every robot's" if EVERY_ROBOT in following else "the selected robot's"
+            bindings = f"{whose} topics (the Robot menu switches):\n{bindings}"
         dpg.set_value(self.tooltip_text, "\n".join(x for x in (tip, self.reason, bindings) if x))
         self._pill_state = (status, self.reason, self._paused)
 
@@ -474,6 +510,8 @@ class CanvasItem:
         config = self.config.editable
         if config is not None:
             self.config = replace(config, bindings=bindings)
+            # The robot-relative ones wait for the document to resolve them.
+            self._resolved = tuple(b for b in bindings if not is_relative(b))
             self.invalidate()
             self._draw_header(int(self.geometry()[2]))
             if self.widget is not None and not self.failed:
