@@ -10,6 +10,7 @@ from dbglog.viewer._data._history import History
 from dbglog.viewer._data._model import EVERY_ROBOT, SELECTED_ROBOT, Binding, Status, TopicInfo
 from dbglog.viewer._data._robots import (
     NO_NAMESPACE,
+    SETTLE_S,
     Fleet,
     parse_robot,
     relative_to,
@@ -42,18 +43,24 @@ def test_robots_are_the_namespaces_of_tags_in_natural_order() -> None:
 
 
 def test_the_first_robot_with_a_namespace_is_selected_until_one_is_chosen() -> None:
-    """Root tags seen first leave the selection to the first namespaced robot; a choice then stays."""
-    fleet = Fleet()
+    """Root tags seen first leave the selection to the first namespaced robot (robots found a moment apart
+    settle on the first in natural order); later arrivals do not take it; a choice then stays."""
+    now = [100.0]
+    fleet = Fleet(clock=lambda: now[0])
     fleet.observe(infos("/rosdashboard/x"))
     assert fleet.selected == ""
     fleet.observe(infos("/rosdashboard/x", "/robot2/rosdashboard/x"))
     assert fleet.selected == "/robot2"
-    fleet.observe(infos("/rosdashboard/x", "/robot1/rosdashboard/x", "/robot2/rosdashboard/x"))
-    assert fleet.selected == "/robot2", "a robot that appears later does not take the selection"
-    assert fleet.select("/robot1")
-    assert not fleet.select("/robot1")
+    now[0] += SETTLE_S / 2
+    fleet.observe(infos("/rosdashboard/x", "/robot2/rosdashboard/x", "/robot1/rosdashboard/x"))
+    assert fleet.selected == "/robot1", "still settling: the first in natural order"
+    now[0] += SETTLE_S
+    fleet.observe(infos("/robot0/rosdashboard/x", "/robot1/rosdashboard/x", "/robot2/rosdashboard/x"))
+    assert fleet.selected == "/robot1", "a robot that appears later does not take the selection"
+    assert fleet.select("/robot2")
+    assert not fleet.select("/robot2")
     fleet.observe(infos("/robot0/rosdashboard/x"), held=["/robot1/rosdashboard/x"])
-    assert fleet.selected == "/robot1"
+    assert fleet.selected == "/robot2"
     assert fleet.robots == ["", "/robot0", "/robot1", "/robot2"], "robots seen are never forgotten"
 
 

@@ -118,6 +118,17 @@ def cursor_arg(text: str) -> float:
     return value
 
 
+def robot_arg(text: str) -> str:
+    """A robot's namespace for ``--robot`` (``robot1``, ``/lab/robot1``; ``/`` for none)."""
+    from dbglog._ros._tags import TagError
+    from dbglog.viewer._data._robots import parse_robot
+
+    try:
+        return parse_robot(text)
+    except TagError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
 def fps_arg(text: str) -> float:
     """Parse a frame cap in frames per second (1..240) for argparse."""
     return _number_within(text, "frames per second", "fps", 1, 240)
@@ -159,6 +170,20 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--all",
         action="store_true",
         help="automatic dashboard: also add widgets for topics that are not dbglog tags",
+    )
+    parser.add_argument(
+        "--robot",
+        type=robot_arg,
+        metavar="NAME",
+        help="the robot (namespace: robot1, lab/robot1; / for the tags of no namespace) that the widgets "
+        "following 'the selected robot' show at start (default: the first robot seen; the Robot menu "
+        "switches)",
+    )
+    parser.add_argument(
+        "--no-tag-tree",
+        dest="tag_tree",
+        action="store_false",
+        help="start without the tag tree beside the canvas (View \u203a Tag tree, Ctrl+T, shows it)",
     )
     parser.add_argument(
         "--screenshot", type=Path, metavar="PNG", help="render, write a PNG of the window, exit"
@@ -346,6 +371,8 @@ def run(args: argparse.Namespace) -> int:
         data_fps=args.data_fps,
         recording=args.replay is not None,
         params=params,
+        robot=args.robot,
+        tag_tree=args.tag_tree,
     )
     app.recordings.republisher = republisher  # View › Republish on ROS 2 shows for it
     try:

@@ -10,7 +10,7 @@ concrete ones a data source fills. Pure Python over `TopicInfo` lists and a `His
 from __future__ import annotations
 
 import time
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, replace
 
 from dbglog._ros._tags import natural_key, normalize_robot, parse_topic, robot_label
@@ -35,6 +35,8 @@ NO_NAMESPACE = "(no namespace)"
 """How the robot without a namespace (the plain ``/rosdashboard/`` tags) is named."""
 ROBOT_MODES = ("", SELECTED_ROBOT, EVERY_ROBOT)
 """The values `Binding.robot` may have: the topic as written, the selected robot's, every robot's."""
+SETTLE_S = 3.0
+"""Until a robot is chosen, the selection follows the first robot this long after the first is seen."""
 RATE_WINDOW_S = 5.0
 """A topic's rate is counted over this many seconds before the moment shown."""
 
@@ -132,13 +134,15 @@ class Fleet:
     Robots are the namespaces of dbglog tags (`parse_topic`), the root included when it has tags, in natural
     order (``robot2`` before ``robot10``). One seen is never forgotten: a robot that stops publishing stays
     listed (stale). Until a robot is chosen (`select`, ``dbglog view --robot``), the first robot with a
-    namespace is selected (the root while there is none).
+    namespace in natural order is selected (the root while there is none): for `SETTLE_S` after the first
+    robot is seen (discovery brings robot1 and robot2 a moment apart), then it stays.
 
     Args:
         selected: the robot to start with (a namespace: ``/robot1``, ``""``); None: the first seen.
+        clock: monotonic seconds.
     """
 
-    def __init__(self, selected: str | None = None) -> None:
+    def __init__(self, selected: str | None = None, *, clock: Callable[[], float] = time.monotonic) -> None:
         self.selected = selected if selected is not None else ""
         """The namespace bindings that follow the selected robot resolve in (``""``: the root)."""
         self.chosen = selected is not None
@@ -154,6 +158,9 @@ class Fleet:
         self.version = 0
         """Grows whenever what the relative bindings resolve to may change (selection, robots, topics)."""
         self._names: tuple[str, ...] = ()
+        self._clock = clock
+        self._first_seen: float | None = None
+        """When the first robot was seen (the automatic selection settles `SETTLE_S` later)."""
         self._every: dict[Binding, list[str]] = {}
         """An every-robot binding -> the robots that have its topic, in the order they first did (its series'
         order: a robot that appears later is added at the end, and no series changes colour)."""
@@ -180,8 +187,13 @@ class Fleet:
                 tags.setdefault(tag.robot, []).append(name)
         self.tags = tags
         self.robots = sorted(set(self.robots) | set(tags), key=natural_key)
-        if not self.chosen and self.robots and (self.selected not in tags or not self.selected):
-            self.selected = next((r for r in self.robots if r), self.robots[0])
+        if self.robots and not self.chosen:
+            now = self._clock()
+            if self._first_seen is None:
+                self._first_seen = now
+            settling = now - self._first_seen <= SETTLE_S
+            if settling or self.selected not in tags or not self.selected:
+                self.selected = next((r for r in self.robots if r), self.robots[0])
         self.version += 1
         return True
 

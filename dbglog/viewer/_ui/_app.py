@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING, Self
 import dearpygui.dearpygui as dpg
 
 from dbglog.viewer._data._model import Binding, DataSource
+from dbglog.viewer._data._robots import Fleet
 from dbglog.viewer._data._timeline import Timeline
 from dbglog.viewer._document._canvas_doc import CanvasDoc
 from dbglog.viewer._document._dashboard import LoadResult
@@ -38,7 +39,9 @@ from dbglog.viewer._ui._modal import Dialogs
 from dbglog.viewer._ui._pacing import DEFAULT_DATA_FPS, DEFAULT_FPS
 from dbglog.viewer._ui._pointer import PointerInput
 from dbglog.viewer._ui._recordings import RecordingCommands
+from dbglog.viewer._ui._robotbar import RobotSwitcher
 from dbglog.viewer._ui._status import StatusBar
+from dbglog.viewer._ui._tagtree import TREE_W, TagTreePanel
 from dbglog.viewer._ui._time import KEYS_HINT, TimeControl
 from dbglog.viewer._ui._timebar import TIMEBAR_H, TimeBar
 from dbglog.viewer._ui._window import install_input, main_window, open_viewport
@@ -70,6 +73,9 @@ class ViewerApp:
         recording: `source` is a recording (a `ReplaySource`): it opens paused at its end, Space plays.
         params: the parameter client widgets bound to a node's parameter use (``dbglog view`` makes one
             when live); None: parameters are only read from the events, as in a recording.
+        robot: the robot (namespace: ``/robot1``, ``""``) the robot-relative widgets show at start; None: the
+            first robot seen.
+        tag_tree: show the tag tree panel at start (View \u203a Tag tree shows and hides it).
     """
 
     def __init__(
@@ -84,18 +90,24 @@ class ViewerApp:
         data_fps: float = DEFAULT_DATA_FPS,
         recording: bool = False,
         params: ParamClient | None = None,
+        robot: str | None = None,
+        tag_tree: bool = False,
     ) -> None:
         self.registry = registry if registry is not None else WidgetRegistry.discover()
         self.width, self.height, self.title = width, height, title
         stale = float(getattr(source, "stale_after", 2.0))
         self.timeline = Timeline(source, stale_after=stale, recording=recording)
         """The time cursor: every widget's snapshots come through it (live, or as they stood at a time)."""
-        self.doc: CanvasDoc[CanvasItem] = CanvasDoc(self.timeline, self._update_title)
+        self.fleet = Fleet(robot)
+        """The robots seen and the one selected (robot-relative bindings resolve to its topics)."""
+        self.doc: CanvasDoc[CanvasItem] = CanvasDoc(self.timeline, self._update_title, fleet=self.fleet)
         """What is on the canvas: widgets, their bindings, selection, the file and whether it is modified."""
         self.time_range = TimeRange()
         """The time range the time plots share (zoomed, panned, following the newest data), one for all."""
         self.publisher = PublishService()
         """The controls' publishing service: this app's own, handed to every widget at mount."""
+        self._rooms: dict[str, int] = {}
+        """The pixels each panel beside the canvas takes from it (`_room_for`)."""
         self.frame_hooks: list[Callable[[], None]] = []
         """Called on the UI thread at every turn of the loop, rendered or not, before the widgets refresh
         (the auto-dashboard, test probes)."""
@@ -130,7 +142,7 @@ class ViewerApp:
         self.frame_hooks.append(self.host.tick)
         self.dialogs.parameters = self.host.parameter_list  # Topic setup suggests them
         self.events_panel = EventsPanel(
-            self.host, self.dialogs, self.set_status, self.actions.call_soon, self._make_room
+            self.host, self.dialogs, self.set_status, self.actions.call_soon, self._room_for("events")
         )
         """View › Events list beside the canvas, and File › Add marker…."""
         self.frame_hooks.append(self.events_panel.poll)
@@ -156,6 +168,24 @@ class ViewerApp:
         )
         """File \u203a Open recording, Save history as recording, Export CSV, Back to live."""
         self.frame_hooks.append(self.recordings.poll)
+        self.robots: RobotSwitcher[CanvasItem] = RobotSwitcher(
+            self.doc, self.timeline, say=self.set_status, wake=self.pacer.request
+        )
+        """The Robot menu: the robots seen, their status, the selected one."""
+        self.tree = TagTreePanel(
+            self.doc,
+            self.timeline,
+            self.canvas,
+            self.actions,
+            say=self.set_status,
+            wake=self.pacer.request,
+            shown=tag_tree,
+            on_show=self._tree_room,
+            on_robot=self.robots.select,
+        )
+        """The tag tree beside the canvas: robots, groups, tags and topics to drag onto it."""
+        self.canvas.drop_handlers.append(self.tree.drop)
+        self.frame_hooks += [self.robots.poll, self.tree.poll]
         self.status = StatusBar(self.time, self.doc.summary, self.loop)
         self.keys = KeyBindings(self.actions, held=self.loop.held, keyboard_taken=self._keys_blocked)
         self.menus = MenuBar(self.actions, MENUS)
@@ -167,7 +197,15 @@ class ViewerApp:
 
     def _register(self) -> None:
         """Register every command once: each concern its own, then the window's."""
-        for concern in (self.time, self.canvas, self.recordings, self.dialogs, self.events_panel):
+        for concern in (
+            self.time,
+            self.canvas,
+            self.recordings,
+            self.dialogs,
+            self.events_panel,
+            self.robots,
+            self.tree,
+        ):
             concern.register(self.actions)
         self.files.register(self.actions, modal=lambda: self.dialogs.current is not None)
         self.actions.register(
@@ -193,6 +231,8 @@ class ViewerApp:
             with dpg.group(horizontal=True) as self.body_group:
                 self.canvas.build(height=-BOTTOM_H)
                 self.events_panel.build(height=-BOTTOM_H)
+                self.tree.build(height=-BOTTOM_H)
+            self._tree_room(self.tree.shown)
             actions, control = self.actions, self.time
             self.timebar = TimeBar(
                 self.timeline,
@@ -208,6 +248,8 @@ class ViewerApp:
             )
             self.status.build()
         self.canvas.finish()
+        self.robots.build(dpg.get_item_parent(self.menus.menus["File"]))
+        self.robots.discover()
         self.pointer_input.build_menu()
         install_input(self.keys, self.pointer_input.on_wheel, self.loop.note_key)
         self._update_title()
@@ -365,9 +407,21 @@ class ViewerApp:
         self.time.use_source(source, recording=recording, bound=list(self.doc.refs))
         self._update_title()
 
-    def _make_room(self, pixels: int) -> None:
-        """Narrow the canvas by `pixels` for a panel beside it (0: its whole width again)."""
-        dpg.configure_item(self.canvas.window, width=-pixels if pixels > 0 else -1)
+    def _room_for(self, panel: str) -> Callable[[int], None]:
+        """What `panel` (one beside the canvas) calls to narrow the canvas by so many pixels for itself (0: it
+        is hidden); the canvas leaves room for every panel shown."""
+
+        def make_room(pixels: int) -> None:
+            self._rooms[panel] = max(0, pixels)
+            total = sum(self._rooms.values())
+            if self.started:
+                dpg.configure_item(self.canvas.window, width=-total if total > 0 else -1)
+
+        return make_room
+
+    def _tree_room(self, shown: bool) -> None:
+        """The tag tree shown or hidden: the canvas leaves room for it, or takes it back."""
+        self._room_for("tree")(TREE_W + 8 if shown else 0)
 
     def set_status(self, text: str) -> None:
         """Show a message in the status bar."""

@@ -63,6 +63,9 @@ class Canvas:
         """The scrolled canvas (a child window)."""
         self.pointer_override: tuple[float, float] | None = None
         """When set, used instead of the real mouse position (scripted sessions and tests)."""
+        self.drop_handlers: list[Callable[[object, tuple[float, float]], bool]] = []
+        """Take a drop of something else than a toolbox button (a tag tree's row) at window pixels; True
+        when taken."""
 
     # -- building -------------------------------------------------------------------------------------
 
@@ -153,9 +156,14 @@ class Canvas:
     # -- adding widgets -------------------------------------------------------------------------------
 
     def on_drop(self, sender: int | str, app_data: Any, user_data: Any = None) -> None:
-        """Drop callback of the canvas: add the dragged widget type where the pointer is."""
+        """Drop callback of the canvas: add the dragged widget type (or tree row) where the pointer is."""
         if isinstance(app_data, str):
             self.drop_widget(app_data, self.pointer())
+            return
+        pos = self.pointer()
+        for handler in self.drop_handlers:
+            if handler(app_data, pos):
+                return
 
     def drop_widget(self, type_name: str, pos: tuple[float, float]) -> CanvasItem | None:
         """Add a widget of `type_name` at `pos` (window pixels) and open its topic setup."""

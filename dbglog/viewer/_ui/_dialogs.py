@@ -14,6 +14,8 @@ from dbglog._regex._compile import RegexError, compile_regex
 from dbglog._ros._params import ParamValue, join_name, resolve_node, split_name
 from dbglog._ros._tags import TagError, robot_target
 from dbglog.viewer._data._model import (
+    EVERY_ROBOT,
+    SELECTED_ROBOT,
     Binding,
     FieldInfo,
     SeriesSnapshot,
@@ -591,6 +593,16 @@ def typed_target(text: str, parameters: Sequence[str] | None = None) -> str:
     return join_name(node, name) if text.startswith("/") else typed_topic(text)
 
 
+def robot_choices(robot: str | None, *, several: bool) -> list[tuple[str, str]]:
+    """Topic setup's robot choices, (mode, label): the topic as typed, the selected robot's (named), and for
+    a widget of several series every robot's."""
+    now = f" (now {robot})" if robot is not None else ""
+    choices = [("", "this topic as typed"), (SELECTED_ROBOT, f"the selected robot's{now}")]
+    if several:
+        choices.append((EVERY_ROBOT, "every robot's: one series each"))
+    return choices
+
+
 class TopicHost(Protocol):
     """What the Topic setup dialog reaches: the graph, a previewed series, and where its result goes."""
 
@@ -615,6 +627,17 @@ class TopicHost(Protocol):
     def apply(self, bindings: tuple[Binding, ...]) -> None:
         """Give the widget its new bindings."""
 
+    def shown(self, binding: Binding) -> Binding:
+        """The concrete binding to edit for `binding` (a robot-relative one: the selected robot's)."""
+        ...
+
+    def relative(self, binding: Binding, mode: str) -> Binding:
+        """`binding` made to follow the selected robot or show every robot (`Binding.robot` `mode`)."""
+        ...
+
+    def robot(self) -> str | None:
+        """The selected robot's name when robots have namespaces (None: there is nothing to follow)."""
+
 
 class TopicDialog(Dialog):
     """Pick the topic (type-ahead from the live graph), the field (from the message type) and a regex."""
@@ -635,7 +658,10 @@ class TopicDialog(Dialog):
         cls = item.widget_cls
         self.max_bindings = cls.max_bindings if cls is not None else 1
         self.accepts = cls.accepts if cls is not None else frozenset()
-        self.bindings: list[Binding] = list(item.bindings) or [Binding("")]
+        self.bindings: list[Binding] = [setup.shown(b) for b in item.bindings] or [Binding("")]
+        """The series being edited, concrete (a robot-relative one as the selected robot's)."""
+        self.modes: list[str] = [b.robot for b in item.bindings] or [""]
+        """Each series' robot: ``""`` (the topic as typed), the selected robot's, every robot's."""
         self.index = 0
         self._fields: list[FieldInfo] = []
         self._preview_binding: Binding | None = None
@@ -671,6 +697,15 @@ class TopicDialog(Dialog):
         self.suggest_list = dpg.add_listbox(
             [], num_items=5, width=-1, parent=w, callback=lambda s, a: self.choose_topic(a.split("   ")[0])
         )
+        robot = setup.robot()
+        self.robot_choices = robot_choices(robot, several=self.max_bindings > 1 and not self.control)
+        with dpg.group(horizontal=True, parent=w, show=robot is not None or any(self.modes)):
+            dpg.add_text("Robot", color=DIM)
+            self.robot_combo = dpg.add_combo(
+                [label for _, label in self.robot_choices],
+                width=-1,
+                callback=lambda s, a: self.choose_robot_mode(str(a)),
+            )
         dpg.add_text("Field", color=DIM, parent=w)
         self.field_combo = dpg.add_combo([], width=-1, parent=w, callback=lambda s, a: self._on_field(a))
         self.field_note = dpg.add_text("", color=DIM, parent=w, wrap=590)
@@ -719,6 +754,7 @@ class TopicDialog(Dialog):
         self._store()
         if len(self.bindings) < self.max_bindings:
             self.bindings.append(Binding(""))
+            self.modes.append("")
             self.index = len(self.bindings) - 1
             self._load_current()
 
@@ -726,9 +762,10 @@ class TopicDialog(Dialog):
         """Remove the series being edited (one always stays)."""
         if len(self.bindings) > 1:
             del self.bindings[self.index]
+            del self.modes[self.index]
             self.index = max(0, self.index - 1)
         else:
-            self.bindings = [Binding("")]
+            self.bindings, self.modes = [Binding("")], [""]
         self._load_current()
 
     def _load_current(self) -> None:
@@ -742,6 +779,8 @@ class TopicDialog(Dialog):
         dpg.set_value(self.regex_input, b.regex)
         dpg.set_value(self.node_input, b.node)
         dpg.set_value(self.level_combo, b.level or "any")
+        mode = self.modes[self.index]
+        dpg.set_value(self.robot_combo, next(label for m, label in self.robot_choices if m == mode))
         self._refresh_suggestions()
         self._refresh_fields(b.field)
         self._show_transforms()
@@ -774,6 +813,11 @@ class TopicDialog(Dialog):
             dpg.set_value(self.series_combo, labels[self.index])
 
     # -- topic and field ----------------------------------------------------------------------------
+
+    def choose_robot_mode(self, label: str) -> None:
+        """The series follows the selected robot, shows every robot, or keeps the topic as typed."""
+        mode = next((m for m, text in self.robot_choices if text == label), "")
+        self.modes[self.index] = mode
 
     def _on_topic_typed(self) -> None:
         self._refresh_suggestions()
@@ -1053,6 +1097,7 @@ class TopicDialog(Dialog):
     def apply(self) -> bool:
         """Check the regexes compile, then give the bindings to the widget and close."""
         self._store()
+        modes = [m for b, m in zip(self.bindings, self.modes, strict=True) if b.topic]
         bindings = tuple(b for b in self.bindings if b.topic)
         for b in bindings:
             if b.regex:
@@ -1064,6 +1109,10 @@ class TopicDialog(Dialog):
                     return False
         bindings = tuple(
             replace(b, topic=b.topic if b.topic.startswith("/") else "/" + b.topic) for b in bindings
+        )
+        bindings = tuple(
+            self.setup.relative(b, mode) if mode else replace(b, robot="")
+            for b, mode in zip(bindings, modes, strict=True)
         )
         self.setup.apply(bindings)
         self.close()

@@ -24,9 +24,27 @@ MENUS: tuple[tuple[str, tuple[str | None, ...]], ...] = (
             "file.quit",
         ),
     ),
-    ("View", ("view.snap", "view.load_messages", "view.log_console", "view.events", "view.republish")),
+    (
+        "View",
+        (
+            "view.snap",
+            "view.load_messages",
+            "view.log_console",
+            "view.events",
+            "view.republish",
+            None,
+            "view.tag_tree",
+            "view.find_tag",
+        ),
+    ),
 )
 """The menu bar: (title, entries); an entry is an action's name, None a separator."""
-CONTEXT_MENU = ("widget.topic_setup", "widget.properties", "widget.rename", "widget.to_front")
+CONTEXT_MENU = (
+    "widget.topic_setup",
+    "widget.properties",
+    "widget.rename",
+    "widget.to_front",
+    "robot.overlay",
+)
 """The widget context menu's first entries (actions on the selected widget); then Change widget type ›,
 and Delete (``widget.delete``)."""
