@@ -182,6 +182,7 @@ class ViewerApp:
             shown=tag_tree,
             on_show=self._tree_room,
             on_robot=self.robots.select,
+            robot_states=lambda: self.robots.states,
         )
         """The tag tree beside the canvas: robots, groups, tags and topics to drag onto it."""
         self.canvas.drop_handlers.append(self.tree.drop)

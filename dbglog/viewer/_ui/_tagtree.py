@@ -19,7 +19,7 @@ import dearpygui.dearpygui as dpg
 
 from dbglog.viewer._data._history import History
 from dbglog.viewer._data._model import Binding, Status
-from dbglog.viewer._data._robots import Fleet, topic_rate
+from dbglog.viewer._data._robots import Fleet, RobotState, topic_rate
 from dbglog.viewer._data._timeline import Timeline
 from dbglog.viewer._ui import _theme as theme
 from dbglog.viewer._ui._actions import Actions
@@ -125,6 +125,7 @@ class TagTreePanel:
         shown: whether the panel starts shown.
         on_show: called with the new state when the panel is shown or hidden (the canvas makes room).
         on_robot: selects a robot (a robot's row double-clicked).
+        robot_states: each robot's state as the Robot menu last worked it out (a robot row's status).
         clock: monotonic seconds (tests).
     """
 
@@ -140,10 +141,12 @@ class TagTreePanel:
         shown: bool = False,
         on_show: Callable[[bool], None] | None = None,
         on_robot: Callable[[str], None] | None = None,
+        robot_states: Callable[[], list[RobotState]] | None = None,
         clock: Callable[[], float] = time.monotonic,
     ) -> None:
         self.doc, self.timeline, self.canvas, self.actions = doc, timeline, canvas, actions
         self.say, self.wake, self.on_show, self.on_robot, self.clock = say, wake, on_show, on_robot, clock
+        self.robot_states = robot_states
         self.model = TagTreeModel()
         self.shown = shown
         self.built = False
@@ -189,6 +192,7 @@ class TagTreePanel:
     def show(self, on: bool) -> None:
         """Show or hide the panel (the canvas takes the room back)."""
         self.shown = on
+        self._fleet_seen = -1  # shown again: take what changed meanwhile
         if self.built:
             dpg.configure_item(self.window, show=on)
         if self.on_show is not None:
@@ -292,13 +296,13 @@ class TagTreePanel:
         """Frame hook: rebuild when the topics changed, lay out the rows in view, refresh their rates."""
         if not self.built:
             return
+        if not self.shown:  # a hidden tree costs nothing: it is built again when shown
+            return
         fleet = self.fleet
         if fleet.version != self._fleet_seen:
             self._fleet_seen = fleet.version
             if self.model.update(fleet.infos, fleet.robots, self._held_types()):
                 self._window = (-1, -1, -1)
-        if not self.shown:
-            return
         scroll = float(dpg.get_y_scroll(self.list))
         height = int(dpg.get_item_rect_size(self.list)[1]) or 600
         first = max(0, int(scroll // ROW_H))
@@ -451,7 +455,9 @@ class TagTreePanel:
         at = self.timeline.cursor
         t = time.time() if at is None else at
         stale = self.timeline.stale_after
-        robot_status = self._robot_status(store, at, stale)
+        robot_status = (
+            {s.robot: s.status for s in self.robot_states()} if self.robot_states is not None else {}
+        )
         changed = False
         for row in self.rows:
             node = self.model.node(row.key) if row.key is not None else None
@@ -480,9 +486,6 @@ class TagTreePanel:
             dpg.configure_item(row.dot, color=color)
         if changed:
             self.wake()
-
-    def _robot_status(self, store: History | None, at: float | None, stale: float) -> dict[str, Status]:
-        return {s.robot: s.status for s in self.fleet.states(store, at, stale)}
 
     # -- what a row does ------------------------------------------------------------------------------
 
