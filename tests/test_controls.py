@@ -285,6 +285,40 @@ def scenario_toggle_and_text(tmp: Path) -> None:
             app.close()
 
 
+def scenario_toggle_follows_the_selected_robot(tmp: Path) -> None:
+    """A Toggle bound to the selected robot publishes to that robot's topic, and after a switch to the new
+    robot's; the other robot gets nothing."""
+    from dbglog.viewer._data._engine import Engine
+    from dbglog.viewer._data._model import SELECTED_ROBOT, Binding
+    from dbglog.viewer._ui import ViewerApp
+    from dbglog.viewer._widgets import WidgetRegistry
+
+    with RosPeer("controls_robot_peer") as peer, Engine() as engine:
+        first = peer.subscribe("/ctl_a/ctl_ui/auto", Bool)
+        second = peer.subscribe("/ctl_b/ctl_ui/auto", Bool)
+        app = ViewerApp(engine, WidgetRegistry.discover(), width=1100, height=720, robot="/ctl_a")
+        app.start()
+        try:
+            toggle = app.add_widget("toggle", 20, 20)
+            assert toggle is not None
+            app.apply_bindings(toggle, (Binding("/ctl_ui/auto", robot=SELECTED_ROBOT),))
+            _pump(app, lambda: toggle.status is Status.LIVE, what="live on /ctl_a")
+            w: Any = toggle.widget
+            w.on_click()
+            _pump(app, lambda: first.values() == [True], what="True on /ctl_a")
+            app.robots.select("/ctl_b")
+            assert toggle.context().targets == (Binding("/ctl_b/ctl_ui/auto"),)
+            assert w.topic == "/ctl_b/ctl_ui/auto"
+            _pump(app, lambda: toggle.status is Status.LIVE, what="live on /ctl_b")
+            w.on_click()
+            _pump(app, lambda: second.values() == [False], what="False on /ctl_b")
+            assert first.values() == [True], "the robot no longer selected gets nothing"
+            saved = app.doc.dashboard().widgets[0]
+            assert saved.bindings == (Binding("/ctl_ui/auto", robot=SELECTED_ROBOT),)
+        finally:
+            app.close()
+
+
 def scenario_sliders_teleop(tmp: Path) -> None:
     """Two sliders on one Twist topic (linear.x, angular.z) publish what they show, composed, rate limited."""
     import dearpygui.dearpygui as dpg

@@ -3,6 +3,9 @@ each robot's status and a topic's rate from the history; plain Python, no ROS an
 
 from __future__ import annotations
 
+import subprocess
+import sys
+
 import pytest
 
 from dbglog._ros._tags import TagError
@@ -170,3 +173,17 @@ def test_a_topic_rate_counts_the_samples_of_the_last_seconds() -> None:
     assert last == times[-1]
     assert topic_rate(store, "/t", 999.0) == (0.0, None)
     assert topic_rate(store, "/none", 1005.0) == (0.0, None)
+
+
+def test_dbglog_view_refuses_a_robot_that_is_no_namespace() -> None:
+    """``dbglog view --robot 1robot`` exits 2 saying why, before it opens anything."""
+    done = subprocess.run(
+        [sys.executable, "-m", "dbglog._cli", "view", "--robot", "1robot"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=False,
+    )
+    assert done.returncode == 2
+    assert "argument --robot: robot namespace '1robot'" in done.stderr
+    assert "no part starting with a digit" in done.stderr

@@ -145,3 +145,22 @@ def test_live_a_past_changes_nothing() -> None:
     _, source = _replay()
     timeline = Timeline(source)
     assert len(timeline.snapshot(A, 0.0).times) == len(source.snapshot(A).times)
+
+
+def test_a_series_with_nothing_yet_is_read_again_at_the_next_look() -> None:
+    """Paused over an unchanged history, a binding made after a first read that found nothing (a robot
+    switched to: its past is held already) shows that past at the next look, not a second later."""
+    store = History(clock=None, max_seconds=3600, max_bytes=2**30)
+    t = 1000.0 + np.arange(100) / 10
+    for name in ("/robot1/a", "/robot2/a"):
+        store.append_numbers(name, t, np.full(100, 1.0 if "1" in name else 2.0))
+    source = ReplaySource(store, dict.fromkeys(("/robot1/a", "/robot2/a"), "std_msgs/msg/Float64"))
+    timeline = Timeline(source)
+    timeline.pause(1005.0)
+    snaps = FrameSnapshots(timeline)
+    second = Binding("/robot2/a", "data")
+    snaps.begin()
+    assert snaps.snapshot(second).count == 0, "not bound yet: nothing"
+    source.bind(second)
+    snaps.begin()
+    assert snaps.snapshot(second).last == 2.0

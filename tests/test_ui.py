@@ -221,6 +221,50 @@ def scenario_topic_dialog_typeahead_fields_and_regex_preview(
     assert getattr(item.widget, "latest_text", "") == "DOCKING"
 
 
+def scenario_topic_dialog_robot_choice(app: ViewerApp, source: StaticSource, tmp_path: Path) -> None:
+    """With robots in namespaces, Topic setup offers the selected robot's and every robot's topic: a series
+    set so becomes relative, and opens again as the selected robot's topic with its choice shown."""
+    for robot in ("/robot1", "/robot2"):
+        source.add_topic(
+            f"{robot}/rosdashboard/speed", "std_msgs/msg/Float64", [FieldInfo("data", "double", True)]
+        )
+    app.robots.discover()
+    app.robots.select("/robot2")
+    item = drop(app, "plot", (100, 100))
+    dialog = app.dialog
+    assert isinstance(dialog, TopicDialog)
+    labels = dpg.get_item_configuration(dialog.robot_combo)["items"]
+    assert labels == [
+        "this topic as typed",
+        "the selected robot's (now robot2)",
+        "every robot's: one series each",
+    ]
+    assert dpg.get_value(dialog.robot_combo) == "this topic as typed"
+    dialog.choose_topic("/robot1/rosdashboard/speed")
+    dialog.choose_robot_mode(labels[1])
+    dialog.add_series()
+    dialog.choose_topic("/robot2/rosdashboard/speed")
+    dialog.choose_robot_mode(labels[2])
+    assert dialog.apply()
+    assert item.bindings == (
+        Binding("/rosdashboard/speed", robot="$selected"),
+        Binding("/rosdashboard/speed", robot="$every"),
+    )
+    assert [b.topic for b in item.series] == [  # the root's tags are a robot too: (no namespace)
+        "/robot2/rosdashboard/speed",
+        "/rosdashboard/speed",
+        "/robot1/rosdashboard/speed",
+    ]
+    again = app.dialogs.topic(item)
+    assert isinstance(again, TopicDialog)
+    assert dpg.get_value(again.topic_input) == "/robot2/rosdashboard/speed"
+    assert dpg.get_value(again.robot_combo) == labels[1]
+    again.remove_series()
+    again.choose_robot_mode(labels[0])
+    assert again.apply()
+    assert list(item.bindings) == [Binding("/robot2/rosdashboard/speed")], "as typed: robot2's"
+
+
 def test_regex_preview_function() -> None:
     """The preview says what a regex extracts, that it does not match, or why RE2 rejects it."""
     assert regex_preview("", "x") == (True, "no regex: the whole value is used")
