@@ -20,7 +20,9 @@ load average are printed, since all of them move the figures.
 A second table (``--loop run``, the default ``--scenarios`` include it) runs the viewer as ``dbglog view``
 does, through ``ViewerApp.run`` with its frame cap (``--fps``) and its idle skipping, and reports the viewer
 process's CPU: empty and idle, empty and idle beside a graph of ``--crowd`` topics (its engine polls the
-graph), 20 widgets idle, 20 widgets paused in a replay's history (``--replay-minutes``
+graph), the same with the tag tree shown (``tree-run``; with ``--crowd-names robots`` the crowd is dbglog tags
+of 4 robots, ``/robotN/rosdashboard/groupG/tagT``, as the tree groups them, and the row also times the tree's
+filter on them), 20 widgets idle, 20 widgets paused in a replay's history (``--replay-minutes``
 of 50 topics x 100 Hz; the *replay* rows), 20 widgets live. ``--compare TREE`` runs the same rows, with the
 same caps, with the ``dbglog`` package of another checkout (e.g. ``git worktree add /tmp/old HEAD~1``)
 beside this one.
@@ -99,12 +101,23 @@ def _crowd(args: argparse.Namespace) -> None:
     rclpy.init(context=context)
     nodes = [Node(f"bench_ui_crowd_{n}", context=context) for n in range(max(1, args.crowd // 10))]
     for i in range(args.crowd):
-        nodes[i % len(nodes)].create_publisher(Float64, f"/bench/crowd/t{i}", 10)
+        nodes[i % len(nodes)].create_publisher(Float64, _crowd_topic(i, args.crowd_names), 10)
     print("up", flush=True)
     time.sleep(args.duration)
     for node in nodes:
         node.destroy_node()
     rclpy.shutdown(context=context)
+
+
+def _crowd_topic(i: int, names: str) -> str:
+    """The crowd's topic `i`: ``/bench/crowd/t{i}``, or a robot's tag (4 robots, groups of 20 tags)."""
+    if names == "robots":
+        return f"/robot{i % 4 + 1}/rosdashboard/group{i // 80}/tag{i // 4 % 20}"
+    return f"/bench/crowd/t{i}"
+
+
+TREE_QUERIES = ("tag1", "robot3:group2*", "group7/tag19", "robot", "*tag?", "")
+"""What the tree-run row types into the tag tree's filter (each answered once, timed)."""
 
 
 def _layout() -> list[tuple[str, list[int]]]:
@@ -199,7 +212,7 @@ def _ui(args: argparse.Namespace) -> None:
                 store.append_numbers(name, t, np.sin(t * (0.1 + k * 0.01)))
         source = ReplaySource(store, dict.fromkeys(names, "std_msgs/msg/Float64"))
         recording = True
-    elif args.source in ("engine", "crowd", "fleet"):
+    elif args.source in ("engine", "crowd", "fleet", "tree"):
         from dbglog.viewer import Engine
 
         engine = Engine(stale_after=2.0)
@@ -217,6 +230,8 @@ def _ui(args: argparse.Namespace) -> None:
     options: dict[str, Any] = {"fps": args.fps, "data_fps": args.data_fps} if args.fps else {}
     if recording:
         options["recording"] = True
+    if args.tree:  # (older checkouts have no tag tree: only the tree rows ask for it)
+        options["tag_tree"] = True
     app = ViewerApp(source, WidgetRegistry.builtin(), width=width, height=height, **options)
     app.start()
     dpg.set_viewport_vsync(args.vsync)
@@ -237,7 +252,9 @@ def _ui(args: argparse.Namespace) -> None:
             app.frame()
         ready_s = time.monotonic() - begun if placed() and all_live(app) else math.nan
     cell_w, cell_h = (width - 220) // 5, (height - 90) // 4
-    for n, (kind, topics) in enumerate(_layout() if args.source not in ("empty", "crowd", "fleet") else []):
+    for n, (kind, topics) in enumerate(
+        _layout() if args.source not in ("empty", "crowd", "fleet", "tree") else []
+    ):
         item = app.add_widget(kind, 0, 0)
         assert item is not None
         rect = type(item.rect)  # the viewer's Rect, wherever this checkout keeps it
@@ -251,6 +268,11 @@ def _ui(args: argparse.Namespace) -> None:
     warm_end = time.monotonic() + args.warmup
     while time.monotonic() < warm_end:
         app.frame()
+    if args.tree:  # the whole crowd in the tree before measuring (discovering 2,000 topics takes a while)
+        seen_by = time.monotonic() + 60
+        while app.tree.model.total < args.crowd and time.monotonic() < seen_by:
+            app.frame()
+            time.sleep(0.05)
     taken0 = engine.stats().taken if engine is not None else 0
     updates0 = sum(i.updates for i in app.items)
     totals: list[float] = []
@@ -282,6 +304,12 @@ def _ui(args: argparse.Namespace) -> None:
         works.append(getattr(app, "last_work_s", float("nan")))
     elapsed = time.perf_counter() - t0
     cpu = time.process_time() - cpu0
+    filter_ms: list[float] = []
+    if args.tree:
+        for query in TREE_QUERIES:
+            app.tree.set_filter(query)
+            filter_ms.append(app.tree.filter_s * 1000)
+            app.frame()
     taken = (engine.stats().taken - taken0) if engine is not None else 0
     updates = sum(i.updates for i in app.items) - updates0
     live = sum(1 for i in app.items if i.status.value == "live")
@@ -305,6 +333,8 @@ def _ui(args: argparse.Namespace) -> None:
         "live": live,
         "widgets": len(app_items),
         "ready_s": ready_s,
+        "tree": app.tree.model.total if args.tree else None,
+        "filter_ms": filter_ms,
         **info,
     }
     print(json.dumps(out), flush=True)
@@ -339,8 +369,16 @@ def _measure(
         duration = args.warmup + args.duration + 8
         pub = _role("publisher", "--topics", args.topics, "--rate", args.rate, "--duration", duration)
         time.sleep(1.0)
-    elif source == "crowd":
-        pub = _role("crowd", "--crowd", args.crowd, "--duration", args.warmup + args.duration + 30)
+    elif source in ("crowd", "tree"):
+        pub = _role(
+            "crowd",
+            "--crowd",
+            args.crowd,
+            "--crowd-names",
+            args.crowd_names,
+            "--duration",
+            args.warmup + args.duration + 90,
+        )
         assert pub.stdout is not None
         pub.stdout.readline()  # "up": every publisher exists
     robots = _fleet(args) if source == "fleet" else []
@@ -378,9 +416,13 @@ def _measure(
         shot,
         "--fleet-tags",
         str(args.fleet_tags),
+        "--crowd",
+        str(args.crowd),
     ]
     if vsync:
         cmd.append("--vsync")
+    if source == "tree":
+        cmd.append("--tree")
     try:
         ui = subprocess.run(
             cmd,
@@ -398,6 +440,7 @@ def _measure(
     if ui.returncode != 0:
         raise RuntimeError(f"ui child failed:\n{ui.stderr}")
     data = json.loads(ui.stdout.strip().splitlines()[-1])
+    filters = data.get("filter_ms") or []
     totals = [t * 1000 for t in data["totals"]]
     works = [t * 1000 for t in data["works"]]
     renders = [t - w for t, w in zip(totals, works, strict=True)]
@@ -422,6 +465,8 @@ def _measure(
         "live": data["live"],
         "widgets": data.get("widgets", math.nan),
         "ready_s": data.get("ready_s", math.nan),
+        "filter": max(filters) if filters else math.nan,
+        "tree": data.get("tree") or 0,
         "gl": data["gl"],
         "screen": data["screen"],
     }
@@ -461,7 +506,9 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0] if __doc__ else None)
     parser.add_argument("--role", choices=("main", "publisher", "crowd", "ui"), default="main")
     parser.add_argument(
-        "--source", choices=("empty", "static", "engine", "replay", "crowd", "fleet"), default="engine"
+        "--source",
+        choices=("empty", "static", "engine", "replay", "crowd", "fleet", "tree"),
+        default="engine",
     )
     parser.add_argument("--width", type=int, default=1440)
     parser.add_argument("--height", type=int, default=900)
@@ -472,6 +519,13 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("--fleet-tags", type=int, default=300, help="tags of each robot of the fleet rows")
     parser.add_argument("--fleet-rate", type=float, default=10.0, help="Hz of each tag of the fleet rows")
+    parser.add_argument(
+        "--crowd-names",
+        choices=("plain", "robots"),
+        default="plain",
+        help="the crowd's topics: /bench/crowd/tN, or dbglog tags of 4 robots in groups (for the tree rows)",
+    )
+    parser.add_argument("--tree", action="store_true", help="(ui role) show the tag tree")
     parser.add_argument("--duration", type=float, default=8.0, help="measured seconds per repeat")
     parser.add_argument("--warmup", type=float, default=3.0)
     parser.add_argument("--repeats", type=int, default=3)
@@ -483,8 +537,8 @@ def main(argv: list[str] | None = None) -> int:
         "--scenarios",
         default="empty,static,replay,engine,engine-vsync,empty-run,crowd-run,static-run,replay-run,engine-run",
         help="comma-separated subset of empty, static, replay, engine, engine-vsync (frames rendered back to "
-        "back) and empty-run, crowd-run, static-run, replay-run, engine-run (the viewer's own loop, as "
-        "`dbglog view` runs it)",
+        "back) and empty-run, crowd-run, tree-run, static-run, replay-run, engine-run (the viewer's own "
+        "loop, as `dbglog view` runs it)",
     )
     parser.add_argument("--fps", type=float, default=60.0, help="frame cap of the -run rows (default 60)")
     parser.add_argument(
@@ -519,6 +573,7 @@ def main(argv: list[str] | None = None) -> int:
         "engine-vsync": ("engine", True, "20 widgets live, vsync on (for reference)"),
         "empty-run": ("empty", False, "empty dashboard, nothing changing"),
         "crowd-run": ("crowd", False, f"empty dashboard beside a {args.crowd}-topic graph, nothing changing"),
+        "tree-run": ("tree", False, f"the same with the tag tree shown ({args.crowd} topics in it)"),
         "static-run": ("static", False, "20 widgets, nothing changing"),
         "replay-run": ("replay", False, "20 widgets paused in a replay's history, nothing changing"),
         "engine-run": ("engine", False, "20 widgets live: 50 topics x 100 Hz"),
@@ -537,7 +592,11 @@ def main(argv: list[str] | None = None) -> int:
     for name in chosen:
         source, vsync, label = labels[name]
         loop = "run" if name.endswith("-run") else "frames"
-        codes = [""] + ([args.compare] if args.compare and (loop == "run" or source == "fleet") else [])
+        codes = [""] + (
+            [args.compare]
+            if args.compare and (loop == "run" or source == "fleet") and source != "tree"
+            else []
+        )
         for code in codes:
             runs = [
                 _measure(
@@ -569,6 +628,7 @@ def main(argv: list[str] | None = None) -> int:
                         f"{_fmt(med['p50'])} / {_fmt(med['p95'])}",
                         f"{med['msgs']:.0f}",
                         f"{med['live']:.0f}",
+                        f"{med['tree']:.0f} / {_fmt(med['filter'])}" if source == "tree" else "",
                     ]
                 )
                 continue
@@ -604,6 +664,7 @@ def main(argv: list[str] | None = None) -> int:
                 "frame production p50 / p95 ms",
                 "engine msgs/s",
                 "widgets live",
+                "tree topics / slowest filter ms",
             ],
             run_rows,
         )
