@@ -158,9 +158,9 @@ class Probe:
                 }
             )
         robots = app.robots
-        # Dear PyGui gives a menu-bar menu and its entries no rectangle: where the label starts in the bar,
-        # and, while the menu is open, where each entry starts inside its popup (below the bar).
-        entries = {r: list(dpg.get_item_state(e).get("pos", [0, 0])) for r, e in robots.entries.items()}
+        # Dear PyGui gives a menu-bar menu no rectangle, only where its label starts in the bar; the robots'
+        # entries are selectables, with rectangles while the menu is open.
+        entries = {r: rect(e) for r, e in robots.entries.items() if dpg.is_item_visible(e)}
         return {
             "frame": self.frame,
             "mouse": list(dpg.get_mouse_pos(local=False)),
@@ -276,9 +276,8 @@ def test_the_robot_switcher_rebinds_every_widget_its_past_included(viewer: Calla
     assert speeds["series"] == ["/robot1" + SPEED, "/robot2" + SPEED]
     mx, my, tw, th = state["menu"]
     v.click(mx + tw / 2, my + th / 2 + 3)
-    state = v.wait_for(lambda s: s["entries"]["/robot2"][1] > 0)
-    ex, ey = state["entries"]["/robot2"]
-    v.click(mx + ex + 20, th + 2 * 5 + ey + th / 2)  # the bar: a text line and 5 px of padding each side
+    state = v.wait_for(lambda s: s["entries"].get("/robot2", [0, 0, 0, 0])[3] > 0)
+    v.click(*centre(state["entries"]["/robot2"]))
     state = v.wait_for(lambda s: s["selected"] == "/robot2")
     state = v.wait_for(
         lambda s: (

@@ -11,7 +11,7 @@ from typing import Generic, TypeVar
 import dearpygui.dearpygui as dpg
 
 from dbglog.viewer._data._history import History
-from dbglog.viewer._data._model import EVERY_ROBOT, Status
+from dbglog.viewer._data._model import EVERY_ROBOT
 from dbglog.viewer._data._robots import Fleet, RobotState, is_relative, robot_name, robot_of
 from dbglog.viewer._data._timeline import Timeline
 from dbglog.viewer._document._canvas_doc import CanvasDoc, DocItem
@@ -25,6 +25,8 @@ DISCOVER_S = 0.5
 STATUS_S = 1.0
 """How often each robot's live status is worked out again (not every frame)."""
 _DOT = "\u25cf"
+_ENTRY_W = 150
+"""Width of a robot's entry in the Robot menu (its status follows on the same line)."""
 
 
 ItemT = TypeVar("ItemT", bound=DocItem)
@@ -68,8 +70,9 @@ class RobotSwitcher(Generic[ItemT]):
         self.menu: int | str = 0
         self.dot: int | str = 0
         self.entries: dict[str, int | str] = {}
-        """Robot -> its menu entry."""
-        self._themes: dict[Status, int | str] = {}
+        """Robot -> its menu entry (a selectable: a click selects the robot and closes the menu)."""
+        self.lines: dict[str, int | str] = {}
+        """Robot -> the text beside its entry: its status (in the status colour) and tags."""
         self._actions = Actions()
         """The window's actions (`register`): the menu's command entries run them."""
         self._next_discover = 0.0
@@ -166,10 +169,6 @@ class RobotSwitcher(Generic[ItemT]):
 
     def build(self, menu_bar: int | str) -> None:
         """Add the Robot menu and its status dot to the window's menu bar."""
-        for status, color in theme.STATUS_COLORS.items():
-            with dpg.theme() as made, dpg.theme_component(dpg.mvMenuItem):
-                dpg.add_theme_color(dpg.mvThemeCol_TextDisabled, color, category=dpg.mvThemeCat_Core)
-            self._themes[status] = made
         self.menu = dpg.add_menu(label=self._title(), parent=menu_bar)
         self.dot = dpg.add_text(_DOT, parent=menu_bar, color=theme.DIM)
         with dpg.tooltip(self.dot):
@@ -189,13 +188,13 @@ class RobotSwitcher(Generic[ItemT]):
         self._listed = robots
         dpg.delete_item(self.menu, children_only=True)
         self.entries.clear()
+        self.lines.clear()
         for robot in robots:
-            self.entries[robot] = dpg.add_menu_item(
-                label=robot_name(robot),
-                check=True,
-                parent=self.menu,
-                callback=lambda *_, r=robot: self._pick(r),
-            )
+            with dpg.group(horizontal=True, parent=self.menu):
+                self.entries[robot] = dpg.add_selectable(
+                    label=robot_name(robot), width=_ENTRY_W, callback=lambda *_, r=robot: self._pick(r)
+                )
+                self.lines[robot] = dpg.add_text("", color=theme.DIM)
         if not robots:
             dpg.add_text(
                 "No robots seen yet: dbglog tags in a namespace\n(/robot1/rosdashboard/\u2026) show here.",
@@ -259,8 +258,8 @@ class RobotSwitcher(Generic[ItemT]):
             state = states.get(robot)
             dpg.set_value(entry, robot == fleet.selected)
             if state is not None:
-                dpg.configure_item(entry, shortcut=robot_line(state))
-                dpg.bind_item_theme(entry, self._themes[state.status])
+                dpg.set_value(self.lines[robot], f"{_DOT} {robot_line(state)}")
+                dpg.configure_item(self.lines[robot], color=theme.STATUS_COLORS[state.status])
         selected = states.get(fleet.selected)
         color = theme.STATUS_COLORS[selected.status] if selected is not None else theme.DIM
         dpg.configure_item(self.dot, color=color)

@@ -388,7 +388,8 @@ class TagTreePanel:
         model, fleet = self.model, self.fleet
         selected_robot = node.kind == "robot" and node.robot == fleet.selected
         overlay = overlay_problem(node) is None
-        shown = (node.key, y, model.is_open(node), node.shown, node.leaves, selected_robot, overlay)
+        picked = node.key == self.selected_key
+        shown = (node.key, y, model.is_open(node), node.shown, node.leaves, selected_robot, overlay, picked)
         if shown == row.shown:
             return
         if row.y != y:
@@ -422,7 +423,7 @@ class TagTreePanel:
         )
         dpg.bind_item_theme(row.name, self._themes["accent"] if selected_robot else 0)
         dpg.set_value(row.info, info)
-        dpg.set_value(row.select, node.key == self.selected_key)
+        dpg.set_value(row.select, picked)
         dpg.configure_item(row.button, show=overlay)
         draggable = node.kind != "robot"
         dpg.configure_item(row.payload, drag_data=(TREE_PAYLOAD, node.key) if draggable else None)
