@@ -43,9 +43,9 @@ class RobotSwitcher(Generic[ItemT]):
 
     Looks for robots every `DISCOVER_S` (the data source's topics, and those its history still holds) and
     works out each robot's status every `STATUS_S`, from its tags' newest samples at the moment shown (the
-    cursor's, paused). Selecting a robot resolves every robot-relative binding again (`CanvasDoc.sync_robots`)
-    : the widgets show the new robot's data at once, its past included (the history holds every robot's
-    tags).
+    cursor's, paused). Selecting a robot resolves every robot-relative binding again
+    (`CanvasDoc.sync_robots`): the widgets show the new robot's data at once, its past included (the history
+    holds every robot's tags).
 
     Args:
         doc: the dashboard document (its `Fleet` is the robots and the selection).

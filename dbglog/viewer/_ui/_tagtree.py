@@ -257,6 +257,8 @@ class TagTreePanel:
         self.built = True
 
     def _new_row(self) -> _Row:
+        """One more pooled row: a selectable in the flow (a click, a double click, a drag, a tooltip), and
+        its texts and overlay button placed over it."""
         parent = self.list
         select = dpg.add_selectable(
             label="",
@@ -269,9 +271,8 @@ class TagTreePanel:
         dpg.bind_item_handler_registry(select, self._clicks)
         with dpg.drag_payload(parent=select, payload_type=PAYLOAD_TYPE, drag_data=None) as payload:
             payload_text = dpg.add_text("")
-        with dpg.tooltip(select) as tip_window:
+        with dpg.tooltip(select):
             tip = dpg.add_text("", wrap=420)
-        del tip_window
         name = dpg.add_text("", parent=parent, pos=(0, -100))
         info = dpg.add_text("", parent=parent, pos=(0, -100), color=theme.DIM)
         rate = dpg.add_text("", parent=parent, pos=(0, -100), color=theme.DIM)
@@ -294,9 +295,7 @@ class TagTreePanel:
 
     def poll(self) -> None:
         """Frame hook: rebuild when the topics changed, lay out the rows in view, refresh their rates."""
-        if not self.built:
-            return
-        if not self.shown:  # a hidden tree costs nothing: it is built again when shown
+        if not self.built or not self.shown:  # a hidden tree costs nothing: it is built again when shown
             return
         fleet = self.fleet
         if fleet.version != self._fleet_seen:
