@@ -20,12 +20,12 @@ load average are printed, since all of them move the figures.
 A second table (``--loop run``, the default ``--scenarios`` include it) runs the viewer as ``dbglog view``
 does, through ``ViewerApp.run`` with its frame cap (``--fps``) and its idle skipping, and reports the viewer
 process's CPU: empty and idle, empty and idle beside a graph of ``--crowd`` topics (its engine polls the
-graph), the same with the tag tree shown (``tree-run``; with ``--crowd-names robots`` the crowd is dbglog tags
-of 4 robots, ``/robotN/rosdashboard/groupG/tagT``, as the tree groups them, and the row also times the tree's
-filter on them), 20 widgets idle, 20 widgets paused in a replay's history (``--replay-minutes``
-of 50 topics x 100 Hz; the *replay* rows), 20 widgets live. ``--compare TREE`` runs the same rows, with the
-same caps, with the ``dbglog`` package of another checkout (e.g. ``git worktree add /tmp/old HEAD~1``)
-beside this one.
+graph; measured once it has seen them all), the same with the tag tree shown (``tree-run``; with
+``--crowd-names robots`` the crowd is dbglog tags of 4 robots, ``/robotN/rosdashboard/groupG/tagT``, as the
+tree groups them, and the row also times the tree's filter on them), 20 widgets idle, 20 widgets paused in a
+replay's history (``--replay-minutes`` of 50 topics x 100 Hz; the *replay* rows), 20 widgets live.
+``--compare TREE`` runs the same rows, with the same caps, with the ``dbglog`` package of another checkout
+(e.g. ``git worktree add /tmp/old HEAD~1``) beside this one.
 
 The *fleet* rows (``--scenarios fleet,fleet-run``) start two robot processes (`benchmarks/_fleet.py`,
 ``--fleet-tags`` tags each in subsystems of 20, at ``--fleet-rate`` Hz, through the dbglog SDK, in
@@ -268,11 +268,18 @@ def _ui(args: argparse.Namespace) -> None:
     warm_end = time.monotonic() + args.warmup
     while time.monotonic() < warm_end:
         app.frame()
-    if args.tree:  # the whole crowd in the tree before measuring (discovering 2,000 topics takes a while)
+    if args.source in ("crowd", "tree"):
+        # The whole crowd discovered before measuring, with and without the tree alike (2,000 topics take a
+        # while, and discovering them is no idle viewer's work); the tree then holds them all.
         seen_by = time.monotonic() + 60
-        while app.tree.model.total < args.crowd and time.monotonic() < seen_by:
+        while time.monotonic() < seen_by and (
+            len(source.topics()) < args.crowd or (args.tree and app.tree.model.total < args.crowd)
+        ):
             app.frame()
             time.sleep(0.05)
+        warm_end = time.monotonic() + args.warmup
+        while time.monotonic() < warm_end:
+            app.frame()
     taken0 = engine.stats().taken if engine is not None else 0
     updates0 = sum(i.updates for i in app.items)
     totals: list[float] = []
