@@ -535,10 +535,12 @@ class TagTreePanel:
         self._window = (-1, -1, -1)
 
     def drop(self, data: object, pos: tuple[float, float]) -> bool:
-        """A drop on the canvas (window pixels `pos`): a row dragged from the tree; False for other data."""
+        """A drop on the canvas (window pixels `pos`): a row dragged from the tree, added at the next frame
+        (Dear PyGui's callback thread only queues it); False for other data."""
         if not (isinstance(data, tuple) and len(data) == 2 and data[0] == TREE_PAYLOAD):
             return False
-        self.add(str(data[1]), self.canvas.to_canvas(pos))
+        key = str(data[1])
+        self.actions.call_soon(lambda: self.add(key, self.canvas.to_canvas(pos)))
         return True
 
     def add(self, key: str, at: tuple[float, float]) -> object | None:
