@@ -403,7 +403,15 @@ def test_the_tag_tree_filters_drags_and_double_clicks_and_the_file_reopens_on_an
         check=False,
     )
     assert done.returncode == 0, done.stderr
-    widgets = {w["name"]: w for w in json.loads(report.read_text())["widgets"]}
+    shown = json.loads(report.read_text())
+    assert shown["robot"] == "robot2"
+    widgets = {w["name"]: w for w in shown["widgets"]}
+    assert widgets["rpm"]["bindings"][0]["robot"] == "$selected"
+    assert widgets["rpm"]["series"] == ["/robot2/rosdashboard/motor/rpm"]
+    assert sorted(widgets["speed (every robot)"]["series"]) == [
+        "/robot1/rosdashboard/speed",
+        "/robot2/rosdashboard/speed",
+    ]
     assert widgets["rpm"]["status"] == "live"
     assert 185 <= widgets["rpm"]["values"][0] <= 215, "robot2's rpm (robot1's is about 100)"
     assert 11.75 <= widgets["battery"]["values"][0] <= 11.85

@@ -21,6 +21,7 @@ import dearpygui.dearpygui as dpg
 import numpy as np
 
 from dbglog.viewer._data._model import Binding, Status, TopicInfo, ValueKind
+from dbglog.viewer._data._robots import robot_name
 from dbglog.viewer._document._autodash import (
     PANEL_TITLE_H,
     Action,
@@ -408,6 +409,8 @@ def widget_report(
     shows at the cursor (live: the latest), and `samples`: how many samples of it the history holds (the
     source's `samples_held`, else the live series' length); both None for a control's publish targets.
     A widget's status is its series' now, whether it is in view or not (one out of view is not redrawn).
+    Each binding names the robot it follows (``$selected``, ``$every``) if any, `series` the topics it
+    resolved to (one per robot for an overlay), and `robot` the robot selected.
     With the automatic dashboard (`auto`), `panels` lists its panels and each widget names its `panel`.
     `cursor_from`: the newest source time a cursor given in seconds before it counted back from.
     """
@@ -419,7 +422,8 @@ def widget_report(
             "type": item.config.type,
             "status": status.value,
             "reason": reason,
-            "bindings": [{"topic": b.topic, "field": b.field, "regex": b.regex} for b in item.bindings],
+            "bindings": [_binding(b) for b in item.bindings],
+            "series": [b.topic for b in item.series],
             **_shown(app, item),
         }
         if auto is not None:
@@ -431,6 +435,7 @@ def widget_report(
         "replay": str(getattr(app.source, "name", "")) if app.timeline.recording else None,
         "cursor": app.timeline.cursor,
         "cursor_from": cursor_from,
+        "robot": robot_name(app.fleet.selected),
         "span": list(span) if (span := app.time.time_span()) is not None else None,
         "widgets": widgets,
         "dashboard": app.doc.dashboard().to_dict(),
@@ -438,6 +443,14 @@ def widget_report(
     if auto is not None:
         report["panels"] = auto.panels()
     return report
+
+
+def _binding(binding: Binding) -> dict[str, str]:
+    """A binding as the report names it: its topic, field and regex, and the robot it follows if any."""
+    out = {"topic": binding.topic, "field": binding.field, "regex": binding.regex}
+    if binding.robot:
+        out["robot"] = binding.robot
+    return out
 
 
 def _shown(app: ViewerApp, item: CanvasItem) -> dict[str, list[Any]]:
