@@ -13,10 +13,16 @@ from typing import Any
 
 from tests._ros import wait_until
 
-__all__ = ["ROOT", "WAIT_S", "ViewerChild", "report_frame"]
+__all__ = ["ROOT", "WAIT_S", "ViewerChild", "in_view", "report_frame"]
 
 ROOT = Path(__file__).resolve().parent.parent
 WAIT_S = 30.0
+
+
+def in_view(rect: list[float], view: list[float]) -> bool:
+    """Whether a widget's [x, y, w, h] lies inside the visible canvas [x, y, w, h] (window pixels)."""
+    inside_x = view[0] <= rect[0] and rect[0] + rect[2] <= view[0] + view[2]
+    return inside_x and view[1] <= rect[1] and rect[1] + rect[3] <= view[1] + view[3]
 
 
 def report_frame(app: Any, folder: Path, state: dict[str, Any]) -> None:

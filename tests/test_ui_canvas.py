@@ -24,7 +24,8 @@ import numpy.typing as npt
 import pytest
 
 from tests._ros import wait_until
-from tests._viewer_child import ViewerChild
+from tests._viewer_child import ViewerChild, in_view
+from tests.test_ui_menus import _menubar
 
 pytestmark = pytest.mark.gui
 
@@ -126,6 +127,7 @@ class Probe:
             "selected_at": self.selected_at,
             "dialog": type(app.dialog).__name__ if app.dialog is not None else None,
             "mouse": list(dpg.get_mouse_pos(local=False)),
+            "menubar": _menubar(app.main),
             "status": dpg.get_value(app.status.info),
             "first_status": self.first_status,
             "rendered": app.loop.rendered,
@@ -274,6 +276,40 @@ def test_wheel_scrolls_canvas_background_not_over_a_plot(viewer: Callable[[str],
     v.wheel(3)
     v.settle()
     assert v.state()["scroll"][1] == 0, "the wheel over a plot does not scroll the canvas"
+
+
+def test_new_widgets_land_in_view_scrolled_to_and_selected(viewer: Callable[[str], Viewer]) -> None:
+    """A widget dropped on a canvas whose view is full, and View > Log console, land below what is there: the
+    canvas scrolls to each (not only its scrollbar says so), and it is the one selected."""
+    v = viewer("dense")
+    state = v.ready()
+    cx, cy, cw, ch = state["canvas"]
+    button = state["buttons"]["dial"]
+    v.drag((button[0] + button[2] / 2, button[1] + button[3] / 2), (cx + cw / 2, cy + ch / 2), steps=12)
+    state = v.wait_for(lambda s: len(s["items"]) == 8 and s["dialog"] == "TopicDialog")
+    dropped = state["items"][-1]["name"]
+    state = v.wait_for(lambda s: in_view(item(s, dropped)["rect"], s["canvas"]))
+    assert state["scroll"][1] > 0, "scrolled down to the new dial"
+    assert state["selected"] == dropped
+    v.key("Escape")  # the new dial's topic setup
+    v.wait_for(lambda s: s["dialog"] is None)
+    v.shot("dropped-in-view")
+    new = item(v.state(), dropped)["rect"]
+    v.move(new[0] + new[2] / 2, new[1] + new[3] / 2)  # (a dial leaves the wheel to the canvas)
+    v.wheel(-20)
+    v.wait_for(lambda s: s["scroll"][1] == 0)
+    view = v.state()["menubar"]["View"]
+    (fx, fy), (tw, th) = view["pos"], view["size"]
+    v.click(fx + tw / 2, fy + th / 2 + 3)
+    state = v.wait_for(lambda s: s["menubar"]["View"]["entries"].get("Log console", [0, 0])[1] > 0)
+    ex, ey = state["menubar"]["View"]["entries"]["Log console"]
+    v.click(fx + ex + 20, th + 2 * 5 + ey + th / 2)
+    state = v.wait_for(lambda s: any(i["type"] == "log" for i in s["items"]))
+    (log,) = [i["name"] for i in state["items"] if i["type"] == "log"]
+    state = v.wait_for(lambda s: in_view(item(s, log)["rect"], s["canvas"]))
+    assert state["scroll"][1] > 0, "scrolled down to the console"
+    assert state["selected"] == log
+    v.shot("console-in-view")
 
 
 def test_grid_covers_the_scrolled_area(viewer: Callable[[str], Viewer]) -> None:

@@ -24,10 +24,29 @@ from dbglog.viewer._widgets import WidgetRegistry
 from dbglog.viewer._widgets._geometry import Rect, free_spot, overlaps, snap_rect
 from dbglog.viewer.widget_api import TimeRange, Widget, WidgetHost
 
-__all__ = ["TEXT_ENTRY_TYPES", "Canvas"]
+__all__ = ["REVEAL_MARGIN", "TEXT_ENTRY_TYPES", "Canvas", "reveal_scroll"]
 
 TEXT_ENTRY_TYPES = ("mvInputText", "mvInputInt", "mvInputFloat", "mvInputDouble")
 """Dear PyGui item types that take typed text: while one is being edited, the canvas keys are its own."""
+REVEAL_MARGIN = 12.0
+"""Pixels kept between a widget scrolled into view and the edge of the view."""
+
+
+def reveal_scroll(rect: Rect, view: Rect, margin: float = REVEAL_MARGIN) -> tuple[float, float]:
+    """Return the scroll offsets (x, y) that bring `rect` into `view` (canvas pixels), moving the least.
+
+    An axis where the rectangle already lies inside keeps its offset; a rectangle larger than the view
+    shows its top (left) edge.
+    """
+
+    def axis(lo: float, size: float, view_lo: float, view_size: float) -> float:
+        if lo >= view_lo and lo + size <= view_lo + view_size:
+            return view_lo
+        if lo < view_lo or size + 2 * margin > view_size:
+            return max(0.0, lo - margin)
+        return max(0.0, lo + size + margin - view_size)
+
+    return axis(rect.x, rect.w, view.x, view.w), axis(rect.y, rect.h, view.y, view.h)
 
 
 class Canvas:
@@ -66,6 +85,8 @@ class Canvas:
         self.drop_handlers: list[Callable[[object, tuple[float, float]], bool]] = []
         """Take a drop of something else than a toolbox button (a tag tree's row) at window pixels; True
         when taken."""
+        self._reveal: tuple[CanvasItem, int] | None = None
+        """A widget to scroll into view, and how many more frames to try (the scroll lands a frame late)."""
 
     # -- building -------------------------------------------------------------------------------------
 
@@ -173,7 +194,7 @@ class Canvas:
         return item
 
     def add_widget(self, type_name: str, x: float, y: float, *, name: str | None = None) -> CanvasItem | None:
-        """Place a new widget with its top-left corner near (x, y) on the canvas."""
+        """Place a new widget with its top-left corner near (x, y) on the canvas, selected and in view."""
         cls = self.registry.get(type_name)
         if cls is None:
             self.say(f"unknown widget type {type_name!r}")
@@ -193,6 +214,7 @@ class Canvas:
         config = WidgetConfig(type_name, name, rect.x, rect.y, rect.w, rect.h, bindings, props)
         item = doc.add(self.make_item(config, cls))
         self.select(item)
+        self.reveal(item)
         doc.mark_dirty()
         return item
 
@@ -243,6 +265,11 @@ class Canvas:
             host=self.host,
             time_range=self.time_range,
         )
+
+    def reveal(self, item: CanvasItem) -> None:
+        """Scroll the canvas so that `item` is in view (over the next frames: a new widget's room in the
+        scrolled area exists only once a frame has laid it out)."""
+        self._reveal = (item, 10)
 
     # -- widget operations ----------------------------------------------------------------------------
 
@@ -360,7 +387,8 @@ class Canvas:
                 self.doc.mark_dirty()
 
     def draw(self, body: int | str, window: int | str, moving: CanvasItem | None) -> None:
-        """Fit the window to the viewport, paint around the canvas, draw the grid (each only if changed).
+        """Fit the window to the viewport, paint around the canvas, draw the grid (each only if changed),
+        and scroll a new widget into view.
 
         Args:
             body: the group that starts with the toolbox (it has a position; the toolbox has none).
@@ -386,6 +414,20 @@ class Canvas:
         bare = {id(i) for i, b in zip(still, self.paint.bare, strict=True) if b}
         for item in items:
             self._bind_frame(item, filled=id(item) not in bare)
+        self._scroll_to_reveal()
+
+    def _scroll_to_reveal(self) -> None:
+        if self._reveal is None:
+            return
+        item, tries = self._reveal
+        self._reveal = (item, tries - 1) if tries > 1 and item in self.doc.items else None
+        view = self.view_rect()
+        x, y = reveal_scroll(item.rect, view)
+        if (x, y) == (view.x, view.y):
+            self._reveal = None
+            return
+        dpg.set_x_scroll(self.window, x)
+        dpg.set_y_scroll(self.window, y)
 
     def _bind_frame(self, item: CanvasItem, *, filled: bool) -> None:
         """Give `item`'s frame its theme: selected or not, with a fill of its own or none (`CanvasPaint`)."""
