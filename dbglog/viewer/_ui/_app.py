@@ -346,7 +346,7 @@ class ViewerApp:
         self.timebar.fit(self.canvas.paint.window_size[0])
         self.timebar.draw()
         self.menus.sync()
-        self.status.update()
+        self.status.update(self.canvas.paint.window_size[0])
 
     def view_state(self) -> tuple[object, ...]:
         """What, when it changes, means the user is at work: widgets, selection, dialogs, drags, the file."""

@@ -28,6 +28,7 @@ __all__ = [
     "Pacer",
     "XInput",
     "cpu_wait_text",
+    "cpu_wait_tip",
     "wait_readable",
     "x_connection_fd",
 ]
@@ -47,12 +48,22 @@ CPU_WAIT_SHOWN = 0.25
 
 
 def cpu_wait_text(share: float | None, background: bool) -> str:
-    """The status bar's note on the window's thread waiting for a CPU (`share` of the time it wanted one),
-    or ""."""
+    """The status bar's short note on the window's thread waiting for a CPU (`share` of the time it wanted
+    one), or "" (`cpu_wait_tip` says it in full)."""
     if share is None or share < CPU_WAIT_SHOWN:
         return ""
-    text = f"waits for a CPU {100 * share:.0f} % of its busy time"
-    return f"{text} (background: the robot first; --cpu normal)" if background else text
+    text = f"waits for CPU {100 * share:.0f} %"
+    return f"{text} (--cpu normal)" if background else text
+
+
+def cpu_wait_tip(share: float | None, background: bool) -> str:
+    """The note of `cpu_wait_text` in full (the status bar's tooltip), or ""."""
+    if share is None or share < CPU_WAIT_SHOWN:
+        return ""
+    text = f"The window waited for a CPU {100 * share:.0f} % of its busy time (the last 3 s): it draws late."
+    if background:
+        text += " It runs in the background, so the robot comes first; --cpu normal shares the CPUs fairly."
+    return text
 
 
 @dataclass
