@@ -78,6 +78,12 @@ def dense_dashboard(tmp: Path) -> Path:
     return path
 
 
+def span_of(widget: Any) -> float | None:
+    """The seconds a plot shows (None for another widget, or before it drew)."""
+    shown = widget.visible_range() if hasattr(widget, "visible_range") else None
+    return None if shown is None else float(shown[1] - shown[0])
+
+
 def rect_of(item: int | str) -> list[float]:
     """An item's [x, y, w, h] in window pixels, as last drawn."""
     import dearpygui.dearpygui as dpg
@@ -123,6 +129,7 @@ class Probe:
                     "type": i.config.type,
                     "rect": [i.rect.x + ox, i.rect.y + oy, i.rect.w, i.rect.h],
                     "filled": i.frame_look[1],
+                    "span": span_of(i.widget),
                 }
                 for i in app.items
             ],
@@ -341,6 +348,46 @@ def test_status_message_stays_readable_in_a_narrow_window(viewer: Callable[[str]
     assert ix + iw <= width, "and inside the window"
     assert "widgets" in state["status"], "the path too long to fit leaves room for the rest"
     v.shot("status-narrow")
+
+
+def test_a_scroll_of_the_canvas_goes_on_over_a_plot_that_slides_under_the_pointer(
+    viewer: Callable[[str], Viewer],
+) -> None:
+    """Notch by notch the wheel scrolls the canvas up until the plot slides under the pointer; the notches
+    that follow still scroll the canvas and the plot keeps its range. Once the wheel rests (or with Ctrl),
+    the wheel over the plot zooms it and the canvas stays put."""
+    from dbglog.viewer._ui._pointer import WHEEL_STEP
+
+    v = viewer("canvas")
+    state = v.ready()
+    state = v.wait_for(lambda s: s["scroll_max"][1] > 400 and item(s, "Trend")["span"])
+    span = item(state, "Trend")["span"]
+    _cx, cy, _cw, ch = state["canvas"]
+    trend = item(state, "Trend")["rect"]
+    px, py = trend[0] + trend[2] / 2, trend[1] + trend[3] * 0.6  # over the plot's area while not scrolled
+    v.move(px, cy + ch - 40)  # the background below the plot
+    v.wheel(6)
+    v.wait_for(lambda s: s["scroll"][1] == 6 * WHEEL_STEP)
+    v.move(px, py)  # the plot is above the view now: background under the pointer
+    for notch in range(5, -1, -1):  # one notch at a time, each shown before the next
+
+        def scrolled(s: dict[str, Any], n: int = notch) -> bool:
+            return bool(s["scroll"][1] == n * WHEEL_STEP)
+
+        v.xdo("click", "4")
+        state = v.wait_for(scrolled, timeout=5)
+    assert item(state, "Trend")["span"] == pytest.approx(span), "the plot slid under the pointer: no zoom"
+    v.shot("scrolled-past-the-plot")
+    v.xdo("keydown", "ctrl", "click", "5", "keyup", "ctrl")  # the scroll still under way: Ctrl zooms
+    state = v.wait_for(lambda s: item(s, "Trend")["span"] != pytest.approx(span))
+    zoomed = item(state, "Trend")["span"]
+    assert zoomed > span, "Ctrl+wheel towards you zooms the plot out"
+    assert state["scroll"][1] == 0, "and the canvas stays put"
+    time.sleep(1.2)  # the wheel rests (LATCH_S, 1 s): the plot under the still pointer takes it
+    v.wheel(-2)
+    state = v.wait_for(lambda s: item(s, "Trend")["span"] != pytest.approx(zoomed))
+    assert item(state, "Trend")["span"] < zoomed, "the wheel away from you zooms in"
+    assert state["scroll"][1] == 0
 
 
 def test_grid_covers_the_scrolled_area(viewer: Callable[[str], Viewer]) -> None:

@@ -326,7 +326,7 @@ class ViewerApp:
             hook()
         span = self.time.time_span()
         self.time_range.sync(span[1] if span is not None else None, self.timeline.cursor)
-        changed = self.canvas.changed(self.timeline.cursor)
+        changed = self.canvas.changed(self.timeline.cursor) or self.pointer_input.wheel_due(time.monotonic())
         return changed or playing or self.actions.pending or self.status.bar_moved(self.timebar.stale)
 
     def work(self) -> None:

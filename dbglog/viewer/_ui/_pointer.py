@@ -1,12 +1,15 @@
 """Pointer interaction on the canvas: select, move and resize by the title and grip, delete zone, menu, wheel.
 
 The canvas (`Canvas`) owns the Dear PyGui items; this reads the mouse once per frame and edits the
-document through the canvas's widget operations.
+document through the canvas's widget operations. Who the wheel is for is `WheelRoute`, plain logic.
 """
 
 from __future__ import annotations
 
+import contextlib
+import math
 import threading
+import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -19,10 +22,42 @@ from dbglog.viewer._ui._frame import GRIP, TITLE_H, CanvasItem
 from dbglog.viewer._ui._menus import CONTEXT_MENU
 from dbglog.viewer._widgets._geometry import Part, Rect, scroll_target, snap_rect
 
-__all__ = ["WHEEL_STEP", "Drag", "PointerInput"]
+__all__ = ["LATCH_S", "MOVE_PX", "WHEEL_STEP", "Drag", "PointerInput", "WheelRoute"]
 
 WHEEL_STEP = 60.0
 """Pixels the canvas scrolls per notch of the mouse wheel."""
+LATCH_S = 1.0
+"""A scroll of the canvas goes on for this long after its last notch (a plot sliding under the pointer
+does not take the wheel meanwhile), unless the mouse moves."""
+MOVE_PX = 4.0
+"""A mouse move this long (pixels) ends a scroll of the canvas: the wheel is for what is under it again."""
+
+
+class WheelRoute:
+    """Who the wheel is for: the canvas scrolls, except over a plot, which zooms.
+
+    As browsers and editors latch a scroll gesture, a scroll of the canvas stays the canvas's while the
+    wheel keeps turning: a plot that slides under the pointer takes the wheel only once the wheel rested
+    for `LATCH_S` or the mouse moved (`MOVE_PX`). Ctrl over a plot always zooms it.
+    """
+
+    def __init__(self, latch_s: float = LATCH_S, move_px: float = MOVE_PX) -> None:
+        self.latch_s, self.move_px = latch_s, move_px
+        self._scrolled_at = -math.inf
+        self._scrolled_from = (math.nan, math.nan)
+
+    def scrolled(self, now: float, pos: tuple[float, float]) -> None:
+        """The wheel scrolled the canvas at `now` with the mouse at `pos` (window pixels)."""
+        self._scrolled_at, self._scrolled_from = now, pos
+
+    def latched(self, now: float, pos: tuple[float, float]) -> bool:
+        """Whether a scroll of the canvas is under way (the wheel turned lately, the mouse kept still)."""
+        moved = math.dist(pos, self._scrolled_from) if not math.isnan(self._scrolled_from[0]) else math.inf
+        return now - self._scrolled_at < self.latch_s and moved < self.move_px
+
+    def to_plot(self, now: float, pos: tuple[float, float], *, ctrl: bool) -> bool:
+        """Whether a plot under the pointer at `pos` takes the wheel now (zooms) rather than the canvas."""
+        return ctrl or not self.latched(now, pos)
 
 
 @dataclass
@@ -44,8 +79,9 @@ class PointerInput:
         actions: the window's actions (the context menu's entries run them).
         dialog_open: whether a dialog is open (the canvas takes no clicks then).
         file_open: whether the file dialog is open (nor the wheel).
-        held: whether a modifier key is down (Shift turns the wheel sideways).
+        held: whether a modifier key is down (Shift turns the wheel sideways, Ctrl zooms a plot).
         rendered: frames rendered so far.
+        clock: monotonic seconds.
     """
 
     def __init__(
@@ -57,10 +93,11 @@ class PointerInput:
         file_open: Callable[[], bool],
         held: Callable[[int], bool],
         rendered: Callable[[], int],
+        clock: Callable[[], float] = time.monotonic,
     ) -> None:
         self.canvas, self.actions = canvas, actions
         self._dialog_open, self._file_open = dialog_open, file_open
-        self._held, self._rendered = held, rendered
+        self._held, self._rendered, self._clock = held, rendered, clock
         self.drag: Drag | None = None
         """The move or resize under way, if any."""
         self._left_down = False
@@ -72,6 +109,11 @@ class PointerInput:
         """Mouse wheel turns not yet applied (the wheel handler adds them, the next frame scrolls)."""
         self._scroll_set: dict[int, tuple[int, float]] = {}
         """Axis (0 x, 1 y) -> (frames rendered when the wheel set it, the offset set)."""
+        self.route = WheelRoute()
+        self._recheck_at: float | None = None
+        """When a scroll of the canvas ends by itself (`wheel_due`)."""
+        self.wheel_plot: CanvasItem | None = None
+        """The plot the wheel zooms at the next frame (`WheelRoute`); None: the wheel scrolls the canvas."""
         self.menu: int | str = 0
         """The widgets' context menu (`build_menu`)."""
         self.type_entries: dict[str, int | str] = {}
@@ -275,25 +317,53 @@ class PointerInput:
         with self._wheel_lock:
             self._wheel += float(delta)
 
-    def apply_wheel(self) -> None:
-        """Scroll the canvas by the wheel turns since the last frame when the pointer is over its background.
+    def _zoomable(self, pos: tuple[float, float]) -> CanvasItem | None:
+        """The plot (a widget that takes the wheel: ``allow_wheel``) whose area is under `pos`, or None."""
+        item = self._body_hit(pos)
+        widget = item.widget if item is not None else None
+        if item is None or widget is None or not callable(getattr(widget, "allow_wheel", None)):
+            return None
+        try:
+            return item if widget.owns_pointer(*pos) else None
+        except Exception:  # a widget's bug never takes the canvas's mouse away
+            return None
 
-        Over a plot's body the wheel is the plot's (its zoom); in a dialog or menu it is theirs. Shift turns
-        it sideways.
+    def wheel_due(self, now: float) -> bool:
+        """Whether a frame is due to hand the wheel back to the plot under a still pointer: a scroll of the
+        canvas just ended (`LATCH_S` without a notch), which no input shows."""
+        if self._recheck_at is None or now < self._recheck_at:
+            return False
+        self._recheck_at = None
+        return True
+
+    def apply_wheel(self) -> None:
+        """Scroll the canvas by the wheel turns since the last frame, unless a plot took them (`WheelRoute`);
+        then tell the plot under the pointer whether the wheel is its own at the next frame.
+
+        Over another widget that keeps the mouse (a console's rows) the wheel is the widget's; in a dialog or
+        menu it is theirs. Shift turns it sideways.
         """
         with self._wheel_lock:
             turns, self._wheel = self._wheel, 0.0
-        if not turns or self._file_open() or self.menu_shown():
-            return
+        now = self._clock()
         pos = self.canvas.pointer()
-        if not self.over_canvas(pos):
-            return
-        item = self._body_hit(pos)
-        if item is not None and item.config.type == "plot":
-            return
-        if self.widget_owns(pos):
-            return
-        self._scroll(turns)
+        blocked = self._file_open() or self.menu_shown()
+        plot = None if blocked else self._zoomable(pos)
+        ctrl = plot is not None and self._held(dpg.mvKey_ModCtrl)
+        take = plot if plot is not None and self.route.to_plot(now, pos, ctrl=ctrl) else None
+        # Turns the plot took (it was told last frame), or that are its own now, never scroll the canvas.
+        scrolls = turns and not blocked and self.wheel_plot is None and take is None and self.over_canvas(pos)
+        if scrolls and (plot is not None or not self.widget_owns(pos)):
+            self._scroll(turns)
+            self.route.scrolled(now, pos)
+            self._recheck_at = now + self.route.latch_s
+        if take is not self.wheel_plot:
+            for item, on in ((self.wheel_plot, False), (take, True)):
+                allow = getattr(item.widget, "allow_wheel", None) if item is not None else None
+                if callable(allow) and item is not None and item in self.canvas.doc.items:
+                    with contextlib.suppress(Exception):  # a widget's bug never takes the canvas's wheel
+                        allow(on)
+            self.wheel_plot = take
 
     def _scroll(self, turns: float) -> None:
         canvas = self.canvas.window

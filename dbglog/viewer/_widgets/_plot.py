@@ -109,7 +109,8 @@ DIM = (138, 146, 158, 255)
 TEXT_WIDTHS_KEPT = 512
 """Measured text widths kept per plot (labels and header forms)."""
 GESTURES_TIP = (
-    "Wheel: zoom the time axis (following the newest data while live)\n"
+    "Wheel: zoom the time axis (following the newest data while live); while the wheel scrolls the canvas,\n"
+    "a plot sliding under the pointer zooms once the wheel rests or the mouse moves, or with Ctrl\n"
     "Drag: pan \u00b7 right drag: zoom to a box (both hold the range)\n"
     "Double click: follow the newest data again (End does it for every plot)\n"
     "Hover: the value of each series under the pointer"
@@ -231,6 +232,8 @@ class PlotWidget(Widget):
         super().__init__(props)
         self.paused = False
         """The plot's own Pause: its picture (data and end) is frozen; zoom and pan still work on it."""
+        self._wheel = False
+        """Whether the plain wheel zooms the plot (`allow_wheel`); else only Ctrl+wheel does."""
         self.points_drawn = 0
         """Points sent to the plot in the last update (for tests and the benchmark)."""
         self.drawn_from: float | None = None
@@ -322,6 +325,8 @@ class PlotWidget(Widget):
             no_menus=True,
             no_mouse_pos=True,
             fit_button=NO_BUTTON,
+            zoom_mod=0 if self._wheel else dpg.mvKey_ModCtrl,
+            override_mod=dpg.mvKey_ModSuper,  # (ImPlot's default, Ctrl, would ignore Ctrl+wheel)
         )
         self._themes = {False: _plot_theme()}
         dpg.bind_item_theme(self.plot, self._themes[False])
@@ -513,6 +518,13 @@ class PlotWidget(Widget):
     def visible_range(self) -> Limits | None:
         """Return the source times the plot shows (start, end), None before its first update."""
         return self.view
+
+    def allow_wheel(self, on: bool) -> None:
+        """Let the plain wheel zoom the plot (the viewer decides: not while the wheel scrolls the canvas
+        past it), or only Ctrl+wheel."""
+        self._wheel = on
+        if self.plot and dpg.does_item_exist(self.plot):
+            dpg.configure_item(self.plot, zoom_mod=0 if on else dpg.mvKey_ModCtrl)
 
     def owns_pointer(self, x: float, y: float) -> bool:
         """The plot area is the plot's: its wheel zooms, its right drag zooms to a box (no canvas menu)."""
