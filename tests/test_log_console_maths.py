@@ -82,6 +82,8 @@ def test_a_number_plot_binds_the_log_text_with_pattern_node_and_level() -> None:
     assert log == Binding("/rosout", "msg", proposal.pattern, node="planner", level="warn")
     text = number_binding("/chatter", "std_msgs/msg/String", proposal, node="planner")
     assert (text.field, text.node) == ("", "")
+    named = number_binding("/rosout", "rcl_interfaces/msg/Log", proposal, name="wall")
+    assert named.regex == proposal.named("wall"), "the capture named after the tag: the legend shows it"
 
 
 def test_a_number_plot_window_shows_every_matched_line() -> None:

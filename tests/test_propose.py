@@ -13,9 +13,11 @@ from hypothesis import strategies as st
 from dbglog._regex._propose import (
     MAX_LINE,
     MAX_PROGRAM_SIZE,
+    WORD_PATTERN,
     Proposal,
     ProposalError,
     _match_slow,
+    capture_name,
     find_numbers,
     match_joined,
     match_lines,
@@ -195,6 +197,58 @@ def test_proposal_escapes_text_and_generalises_other_numbers() -> None:
     assert proposal.extract("distance to wall: 3 m (angle 1e2 deg)") == 100.0
     assert proposal.extract("distance  to wall: 3 m (angle 7 deg)") == 7.0
     assert proposal.extract("distance to floor: 3 m (angle 7 deg)") is None
+
+
+BUMPS = [
+    f"bumped into the {wall} wall (hit #{k}) at x={k / 10:.2f} y=1.03"
+    for k, wall in enumerate(["north", "south", "east", "west"] * 125)
+]
+"""The demo robot's bumps: one kind of line, the wall's name a word that changes."""
+
+
+def test_generalised_words_match_every_line_of_that_kind_and_keep_the_numbers_name() -> None:
+    """With `generalise_words` the words around the number match any word but the nearest before it (its
+    name, `x` of `x=`): every bump matches, whichever wall; the literal words match a quarter."""
+    line = BUMPS[1]  # the south wall
+    loose = propose(line, 1, generalise_words=True)
+    exact = propose(line, 1)
+    assert preview(loose, BUMPS)[0] == 500
+    assert preview(exact, BUMPS)[0] == 125
+    assert r"\s+x\=(" in loose.pattern, "the anchor nearest the number stays literal"
+    assert "south" not in loose.pattern
+    assert loose.pattern.count(WORD_PATTERN) == 8
+    assert loose.extract("bumped into the west wall (hit #3) at x=-2.5 y=0") == -2.5
+    assert loose.extract("bumped into the west wall (hit #3) at y=-2.5 x=0") is None, "x, not y"
+    assert preview(loose, [*BUMPS, "moved to the goal at x=1.0 y=2.0"])[0] == 500, "another kind of line"
+
+
+@pytest.mark.parametrize(
+    ("line", "index", "kept"),
+    [
+        ("took 12ms to plan 5 paths", 0, r"^took\s+("),
+        ("took 12ms to plan 5 paths", 0, r")ms\s+"),
+        ("12.5 m/s forward", 0, r"\s+m\/"),
+        ("速度 12.5", 0, r"^速度\s+("),
+        ("a=1 a=2", 1, r"\s+a\=("),
+    ],
+)
+def test_the_nearest_word_and_a_glued_unit_stay_literal(line: str, index: int, kept: str) -> None:
+    """The word nearest before the number (without one, after it) and a unit glued to it stay literal;
+    the proposal still captures exactly its number."""
+    proposal = propose(line, index, generalise_words=True)
+    assert kept in proposal.pattern
+    assert proposal.extract(line) == find_numbers(line)[index].value
+
+
+def test_a_named_capture_carries_the_tag_and_is_read_back() -> None:
+    """`named` names the capture group after a tag (made a valid group name); `capture_name` reads it."""
+    proposal = propose("battery=87% 12.1V", 0)
+    assert capture_name(proposal.pattern) is None
+    assert capture_name(proposal.named("battery")) == "battery"
+    assert capture_name(proposal.named("motor speed")) == "motor_speed"
+    assert capture_name(proposal.named("2nd")) == "_2nd"
+    assert proposal.named("!!") == proposal.pattern, "nothing left of the name: unnamed"
+    assert capture_name("(unclosed") is None
 
 
 def test_proposal_of_a_number_beyond_the_last_says_how_many_there_are() -> None:

@@ -23,7 +23,7 @@ from typing import Any
 import pytest
 
 from tests._ros import wait_until
-from tests._viewer_child import WAIT_S, ViewerChild, report_frame
+from tests._viewer_child import WAIT_S, ViewerChild, in_view, report_frame
 from tests.test_ui_menus import _labelled, _menubar
 
 pytestmark = pytest.mark.gui
@@ -33,7 +33,7 @@ PLANNER, DRIVER, POWER = f"{RUN}_planner", f"{RUN}_driver", f"{RUN}_power"
 LINES = 60
 """Lines each node writes per phase."""
 STALLED_LINES = sum(1 for i in range(LINES) if i % 7 == 6)
-"""The driver's "motor ... stalled" errors among them (every 7th line)."""
+"""The driver's "motor left/right/rear stalled" errors among them (every 7th line)."""
 
 _WRITER = textwrap.dedent(
     """
@@ -44,6 +44,7 @@ _WRITER = textwrap.dedent(
     from rclpy.node import Node
 
     planner_name, driver_name, power_name, count = sys.argv[1], sys.argv[2], sys.argv[3], int(sys.argv[4])
+    MOTORS = ("left", "right", "rear")
     ctx = Context()
     rclpy.init(context=ctx)
     nodes = [Node(n, context=ctx) for n in (planner_name, driver_name, power_name)]  # kept: on the graph
@@ -58,7 +59,7 @@ _WRITER = textwrap.dedent(
             else:
                 power.info(f"battery={90 - i}% {12.0 - i * 0.01:.2f}V")
             if i % 7 == 6:
-                driver.error(f"motor {i % 3} stalled: current {10 + i * 0.1:.1f} A")
+                driver.error(f"motor {MOTORS[i % 3]} stalled: current {10 + i * 0.1:.1f} A")
             else:
                 driver.debug(f"tick {i}")
 
@@ -164,11 +165,14 @@ class Probe:
         app = self.app
         shown: Any = app.dialog
         ox, oy = app.canvas.origin()
+        view = app.canvas.view_rect()
         items = []
         console = None
         for item in app.items:
             snaps = item.snapshots(app.timeline)
+            legend = getattr(item.widget, "legend_plan", None)
             entry = {
+                "legend": list(legend.labels) if legend is not None else None,
                 "name": item.name,
                 "type": item.config.type,
                 "rect": [item.rect.x + ox, item.rect.y + oy, item.rect.w, item.rect.h],
@@ -214,6 +218,7 @@ class Probe:
             "menubar": _menubar(app.main),
             "clipboard": dpg.get_clipboard_text(),
             "scroll": [dpg.get_x_scroll(app.canvas.window), dpg.get_y_scroll(app.canvas.window)],
+            "view": [ox + view.x, oy + view.y, view.w, view.h],
             "marks": len(app.host.marks(0.0, 1e12)[0]),
             "bar_marks": [list(m) for m in app.timebar._marked],
             "status": app.status.text,
@@ -535,7 +540,7 @@ def test_right_click_a_number_plots_it_filled_from_the_stored_lines(
     dialog = state["dialog"]
     assert dialog["count"] == LINES
     assert dialog["number"] == 0
-    assert dialog["pattern"].startswith("^distance\\s+to\\s+wall\\:\\s+(")
+    assert "\\s+wall\\:\\s+(" in dialog["pattern"], "the word nearest the number stays literal"
     cx, cy, cw, ch = dialog["copy"]
     v.click(cx + cw / 2, cy + ch / 2)
     state = v.wait_for(lambda s: s["dialog"] is not None and s["dialog"]["copied"])
@@ -547,10 +552,49 @@ def test_right_click_a_number_plots_it_filled_from_the_stored_lines(
     state = v.wait_for(lambda s: s["dialog"] is None and any(i["type"] == "plot" for i in s["items"]))
     (plot,) = [i for i in state["items"] if i["type"] == "plot"]
     assert plot["name"] == "wall"
-    assert plot["bindings"] == [["/rosout", "msg", dialog["pattern"], PLANNER, ""]]
+    named = dialog["pattern"].replace("\\:\\s+(", "\\:\\s+(?P<wall>", 1)  # the capture named after the tag
+    assert plot["bindings"] == [["/rosout", "msg", named, PLANNER, ""]]
     state = v.wait_for(lambda s: next(i for i in s["items"] if i["type"] == "plot")["values"] == [LINES])
     loggers.more(LINES)  # and it goes on live
     v.wait_for(lambda s: next(i for i in s["items"] if i["type"] == "plot")["values"] == [2 * LINES])
+
+
+def test_plot_this_number_takes_every_line_of_that_kind_and_its_legend_names_the_number(
+    viewer: Callable[[str], Viewer], loggers: Loggers
+) -> None:
+    """Right-click the current in a "motor left stalled" error: the proposal keeps the word nearest the
+    number and generalises the others, so the right and rear motors' lines count too (the count shows
+    before OK); the new plot, scrolled into view below the console, names the number in its legend."""
+    v = viewer("console")
+
+    def stalled(c: dict[str, Any]) -> list[dict[str, Any]]:
+        return [r for r in c["rows"] if r["node"] == DRIVER and "stalled" in r["text"]]
+
+    console = wait_console(v, lambda c: c["held"] >= 3 * LINES and stalled(c))
+    row = stalled(console)[-1]
+    x0, x1 = row["numbers"][0]
+    v.click((x0 + x1) / 2, row["y"], button=3)
+    state = v.wait_for(lambda s: s["dialog"] is not None and s["dialog"]["count"] is not None)
+    dialog = state["dialog"]
+    assert dialog["count"] == STALLED_LINES, "every motor's stalls, not only this one's"
+    assert "current\\s+(" in dialog["pattern"]
+    v.shot("plot-number-dialog")
+    ox, oy, ow, oh = dialog["ok"]
+    v.click(ox + ow / 2, oy + oh / 2)
+    state = v.wait_for(lambda s: s["dialog"] is None and any(i["type"] == "plot" for i in s["items"]))
+    state = v.wait_for(
+        lambda s: next(i for i in s["items"] if i["type"] == "plot")["values"] == [STALLED_LINES]
+    )
+
+    def plot(s: dict[str, Any]) -> dict[str, Any]:
+        return next(i for i in s["items"] if i["type"] == "plot")
+
+    assert plot(state)["name"] == "current"
+    state = v.wait_for(lambda s: in_view(plot(s)["rect"], s["view"]))
+    assert state["scroll"][1] > 0, "the plot below the console was scrolled to"
+    state = v.wait_for(lambda s: plot(s)["legend"])  # (a plot lays its legend out once in view)
+    assert plot(state)["legend"] == ["current"], "the tag's name, not /rosout.msg"
+    v.shot("plot-number-added")
 
 
 def test_warnings_and_errors_mark_the_timeline(viewer: Callable[[str], Viewer], loggers: Loggers) -> None:

@@ -6,7 +6,9 @@ Nothing from a line is ever evaluated; every pattern is RE2 (linear time).
 
 from __future__ import annotations
 
+import functools
 import math
+import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any, Final, Literal, NamedTuple
@@ -24,9 +26,11 @@ __all__ = [
     "MAX_LINE",
     "MAX_PROGRAM_SIZE",
     "NUMBER_PATTERN",
+    "WORD_PATTERN",
     "NumberSpan",
     "Proposal",
     "ProposalError",
+    "capture_name",
     "find_numbers",
     "match_joined",
     "match_lines",
@@ -48,10 +52,15 @@ ANY_NUMBER_PATTERN: Final = rf"[-+]?(?:(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][-
 """`NUMBER_PATTERN` or a not-a-number / infinity as C, C++, Python and JavaScript print them
 (``nan``, ``-nan``, ``NaN``, ``inf``, ``-Infinity``, ...): what a proposal captures."""
 
+WORD_PATTERN: Final = r"[\w[:^ascii:]]+"
+"""RE2 for one word of a log line: ASCII letters, digits and ``_``, or any other script (``south``, ``速度``);
+what `propose` writes for the words it generalises (`generalise_words`)."""
+
 _PROPOSAL_BUDGET: Final = 900
 """Estimated RE2 program size of a proposal: context around the number is added while it fits."""
 _NUMBER_COST: Final = 45
 _SPACE_COST: Final = 8
+_WORD_COST: Final = 18
 _SPACES: Final = frozenset(" \t\r\n\f")
 """Whitespace that RE2's ``\\s`` matches: runs of it are generalised to ``\\s+``."""
 _ASCII_PUNCT: Final = frozenset("!\"#$%&'()*+,-./:;<=>?@[\\]^_`{|}~")
@@ -117,6 +126,20 @@ class Proposal:
         """Return the value this proposal takes from `line` (the first match), or None."""
         m = self.compiled.search(_visible(line)[0])
         return None if m is None else float(m.group(1))
+
+    def named(self, name: str) -> str:
+        """`pattern` with its capture group named after `name` (``(?P<x>…)``: a plot's legend shows it).
+
+        The name keeps ASCII letters, digits and ``_`` (others become ``_``) and starts with a letter or
+        ``_``; a name with nothing left leaves the group unnamed.
+        """
+        group = re.sub(r"[^A-Za-z0-9_]", "_", name.strip())[:60]
+        if group and group[0].isdigit():
+            group = "_" + group
+        if not group.strip("_"):
+            return self.pattern
+        marker = f"({ANY_NUMBER_PATTERN})"
+        return self.pattern.replace(marker, f"(?P<{group}>{ANY_NUMBER_PATTERN})", 1)
 
 
 def _visible(line: str) -> tuple[str, bool]:
@@ -226,35 +249,67 @@ def _escape(text: str) -> str:
     return "".join(out)
 
 
-def _text_pieces(text: str, spaces: bool) -> list[tuple[str, int]]:
+class _Piece(NamedTuple):
+    """A piece of a proposal: its RE2 text, its estimated cost, and whether it is a word of the line."""
+
+    pattern: str
+    cost: int
+    word: bool = False
+
+
+def _text_pieces(text: str, spaces: bool) -> list[_Piece]:
     """Split literal text into pieces (word, whitespace run, single character) with their RE2 cost."""
-    pieces: list[tuple[str, int]] = []
+    pieces: list[_Piece] = []
     i, n = 0, len(text)
     while i < n:
         ch = text[i]
         j = i + 1
+        word = False
         if ch in _SPACES:
             while j < n and text[j] in _SPACES:
                 j += 1
             if spaces:
-                pieces.append((r"\s+", _SPACE_COST))
+                pieces.append(_Piece(r"\s+", _SPACE_COST))
                 i = j
                 continue
         elif ch.isalnum() or ch == "_":
             while j < n and (text[j].isalnum() or text[j] == "_"):
                 j += 1
+            word = True
         chunk = text[i:j]
-        pieces.append((_escape(chunk), len(chunk.encode("utf-8", "surrogatepass")) + 1))
+        pieces.append(_Piece(_escape(chunk), len(chunk.encode("utf-8", "surrogatepass")) + 1, word))
         i = j
     return pieces
 
 
-def propose(line: str, index: int, *, node: str | None = None, generalise_spaces: bool = True) -> Proposal:
+def _generalise_words(left: list[_Piece], right: list[_Piece], glued: bool) -> None:
+    """Write every word of `left` and `right` as `WORD_PATTERN` but the anchor: the word nearest before the
+    number (without one, the nearest after it), and a unit glued to the number (``ms`` of ``12ms``)."""
+    before = [k for k, p in enumerate(left) if p.word]
+    after = [k for k, p in enumerate(right) if p.word]
+    keep_left = {before[-1]} if before else set()
+    keep_right = {after[0]} if after and (not before or (glued and after[0] == 0)) else set()
+    for pieces, keep in ((left, keep_left), (right, keep_right)):
+        for k, piece in enumerate(pieces):
+            if piece.word and k not in keep:
+                pieces[k] = _Piece(WORD_PATTERN, _WORD_COST, True)
+
+
+def propose(
+    line: str,
+    index: int,
+    *,
+    node: str | None = None,
+    generalise_spaces: bool = True,
+    generalise_words: bool = False,
+) -> Proposal:
     """Propose an RE2 pattern for lines like `line`, capturing its `index`-th number (0-based).
 
     The line's text is escaped literally, the chosen number becomes ``(ANY_NUMBER_PATTERN)``, every other
-    number ``NUMBER_PATTERN`` (or ``ANY_NUMBER_PATTERN`` when it is a nan or an infinity), and (by
-    default) every whitespace run ``\\s+``. The pattern is anchored
+    number ``NUMBER_PATTERN`` (or ``ANY_NUMBER_PATTERN`` when it is a nan or an infinity), (by default)
+    every whitespace run ``\\s+`` and, with `generalise_words`, every word but the one nearest before the
+    number (its name, ``x`` of ``x=2.87``) `WORD_PATTERN`: lines that differ in their words match too
+    (``bumped into the north wall`` as ``... the south wall``). The pattern is anchored
     ``^…$`` when it covers the whole line; on a long line it covers as much context around the number
     as keeps its RE2 program well under `MAX_PROGRAM_SIZE`. The proposal is checked: it matches `line`
     and captures exactly the chosen number, or `ProposalError` is raised.
@@ -264,6 +319,8 @@ def propose(line: str, index: int, *, node: str | None = None, generalise_spaces
         index: which number, 0-based, among ``find_numbers(line)``.
         node: the logger that wrote the line; becomes the proposal's node filter.
         generalise_spaces: write whitespace runs as ``\\s+`` (True) or literally.
+        generalise_words: write the words around the number (but its nearest) as `WORD_PATTERN`; when
+            that cannot capture the number unambiguously the words stay literal.
 
     Raises:
         ProposalError: `index` is out of range, or no pattern captures that number unambiguously.
@@ -283,11 +340,19 @@ def propose(line: str, index: int, *, node: str | None = None, generalise_spaces
     visible, cut = _visible(line)
     target = numbers[index]
     failure = ""
-    for keep_numbers in (False, True):
+    for words, keep_numbers in ((True, False), (False, False), (False, True)):
+        if words and not generalise_words:
+            continue
         budget = _PROPOSAL_BUDGET
         while budget >= 100:
             body, at_start, at_end = _build(
-                visible, numbers, index, budget, keep_numbers=keep_numbers, spaces=generalise_spaces
+                visible,
+                numbers,
+                index,
+                budget,
+                keep_numbers=keep_numbers,
+                spaces=generalise_spaces,
+                words=words,
             )
             at_end = at_end and not cut
             pattern = ("^" if at_start else "") + body + ("$" if at_end else "")
@@ -314,6 +379,7 @@ def _build(
     *,
     keep_numbers: bool,
     spaces: bool,
+    words: bool = False,
 ) -> tuple[str, bool, bool]:
     """Return the body of a pattern around ``numbers[index]`` within `budget`, and whether it reaches
     the start and the end of `visible`."""
@@ -321,8 +387,8 @@ def _build(
     reach = budget // 2 + 64  # each side takes about half the budget (one character costs about 1)
     lo = max(0, target.start - reach)
     hi = min(len(visible), target.end + reach)
-    left: list[tuple[str, int]] = []  # pieces before the number, in text order
-    right: list[tuple[str, int]] = []
+    left: list[_Piece] = []  # pieces before the number, in text order
+    right: list[_Piece] = []
     cursor = lo
     for n in numbers:
         if n.end <= lo or n.start >= hi or n is target:
@@ -335,27 +401,33 @@ def _build(
         dest = left if n.start < target.start else right
         dest.extend(_text_pieces(visible[cursor : n.start], spaces))
         if keep_numbers:
-            dest.append((_escape(n.text), len(n.text) + 1))
+            dest.append(_Piece(_escape(n.text), len(n.text) + 1))
         elif math.isfinite(n.value):
-            dest.append((NUMBER_PATTERN, _NUMBER_COST))
+            dest.append(_Piece(NUMBER_PATTERN, _NUMBER_COST))
         else:
-            dest.append((f"(?:{ANY_NUMBER_PATTERN})", _NUMBER_COST * 2))
+            dest.append(_Piece(f"(?:{ANY_NUMBER_PATTERN})", _NUMBER_COST * 2))
         cursor = n.end
     right.extend(_text_pieces(visible[cursor:hi], spaces))
+    if words:
+        _generalise_words(left, right, glued=bool(target.unit))
     total = _NUMBER_COST * 2
     i, j = len(left), 0  # left[i:] and right[:j] are taken
     grew = True
     while grew:
         grew = False
-        if i > 0 and total + left[i - 1][1] <= budget:
+        if i > 0 and total + left[i - 1].cost <= budget:
             i -= 1
-            total += left[i][1]
+            total += left[i].cost
             grew = True
-        if j < len(right) and total + right[j][1] <= budget:
-            total += right[j][1]
+        if j < len(right) and total + right[j].cost <= budget:
+            total += right[j].cost
             j += 1
             grew = True
-    body = "".join(p for p, _ in left[i:]) + f"({ANY_NUMBER_PATTERN})" + "".join(p for p, _ in right[:j])
+    body = (
+        "".join(p.pattern for p in left[i:])
+        + f"({ANY_NUMBER_PATTERN})"
+        + "".join(p.pattern for p in right[:j])
+    )
     return body, i == 0 and lo == 0, j == len(right) and hi == len(visible)
 
 
@@ -692,6 +764,17 @@ def suggest_tag(proposal: Proposal) -> str:
         if candidate:
             return candidate[:60]
     return "value"
+
+
+@functools.lru_cache(maxsize=256)
+def capture_name(pattern: str) -> str | None:
+    """The name of `pattern`'s first capture group (``x`` of ``x\\=(?P<x>…)``), or None (unnamed, or no
+    pattern RE2 takes)."""
+    try:
+        compiled = re2.compile(pattern, options=_OPTIONS)
+    except re2.error:
+        return None
+    return next((name for name, index in compiled.groupindex.items() if index == 1), None)
 
 
 def parse_console_line(text: str) -> tuple[str, str, str] | None:

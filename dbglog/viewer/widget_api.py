@@ -48,6 +48,7 @@ from typing import ClassVar, Protocol
 
 import numpy as np
 
+from dbglog._regex._propose import capture_name
 from dbglog._ros._params import ParamRange, ParamType, ParamValue
 from dbglog._ros._tags import tag_of
 from dbglog.viewer._data._interfaces import (
@@ -104,6 +105,7 @@ __all__ = [
     "Widget",
     "WidgetContext",
     "WidgetHost",
+    "capture_name",
     "fill_message",
     "form_fields",
     "format_color",

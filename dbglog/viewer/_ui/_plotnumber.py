@@ -1,9 +1,12 @@
 """Plot this number: the dialog a right click on a number in the Log console opens.
 
-It proposes an RE2 pattern for that kind of line (`dbglog._regex._propose`), previews every stored line the
-pattern matches with the value it would take, and on OK adds a widget bound to the log topic with that
-pattern, node and level (the engine fills it from its history); "Copy as bridge rule" gives the YAML for
-``dbglog bridge``. Callbacks only record what was clicked; `tick` does the work on the UI thread.
+It proposes an RE2 pattern for that kind of line (`dbglog._regex._propose`): the words around the number
+generalised but the one nearest before it (``bumped into the south wall`` matches the north wall too;
+"the same words only" keeps them), previews every stored line the pattern matches with the value it would
+take, with the count before OK, and on OK adds a widget bound to the log topic with that pattern (its
+capture named after the tag: a plot's legend shows it), node and level (the engine fills it from its
+history); "Copy as bridge rule" gives the YAML for ``dbglog bridge``. Callbacks only record what was
+clicked; `tick` does the work on the UI thread.
 """
 
 from __future__ import annotations
@@ -31,11 +34,13 @@ PREVIEW_ROWS = 200
 
 
 def number_binding(
-    topic: str, msg_type: str, proposal: Proposal, *, node: str = "", level: str = ""
+    topic: str, msg_type: str, proposal: Proposal, *, node: str = "", level: str = "", name: str = ""
 ) -> Binding:
-    """The binding that plots the proposal's number: the log text field, the pattern, node and level."""
+    """The binding that plots the proposal's number: the log text field, the pattern (its capture named
+    `name`, what a plot's legend shows), node and level."""
     field = "msg" if msg_type == LOG_TYPE else ""
-    return Binding(topic, field, proposal.pattern, node=node if msg_type == LOG_TYPE else "", level=level)
+    pattern = proposal.named(name) if name else proposal.pattern
+    return Binding(topic, field, pattern, node=node if msg_type == LOG_TYPE else "", level=level)
 
 
 def plot_window(times: Sequence[float] | np.ndarray, now: float) -> float:
@@ -109,15 +114,27 @@ class PlotNumberDialog(Dialog):
             self.level_combo = dpg.add_combo(
                 LEVELS, default_value="any", width=80, callback=lambda _s, v: self._record("level", v)
             )
-        self.node_box = dpg.add_checkbox(
-            label=f"only lines of node {self.line.node}" if self.line.node else "every line (no nodes here)",
-            default_value=bool(self.line.node),
-            enabled=bool(self.line.node),
-            parent=w,
-            callback=lambda _s, v: self._record("node", bool(v)),
-        )
+        with dpg.group(horizontal=True, parent=w):
+            self.node_box = dpg.add_checkbox(
+                label=f"only lines of node {self.line.node}"
+                if self.line.node
+                else "every line (no nodes here)",
+                default_value=bool(self.line.node),
+                enabled=bool(self.line.node),
+                callback=lambda _s, v: self._record("node", bool(v)),
+            )
+            self.words_box = dpg.add_checkbox(
+                label="the same words only",
+                default_value=False,
+                callback=lambda _s, v: self._record("words", bool(v)),
+            )
+        with dpg.tooltip(self.words_box):
+            dpg.add_text(
+                "Off: any words around the number match but the one nearest before it (its name).\n"
+                "On: every word of the line as it is."
+            )
         dpg.add_text(
-            "Pattern (RE2: the literal text, the number captured, other numbers generalised)",
+            "Pattern (RE2: the number captured, other numbers and words generalised)",
             color=DIM,
             parent=w,
         )
@@ -160,6 +177,8 @@ class PlotNumberDialog(Dialog):
             if what == "number" and isinstance(value, str):
                 self.number = int(value.split(")")[0]) - 1
                 self._propose()
+            elif what == "words":
+                self._propose()
             elif what in ("level", "node"):
                 self._preview()
             elif what == "ok":
@@ -182,9 +201,19 @@ class PlotNumberDialog(Dialog):
         value = str(dpg.get_value(self.level_combo))
         return "" if value == "any" else value
 
+    @property
+    def same_words(self) -> bool:
+        """Whether the words around the number must be as in the line (the box ticked)."""
+        return bool(dpg.get_value(self.words_box))
+
     def _propose(self) -> None:
         try:
-            self.proposal = propose(self.line.message, self.number, node=self.line.node or None)
+            self.proposal = propose(
+                self.line.message,
+                self.number,
+                node=self.line.node or None,
+                generalise_words=not self.same_words,
+            )
         except ProposalError as exc:
             self.proposal = None
             dpg.set_value(self.error_text, str(exc))
@@ -228,10 +257,10 @@ class PlotNumberDialog(Dialog):
             return None
         label = str(dpg.get_value(self.type_combo))
         type_name = next((t for t, lab in self.widget_types if lab == label), self.widget_types[0][0])
-        binding = number_binding(
-            self.topic, self.store.msg_type, self.proposal, node=self.node, level=self.level
-        )
         name = str(dpg.get_value(self.tag_input)).strip() or suggest_tag(self.proposal)
+        binding = number_binding(
+            self.topic, self.store.msg_type, self.proposal, node=self.node, level=self.level, name=name
+        )
         props: dict[str, float | str | bool] = {}
         if type_name == "plot" and self.matches is not None:
             props["window"] = plot_window(self.matches.times, time.time())
@@ -251,7 +280,11 @@ class PlotNumberDialog(Dialog):
         if self.proposal is None:
             return ""
         tag = str(dpg.get_value(self.tag_input)).strip() or suggest_tag(self.proposal)
-        proposal = self.proposal if self.node else propose(self.line.message, self.number, node=None)
+        proposal = (
+            self.proposal
+            if self.node
+            else propose(self.line.message, self.number, node=None, generalise_words=not self.same_words)
+        )
         try:
             text = to_bridge_yaml(proposal, tag, level=self.level or None)
         except ValueError as exc:

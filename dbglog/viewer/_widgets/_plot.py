@@ -50,6 +50,7 @@ from dbglog.viewer.widget_api import (
     TimeRange,
     ValueKind,
     Widget,
+    capture_name,
     tag_of,
 )
 
@@ -140,7 +141,11 @@ def tag_height(value: float, limits: Limits | None) -> float:
 
 
 def series_label(binding: Binding) -> str:
-    """Return a short legend label for a binding: the tag or topic, plus the field."""
+    """Return a short legend label for a binding: its regex's capture name (a number taken from log lines,
+    ``(?P<x>…)``: ``x``), else the tag or topic, plus the field."""
+    named = capture_name(binding.regex) if binding.regex else None
+    if named:
+        return named
     topic = tag_of(binding.topic) or binding.topic
     return f"{topic}.{binding.field}" if binding.field and binding.field != "data" else topic
 
