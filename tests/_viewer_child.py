@@ -182,6 +182,15 @@ class ViewerChild:
         self.frames(3)
         return self.frames(3)
 
+    def menu_entry(self, title: str, label: str) -> None:
+        """Click the menu bar's menu `title`, then its entry `label` (the child reports ``menubar``)."""
+        bar = self.state()["menubar"][title]
+        (fx, fy), (tw, th) = bar["pos"], bar["size"]
+        self.click(fx + tw / 2, fy + th / 2 + 3)
+        state = self.wait_for(lambda s: s["menubar"][title]["entries"].get(label, [0, 0])[1] > 0)
+        ex, ey = state["menubar"][title]["entries"][label]
+        self.click(fx + ex + 20, th + 2 * 5 + ey + th / 2)  # the popup opens below the bar (text + padding)
+
     def key(self, *names: str) -> None:
         """Press keys (xdotool names: "Return", "ctrl+shift+s")."""
         for name in names:  # held for a few frames, as a hand does: the viewer sees the chord together

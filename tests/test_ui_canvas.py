@@ -318,12 +318,7 @@ def test_new_widgets_land_in_view_scrolled_to_and_selected(viewer: Callable[[str
     v.move(new[0] + new[2] / 2, new[1] + new[3] / 2)  # (a dial leaves the wheel to the canvas)
     v.wheel(-20)
     v.wait_for(lambda s: s["scroll"][1] == 0)
-    view = v.state()["menubar"]["View"]
-    (fx, fy), (tw, th) = view["pos"], view["size"]
-    v.click(fx + tw / 2, fy + th / 2 + 3)
-    state = v.wait_for(lambda s: s["menubar"]["View"]["entries"].get("Log console", [0, 0])[1] > 0)
-    ex, ey = state["menubar"]["View"]["entries"]["Log console"]
-    v.click(fx + ex + 20, th + 2 * 5 + ey + th / 2)
+    v.menu_entry("View", "Log console")
     state = v.wait_for(lambda s: any(i["type"] == "log" for i in s["items"]))
     (log,) = [i["name"] for i in state["items"] if i["type"] == "log"]
     state = v.wait_for(lambda s: in_view(item(s, log)["rect"], s["canvas"]))

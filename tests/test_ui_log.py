@@ -391,12 +391,7 @@ def test_view_menu_opens_a_console_with_lines_written_before_the_viewer(
     """View > Log console adds a console on /rosout; lines the nodes wrote before the viewer started are
     there, newest at the bottom; new lines follow."""
     v = viewer("empty")
-    view = v.state()["menubar"]["View"]
-    (fx, fy), (tw, th) = view["pos"], view["size"]
-    v.click(fx + tw / 2, fy + th / 2 + 3)
-    state = v.wait_for(lambda s: s["menubar"]["View"]["entries"].get("Log console", [0, 0])[1] > 0)
-    ex, ey = state["menubar"]["View"]["entries"]["Log console"]
-    v.click(fx + ex + 20, th + 2 * 5 + ey + th / 2)
+    v.menu_entry("View", "Log console")
     state = v.wait_for(lambda s: any(i["type"] == "log" for i in s["items"]))
     (log,) = [i for i in state["items"] if i["type"] == "log"]
     assert log["bindings"] == [["/rosout", "", "", "", ""]]

@@ -470,12 +470,7 @@ class Viewer(ViewerChild):
 
     def menu(self, label: str) -> None:
         """Click File, then its entry `label`, with the mouse."""
-        file_menu = self.state()["menubar"]["File"]
-        (fx, fy), (tw, th) = file_menu["pos"], file_menu["size"]
-        self.click(fx + tw / 2, fy + th / 2 + 3)
-        state = self.wait_for(lambda s: s["menubar"]["File"]["entries"][label][1] > 0)
-        ex, ey = state["menubar"]["File"]["entries"][label]
-        self.click(fx + ex + 20, th + 2 * 5 + ey + th / 2)  # the popup opens below the bar (text + padding)
+        self.menu_entry("File", label)
 
     def track_point(self, fraction: float) -> tuple[float, float]:
         """The window pixel `fraction` of the way along the timeline's track."""
