@@ -125,6 +125,8 @@ class MenuBar:
         self.entries: dict[str, int | str] = {}
         """Action name -> its menu entry."""
         self._shown: dict[str, tuple[bool, bool]] = {}
+        self._changing: list[tuple[str, int | str, Action]] = []
+        """The entries whose check mark or presence can change (each frame looks at these only)."""
 
     def build(self) -> None:
         """Create the menu bar (call inside the window that has ``menubar=True``)."""
@@ -139,14 +141,13 @@ class MenuBar:
                         action = self.actions[name]
                         shown = action.shown() if action.shown is not None else True
                         self.entries[name] = add_menu_entry(self.actions, name, show=shown)
+                        if action.checked is not None or action.shown is not None:
+                            self._changing.append((name, self.entries[name], action))
         self.sync()
 
     def sync(self) -> None:
         """Show each entry's check mark and whether it is offered, as they are now (only changes cost)."""
-        for name, entry in self.entries.items():
-            action = self.actions[name]
-            if action.checked is None and action.shown is None:
-                continue
+        for name, entry, action in self._changing:
             now = (
                 bool(action.checked()) if action.checked is not None else False,
                 bool(action.shown()) if action.shown is not None else True,

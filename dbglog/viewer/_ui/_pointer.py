@@ -110,6 +110,9 @@ class PointerInput:
         self._scroll_set: dict[int, tuple[int, float]] = {}
         """Axis (0 x, 1 y) -> (frames rendered when the wheel set it, the offset set)."""
         self.route = WheelRoute()
+        self._under_key: tuple[object, ...] = ()
+        self._under: CanvasItem | None = None
+        """The plot under the pointer, as last looked for (`_under_key`: what it depends on)."""
         self._recheck_at: float | None = None
         """When a scroll of the canvas ends by itself (`wheel_due`)."""
         self.wheel_plot: CanvasItem | None = None
@@ -348,7 +351,11 @@ class PointerInput:
         now = self._clock()
         pos = self.canvas.pointer()
         blocked = self._file_open() or self.menu_shown()
-        plot = None if blocked else self._zoomable(pos)
+        # What lies under the pointer changes only when it moves, the canvas scrolls or widgets come and go.
+        key = (pos, self.canvas.origin(), tuple(map(id, self.canvas.doc.items)))
+        if turns or key != self._under_key:
+            self._under_key, self._under = key, self._zoomable(pos)
+        plot = None if blocked else self._under
         ctrl = plot is not None and self._held(dpg.mvKey_ModCtrl)
         take = plot if plot is not None and self.route.to_plot(now, pos, ctrl=ctrl) else None
         # Turns the plot took (it was told last frame), or that are its own now, never scroll the canvas.
