@@ -58,6 +58,11 @@ def fit_status(
     return message[:lo].rstrip() + "\u2026", ""
 
 
+def _rate_kind(text: str) -> str:
+    """What a frame rate's text says, its number aside: "" (not measured yet), ``idle`` or ``fps``."""
+    return text if text in ("", "idle") else "fps"
+
+
 class FrameRate(Protocol):
     """What the status bar reads of the frame loop (its frame rate)."""
 
@@ -117,14 +122,7 @@ class StatusBar:
         """What the right side shows, most important first (figures refreshed twice a second)."""
         if now - self._fps_at >= 0.5 and self.frames.render_starts:
             self._fps_at = now
-            starts = self.frames.render_starts
-            recent = sum(1 for t in starts if t > now - 1.0)
-            if now - starts[0] < 1.0:
-                self._fps_text = ""  # not measured yet
-            elif recent < 5 and not self.frames.pacer.active(now):
-                self._fps_text = "idle"
-            else:
-                self._fps_text = f"{min(recent, 999)} fps"
+            self._fps_text = self._fps_now(now)
             times = cpu_times_ns()  # (this is the window's thread: the one whose frames come late)
             share = None if times is None else self._cpu_wait.add(now, *times)
             self._cpu = (share, in_background())
@@ -144,6 +142,16 @@ class StatusBar:
             parts.append(self._fps_text)
         return parts
 
+    def _fps_now(self, now: float) -> str:
+        """The frame rate over the last second, ``idle``, or "" (not measured yet: the first second)."""
+        starts = self.frames.render_starts
+        if not starts or now - starts[0] < 1.0:
+            return ""
+        recent = sum(1 for t in starts if t > now - 1.0)
+        if recent < 5 and not self.frames.pacer.active(now):
+            return "idle"
+        return f"{min(recent, 999)} fps"
+
     def _history_status(self, now: float) -> str:
         if self.time.source_changes != self._source_changes:
             self._source_changes, self._history_at = self.time.source_changes, -1.0
@@ -158,8 +166,11 @@ class StatusBar:
         return self._history_next
 
     def bar_moved(self, stale: Callable[[], bool]) -> bool:
-        """Twice a second: whether the timeline bar (`stale`) or the history figures would show news."""
+        """Twice a second: whether the timeline bar (`stale`), the history figures or the frame rate would
+        show news (the rate once the window went idle, when no frame would show it)."""
         now = time.monotonic()
+        if now - self._fps_at >= 0.5 and _rate_kind(self._fps_now(now)) != _rate_kind(self._fps_text):
+            return True  # measured at last, or idle now (not a falling number: no frames for it)
         if self.time.source_changes == self._source_changes and now - self._history_at < 0.5:
             return False
         return stale() or self._history_status(now) != self._history_text
