@@ -106,8 +106,6 @@ class ViewerApp:
         """The time range the time plots share (zoomed, panned, following the newest data), one for all."""
         self.publisher = PublishService()
         """The controls' publishing service: this app's own, handed to every widget at mount."""
-        self._rooms: dict[str, int] = {}
-        """The pixels each panel beside the canvas takes from it (`_room_for`)."""
         self.frame_hooks: list[Callable[[], None]] = []
         """Called on the UI thread at every turn of the loop, rendered or not, before the widgets refresh
         (the auto-dashboard, test probes)."""
@@ -142,7 +140,7 @@ class ViewerApp:
         self.frame_hooks.append(self.host.tick)
         self.dialogs.parameters = self.host.parameter_list  # Topic setup suggests them
         self.events_panel = EventsPanel(
-            self.host, self.dialogs, self.set_status, self.actions.call_soon, self._room_for("events")
+            self.host, self.dialogs, self.set_status, self.actions.call_soon, self.canvas.room_for("events")
         )
         """View › Events list beside the canvas, and File › Add marker…."""
         self.frame_hooks.append(self.events_panel.poll)
@@ -408,21 +406,9 @@ class ViewerApp:
         self.time.use_source(source, recording=recording, bound=list(self.doc.refs))
         self._update_title()
 
-    def _room_for(self, panel: str) -> Callable[[int], None]:
-        """What `panel` (one beside the canvas) calls to narrow the canvas by so many pixels for itself (0: it
-        is hidden); the canvas leaves room for every panel shown."""
-
-        def make_room(pixels: int) -> None:
-            self._rooms[panel] = max(0, pixels)
-            total = sum(self._rooms.values())
-            if self.started:
-                dpg.configure_item(self.canvas.window, width=-total if total > 0 else -1)
-
-        return make_room
-
     def _tree_room(self, shown: bool) -> None:
         """The tag tree shown or hidden: the canvas leaves room for it, or takes it back."""
-        self._room_for("tree")(TREE_W + 8 if shown else 0)
+        self.canvas.room_for("tree")(TREE_W + 8 if shown else 0)
 
     def set_status(self, text: str) -> None:
         """Show a message in the status bar."""

@@ -85,6 +85,8 @@ class Canvas:
         self.drop_handlers: list[Callable[[object, tuple[float, float]], bool]] = []
         """Take a drop of something else than a toolbox button (a tag tree's row) at window pixels; True
         when taken."""
+        self._rooms: dict[str, int] = {}
+        """The pixels each panel beside the canvas takes from it (`room_for`)."""
         self._reveal: tuple[CanvasItem, int] | None = None
         """A widget to scroll into view, and how many more frames to try (the scroll lands a frame late)."""
 
@@ -169,6 +171,18 @@ class Canvas:
         bar_w = theme.SCROLLBAR if dpg.get_y_scroll_max(self.window) > 0 else 0
         bar_h = theme.SCROLLBAR if dpg.get_x_scroll_max(self.window) > 0 else 0
         return Rect(float(x), float(y), float(max(1, w - bar_w)), float(max(1, h - bar_h)))
+
+    def room_for(self, panel: str) -> Callable[[int], None]:
+        """What `panel` (one beside the canvas) calls to narrow the canvas by so many pixels for itself (0: it
+        is hidden); the canvas leaves room for every panel shown."""
+
+        def make_room(pixels: int) -> None:
+            self._rooms[panel] = max(0, pixels)
+            total = sum(self._rooms.values())
+            if self.window:  # (built: the window started)
+                dpg.configure_item(self.window, width=-total if total > 0 else -1)
+
+        return make_room
 
     def trash_rect(self) -> Rect:
         """The delete zone in window pixels."""
