@@ -538,6 +538,23 @@ def test_text_fields_set_typed_values_and_say_what_was_refused(viewer: Viewer, n
     assert state["items"]["Frame"]["shown"] == "base_link"
 
 
+def test_the_delete_key_in_a_text_field_edits_the_text_not_the_canvas(viewer: Viewer) -> None:
+    """Delete pressed while typing in a selected widget's text field edits the text; the widget stays (the
+    canvas's Delete waits while a text field has the keyboard)."""
+    x, y, w, _h = viewer.item("Label")["rect"]
+    viewer.click(x + w / 2 - 40, y + 12)  # its title strip: selected
+    field = viewer.item("Label")["input"]
+    viewer.click(field[0] + field[2] / 2, field[1] + field[3] / 2)
+    viewer.key("End")
+    viewer.type("xy")
+    viewer.key("Left")
+    viewer.key("Delete")
+    state = viewer.frames(6)
+    assert "Label" in state["items"], "Delete in a text field removed the widget"
+    assert state["items"]["Label"]["shown"].endswith("x"), state["items"]["Label"]["shown"]
+    viewer.key("Escape")
+
+
 def test_a_change_from_another_process_is_on_the_timeline_within_200_ms(
     viewer: Viewer, nodes: ParamNodes
 ) -> None:

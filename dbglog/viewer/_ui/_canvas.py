@@ -487,7 +487,14 @@ class Canvas:
             "Draw the widget above the others",
             on_selected(self.bring_to_front),
         )
-        add("widget.delete", "Delete", "Remove the selected widget", delete_key, keys=("Delete",))
+        add(
+            "widget.delete",
+            "Delete",
+            "Remove the selected widget",
+            delete_key,
+            keys=("Delete",),
+            scope="canvas",  # in a text field, a dialog or a menu, Delete is theirs
+        )
         add(
             "view.snap",
             "Snap to grid",
