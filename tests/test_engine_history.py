@@ -319,7 +319,7 @@ def test_two_publishers_of_one_tag_are_drawn_in_source_time_order(engine: Engine
     assert then.times.tolist() == times[times <= mid].tolist()
     rows = export_csv(engine, [binding], float(times[0]), float(times[-1]), tmp_path / "two.csv")
     exported = np.loadtxt(tmp_path / "two.csv", delimiter=",", skiprows=1, usecols=0)
-    assert rows == len(exported) == len(np.unique(times))
+    assert rows == len(exported) == len(times)  # one series: each sample its row (two may share a time)
     assert np.all(np.diff(exported) >= 0)  # (to the microsecond: two writers' samples may share one)
 
 
@@ -351,13 +351,24 @@ def test_a_derivative_of_two_publishers_of_one_tag_is_taken_in_source_time_order
     wait_until(lambda: len(engine.snapshot(slope).times) >= 0.95 * total, TIMEOUT)  # the last waited
     d = engine.snapshot(slope)
     assert len(d.times) >= 0.95 * total, f"{total - len(d.times)} of {total} samples left out"
-    assert np.all(np.diff(d.times) > 0)
+    steps = np.diff(d.times)
+    assert np.all(steps >= 0), "the derivative went back in source time"
+    # Two writers' samples may share a source time (a float's resolution is ~0.24 us here): the second of
+    # a tie has no slope (NaN), and a slope touching a shared time has no one value to check against.
+    assert np.all(np.isnan(d.values[1:][steps == 0]))
+    times, counts = np.unique(values.times, return_counts=True)
+    shared = set(times[counts > 1].tolist()) | set(d.times[1:][steps == 0].tolist())
     by_time = dict(zip(values.times.tolist(), values.values.tolist(), strict=True))
     v = np.array([by_time[t] for t in d.times.tolist()])
-    expected = np.diff(v) / np.diff(d.times)  # between the samples it took, consecutive by source time
+    with np.errstate(divide="ignore", invalid="ignore"):
+        expected = np.diff(v) / steps  # between the samples it took, consecutive by source time
+    check = np.array(
+        [a not in shared and b not in shared for a, b in zip(d.times[:-1], d.times[1:], strict=True)]
+    )
+    assert check.sum() >= 0.9 * len(check)
     assert np.isnan(d.values[0])
-    wrong = ~np.isclose(d.values[1:], expected, rtol=1e-9, atol=0.0)
-    assert not wrong.any(), f"{int(wrong.sum())} of {len(expected)} slopes differ"
+    wrong = ~np.isclose(d.values[1:][check], expected[check], rtol=1e-9, atol=0.0)
+    assert not wrong.any(), f"{int(wrong.sum())} of {int(check.sum())} slopes differ"
 
 
 def test_a_publisher_that_stops_is_drawn_with_a_gap_and_integers_as_steps(

@@ -73,6 +73,10 @@ _EXIT_YOUNG_S = 4.0
 the graph yet (measured: a waiting engine lost all the values of 6 of 10 nodes that lived ~1.1 s, none of
 22 that lived ~4 s)."""
 _EXIT_POLL_S = 0.02
+_EXIT_SETTLE_S = 0.5
+"""A young process at exit: how long its graph must stay unchanged (no node, subscription or match coming)
+before it stops waiting. Discovery tells of participants one by one: having been told of a node that reads
+nothing (or of one reader already matched), another reader may be told of a moment later."""
 _NEW_TAG_S = 5.0
 """A tag sends every sample on its topic for this long after its publisher is created, so a subscriber
 that is still being matched (discovery takes a moment) misses nothing."""
@@ -646,7 +650,8 @@ class Runtime:
         (`is_reader_node`) is on the graph without subscribing to it yet (an engine subscribes at its next
         graph poll, a recorder when it records the tags), or no other node is on it at all (discovery has
         not told this process of the others yet: it may take a participant's next announcement, 3 s).
-        With other nodes on the graph and no reader among them waiting, it does not wait.
+        With other nodes on the graph and no reader among them waiting, it waits only until the graph has
+        not changed for `_EXIT_SETTLE_S` (discovery tells of the other participants one by one).
         """
         publisher = self._batch_publisher
         node = self._user_node if self._user_node is not None else self._node
@@ -656,17 +661,23 @@ class Runtime:
         now = time.monotonic()
         deadline = now + budget
         young_until = self._ready_at + _EXIT_YOUNG_S
+        seen: object = None
+        changed_at = now
         try:
             while now < deadline:
                 infos = node.get_subscriptions_info_by_topic(topic)
-                if len(infos) <= publisher.get_subscription_count():  # every subscription matched
+                matched = publisher.get_subscription_count()
+                if len(infos) <= matched:  # every subscription matched
                     if now >= young_until:
                         return
                     subscribed = {(i.node_namespace, i.node_name) for i in infos}
                     nodes = [(ns, name) for name, ns in node.get_node_names_and_namespaces()]
+                    graph = (frozenset(nodes), frozenset(subscribed), matched)
+                    if graph != seen:
+                        seen, changed_at = graph, now
                     alone = all(n == (node.get_namespace(), node.get_name()) for n in nodes)
                     coming = any(is_reader_node(n[1]) and n not in subscribed for n in nodes)
-                    if not (alone or coming):
+                    if not (alone or coming) and now - changed_at >= _EXIT_SETTLE_S:
                         return
                 time.sleep(_EXIT_POLL_S)
                 now = time.monotonic()
