@@ -115,6 +115,7 @@ def test_dbglog_echo_prints_every_sample_in_order_with_its_stamp() -> None:
     dbglog.logint("probe/echo", -1)
     lines: list[str] = []
     sent: list[float] = []
+    after: list[float] = []
     with subprocess.Popen(
         [
             sys.executable,
@@ -142,6 +143,7 @@ def test_dbglog_echo_prints_every_sample_in_order_with_its_stamp() -> None:
             for k in range(2000):
                 sent.append(time.time())
                 dbglog.logint("probe/echo", k)
+                after.append(time.time())
                 deadline += 0.001
                 time.sleep(max(0.0, deadline - time.monotonic()))
             echo.wait(60)
@@ -151,7 +153,9 @@ def test_dbglog_echo_prints_every_sample_in_order_with_its_stamp() -> None:
     rows = [line.split() for line in lines]
     assert [int(v) for _, v in rows] == [-1, *range(2000)]
     stamps = [float(t) for t, _ in rows[1:]]
-    assert all(abs(s - t) < 0.005 for s, t in zip(stamps, sent, strict=True))
+    # Each stamp is the call's own time, to the microsecond echo prints (a loaded machine may pause the
+    # loop between a call and the clock read beside it: the bounds are the reads before and after).
+    assert all(t - 1e-6 <= s <= u + 1e-6 for s, t, u in zip(stamps, sent, after, strict=True))
     assert stamps == sorted(stamps)
 
 
