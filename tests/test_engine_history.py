@@ -356,8 +356,8 @@ def test_a_derivative_of_two_publishers_of_one_tag_is_taken_in_source_time_order
     # Two writers' samples may share a source time (a float's resolution is ~0.24 us here): the second of
     # a tie has no slope (NaN), and a slope touching a shared time has no one value to check against.
     assert np.all(np.isnan(d.values[1:][steps == 0]))
-    times, counts = np.unique(values.times, return_counts=True)
-    shared = set(times[counts > 1].tolist()) | set(d.times[1:][steps == 0].tolist())
+    held_times, repeats = np.unique(values.times, return_counts=True)
+    shared = set(held_times[repeats > 1].tolist()) | set(d.times[1:][steps == 0].tolist())
     by_time = dict(zip(values.times.tolist(), values.values.tolist(), strict=True))
     v = np.array([by_time[t] for t in d.times.tolist()])
     with np.errstate(divide="ignore", invalid="ignore"):
