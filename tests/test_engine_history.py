@@ -348,9 +348,17 @@ def test_a_derivative_of_two_publishers_of_one_tag_is_taken_in_source_time_order
     assert values.count == total
     switches = int(np.count_nonzero(np.diff(values.values[values.times >= start])))
     assert switches > 20, f"the writers' samples interleave in time ({switches} switches)"
-    wait_until(lambda: len(engine.snapshot(slope).times) >= 0.95 * total, TIMEOUT)  # the last waited
+    # A sample that arrives after newer ones were differentiated is left out and counted (it waits at
+    # most 0.5 s for older ones: a loaded machine delivers some batches later than that).
+    sinks = [sink for sink in engine._ordering if sink.binding == slope and sink.reorder is not None]
+
+    def left_out() -> int:
+        return sum(sink.reorder.dropped for sink in sinks if sink.reorder is not None)
+
+    wait_until(lambda: len(engine.snapshot(slope).times) + left_out() >= total, TIMEOUT)  # the last waited
     d = engine.snapshot(slope)
-    assert len(d.times) >= 0.95 * total, f"{total - len(d.times)} of {total} samples left out"
+    assert len(d.times) + left_out() == total, f"{total - len(d.times)} of {total} samples left out"
+    assert len(d.times) >= 0.5 * total, f"{left_out()} of {total} samples came too late"
     steps = np.diff(d.times)
     assert np.all(steps >= 0), "the derivative went back in source time"
     # Two writers' samples may share a source time (a float's resolution is ~0.24 us here): the second of
@@ -418,7 +426,10 @@ def test_a_publisher_that_stops_is_drawn_with_a_gap_and_integers_as_steps(
         start, stop = float(snap.times[0]), float(snap.times[-1])
         job = LineJob((snap,), (None,), start, stop, stop, 800, None, None, 848, 240)
         ((x, y),) = plot_lines(job).lines
-        assert np.isnan(y).sum() == 1, snap.binding
+        # The silence is a break; any other break is an interval of the data itself far above its usual
+        # one (a loaded machine pauses the publishing loops).
+        intervals = np.diff(snap.times)
+        assert 1 <= np.isnan(y).sum() <= np.sum(intervals > 5 * np.median(intervals)), snap.binding
         ok = ~np.isnan(y)
         spans = [x[i + 1] - x[i] for i in range(len(x) - 1) if ok[i] and ok[i + 1]]
         assert max(spans) < 0.5, f"{snap.binding.topic}: a segment across the silence ({max(spans):.2f} s)"
