@@ -1,7 +1,8 @@
 """Benchmark the viewer's history store: bytes per sample, append rate, seek and plot redraw, a flood.
 
 Run: ``.venv/bin/python -m benchmarks.bench_history`` (a 10-minute-equivalent fill of 50 topics x 100 Hz;
-``--minutes 60`` for the 1-hour, 18 M-sample figure; ``--only memory|append|seek|flood`` for one part).
+``--minutes 60`` for the 1-hour, 18 M-sample figure; ``--only memory|append|seek|flood|span`` for one
+part; ``span``: the whole history's span and stats reads at 60, 600 and 3000 topics).
 Memory and flood run each in a fresh process so RSS is theirs alone. Timings are medians (and p95) of
 repeats. The output is Markdown tables.
 """
@@ -19,7 +20,7 @@ import tracemalloc
 
 import numpy as np
 
-from benchmarks._common import print_table
+from benchmarks._common import median_ns_per_call, print_table
 from dbglog.viewer._data._history import History
 
 _T0 = 1_700_000_000.0
@@ -224,6 +225,19 @@ def _flood(args: argparse.Namespace) -> None:
     )
 
 
+def _span(args: argparse.Namespace) -> None:
+    """Time the whole history's span and stats reads (the time bar and status bar read both each frame)."""
+    rows = []
+    for topics in (60, 600, 3000):
+        h = History(clock=None)
+        for k in range(topics):
+            h.append_numbers(f"/rosdashboard/t{k}", _T0 + np.arange(100) / 10 + k * 1e-3, np.arange(100.0))
+        span_ns = median_ns_per_call(h.span, calls=200, repeats=args.repeats * 5)
+        stats_ns = median_ns_per_call(h.stats, calls=200, repeats=args.repeats * 5)
+        rows.append([topics, f"{span_ns / 1e3:.2f}", f"{stats_ns / 1e3:.2f}"])
+    print_table("Whole-history reads (medians)", ["topics", "span() µs", "stats() µs"], rows)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the benchmark parts; memory and flood each in a fresh process."""
     parser = argparse.ArgumentParser(description=__doc__)
@@ -235,7 +249,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--flood-rate", type=int, default=50_000, help="messages per second of source time")
     parser.add_argument("--flood-seconds", type=int, default=600)
     parser.add_argument("--flood-mb", type=int, default=128, help="the flood's memory cap")
-    parser.add_argument("--only", choices=["memory", "append", "seek", "flood"])
+    parser.add_argument("--only", choices=["memory", "append", "seek", "flood", "span"])
     args = parser.parse_args(argv)
     if args.only == "memory":
         _memory(args)
@@ -245,6 +259,8 @@ def main(argv: list[str] | None = None) -> int:
         _seek(args)
     elif args.only == "flood":
         _flood(args)
+    elif args.only == "span":
+        _span(args)
     else:
         rest = [a for a in (argv if argv is not None else sys.argv[1:]) if not a.startswith("--only")]
         for part in ("memory", "flood"):
@@ -253,6 +269,7 @@ def main(argv: list[str] | None = None) -> int:
             )
         _append(args)
         _seek(args)
+        _span(args)
     return 0
 
 

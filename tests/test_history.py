@@ -441,3 +441,69 @@ def test_the_callers_arrays_can_be_reused_after_append() -> None:
     times, values = h.range(T, 0, 1000)
     assert times.tolist() == [4.0, 5.0, 6.0, 6.1]
     assert values.tolist() == [4.0, 5.0, 60.0, 61.0]
+
+
+def _walked(h: History) -> tuple[int, int, float | None, float | None]:
+    """The totals as a walk over every topic answers them: (topics, samples, oldest, newest)."""
+    spans = [s for s in (h.span(topic) for topic in h.topics()) if s is not None]
+    samples = sum(h.count(topic) for topic in h.topics())
+    oldest = min((s[0] for s in spans), default=None)
+    newest = max((s[1] for s in spans), default=None)
+    return len(h.topics()), samples, oldest, newest
+
+
+_ops = st.lists(
+    st.one_of(
+        st.tuples(st.just("numbers"), st.integers(0, 3), st.lists(_times, min_size=1, max_size=8)),
+        st.tuples(st.just("payloads"), st.integers(0, 3), st.lists(_times, min_size=1, max_size=4)),
+        st.tuples(st.just("drop"), st.integers(0, 3), st.just([])),
+        st.tuples(st.just("clear"), st.just(0), st.just([])),
+    ),
+    min_size=1,
+    max_size=40,
+)
+
+
+@settings(deadline=None, max_examples=150)
+@given(ops=_ops, max_seconds=st.sampled_from([5.0, 20.0, 1000.0]), max_bytes=st.sampled_from([3000, 10**7]))
+def test_span_and_stats_kept_as_samples_arrive_equal_a_walk_over_every_topic(
+    ops: list[tuple[str, int, list[float]]], max_seconds: float, max_bytes: int
+) -> None:
+    """The span and stats kept as samples arrive equal a walk over every topic's after each append (in order
+    or late, merged in place), duration trim, memory eviction, drop and clear."""
+    h = History(clock=None, max_seconds=max_seconds, max_bytes=max_bytes, chunk_samples=4, chunk_bytes=64)
+    for kind, k, times in ops:
+        topic = f"/rosdashboard/{kind[0]}{k}"
+        if kind == "numbers":
+            h.append_numbers(topic, times, [float(i) for i in range(len(times))])
+        elif kind == "payloads":
+            h.append_payloads(topic, times, [bytes(8) for _ in times])
+        elif kind == "drop":
+            h.drop(f"/rosdashboard/n{k}")
+        else:
+            h.clear()
+        topics, samples, oldest, newest = _walked(h)
+        stats = h.stats()
+        assert (stats.topics, stats.samples, stats.oldest, stats.newest) == (topics, samples, oldest, newest)
+        assert h.span() == (None if oldest is None else (oldest, newest))
+
+
+def test_span_and_stats_cost_the_same_at_3000_topics_as_at_10() -> None:
+    """Reading the whole history's span and stats walks no topic: at 3000 topics it costs what it costs at
+    10 (the status bar and the time bar read them twice a frame)."""
+    import time
+
+    def read_ns(topics: int) -> float:
+        h = History(clock=None)
+        for k in range(topics):
+            h.append_numbers(f"/rosdashboard/t{k}", [1_700_000_000.0 + k], [1.0])
+        samples = []
+        for _ in range(300):
+            start = time.perf_counter_ns()
+            h.span()
+            h.stats()
+            samples.append(time.perf_counter_ns() - start)
+        return float(np.median(samples))
+
+    few, many = read_ns(10), read_ns(3000)
+    assert many < 5 * few + 5_000, (few, many)

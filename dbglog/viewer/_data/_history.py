@@ -88,6 +88,13 @@ class HistoryStats:
     """The duration budget."""
 
 
+_Summary: TypeAlias = tuple[int, int, int, float, float, int, int]
+"""What `History.stats` and `History.span` answer, kept as samples arrive and leave, read in O(1): topics,
+samples, bytes used, oldest and newest source time held (inf and -inf when empty), evicted, late dropped.
+A plain tuple: the writer makes one per append."""
+_EMPTY_SUMMARY: _Summary = (0, 0, 0, math.inf, -math.inf, 0, 0)
+
+
 class _Chunk:
     """An immutable view of one chunk: times ``[start:n]`` sorted, and their values or payloads.
 
@@ -414,6 +421,13 @@ class History:
         self._evicted = 0
         self._late = 0
         self._trim_step = min(1.0, self.max_seconds / 100)
+        self._samples = 0
+        self._oldest = math.inf
+        self._newest_held = -math.inf
+        self._walk = False
+        """Samples left (a trim, an eviction, a dropped topic): the oldest and newest are walked for again."""
+        self._summary = _EMPTY_SUMMARY
+        """Replaced (never changed) by the writer after each write: readers take it without the lock."""
 
     # --- writer side (one thread: the engine's ROS thread) ----------------------------------------
 
@@ -442,6 +456,7 @@ class History:
             v = v.astype(dtype, copy=False)
             if not self._append_in_place(track, t, v):
                 self._append(track, t, v)
+            self._summarize()
 
     def append_payloads(
         self, topic: str, times: npt.ArrayLike, payloads: Sequence[bytes], *, msg_type: str = ""
@@ -465,6 +480,7 @@ class History:
             if msg_type:
                 track.msg_type = msg_type
             self._append(track, t, items)
+            self._summarize()
 
     def drop(self, topic: str) -> None:
         """Forget a topic's history (e.g. when its type changes)."""
@@ -472,6 +488,9 @@ class History:
             track = self._tracks.pop(topic, None)
             if track is not None:
                 self._bytes -= track.nbytes
+                self._samples -= track.view.count
+                self._walk = True
+            self._summarize()
 
     def clear(self) -> None:
         """Forget everything."""
@@ -479,6 +498,8 @@ class History:
             self._tracks.clear()
             self._bytes = 0
             self._newest = self._horizon = -np.inf
+            self._samples, self._oldest, self._newest_held, self._walk = 0, math.inf, -math.inf, False
+            self._summarize()
 
     def _track(self, topic: str, kind: Kind, dtype: np.dtype[np.generic] | None, msg_type: str) -> _Track:
         track = self._tracks.get(topic)
@@ -487,6 +508,43 @@ class History:
         elif track.kind != kind:
             raise ValueError(f"history of {topic!r} holds {track.kind}, not {kind}: drop() it first")
         return track
+
+    def _publish(self, track: _Track, newest: float | None) -> None:
+        """Publish a track's new view and keep the totals: samples, the oldest and newest time held.
+
+        Args:
+            track: the track written to.
+            newest: the newest time just written to it; None after samples left (a trim, an eviction):
+                the oldest, or a whole topic's newest, may have gone, and are walked for in `_summarize`.
+        """
+        before = track.view.count
+        track.publish()
+        view = track.view
+        self._samples += view.count - before
+        if newest is None:
+            self._walk = True
+        elif view.firsts:
+            if view.firsts[0] < self._oldest:
+                self._oldest = view.firsts[0]
+            if newest > self._newest_held:
+                self._newest_held = newest
+
+    def _summarize(self) -> None:
+        """Replace the summary readers take (walking every topic only after samples left)."""
+        if self._walk:
+            views = [t.view for t in self._tracks.values() if t.view.chunks]
+            self._oldest = min((v.chunks[0].first for v in views), default=math.inf)
+            self._newest_held = max((v.chunks[-1].last for v in views), default=-math.inf)
+            self._walk = False
+        self._summary = (
+            len(self._tracks),
+            self._samples,
+            self._bytes,
+            self._oldest,
+            self._newest_held,
+            self._evicted,
+            self._late,
+        )
 
     def _append(self, track: _Track, t: _F64, data: _Arr | list[bytes]) -> None:
         n = len(t)
@@ -520,7 +578,7 @@ class History:
             self._reorder(track, t, data)
         else:
             self._extend(track, t, data)
-        track.publish()
+        self._publish(track, last)
         self._bytes += track.recount()
         if last > self._newest:
             self._newest = last
@@ -549,7 +607,7 @@ class History:
         o.n += n
         o.update_blocks()
         track.newest = last
-        track.publish()
+        self._publish(track, last)
         if last > self._newest:
             self._newest = last
         self._enforce()
@@ -723,7 +781,7 @@ class History:
             self._horizon = horizon
             for track in self._tracks.values():
                 if self._trim(track, horizon):
-                    track.publish()
+                    self._publish(track, None)
                     self._bytes += track.recount()
         while self._bytes > self.max_bytes:
             victim: _Track | None = None
@@ -735,7 +793,7 @@ class History:
             if victim is None:
                 break
             self._drop_oldest(victim)
-            victim.publish()
+            self._publish(victim, None)
             self._bytes += victim.recount()
 
     def _trim(self, track: _Track, horizon: float) -> bool:
@@ -802,31 +860,32 @@ class History:
         return self._view(topic).count
 
     def span(self, topic: str | None = None) -> tuple[float, float] | None:
-        """Return (oldest, newest) source time held, for one topic or all; None when empty."""
-        views = [self._view(topic)] if topic is not None else [t.view for t in list(self._tracks.values())]
-        firsts = [v.chunks[0].first for v in views if v.chunks]
-        lasts = [v.chunks[-1].last for v in views if v.chunks]
-        return (min(firsts), max(lasts)) if firsts else None
+        """Return (oldest, newest) source time held, for one topic or all; None when empty. O(1): the
+        history keeps its oldest and newest time as samples arrive and leave."""
+        if topic is None:
+            _topics, samples, _bytes, oldest, newest, _evicted, _late = self._summary
+            return (oldest, newest) if samples else None
+        view = self._view(topic)
+        return (view.chunks[0].first, view.chunks[-1].last) if view.chunks else None
 
     def bytes_used(self) -> int:
         """Return the memory the history holds, all chunks' allocations counted."""
         return self._bytes
 
     def stats(self) -> HistoryStats:
-        """Return counts, bytes and span in one consistent read."""
-        with self._lock:
-            span = self.span()
-            return HistoryStats(
-                topics=len(self._tracks),
-                samples=sum(t.view.count for t in self._tracks.values()),
-                bytes_used=self._bytes,
-                oldest=None if span is None else span[0],
-                newest=None if span is None else span[1],
-                evicted=self._evicted,
-                late_dropped=self._late,
-                max_bytes=self.max_bytes,
-                max_seconds=self.max_seconds,
-            )
+        """Return counts, bytes and span in one consistent read (O(1), without waiting for the writer)."""
+        topics, samples, bytes_used, oldest, newest, evicted, late = self._summary
+        return HistoryStats(
+            topics=topics,
+            samples=samples,
+            bytes_used=bytes_used,
+            oldest=oldest if samples else None,
+            newest=newest if samples else None,
+            evicted=evicted,
+            late_dropped=late,
+            max_bytes=self.max_bytes,
+            max_seconds=self.max_seconds,
+        )
 
     def at(self, topic: str, t: float) -> Sample | None:
         """Return the state at time `t`: the last sample with time <= t (None before the first)."""
