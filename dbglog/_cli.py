@@ -87,6 +87,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.print_help(sys.stderr)
         return 2
     interruptible()
+    if args.command != "run":  # `dbglog run` is the user's program: its participants keep their profile
+        from dbglog._ros._profile import claim
+
+        claim()
     try:
         return _load(args._module).run(args)
     except KeyboardInterrupt:

@@ -14,6 +14,8 @@ import threading
 from collections.abc import Callable, Iterable
 from typing import Any, NamedTuple
 
+from dbglog._ros._profile import first_participant
+
 __all__ = ["NodeIdentity", "PrivateNode", "WaitSet", "no_callback", "own_nodes", "take_batch"]
 
 _log = logging.getLogger("dbglog.ros")
@@ -58,18 +60,19 @@ class PrivateNode:
         from rclpy.signals import SignalHandlerOptions
 
         self.context: Any = Context()
-        rclpy.init(args=[], context=self.context, signal_handler_options=SignalHandlerOptions.NO)
-        try:
-            self.node: Any = Node(
-                name,
-                namespace=namespace,
-                context=self.context,
-                start_parameter_services=False,
-                enable_rosout=rosout,
-            )
-        except Exception:
-            rclpy.shutdown(context=self.context)
-            raise
+        with first_participant():  # a `dbglog` command's first participant: docs/engine.md "Discovery"
+            rclpy.init(args=[], context=self.context, signal_handler_options=SignalHandlerOptions.NO)
+            try:
+                self.node: Any = Node(
+                    name,
+                    namespace=namespace,
+                    context=self.context,
+                    start_parameter_services=False,
+                    enable_rosout=rosout,
+                )
+            except Exception:
+                rclpy.shutdown(context=self.context)
+                raise
         self.identity = NodeIdentity(self.node.get_namespace(), self.node.get_name())
         self._closed = False
         with _OWN_LOCK:
