@@ -27,6 +27,7 @@ import numpy.typing as npt
 from dbglog._regex._compile import CompiledRegex
 from dbglog._ros._batch import batch_robot
 from dbglog._ros._cdr import CDR_HEADER, HEADER_SIZE, decode_fixed
+from dbglog._ros._census import Census, take_census
 from dbglog._ros._node import NodeIdentity, PrivateNode, WaitSet, no_callback, take_batch
 from dbglog._ros._qos import LOG_DEPTH, subscription_qos
 from dbglog._ros._tags import parse_topic
@@ -292,6 +293,8 @@ class Engine(SeriesTimes):
             the SDK's arrays and messages) gets a subscription of its own as soon as the engine sees it,
             so a plot added later shows its past. The terminal commands, which read one binding, leave
             it off.
+        census: at each graph poll, count the participants on this host and those the engine found,
+            and its discovery sockets' drops (`census`): ``dbglog tags`` waits on it.
     """
 
     def __init__(
@@ -310,6 +313,7 @@ class Engine(SeriesTimes):
         history_seconds: float = DEFAULT_MAX_SECONDS,
         history_bytes: int = DEFAULT_MAX_BYTES,
         hold_tags: bool = True,
+        census: bool = False,
     ) -> None:
         if history < 1:
             raise ValueError(f"history must be at least 1 value, not {history}")
@@ -331,6 +335,8 @@ class Engine(SeriesTimes):
         self.queue_budget = queue_budget
         self.node_name = node_name
         self.hold_tags = hold_tags
+        self._census_wanted = census
+        self._census: Census | None = None
         self._lock = threading.Lock()
         self.store = History(max_seconds=history_seconds, max_bytes=history_bytes)
         """The history: topics by name (raw: numbers or CDR payloads) and each series' values by its key."""
@@ -495,6 +501,10 @@ class Engine(SeriesTimes):
         """Return the ROS type of every topic the history holds (to save it as a recording)."""
         types = {**self._batches.types(), **self._held_types}
         return {name: t for name, t in types.items() if self.store.kind(name) is not None}
+
+    def census(self) -> Census | None:
+        """Return the participants found at the last graph poll (``census=True``; None before, or without)."""
+        return self._census
 
     def topics(self) -> list[TopicInfo]:
         """Return every topic on the graph (with a publisher or a foreign subscriber), by name."""
@@ -712,6 +722,11 @@ class Engine(SeriesTimes):
         return plan
 
     def _refresh_graph(self, node: Any) -> None:
+        if self._census_wanted:  # before the topics: they are then at least as new as the census
+            try:
+                self._census = take_census(node)
+            except Exception:  # the census is advice: the poll goes on without it
+                _log.debug("viewer engine: census failed", exc_info=True)
         graph = node.get_topic_names_and_types()
         names_types = [(n, t) for n, t in graph if batch_robot(n) is None]
         self._graph_polls += 1
