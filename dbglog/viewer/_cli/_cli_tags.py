@@ -11,6 +11,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
+from dbglog._ros._census import Census, discovery_reach
 from dbglog._ros._tags import natural_key, robot_label, tag_of
 from dbglog.viewer._data._suggest import DISCOVERY_HORIZON_S
 
@@ -40,9 +41,19 @@ _CLEAR = "\x1b[H\x1b[2J"
 _POLL_S = 0.05
 _DEFAULT_WAIT_S = 8.0
 _QUIET_S = 0.5
-"""The table prints after DISCOVERY_HORIZON_S, once no topic or publisher count changed for this long."""
-_VALUE_GRACE_S = 2.0
-"""A published tag gets this long to deliver its first value before the table stops waiting for it."""
+"""The table prints once no topic or publisher count changed for this long (see `_Graph.settled`)."""
+_RESEND_S = 1.2
+"""Discovery data a socket dropped (its buffer full) is sent again within a heartbeat period (1 s): the graph
+is settled only this long after the engine's discovery sockets last dropped a datagram."""
+_QUIET_POLLS = 2
+"""The engine's graph polls that must find nothing changed (they come every 0.25 s, or later while it
+ingests a burst of kept batches: wall time alone would call the graph quiet between two polls)."""
+_VALUE_GRACE_S = 4.0
+"""A published tag gets this long to deliver its first value before the table stops waiting for it: a
+value usually arrives within 0.5 s of the tag being listed, but 2-3 s when a participant of this host was
+just killed (2026-11-28: 2.2 s beside a robot killed with SIGKILL, with or without the discovery profile)."""
+_VALUE_POLLS = 8
+"""A published tag's first value is waited for over at least this many of the engine's graph polls too."""
 _BURST_S = 0.3
 """Samples arriving this long after a tag's first one are live ones, not its kept history."""
 _RATE_SAMPLES = 50
@@ -72,11 +83,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--settle",
         type=float,
-        default=DISCOVERY_HORIZON_S,
+        default=None,
         metavar="S",
-        help="the least time given to DDS discovery before the table prints (default %(default)g s: a robot "
-        "that missed the handshake shows up at its next announcement, up to ~3.4 s on a loaded machine); "
-        "lower it to print sooner when every robot is found at once",
+        help="the least time given to DDS discovery before the table prints (default: none when discovery "
+        "stays on this host, ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST, where every participant is counted "
+        f"and waited for; else {DISCOVERY_HORIZON_S:g} s, as one on another host that missed the handshake "
+        "shows up at its next announcement)",
     )
     parser.add_argument(
         "--interval", type=float, default=1.0, metavar="S", help="refresh period with --watch (default 1 s)"
@@ -135,6 +147,8 @@ class _Seen:
     """What the command watched of one listed topic."""
 
     listed_at: float
+    listed_poll: int = 0
+    """The engine's graph polls so far when the topic was listed."""
     first_value_at: float | None = None
     first_count: int = 0
     first_time: float | None = None
@@ -167,7 +181,9 @@ def format_rate(rate: float | None) -> str:
     return f"{rounded:.{max(0, 2 - math.floor(math.log10(rounded)))}f} Hz"
 
 
-def _observe(engine: Engine, topics: list[TopicInfo], seen: dict[str, _Seen], now: float) -> None:
+def _observe(
+    engine: Engine, topics: list[TopicInfo], seen: dict[str, _Seen], now: float, poll: int = 0
+) -> None:
     """Bind new topics and note, per topic, when values first and later arrived."""
     from dbglog.viewer._data._model import Binding
 
@@ -176,7 +192,7 @@ def _observe(engine: Engine, topics: list[TopicInfo], seen: dict[str, _Seen], no
         state = seen.get(info.name)
         if state is None:
             engine.bind(binding)
-            state = seen[info.name] = _Seen(now)
+            state = seen[info.name] = _Seen(now, poll)
         snap = engine.snapshot(binding)
         if not snap.count or snap.count == state.count:
             continue
@@ -268,9 +284,10 @@ def _listed(engine: Engine, show_all: bool) -> list[TopicInfo]:
 
 
 def _waiting_for(
-    engine: Engine, topics: list[TopicInfo], seen: dict[str, _Seen], now: float, grace: float
+    engine: Engine, topics: list[TopicInfo], seen: dict[str, _Seen], now: float, poll: int, grace: float
 ) -> list[str]:
-    """Return the published topics without a first value that are still within `grace` seconds."""
+    """Return the published topics without a first value that are still within `grace` seconds (and
+    `_VALUE_POLLS` engine graph polls) of being listed."""
     from dbglog.viewer._data._model import Binding, Status
 
     return [
@@ -278,33 +295,81 @@ def _waiting_for(
         for t in topics
         if t.publishers
         and seen[t.name].first_value_at is None
-        and now - seen[t.name].listed_at < grace
+        and (now - seen[t.name].listed_at < grace or poll - seen[t.name].listed_poll < _VALUE_POLLS)
         and engine.snapshot(Binding(t.name)).status != Status.ERROR  # e.g. several fields (--all)
     ]
+
+
+def _least_wait(args: argparse.Namespace, census: Census | None) -> float:
+    """Return the least seconds given to discovery: --settle, else none where the census counts every
+    participant discovery can reach (this host's), else the discovery horizon."""
+    if args.settle is not None:
+        return float(args.settle)
+    if census is not None and census.unseen is not None and discovery_reach() == "host":
+        return 0.0
+    return DISCOVERY_HORIZON_S
+
+
+@dataclass(slots=True)
+class _Graph:
+    """How the graph moved, poll by poll of the engine, while the command waited for it to settle."""
+
+    started: float
+    signature: frozenset[tuple[str, int]] | None = None
+    poll: int = -1
+    """The engine's graph polls so far, and when the last one was first seen."""
+    polled_at: float = -math.inf
+    changed_poll: int = 0
+    changed_at: float = -math.inf
+    drops: int = 0
+    dropped_at: float = -math.inf
+
+    def watch(self, topics: list[TopicInfo], census: Census | None, poll: int, now: float) -> None:
+        """Note a new poll, a change of topics or publisher counts, a datagram the discovery sockets lost."""
+        if poll != self.poll:
+            self.poll, self.polled_at = poll, now
+        current = frozenset((t.name, t.publishers) for t in topics)
+        if current != self.signature:
+            self.signature, self.changed_poll, self.changed_at = current, poll, now
+        if census is not None and census.dropped is not None and census.dropped != self.drops:
+            self.drops, self.dropped_at = census.dropped, now
+
+    def settled(self, args: argparse.Namespace, census: Census | None, now: float) -> bool:
+        """Whether discovery is done: the least wait passed; every participant of this host is found (or the
+        horizon passed); `_QUIET_POLLS` polls over `_QUIET_S` found nothing changed; and one poll came
+        `_RESEND_S` after the discovery sockets last dropped a datagram."""
+        waited = now - self.started
+        found = census is None or not census.unseen or waited >= DISCOVERY_HORIZON_S
+        return (
+            waited >= _least_wait(args, census)
+            and found
+            and self.poll - self.changed_poll >= _QUIET_POLLS
+            and self.polled_at - self.changed_at >= _QUIET_S
+            and self.polled_at - self.dropped_at >= _RESEND_S
+        )
 
 
 def _settle(engine: Engine, args: argparse.Namespace, seen: dict[str, _Seen]) -> list[TopicInfo]:
     """Wait until discovery settled and first values arrived (at most --wait s); say what it gave up on."""
     started = time.monotonic()
     deadline = started + args.wait
-    signature: frozenset[tuple[str, int]] | None = None
-    changed_at = started
+    graph = _Graph(started)
     early = False
     while True:
         now = time.monotonic()
+        poll = engine.stats().graph_polls  # first: the census and the topics are then as new as this poll
+        census = engine.census()
         topics = _listed(engine, args.all)
-        _observe(engine, topics, seen, now)
-        current = frozenset((t.name, t.publishers) for t in topics)
-        if current != signature:
-            signature, changed_at = current, now
+        _observe(engine, topics, seen, now, poll)
+        graph.watch(topics, census, poll, now)
         if now >= deadline:
-            early = bool(topics) and now - changed_at < _QUIET_S
+            early = bool(topics) and not graph.settled(args, census, now)
             break
-        waiting = _waiting_for(engine, topics, seen, now, _VALUE_GRACE_S)
-        if topics and now - started >= args.settle and now - changed_at >= _QUIET_S and not waiting:
+        waiting = _waiting_for(engine, topics, seen, now, poll, _VALUE_GRACE_S)
+        if topics and graph.settled(args, census, now) and not waiting:
             break
         time.sleep(_POLL_S)
-    waiting = _waiting_for(engine, topics, seen, now, math.inf)
+    waiting = _waiting_for(engine, topics, seen, now, poll, math.inf)
     waited = f"{now - started:.1f} s"
     if waiting:
         names = ", ".join(t if args.all else (tag_of(t) or t) for t in waiting[:8])
@@ -319,6 +384,14 @@ def _settle(engine: Engine, args: argparse.Namespace, seen: dict[str, _Seen]) ->
         print(
             f"dbglog tags: the ROS graph was still changing when --wait ran out ({waited}); "
             "the table may be incomplete (try a longer --wait)",
+            file=sys.stderr,
+        )
+    if census is not None and census.unseen:
+        domain = os.environ.get("ROS_DOMAIN_ID", "0")
+        some = "1 DDS participant" if census.unseen == 1 else f"{census.unseen} DDS participants"
+        print(
+            f"dbglog tags: {some} on this host (ROS_DOMAIN_ID={domain}) not found in {waited}: "
+            "the tags published there are missing from the table",
             file=sys.stderr,
         )
     return topics
@@ -339,11 +412,11 @@ def run(args: argparse.Namespace) -> int:
         return _of_file(args)
     from dbglog.viewer._data._engine import Engine
 
-    if args.wait < 0 or args.settle < 0 or args.interval <= 0:
+    if args.wait < 0 or (args.settle is not None and args.settle < 0) or args.interval <= 0:
         print("dbglog tags: --wait must be >= 0, --settle must be >= 0 and --interval > 0", file=sys.stderr)
         return 2
     seen: dict[str, _Seen] = {}
-    with Engine(node_name="dbglog_tags", hold_tags=False) as engine:
+    with Engine(node_name="dbglog_tags", hold_tags=False, census=True) as engine:
         started = time.monotonic()
         topics = _settle(engine, args, seen)
         while True:
