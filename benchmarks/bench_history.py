@@ -11,12 +11,14 @@ from __future__ import annotations
 
 import argparse
 import gc
+import itertools
 import os
 import statistics
 import subprocess
 import sys
 import time
 import tracemalloc
+from collections.abc import Callable
 
 import numpy as np
 
@@ -225,17 +227,37 @@ def _flood(args: argparse.Namespace) -> None:
     )
 
 
+def _small_appends(h: History, names: list[str]) -> Callable[[], None]:
+    """Return a call that appends 2 samples to the next of `names`, each call later than the one before."""
+    two = np.ones(2)
+    step = itertools.count()
+
+    def append() -> None:
+        i = next(step)
+        h.append_numbers(names[i % len(names)], _T0 + 20 + i * 1e-3 + np.array([0.0, 1e-4]), two)
+
+    return append
+
+
 def _span(args: argparse.Namespace) -> None:
-    """Time the whole history's span and stats reads (the time bar and status bar read both each frame)."""
+    """Time the whole history's span and stats reads (the time bar and status bar read both each frame),
+    and the small append that keeps them (2 samples to one of the topics, the engine's usual batch)."""
     rows = []
     for topics in (60, 600, 3000):
         h = History(clock=None)
-        for k in range(topics):
-            h.append_numbers(f"/rosdashboard/t{k}", _T0 + np.arange(100) / 10 + k * 1e-3, np.arange(100.0))
+        names = [f"/rosdashboard/t{k}" for k in range(topics)]
+        for k, name in enumerate(names):
+            h.append_numbers(name, _T0 + np.arange(100) / 10 + k * 1e-3, np.arange(100.0))
         span_ns = median_ns_per_call(h.span, calls=200, repeats=args.repeats * 5)
         stats_ns = median_ns_per_call(h.stats, calls=200, repeats=args.repeats * 5)
-        rows.append([topics, f"{span_ns / 1e3:.2f}", f"{stats_ns / 1e3:.2f}"])
-    print_table("Whole-history reads (medians)", ["topics", "span() µs", "stats() µs"], rows)
+        append = _small_appends(h, names)
+        append_ns = median_ns_per_call(append, calls=2000, repeats=args.repeats * 3)
+        rows.append([topics, f"{span_ns / 1e3:.2f}", f"{stats_ns / 1e3:.2f}", f"{append_ns / 1e3:.2f}"])
+    print_table(
+        "Whole-history reads and the appends that keep them (medians)",
+        ["topics", "span() µs", "stats() µs", "2-sample append µs"],
+        rows,
+    )
 
 
 def main(argv: list[str] | None = None) -> int:
