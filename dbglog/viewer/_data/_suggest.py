@@ -19,8 +19,9 @@ __all__ = [
 ]
 
 DISCOVERY_HORIZON_S = 4.0
-"""Fast DDS answers a newcomer's announcement at once only sometimes; a participant that misses it is
-found at its next periodic announcement (every 3 s): the graph is complete only this long after start
+"""A running participant answers a newcomer's announcement once; when the newcomer misses that answer (a
+Fast DDS race, docs/engine.md "Discovery"), it finds that participant at its next periodic announcement
+(every 3 s): where the participants cannot be counted, the graph is complete only this long after start
 (measured: up to 3.4 s on a loaded 2-core machine)."""
 
 EMPTY_GRAPH_HINT = (
