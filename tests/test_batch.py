@@ -360,3 +360,59 @@ def test_a_new_sdk_node_is_waited_for_until_it_shows_its_batch_writer(
     assert not grace.should_wait("/rosdashboard/v", pub("dbglog_4242", "std_msgs/msg/Float64MultiArray"), [])
     assert not grace.should_wait("/rosdashboard/a", pub("talker"), [])
     assert wait_until(lambda: not grace.should_wait("/rosdashboard/a", pub("dbglog_4242"), []), 5.0)
+
+
+def test_a_backlog_of_kept_batches_is_taken_a_time_budget_a_wake_up(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A robot's kept batches (transient-local, found at once by a new reader) are taken for at most the
+    drain budget a wake-up, at least one each, so the engine's graph polls come between; none is lost."""
+    from std_msgs.msg import UInt8MultiArray
+
+    from dbglog._ros._batch import batch_topic
+    from dbglog._ros._node import PrivateNode
+    from dbglog._ros._qos import batch_qos
+    from dbglog.viewer._data import _batchsub
+    from dbglog.viewer._data._batchsub import BatchIngest
+    from dbglog.viewer._data._history import History
+    from tests._ros import RosPeer
+
+    kept = 40
+    robot = f"/{_RUN}_backlog"
+    with RosPeer("batch_backlog_robot") as peer:
+        pub = peer.publisher(batch_topic(robot), UInt8MultiArray, batch_qos())
+        for seq in range(kept):
+            pub.publish(_encode([("s0/v", "Float64", float(seq))], seq=seq))  # serialized, as the SDK sends
+        history = History()
+        ingest = BatchIngest(
+            make_sink=lambda *_a: None,
+            feed=lambda *_a: None,
+            feed_numbers=lambda *_a: None,
+            record_latency=lambda _t: None,
+            message_class=lambda _n: UInt8MultiArray,
+            history=history,
+        )
+        reader = PrivateNode("batch_backlog_reader")
+        try:
+
+            def subscribed() -> bool:
+                ingest.refresh(reader.node, [batch_topic(robot)])  # subscribes once the writer is seen
+                return robot in ingest.subs
+
+            assert wait_until(subscribed, 10)
+            assert peer.wait_for_subscribers(pub)
+            sub = ingest.subs[robot]
+            ready = {sub.handle.pointer}
+            topic = topic_for_tag("s0/v", robot)
+            time.sleep(0.3)  # the kept batches reach the reader: the whole backlog waits there before a take
+            monkeypatch.setattr(_batchsub, "_MAX_DRAIN_S", 0.0)  # the budget runs out after the first
+            per_wake_up: list[int] = []
+
+            def take() -> bool:
+                per_wake_up.append(ingest.drain(ready)[0])
+                return sum(per_wake_up) >= kept
+
+            assert wait_until(take, 10)
+            assert max(per_wake_up) == 1, per_wake_up  # one a wake-up: the backlog did not hold the loop
+            assert sum(per_wake_up) == kept
+            assert history.range(topic, -np.inf, np.inf)[1].tolist() == [float(s) for s in range(kept)]
+        finally:
+            reader.close()
