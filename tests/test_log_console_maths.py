@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 import pytest
 from hypothesis import given
@@ -11,7 +13,7 @@ from dbglog._regex._propose import propose
 from dbglog.viewer._data._model import Binding
 from dbglog.viewer._ui._host import mark_columns
 from dbglog.viewer._ui._plotnumber import number_binding, plot_window
-from dbglog.viewer._ui._timescale import TimeScale
+from dbglog.viewer._ui._timescale import TimeScale, mark_runs
 from dbglog.viewer._widgets._log import (
     HEADER_H,
     ROW_H,
@@ -67,12 +69,38 @@ def test_marks_keep_the_worst_level_of_each_pixel_column() -> None:
     scale = TimeScale(100.0, 200.0, 10.0, 110.0)  # one pixel a second
     times = np.array([100.0, 150.2, 150.4, 150.3, 199.9, 250.0])
     levels = np.array([30, 30, 50, 40, 40, 30], dtype=np.uint8)
-    assert mark_columns(times, levels, scale) == [
+    xs, worst = mark_columns(times, levels, scale)
+    assert list(zip(xs.tolist(), worst.tolist(), strict=True)) == [
         (10, 30),
         (60, 50),
         (110, 40),
     ]  # 250 s is clamped to the end
-    assert mark_columns(np.zeros(0), np.zeros(0, dtype=np.uint8), scale) == []
+    xs, worst = mark_columns(np.zeros(0), np.zeros(0, dtype=np.uint8), scale)
+    assert len(xs) == len(worst) == 0
+
+
+def test_adjacent_marks_of_one_level_are_one_run() -> None:
+    """The timeline draws a run of adjacent columns of one level as one rectangle: a new run at a hole or
+    another level; a flood's hundreds of marked columns are a few runs."""
+    xs = np.array([3, 4, 5, 7, 8, 9, 10, 20], dtype=np.intp)
+    levels = np.array([30, 30, 30, 40, 40, 30, 30, 50], dtype=np.uint8)
+    assert mark_runs(xs, levels) == ((3, 5, 30), (7, 8, 40), (9, 10, 30), (20, 20, 50))
+    assert mark_runs(np.zeros(0, dtype=np.intp), np.zeros(0, dtype=np.uint8)) == ()
+    flood = np.arange(100, 500, dtype=np.intp)
+    assert mark_runs(flood, np.full(len(flood), 40, dtype=np.uint8)) == ((100, 499, 40),)
+
+
+@given(st.lists(st.tuples(st.floats(0.0, 100.0), st.sampled_from([30, 40, 50])), max_size=60))
+def test_runs_cover_exactly_the_marked_columns(lines: list[tuple[float, int]]) -> None:
+    """Runs, laid end to end, are the marked columns with their levels: none lost, none added."""
+    scale = TimeScale(0.0, 100.0, 0.0, 50.0)
+    times = np.array([t for t, _ in lines], dtype=np.float64)
+    levels = np.array([lv for _, lv in lines], dtype=np.uint8)
+    xs, worst = mark_columns(times, levels, scale)
+    runs = mark_runs(xs, worst)
+    spread = [(x, lv) for first, last, lv in runs for x in range(first, last + 1)]
+    assert spread == list(zip(xs.tolist(), worst.tolist(), strict=True))
+    assert all(a[1] + 1 < b[0] or a[2] != b[2] for a, b in itertools.pairwise(runs))
 
 
 def test_a_number_plot_binds_the_log_text_with_pattern_node_and_level() -> None:

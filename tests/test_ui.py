@@ -22,6 +22,7 @@ import numpy.typing as npt
 import pytest
 
 from dbglog.viewer._data._model import Binding, FieldInfo, SeriesSnapshot, Status
+from dbglog.viewer._data._timeline import Timeline
 from dbglog.viewer._document._dashboard import WidgetConfig, load_dashboard
 from dbglog.viewer._ui import StaticSource, ViewerApp
 from dbglog.viewer._ui._dialogs import (
@@ -33,10 +34,12 @@ from dbglog.viewer._ui._dialogs import (
 )
 from dbglog.viewer._ui._frame import TITLE_H, CanvasItem
 from dbglog.viewer._ui._theme import STATUS_COLORS
+from dbglog.viewer._ui._timebar import CHANGE_COLOR, RAIL_Y, TimeBar
+from dbglog.viewer._ui._timescale import TimeScale
 from dbglog.viewer._widgets import WidgetRegistry
 from dbglog.viewer._widgets._geometry import Rect
 from dbglog.viewer._widgets._plot import PlotWidget
-from dbglog.viewer.widget_api import Widget
+from dbglog.viewer.widget_api import EventMark, Widget
 from tests._children import run_dbglog, run_scenario
 
 pytestmark = pytest.mark.gui
@@ -645,6 +648,79 @@ def scenario_screenshot_shows_status_colours_and_widgets(
     assert count_color(img, (60, 220, 100)) > 1000, "the lit LED is green"
     canvas = img[60:700, 250:1150, :3]
     assert len(np.unique(canvas.reshape(-1, 3), axis=0)) > 200, "the canvas is not blank"
+
+
+def drawn_items(item: int | str) -> list[int | str]:
+    """Every drawing (line, rectangle, text...) under a drawlist or layer, its layers opened."""
+    found: list[int | str] = []
+    for child in dpg.get_item_children(item, 2) or []:
+        kind = dpg.get_item_type(child)
+        found += drawn_items(child) if kind.endswith("mvDrawLayer") else [child]
+    return found
+
+
+def scenario_a_flood_of_log_marks_costs_the_timeline_a_few_items(
+    app: ViewerApp, source: StaticSource, tmp_path: Path
+) -> None:
+    """400 adjacent pixel columns of warnings and errors (a /rosout flood) are drawn as a few rectangles, and
+    a move of the cursor alone redraws the track without drawing the marks again."""
+    flood = np.arange(300, 700, dtype=np.intp)
+    levels = np.where((flood // 100) % 2 == 1, 40, 30).astype(np.uint8)  # 4 blocks of 100 columns
+    timeline = Timeline(StaticSource())
+
+    def marks(scale: TimeScale) -> tuple[npt.NDArray[np.intp], npt.NDArray[np.uint8]]:
+        return flood, levels
+
+    with dpg.window(pos=(0, 0), width=1000, height=60):
+        bar = TimeBar(timeline, lambda: (1000.0, 1060.0), timeline.seek, lambda: None, marks=marks)
+    bar.fit(1000)
+    bar.draw()
+    frames(app, 2)
+    first = drawn_items(bar.track)
+    assert len(first) < 60, f"{len(first)} items for 4 runs of marks and the rail"
+    timeline.pause(1030.0)
+    bar.draw()
+    frames(app, 2)
+    again = drawn_items(bar.track)
+    kept = set(first) & set(again)
+    assert len(kept) == 4, "the 4 runs are kept as drawn, the rest of the track redrawn"
+    assert {dpg.get_item_type(i) for i in kept} == {"mvAppItemType::mvDrawRect"}
+
+
+class _OneChange:
+    """The timeline's events: one parameter change at `t` (what `TimelineEvents` asks)."""
+
+    def __init__(self, t: float) -> None:
+        self.t = t
+
+    def event_times(self) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.bool_]]:
+        return np.array([self.t]), np.array([False])
+
+    def events(self, t0: float, t1: float) -> list[EventMark]:
+        return [EventMark(self.t, "changed", "ui_pid.kp 1 \u2192 2")] if t0 <= self.t <= t1 else []
+
+
+def scenario_the_newest_event_shows_over_the_live_knob(
+    app: ViewerApp, source: StaticSource, tmp_path: Path
+) -> None:
+    """A parameter change that is the newest thing held sits where the LIVE knob is: its diamond is drawn
+    over the knob, not hidden under it."""
+    timeline = Timeline(StaticSource())
+    with dpg.window(pos=(0, 700), width=1000, height=60, no_title_bar=True):
+        change = _OneChange(1060.0)
+        bar = TimeBar(timeline, lambda: (1000.0, 1060.0), timeline.seek, lambda: None, events=change)
+    for _ in range(3):
+        bar.fit(1000)
+        bar.draw()
+        frames(app, 1)
+    assert bar.scale is not None
+    [(x, _marker)] = bar.event_marks
+    assert x == round(bar.scale.x_of(1060.0)), "the change is at the knob's pixel"
+    track = bar.track_rect()
+    img = read_png(app.screenshot(tmp_path / "knob.png"))
+    cx, cy = round(track.x + x), round(track.y + RAIL_Y)
+    around = img[cy - 5 : cy + 6, cx - 5 : cx + 6]
+    assert count_color(around, CHANGE_COLOR, tol=30) >= 6, "the change's diamond is under the knob"
 
 
 SCENARIOS = sorted(n.removeprefix("scenario_") for n in dir() if n.startswith("scenario_"))

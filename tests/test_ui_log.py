@@ -8,6 +8,7 @@ real mouse move, click, wheel turn or key press (xdotool's XTEST events); no han
 
 from __future__ import annotations
 
+import itertools
 import os
 import shutil
 import subprocess
@@ -594,7 +595,7 @@ def test_plot_this_number_takes_every_line_of_that_kind_and_its_legend_names_the
 
 def test_warnings_and_errors_mark_the_timeline(viewer: Callable[[str], Viewer], loggers: Loggers) -> None:
     """The console's WARN and ERROR lines mark the timeline bar, in their colours (one mark per pixel column,
-    the worst level wins)."""
+    the worst level wins; adjacent columns of one level are one run)."""
     v = viewer("console")
     wait_console(v, lambda c: c["held"] >= 3 * LINES)
 
@@ -603,14 +604,15 @@ def test_warnings_and_errors_mark_the_timeline(viewer: Callable[[str], Viewer], 
 
     first, both = marked(LINES), marked(2 * LINES)
     state = v.wait_for(lambda s: s["marks"] == first and s["bar_marks"])
-    levels = {level for _, level in state["bar_marks"]}
+    levels = {level for _, _, level in state["bar_marks"]}
     assert levels <= {30, 40}
     assert 40 in levels
     loggers.more(LINES)
     time.sleep(2.0)  # a minute of lines later, the first batch is a few pixels left of the new one
     state = v.wait_for(lambda s: s["marks"] == both and len(s["bar_marks"]) >= 2)
-    xs = [x for x, _ in state["bar_marks"]]
-    assert xs == sorted(set(xs))
+    runs = state["bar_marks"]
+    assert all(first <= last for first, last, _ in runs)
+    assert all(a[1] < b[0] for a, b in itertools.pairwise(runs)), "runs in pixel order, apart"
 
 
 def test_topic_setup_sets_a_log_bindings_node_and_level(

@@ -235,8 +235,8 @@ class AppHost:
             return np.zeros(0), np.zeros(0, dtype=np.uint8)
         return np.concatenate(times), np.concatenate(levels)
 
-    def mark_columns(self, scale: TimeScale) -> list[tuple[int, int]]:
-        """The timeline bar's marks for `scale`: the worst level held in each pixel column with one."""
+    def mark_columns(self, scale: TimeScale) -> tuple[npt.NDArray[np.intp], npt.NDArray[np.uint8]]:
+        """The timeline bar's marks for `scale`: the pixel columns with a line, the worst level of each."""
         return mark_columns(*self.marks(scale.oldest, scale.newest), scale)
 
 
@@ -252,16 +252,15 @@ def event_mark(event: Event) -> EventMark:
 
 def mark_columns(
     times: npt.NDArray[np.float64], levels: npt.NDArray[np.uint8], scale: TimeScale
-) -> list[tuple[int, int]]:
-    """(pixel, level) of the worst level among the lines in each pixel column of a timeline track, by pixel.
-
-    However many lines there are, the bar draws one mark per pixel column at most.
-    """
+) -> tuple[npt.NDArray[np.intp], npt.NDArray[np.uint8]]:
+    """The pixel columns of a timeline track that hold lines at `times`, in increasing order, and the worst
+    of their `levels` in each: however many lines there are, one mark per pixel column at most."""
     if not len(times) or scale.seconds <= 0:
-        return []
+        return np.zeros(0, dtype=np.intp), np.zeros(0, dtype=np.uint8)
     f = np.clip((times - scale.oldest) / scale.seconds, 0.0, 1.0)
-    x = np.round(scale.x0 + f * (scale.x1 - scale.x0)).astype(np.int64)
-    order = np.lexsort((levels, x))  # by column, then level: the last of a column is its worst
-    xs, lv = x[order], levels[order]
-    last = np.append(xs[1:] != xs[:-1], True)
-    return list(zip(xs[last].tolist(), lv[last].astype(int).tolist(), strict=True))
+    x = np.round(scale.x0 + f * (scale.x1 - scale.x0)).astype(np.intp)
+    first = int(x.min())
+    worst = np.zeros(int(x.max()) - first + 1, dtype=np.uint8)
+    np.maximum.at(worst, x - first, levels)  # one pass, in the lines' order: no sort
+    columns = np.flatnonzero(worst)
+    return columns + first, worst[columns]

@@ -4,8 +4,9 @@ A click or a drag on the track moves the cursor there (pausing); the round butto
 speed button picks a playback speed, the loop toggle (recordings) plays again from the start at the end,
 and the Pause/Live button (live) pauses or returns to live. Parameter changes and the user's markers are
 marks on the rail (one a pixel column); the pointer over one shows its label, and a click on it puts the
-cursor at its very time. It reads the app's `Timeline` and draws only when what it shows changed; the maths
-is `_timescale`.
+cursor at its very time. The Log console's warnings and errors are marks above the rail, a run of adjacent
+columns of one level drawn as one rectangle, redrawn only when they change. It reads the app's `Timeline`
+and draws only when what it shows changed; the maths is `_timescale`.
 """
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ from dbglog.viewer._ui._timescale import (
     format_clock,
     format_offset,
     label_left,
+    mark_runs,
 )
 from dbglog.viewer._widgets._common import text_size
 from dbglog.viewer._widgets._geometry import Rect
@@ -110,7 +112,8 @@ class TimeBar:
         on_play: the play/pause button's action (a click on it, seen by `poll` on the UI thread).
         on_speed: a speed chosen in the speed menu (called by `poll`, on the UI thread).
         on_loop: the loop toggle's action (seen by `poll` on the UI thread).
-        marks: the log lines to mark on the track for a scale (the Log console's warnings and errors).
+        marks: the log lines to mark on the track for a scale (the Log console's warnings and errors): the
+            pixel columns holding one, in increasing order, and the worst level of each.
         keys: the keys that move the cursor, as the track's tooltip lists them.
         events: the parameter changes and user markers to mark on the rail.
     """
@@ -125,7 +128,7 @@ class TimeBar:
         on_play: Callable[[], None] = lambda: None,
         on_speed: Callable[[float], None] = lambda _speed: None,
         on_loop: Callable[[], None] = lambda: None,
-        marks: Callable[[TimeScale], Sequence[tuple[int, int]]] | None = None,
+        marks: Callable[[TimeScale], tuple[npt.NDArray[np.intp], npt.NDArray[np.uint8]]] | None = None,
         keys: str = "",
         events: TimelineEvents | None = None,
     ) -> None:
@@ -144,8 +147,11 @@ class TimeBar:
         self._speed_chosen: float | None = None
         """A speed chosen in the speed menu (its callback thread), taken by the next `poll`."""
         self._marks = marks
-        """Log lines to mark on the track: (pixel, level) of the worst WARN/ERROR/FATAL per pixel column."""
-        self._marked: tuple[tuple[int, int], ...] = ()
+        """Log lines to mark on the track: the columns with a WARN/ERROR/FATAL line, the worst of each."""
+        self._marked: tuple[tuple[int, int, int], ...] = ()
+        """The log marks as runs of adjacent columns of one level: (first pixel, last pixel, level)."""
+        self._marks_drawn: tuple[tuple[int, int, int], ...] | None = None
+        """The runs the marks' layer shows (it is redrawn only when they change)."""
         self._span = span
         self._on_seek = on_seek
         self._on_play = on_play
@@ -170,6 +176,10 @@ class TimeBar:
                 self.play = dpg.add_drawlist(ICON_W, TIMEBAR_H)
             with dpg.group() as track_group:
                 self.track = dpg.add_drawlist(400, TIMEBAR_H)
+                # Bottom to top: the rail, ticks and labels; the log marks; the knob, events, hovered label.
+                self._rail_layer = dpg.add_draw_layer(parent=self.track)
+                self._marks_layer = dpg.add_draw_layer(parent=self.track)
+                self._top_layer = dpg.add_draw_layer(parent=self.track)
             with dpg.group():
                 dpg.add_spacer(height=int(MID_Y - 14))
                 self.speed = dpg.add_button(
@@ -370,9 +380,9 @@ class TimeBar:
         )
         return scale, key
 
-    def _marked_for(self, scale: TimeScale) -> tuple[tuple[int, int], ...]:
-        """The marks for `scale` (kept for `_draw_track`; part of what the picture depends on)."""
-        self._marked = tuple(self._marks(scale)) if self._marks is not None else ()
+    def _marked_for(self, scale: TimeScale) -> tuple[tuple[int, int, int], ...]:
+        """The log marks' runs for `scale` (kept for `_draw_track`; part of what the picture depends on)."""
+        self._marked = mark_runs(*self._marks(scale)) if self._marks is not None else ()
         return self._marked
 
     def _event_marks_for(self, scale: TimeScale) -> tuple[tuple[int, bool], ...]:
@@ -527,8 +537,10 @@ class TimeBar:
         dpg.draw_text((left, MID_Y - 8.5), text, size=14, color=theme.TEXT, parent=dl)
 
     def _draw_track(self, scale: TimeScale | None, cursor: float | None, width: int) -> None:
-        dl = self.track
+        dl = self._rail_layer
         dpg.delete_item(dl, children_only=True)
+        dpg.delete_item(self._top_layer, children_only=True)
+        self._draw_marks(self._marked if scale is not None else ())
         x0, x1 = float(PAD_X), float(width - PAD_X)
         top, bottom = RAIL_Y - 3, RAIL_Y + 3
         dpg.draw_rectangle((x0, top), (x1, bottom), color=NONE, fill=RAIL, rounding=3, parent=dl)
@@ -582,11 +594,9 @@ class TimeBar:
             lw = text_size(label, LABEL_SIZE)[0]
             if free(x - lw / 2, x + lw / 2):
                 dpg.draw_text((x - lw / 2, label_y), label, size=LABEL_SIZE, color=theme.DIM, parent=dl)
-        for x, level in self._marked:  # the Log console's warnings and errors, above the rail
-            mark = MARK_COLORS.get(level, MARK_COLORS[50] if level > 50 else MARK_COLORS[30])
-            dpg.draw_line((x, top - 9), (x, top - 1), color=mark, thickness=2, parent=dl)
-        self._draw_events(dl)
+        dl = self._top_layer  # the knob, then the events' marks over it (the newest sits at the live knob)
         dpg.draw_circle((knob_x, RAIL_Y), 6.5, color=(20, 22, 27, 255), fill=color, thickness=2, parent=dl)
+        self._draw_events(dl)
         hovered = self.hovered_event
         if hovered is not None:  # the label of the event under the pointer, in the label row
             text = hovered[1]
@@ -602,6 +612,18 @@ class TimeBar:
                 parent=dl,
             )
             dpg.draw_text((left + 6, LABEL_Y - 0.5), text, size=LABEL_SIZE, color=theme.TEXT, parent=dl)
+
+    def _draw_marks(self, runs: tuple[tuple[int, int, int], ...]) -> None:
+        """The Log console's warnings and errors above the rail: a rectangle a run (a column is 2 px wide)."""
+        if runs == self._marks_drawn:
+            return
+        self._marks_drawn = runs
+        dl = self._marks_layer
+        dpg.delete_item(dl, children_only=True)
+        top = RAIL_Y - 3
+        for first, last, level in runs:
+            mark = MARK_COLORS.get(level, MARK_COLORS[50] if level > 50 else MARK_COLORS[30])
+            dpg.draw_rectangle((first - 1, top - 9), (last + 1, top - 1), color=NONE, fill=mark, parent=dl)
 
     def _draw_events(self, dl: int | str) -> None:
         """Parameter changes as small diamonds on the rail, user markers as flags above it."""

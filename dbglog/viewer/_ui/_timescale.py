@@ -25,6 +25,7 @@ __all__ = [
     "format_offset",
     "history_text",
     "label_left",
+    "mark_runs",
     "tick_step",
 ]
 
@@ -199,3 +200,20 @@ def event_columns(
     xs, ms = x[order], m[order]
     last = np.append(xs[1:] != xs[:-1], True)
     return list(zip(xs[last].tolist(), ms[last].tolist(), strict=True))
+
+
+def mark_runs(
+    columns: npt.NDArray[np.intp], levels: npt.NDArray[np.uint8]
+) -> tuple[tuple[int, int, int], ...]:
+    """Adjacent marked pixel columns of one level as runs: (first pixel, last pixel, level), by pixel.
+
+    `columns` are the marked columns in increasing order and `levels` the level of each; the timeline bar
+    draws a run as one rectangle, however many columns it spans (a flood marks hundreds of them).
+    """
+    if not len(columns):
+        return ()
+    cut = np.flatnonzero((np.diff(columns) != 1) | (levels[1:] != levels[:-1])) + 1
+    starts = np.concatenate(([0], cut))
+    ends = np.concatenate((cut - 1, [len(columns) - 1]))
+    firsts, lasts = columns[starts].tolist(), columns[ends].tolist()
+    return tuple(zip(firsts, lasts, levels[starts].astype(int).tolist(), strict=True))
