@@ -69,6 +69,8 @@ def _labelled(window: int | str) -> dict[str, list[float] | None]:
         item = stack.pop()
         for slot in (1, 2):
             for child in dpg.get_item_children(item, slot) or []:
+                if not dpg.is_item_shown(child):  # an entry hidden now is not in the menu
+                    continue
                 label = dpg.get_item_label(child)
                 rect = _rect(child)
                 state = dpg.get_item_state(child)
@@ -230,8 +232,11 @@ def start_dashboard(tmp: Path) -> Path:
         WidgetConfig("led", "Lamp", 340, 40, 200, 160, (), {}),
         WidgetConfig("toggle", "Fan", 600, 40, 200, 98, (Binding("/fan/on"),), {"state": False}),
     ]
+    unknown = RawWidget(
+        {"type": "sonar", "name": "Sonar", "x": 340, "y": 400, "width": 200, "height": 120}, ""
+    )
     path = tmp / "dash.json"
-    save_dashboard(Dashboard(list[WidgetConfig | RawWidget](widgets), 20, True), path)
+    save_dashboard(Dashboard([*widgets, unknown], 20, True), path)
     return path
 
 
@@ -320,6 +325,41 @@ def test_context_menu_change_type_by_clicking(viewer: Callable[[str], Viewer]) -
     assert shot.stat().st_size > 0
 
 
+def test_context_menu_offers_only_what_applies_to_the_widget(viewer: Callable[[str], Viewer]) -> None:
+    """The context menu leaves out what cannot act on its widget: Overlay across robots shows on a plot only,
+    Topic setup and Properties not on the placeholder of a widget type not installed."""
+    v = viewer("dashboard")
+    state = v.state()
+
+    def menu_on(name: str) -> dict[str, Any]:
+        x, y, w, _ = item_named(v.state(), name)["rect"]
+        v.click(x + w / 2, y + 10, button=3)  # on the title (a plot takes a right click for itself)
+        state = v.wait_for(
+            lambda s: s["menu"] is not None and s["selected"] == name and s["menu"].get("Rename\u2026")
+        )
+        v.key("Escape")
+        v.wait_for(lambda s: s["menu"] is None)
+        return {label: rect for label, rect in state["menu"].items() if rect is not None}
+
+    dial = menu_on("Speed")
+    assert "Overlay across robots" not in dial
+    assert "Topic setup\u2026" in dial
+    assert "Properties\u2026" in dial
+    assert "Overlay across robots" not in menu_on("Lamp")
+    placeholder = menu_on("Sonar")
+    assert "Topic setup\u2026" not in placeholder
+    assert "Properties\u2026" not in placeholder
+    assert "Delete" in placeholder
+    x, y, w, h = item_named(state, "Speed")["rect"]
+    v.click(x + w / 2, y + h / 2, button=3)
+    state = v.wait_for(lambda s: s["menu"] is not None and s["menu"].get("Change widget type"))
+    v.move(*center(state["menu"]["Change widget type"]))
+    state = v.wait_for(lambda s: s["menu"] is not None and s["menu"].get("Plot"))
+    v.click(*center(state["menu"]["Plot"]))
+    v.wait_for(lambda s: item_named(s, "Speed")["type"] == "plot" and s["menu"] is None)
+    assert "Overlay across robots" in menu_on("Speed")
+
+
 def test_context_menu_closes_on_escape_and_outside_click(viewer: Callable[[str], Viewer]) -> None:
     """Escape closes the context menu; so does a click outside it, which does nothing else."""
     v = viewer("dashboard")
@@ -359,7 +399,7 @@ def test_save_as_starts_with_the_file_name_and_adds_json_once(
     state = v.wait_for(lambda s: s["file_dialog"] is None and s["path"] == str(tmp_path / "mydash.json"))
     assert state["dirty"] is False
     saved = json.loads((tmp_path / "mydash.json").read_text())
-    assert [w["name"] for w in saved["widgets"]] == ["Speed", "Lamp", "Fan"]
+    assert [w["name"] for w in saved["widgets"]] == ["Speed", "Lamp", "Fan", "Sonar"]
     assert not [p.name for p in tmp_path.iterdir() if p.name.startswith(".")], "no hidden file"
 
     v.key("ctrl+shift+s")  # a name typed with .json keeps it as it is

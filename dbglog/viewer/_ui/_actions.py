@@ -17,7 +17,7 @@ import collections
 import re
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
-from typing import Literal
+from typing import Any, Literal
 
 __all__ = ["Action", "Actions", "Chord", "Scope"]
 
@@ -92,6 +92,9 @@ class Action:
     """For an on/off command: whether it is on now (a menu shows a check mark)."""
     shown: Callable[[], bool] | None = None
     """Whether its menu entry is shown now (None: always)."""
+    applies: Callable[[Any], bool] | None = None
+    """For a command on a widget: whether it can act on the widget the context menu is opened on (the menu
+    leaves it out where it cannot; None: on every widget)."""
 
     @property
     def shortcut(self) -> str:
@@ -126,6 +129,7 @@ class Actions:
         repeat: bool = True,
         checked: Callable[[], bool] | None = None,
         shown: Callable[[], bool] | None = None,
+        applies: Callable[[Any], bool] | None = None,
     ) -> Action:
         """Add a command; raise ValueError for a name or key already taken or written wrong.
 
@@ -139,6 +143,7 @@ class Actions:
             repeat: whether a held key repeats it.
             checked: for an on/off command, whether it is on.
             shown: whether its menu entry shows now.
+            applies: for a command on a widget, whether it can act on a given widget (`Action.applies`).
         """
         if not _NAME.fullmatch(name):
             raise ValueError(f"bad action name {name!r}: dotted lower-case words, like 'file.save'")
@@ -149,7 +154,7 @@ class Actions:
             taken = self._chords.get(chord)
             if taken is not None:
                 raise ValueError(f"{chord.text()} runs {taken!r} already: {name!r} cannot have it too")
-        action = Action(name, label, description, run, chords, scope, repeat, checked, shown)
+        action = Action(name, label, description, run, chords, scope, repeat, checked, shown, applies)
         self._actions[name] = action
         for chord in chords:
             self._chords[chord] = name

@@ -468,17 +468,23 @@ class Canvas:
                 on_selected(self.delete)()
 
         add = actions.register
+
+        def known(item: CanvasItem) -> bool:  # a placeholder of a type not installed is kept as it is
+            return item.widget_cls is not None
+
         add(
             "widget.topic_setup",
             "Topic setup\u2026",
             "Choose the widget's topics",
             on_selected(self.dialogs.topic),
+            applies=known,
         )
         add(
             "widget.properties",
             "Properties\u2026",
             "The widget's properties",
             on_selected(self.dialogs.properties),
+            applies=known,
         )
         add("widget.rename", "Rename\u2026", "Give the widget a new title", on_selected(self.dialogs.rename))
         add(

@@ -121,6 +121,8 @@ class PointerInput:
         """The widgets' context menu (`build_menu`)."""
         self.type_entries: dict[str, int | str] = {}
         """Widget type -> its entry in the context menu (the widget's own type is shown selected)."""
+        self.entries: dict[str, int | str] = {}
+        """Action name -> its entry in the context menu (shown only on a widget the action applies to)."""
 
     def build_menu(self) -> None:
         """Create the widgets' context menu (hidden until a right click)."""
@@ -152,7 +154,7 @@ class PointerInput:
 
     def _menu_entry(self, name: str) -> None:
         action = self.actions[name]
-        dpg.add_menu_item(
+        self.entries[name] = dpg.add_menu_item(
             label=action.label,
             shortcut=action.shortcut,
             callback=lambda *_: self.actions.call_soon(lambda: self.menu_action(action.run)),
@@ -310,6 +312,9 @@ class PointerInput:
         canvas.select(item)
         for type_name, entry in self.type_entries.items():
             dpg.set_value(entry, type_name == item.config.type)
+        for name, entry in self.entries.items():
+            applies = self.actions[name].applies
+            dpg.configure_item(entry, show=applies is None or bool(applies(item)))
         dpg.configure_item(self.menu, pos=(int(pos[0]), int(pos[1])), show=True)
         return item
 

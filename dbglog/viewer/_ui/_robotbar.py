@@ -112,6 +112,7 @@ class RobotSwitcher(Generic[ItemT]):
             "Overlay across robots",
             "The selected plot shows its tags for every robot, one series each",
             self.overlay_selected,
+            applies=lambda item: item.config.type == "plot",  # the context menu offers it on plots only
         )
 
     def select(self, robot: str) -> None:
