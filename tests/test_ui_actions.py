@@ -6,7 +6,7 @@ import threading
 
 import pytest
 
-from dbglog.viewer._ui._actions import Actions, Chord
+from dbglog.viewer._ui._actions import Actions, Chord, ModifierHold
 
 
 def test_a_chord_is_read_and_written_back() -> None:
@@ -21,6 +21,40 @@ def test_a_chord_is_read_and_written_back() -> None:
         Chord.parse("Alt+S")
     with pytest.raises(ValueError, match="bad modifier"):
         Chord.parse("Ctrl+Ctrl+S")
+
+
+def test_a_chord_needs_its_modifier_down_as_its_key_goes_down() -> None:
+    """A key pressed while Ctrl is down is a chord, even handled after Ctrl went up; Ctrl let go in the very
+    frame that sees its key (Dear ImGui takes a frame's events together) still is; a letter after Ctrl+A,
+    even in the frame that sees Ctrl up, is not; nor a key pressed a frame after Ctrl went up alone."""
+    a, m, s = 546, 558, 564
+    hold = ModifierHold()
+    hold.frame(True, lambda: [s])  # Ctrl+S: Ctrl and S down in one frame
+    hold.frame(False, list)  # Ctrl up before S's press is handled
+    assert hold.chord(s, down_now=False)
+    assert not hold.chord(m, down_now=False)
+
+    hold = ModifierHold()
+    hold.frame(True, list)  # Ctrl down alone
+    assert hold.chord(m, down_now=False), "m's frame saw Ctrl go up (not yet recorded): a chord"
+    hold.frame(False, list)
+    assert hold.chord(m, down_now=False), "Ctrl went up in m's frame: a chord"
+    hold.frame(False, list)
+    assert not hold.chord(m, down_now=False), "m a frame after Ctrl went up"
+
+    hold = ModifierHold()
+    hold.frame(True, lambda: [a])  # Ctrl+A in a field
+    hold.frame(False, list)  # Ctrl went up in the frame that sees m
+    assert not hold.chord(m, down_now=False)
+    assert hold.chord(m, down_now=True), "Ctrl down again: Ctrl+M"
+    asked: list[bool] = []
+
+    def pressed() -> list[int]:
+        asked.append(True)
+        return []
+
+    hold.frame(False, pressed)
+    assert not asked, "the keys pressed are asked only while the modifier is down"
 
 
 def test_registering_refuses_a_bad_name_a_second_command_or_a_key_taken() -> None:

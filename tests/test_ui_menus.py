@@ -138,6 +138,7 @@ class Probe:
         ]
         state: dict[str, Any] = {
             "pid": os.getpid(),
+            "tree_query": app.tree.model.query,
             "items": items,
             "toolbox": {dpg.get_item_label(b): _rect(b) for b in app.canvas.tools.buttons.values()},
             "selected": app.doc.selected.name if app.doc.selected is not None else None,
@@ -378,6 +379,28 @@ def test_context_menu_closes_on_escape_and_outside_click(viewer: Callable[[str],
     assert state["selected"] == "Lamp", "the click that closed the menu did not reach the canvas"
     assert item_named(state, "Lamp")["type"] == "led"
     assert state["dirty"] is False
+
+
+# -- keys ----------------------------------------------------------------------------------------------
+
+
+def test_a_letter_typed_just_after_a_ctrl_chord_is_a_letter(viewer: Callable[[str], Viewer]) -> None:
+    """Ctrl+A in the tag tree's filter, then 'm' 40 ms after Ctrl is let go, is the letter m, no
+    Ctrl+M (Add marker), Ctrl being up when it went down; a Ctrl+M then runs Add marker."""
+    v = viewer("dashboard")
+    v.key("ctrl+f")
+    v.type("ab")
+    v.wait_for(lambda s: s["tree_query"] == "ab")
+    v.xdo("keydown", "ctrl", "sleep", "0.03", "key", "a", "keyup", "ctrl", "sleep", "0.04", "key", "m")
+    state = v.wait_for(lambda s: s["tree_query"].endswith("m"))  # "m" once Ctrl+A selected "ab"
+    v.frames(5)
+    state = v.state()
+    assert "marker" not in state["status"], "the m ran Add marker"
+    assert state["tree_query"] in {"m", "abm"}
+    x, y, w, _ = item_named(state, "Lamp")["rect"]
+    v.click(x + w / 2, y + 10)  # the canvas takes the keyboard
+    v.key("ctrl+m")  # Add marker, which this source (it keeps no events) answers in the status bar
+    v.wait_for(lambda s: "no marker can be added" in s["status"])
 
 
 # -- Save As ------------------------------------------------------------------------------------------------

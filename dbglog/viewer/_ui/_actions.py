@@ -15,11 +15,11 @@ from __future__ import annotations
 
 import collections
 import re
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from typing import Any, Literal
 
-__all__ = ["Action", "Actions", "Chord", "Scope"]
+__all__ = ["Action", "Actions", "Chord", "ModifierHold", "Scope"]
 
 Scope = Literal["window", "canvas"]
 """Where an action's keys act: ``window`` always (the command decides), ``canvas`` only while nothing else
@@ -221,3 +221,44 @@ class Actions:
             self._queue.popleft()()
             done += 1
         return done
+
+
+class ModifierHold:
+    """Whether a modifier (Ctrl, Shift) makes a key's press a chord: it was down when the key went down.
+
+    Dear ImGui takes a frame's input events together: a quick chord's modifier can be released in the very
+    frame that sees its key pressed. The frames tell the hold's story (`frame`): the keys pressed while it
+    was down, and the frame that first saw it up. A key's press is a chord when the modifier is down, when
+    the key was pressed during the hold, or when the hold ends in the frame that sees the key with no other
+    key pressed during it (a modifier let go with its key); a letter typed after Ctrl+A is not Ctrl+letter.
+    """
+
+    def __init__(self) -> None:
+        self.down = False
+        """Whether the last frame saw the modifier down."""
+        self.keys: set[int] = set()
+        """The keys pressed while it was down, in its last hold."""
+        self.released = -1
+        """The frame that first saw the last hold's modifier up (-1: none yet)."""
+        self.frames = 0
+        """Frames seen."""
+
+    def frame(self, down: bool, pressed: Callable[[], Iterable[int]]) -> None:
+        """After a rendered frame (UI thread): the modifier is `down`; `pressed` gives the frame's key presses
+        (asked only while it is down)."""
+        self.frames += 1
+        if down:
+            if not self.down:
+                self.keys = set()
+            self.keys.update(pressed())
+        elif self.down:
+            self.released = self.frames
+        self.down = down
+
+    def chord(self, key: int, *, down_now: bool) -> bool:
+        """Whether a press of `key`, seen at the last frame (or the one being rendered), is a chord with the
+        modifier (`down_now`: whether it is down as the press is handled)."""
+        if down_now or key in self.keys:
+            return True
+        ends_with_it = self.down or self.released == self.frames  # not yet seen up, or up since this frame
+        return ends_with_it and self.keys <= {key}

@@ -186,7 +186,7 @@ class ViewerApp:
         self.canvas.drop_handlers.append(self.tree.drop)
         self.frame_hooks += [self.robots.poll, self.tree.poll]
         self.status = StatusBar(self.time, self.doc.summary, self.loop)
-        self.keys = KeyBindings(self.actions, held=self.loop.held, keyboard_taken=self._keys_blocked)
+        self.keys = KeyBindings(self.actions, chord=self.loop.chord, keyboard_taken=self._keys_blocked)
         self.menus = MenuBar(self.actions, MENUS)
         self.started = False
         """Whether the window exists (between `start` and `close`)."""

@@ -28,16 +28,16 @@ class KeyBindings:
 
     Args:
         actions: the window's actions.
-        held: whether a modifier (Dear PyGui's ``mvKey_ModCtrl``, ``mvKey_ModShift``) is down (or was a
-            moment ago: a quick chord's modifier can be up in the frame that sees its key).
+        chord: whether a press of a key (Dear PyGui's key code) is a chord with a modifier (its
+            ``mvKey_ModCtrl``, ``mvKey_ModShift``): the modifier was down as the key went down.
         keyboard_taken: whether a dialog, a menu or a text field has the keyboard (``canvas`` keys wait).
     """
 
     def __init__(
-        self, actions: Actions, *, held: Callable[[int], bool], keyboard_taken: Callable[[], bool]
+        self, actions: Actions, *, chord: Callable[[int, int], bool], keyboard_taken: Callable[[], bool]
     ) -> None:
         self.actions = actions
-        self._held_mod = held
+        self._chord = chord
         self._keyboard_taken = keyboard_taken
         self._held: set[str] = set()
         """Keys of actions that do not repeat, taken and not seen up since (their repeats are ignored)."""
@@ -49,8 +49,9 @@ class KeyBindings:
 
     def pressed(self, key: str) -> None:
         """Dear PyGui's callback thread: queue the action this key runs with the modifiers held now."""
+        code = KEY_CODES[key]
         action = self.actions.for_key(
-            key, ctrl=self._held_mod(dpg.mvKey_ModCtrl), shift=self._held_mod(dpg.mvKey_ModShift)
+            key, ctrl=self._chord(dpg.mvKey_ModCtrl, code), shift=self._chord(dpg.mvKey_ModShift, code)
         )
         if action is not None:
             self.actions.call_soon(lambda: self._fire(action, key))
