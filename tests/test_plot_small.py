@@ -2,11 +2,14 @@
 
 from __future__ import annotations
 
-from itertools import pairwise
+import math
+from itertools import combinations, pairwise
 
 from hypothesis import given
 from hypothesis import strategies as st
 
+from dbglog.viewer._widgets._common import SERIES_COLORS
+from dbglog.viewer._widgets._plot import series_colors
 from dbglog.viewer._widgets._plotfit import (
     BOX_PAD,
     ENTRY_EXTRA,
@@ -251,3 +254,45 @@ def test_narrow_plots_show_shorter_values_in_tags() -> None:
     """Value tags carry 6 significant digits, 4 in a narrow plot."""
     assert tag_digits(480) == 6
     assert tag_digits(224) == 4
+
+
+def _lab(color: tuple[int, ...]) -> tuple[float, float, float]:
+    """CIELAB (D65) of an sRGB colour."""
+
+    def linear(u: float) -> float:
+        u /= 255
+        return u / 12.92 if u <= 0.04045 else ((u + 0.055) / 1.055) ** 2.4
+
+    r, g, b = (linear(c) for c in color[:3])
+    xyz = (
+        (0.4124 * r + 0.3576 * g + 0.1805 * b) / 0.95047,
+        0.2126 * r + 0.7152 * g + 0.0722 * b,
+        (0.0193 * r + 0.1192 * g + 0.9505 * b) / 1.08883,
+    )
+    fx, fy, fz = (t ** (1 / 3) if t > 216 / 24389 else (24389 / 27 * t + 16) / 116 for t in xyz)
+    return 116 * fy - 16, 500 * (fx - fy), 200 * (fy - fz)
+
+
+def test_sixteen_series_colours_far_apart_and_light_on_the_dark_plot() -> None:
+    """The plot's 16 colours differ pairwise by at least 30 (CIELAB distance) and are light (L >= 55)."""
+    assert len(SERIES_COLORS) >= 16
+    labs = [_lab(c) for c in SERIES_COLORS]
+    assert min(math.dist(a, b) for a, b in combinations(labs, 2)) >= 30
+    assert min(lab[0] for lab in labs) >= 55
+
+
+def test_series_keep_their_colours_and_twelve_robots_get_twelve() -> None:
+    """Twelve robots' series get twelve colours; a robot joining takes a free colour and the others keep
+    theirs; one leaving frees its colour for the next; a label twice is two series."""
+    kept: dict[str, int] = {}
+    robots = [f"robot{n}:speed" for n in (1, 2, 4, 5, 6, 7, 8, 9, 10, 11, 12)]
+    first = series_colors(robots, kept)
+    assert first == list(range(11))
+    joined = sorted([*robots, "robot3:speed"])
+    colours = dict(zip(joined, series_colors(joined, kept), strict=True))
+    assert len(set(colours.values())) == 12
+    assert all(colours[label] == c for label, c in zip(robots, first, strict=True))
+    assert colours["robot3:speed"] == 11
+    left = [label for label in joined if label != "robot1:speed"]
+    assert series_colors([*left, "robot13:speed"], kept)[-1] == 0, "robot1's colour, free again"
+    assert series_colors(["a", "a"], {}) == [0, 1]

@@ -41,7 +41,17 @@ SERIES_COLORS: tuple[Color, ...] = (
     (90, 210, 210, 255),
     (232, 210, 90, 255),
     (240, 130, 200, 255),
+    (238, 202, 184, 255),
+    (40, 238, 40, 255),
+    (238, 58, 238, 255),
+    (184, 238, 40, 255),
+    (130, 148, 94, 255),
+    (130, 148, 166, 255),
+    (238, 94, 40, 255),
+    (202, 238, 184, 255),
 )
+"""A plot's series colours, 16 of them: each second eight picked as far (CIELAB) from the others as the
+first eight are from each other, light enough to read on the plot's dark background."""
 
 
 def latest_number(snap: SeriesSnapshot | None) -> float | None:

@@ -12,6 +12,7 @@ changes and user markers of the range are thin labelled lines (`_eventlines`: cl
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Sequence
 
 import dearpygui.dearpygui as dpg
@@ -61,6 +62,7 @@ __all__ = [
     "PLOT_MARGIN",
     "PlotWidget",
     "reading",
+    "series_colors",
     "series_label",
     "tag_height",
 ]
@@ -148,6 +150,28 @@ def series_label(binding: Binding) -> str:
         return named
     topic = tag_of(binding.topic) or binding.topic
     return f"{topic}.{binding.field}" if binding.field and binding.field != "data" else topic
+
+
+def series_colors(labels: Sequence[str], kept: dict[str, int]) -> list[int]:
+    """The palette index (`SERIES_COLORS`) of each series: a series keeps the colour it had (a robot keeps
+    its colour in an overlay as robots come and go), a new one takes the first colour no other series has.
+
+    Args:
+        labels: the series' legend labels, in order.
+        kept: label -> the colour it had; updated to the series given (a second series of one label is
+            ``label#2``).
+    """
+    keys = [
+        f"{label}#{labels[:i].count(label) + 1}" if label in labels[:i] else label
+        for i, label in enumerate(labels)
+    ]
+    old = {key: kept[key] for key in keys if key in kept}
+    taken = set(old.values())
+    free = (i for i in itertools.count() if i not in taken)
+    kept.clear()
+    for key in keys:
+        kept[key] = old[key] if key in old else next(free)
+    return [kept[key] % len(SERIES_COLORS) for key in keys]
 
 
 def span_text(seconds: float) -> str:
@@ -273,6 +297,10 @@ class PlotWidget(Widget):
         """Per series: its lone samples, its +inf and its -inf marks (scatter series)."""
         self._notes: list[int | str] = []
         self._labels: list[str] = []
+        self._color_of: dict[str, int] = {}
+        """Series label -> its colour (`series_colors`: kept while the series is shown)."""
+        self._colors: list[tuple[int, int, int, int]] = []
+        """The series' colours, in order."""
         self._shown_labels: list[str] = []
         self.legend_plan = LegendPlan(LegendMode.OFF, ())
         """Where the legend is and the names it shows (`legend_plan`, for the plot's size and series)."""
@@ -399,8 +427,9 @@ class PlotWidget(Widget):
             dpg.delete_item(tag)
         self._series, self._dots, self._notes, self._marks = [], [], [], []
         plan = legend_plan(labels, self.width, self._plot_h, self._measure, enabled=bool(self.prop("legend")))
+        self._colors = [SERIES_COLORS[c] for c in series_colors(labels, self._color_of)]
         for i, label in enumerate(plan.labels):
-            color = SERIES_COLORS[i % len(SERIES_COLORS)]
+            color = self._colors[i]
             tag = dpg.add_line_series([], [], label=label, parent=self.y_axis)
             with dpg.theme() as theme, dpg.theme_component(dpg.mvLineSeries):
                 dpg.add_theme_color(dpg.mvPlotCol_Line, color, category=dpg.mvThemeCat_Plots)
@@ -482,7 +511,7 @@ class PlotWidget(Widget):
         dpg.configure_item(self._chip, width=width)
         dpg.draw_rectangle((0, 0), (width, 16), color=(0, 0, 0, 0), fill=(44, 48, 58, 255), parent=self._chip)
         for i, label in enumerate(labels):
-            color = SERIES_COLORS[i % len(SERIES_COLORS)]
+            color = self._colors[i]
             x = SWATCH_GAP + i * (SWATCH_W + SWATCH_GAP)
             dpg.draw_rectangle((x, 3), (x + SWATCH_W, 13), color=color, fill=color, parent=self._chip)
             self._chip_texts.append(dpg.add_text(f"\u25a0 {label}", color=color, parent=self._chip_tip))
