@@ -50,7 +50,7 @@ def _rect(item: int | str) -> list[float]:
 
 def params_dashboard(tmp: Path) -> Path:
     """A slider, a knob, a toggle and text fields on the node's parameters; a slider on the node that never
-    answers; a plot of a signal (the events draw on it)."""
+    answers; a plot of a signal (the events draw on it); a dial (it shows topics) on a parameter."""
     from dbglog.viewer._data._model import Binding
     from dbglog.viewer._document._dashboard import Dashboard, RawWidget, WidgetConfig, save_dashboard
 
@@ -66,6 +66,7 @@ def params_dashboard(tmp: Path) -> Path:
         WidgetConfig("slider", "Hung", 400, 130, 340, 90, on("kp", HUNG), {}),
         WidgetConfig("knob", "Count", 760, 240, 240, 270, on("count"), {"decimals": 0}),
         WidgetConfig("plot", "Signal", 20, 420, 580, 260, (Binding(SIGNAL),), {"window": 20.0}),
+        WidgetConfig("dial", "Kp dial", 620, 530, 160, 160, on("kp"), {}),
     ]
     path = tmp / "params.json"
     save_dashboard(Dashboard(list[WidgetConfig | RawWidget](widgets), 20, True), path)
@@ -427,6 +428,16 @@ def test_widgets_show_the_nodes_values_ranges_and_read_only(viewer: Viewer, node
     frame = items["Frame"]
     assert (frame["status"], frame["shown"], frame["readonly"]) == ("live", "base_link", True)
     assert frame["note"] == "read-only (the node says so)"
+
+
+def test_a_dial_bound_to_a_parameter_says_which_widgets_take_one(viewer: Viewer) -> None:
+    """A dial (it shows topics) bound to a node's parameter is red, saying the binding is a parameter and
+    which widgets show and set one (not the data source's 'bad topic name')."""
+    state = viewer.wait_for(lambda s: s["items"]["Kp dial"]["status"] == "error", timeout=WAIT)
+    reason = state["items"]["Kp dial"]["reason"]
+    assert f"{FQN}:kp is a node's parameter" in reason
+    assert "Slider, Knob, Toggle or Text field" in reason
+    assert "bad topic name" not in reason
 
 
 def test_a_node_that_never_answers_says_so_and_the_window_never_waits_for_it(viewer: Viewer) -> None:

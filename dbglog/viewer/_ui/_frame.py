@@ -28,7 +28,14 @@ from dbglog.viewer.widget_api import (
     shown_as,
 )
 
-__all__ = ["TITLE_H", "CanvasItem", "FrameSnapshots", "SnapshotReader", "combined_status"]
+__all__ = [
+    "TITLE_H",
+    "CanvasItem",
+    "FrameSnapshots",
+    "SnapshotReader",
+    "combined_status",
+    "parameter_misbound",
+]
 
 _log = logging.getLogger(__name__)
 
@@ -209,9 +216,18 @@ class CanvasItem:
         cls = self.widget_cls
         if cls is not None and cls.publishes:
             return ()
-        if cls is not None and cls.parameters:
-            return tuple(b for b in self._resolved if b.parameter is None)
-        return self._resolved
+        return tuple(b for b in self._resolved if b.parameter is None)  # no data source has parameters
+
+    def _parameter_errors(self) -> list[SeriesSnapshot]:
+        """A widget that shows topics, bound to a node's parameter: an error saying which widgets take one."""
+        cls = self.widget_cls
+        if cls is None or cls.parameters or cls.publishes:
+            return []
+        return [
+            SeriesSnapshot(b, Status.ERROR, reason=parameter_misbound(b, cls.label))
+            for b in self._resolved
+            if b.parameter is not None
+        ]
 
     def context(self) -> WidgetContext:
         """What the widget is given at mount: a control's publish targets (a widget's parameters), robot-
@@ -364,7 +380,7 @@ class CanvasItem:
             snapshots = [s.with_stale_time(stale_after) for s in snapshots]
         if self.widget_cls is not None:  # a kind the widget did not declare is an error, not shown
             snapshots = [shown_as(self.widget_cls, s) for s in snapshots]
-        return snapshots
+        return snapshots + self._parameter_errors()
 
     def _past_needed(self, source: SnapshotReader) -> float | None:
         """The seconds of samples before the cursor the widget draws, if it says (`Widget.past_needed`);
@@ -551,3 +567,11 @@ def _state_key(
     """What a widget's redraw depends on: each series' count, status and reason, its own state, the cursor,
     and its own redraw key."""
     return (*((s.count, s.status, s.reason) for s in snapshots), own, paused_at, drawn)
+
+
+def parameter_misbound(binding: Binding, label: str) -> str:
+    """Why a widget that shows topics (a `label`) shows nothing of a binding to a node's parameter."""
+    return (
+        f"{binding.topic} is a node's parameter: a Slider, Knob, Toggle or Text field shows and sets one; "
+        f"a {label} shows a topic's values (Topic setup)"
+    )
