@@ -15,6 +15,7 @@ import shutil
 import signal
 import subprocess
 import sys
+import time
 import warnings
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -416,3 +417,22 @@ def test_the_tag_tree_filters_drags_and_double_clicks_and_the_file_reopens_on_an
     assert 185 <= widgets["rpm"]["values"][0] <= 215, "robot2's rpm (robot1's is about 100)"
     assert 11.75 <= widgets["battery"]["values"][0] <= 11.85
     assert len(widgets["speed (every robot)"]["values"]) == 2
+
+
+def test_keys_typed_in_the_tag_tree_filter_are_the_filter_s(viewer: Callable[[], Viewer]) -> None:
+    """Space, the arrows and Delete typed in the tag tree's filter edit the text: they neither pause the
+    dashboard, step its cursor, nor delete the selected widget (they did: only fields on the canvas held
+    the keyboard)."""
+    v = viewer()
+    v.ready()
+    state = v.wait_for(both_robots_live)
+    battery = v.widget(state, "battery")
+    v.click(battery["rect"][0] + 20, battery["rect"][1] + 10)  # select a widget: Delete would remove it
+    v.click(*centre(state["filter"]))
+    v.type("motor rpmx")
+    v.key("Left", "Left", "Right", "BackSpace", "Delete", "End", "BackSpace")
+    state = v.wait_for(lambda s: s["query"] == "motor r")  # rpmx: m and x deleted, then p
+    time.sleep(0.5)  # a few frames more: a key that reached the canvas would have acted by now
+    state = v.state()
+    assert state["cursor"] is None, "still live: Space did not pause, the arrows stepped no cursor"
+    assert any(i["name"] == "battery" for i in state["items"]), "Delete in the filter deleted a widget"

@@ -200,6 +200,10 @@ class TagTreePanel:
         self._window = (-1, -1, -1)
         self.wake()
 
+    def typing(self) -> bool:
+        """Whether the filter is being typed in (the canvas's keys then wait: Space, arrows, Delete)."""
+        return self.built and dpg.is_item_active(self.filter_input)
+
     def find(self) -> None:
         """Show the panel and put the keyboard in its filter."""
         if not self.shown:
