@@ -82,8 +82,8 @@ def child(seconds: float) -> None:
     local_ros_env(int.from_bytes(os.urandom(1)) % 100 + 101)
     import dbglog
     from dbglog.api import _pipe
+    from dbglog.api._channel import Channel
     from dbglog.api._public import RUNTIME
-    from dbglog.api._runtime import Channel
 
     meter = _Meter()
     meter.wrap(_pipe.Pipe, "_flush_once", _WHOLE)

@@ -15,13 +15,16 @@ import time
 from array import array
 from collections import deque
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 from dbglog._ros._batch import SLOT_FORMATS, encode_batch, pack_values, type_code
+from dbglog.api._channel import LISTEN_CHECK_S, Channel
 from dbglog.api._native import load
 
 if TYPE_CHECKING:
-    from dbglog.api._runtime import Channel, Runtime
+    import threading
+
+    from dbglog.api._errors import Reporter
 
 __all__ = ["FLUSH_PERIOD", "LISTEN_CHECK_S", "QUEUE_CAPACITY", "Pipe", "pack_batch", "take_items"]
 
@@ -56,12 +59,38 @@ def _breathe(since: int, limit_ns: int = _YIELD_NS) -> int:
     return time.perf_counter_ns()
 
 
-LISTEN_CHECK_S = 0.1
-"""How often a tag's subscriber count is looked up (a C call)."""
 _NEWEST_EVERY = 0.1
 """Seconds between two publishes of the newest value on the topic of a tag nobody subscribes to."""
 
-Item = tuple["Channel", object, int]
+Item = tuple[Channel, object, int]
+
+
+class Runtime(Protocol):
+    """What the pipe needs of the runtime that owns it (`dbglog.api._runtime.Runtime`)."""
+
+    @property
+    def _lock(self) -> threading.RLock:
+        """Taken to start the publisher thread once."""
+
+    @property
+    def state(self) -> str:
+        """Only ``ready`` publishes."""
+
+    @property
+    def reporter(self) -> Reporter:
+        """Counts and warnings."""
+
+    @property
+    def batch_publish(self) -> Callable[[bytes], None] | None:
+        """Publishes a batch's CDR bytes (None: no batch writer)."""
+
+    def note_writer(self) -> None:
+        """Warn (once each) about the writer thread's failed writes or starvation since the last look."""
+
+    def send_queued(self, ch: Channel, value: object) -> bool:
+        """Publish a queued sample on its tag's topic; False when it was dropped."""
+
+
 _STRING = type_code("String")
 _FLOAT32 = type_code("Float32")
 
@@ -422,7 +451,7 @@ def _float32(value: Any) -> float:
 _native = load()
 take: Callable[[deque[Item], int], list[Item]] = take_items if _native is None else _native.take
 """`take_items`, in C when the compiled module is there."""
-Packed = tuple[list["Channel"], list[object], bytes | None]
+Packed = tuple[list[Channel], list[object], bytes | None]
 pack_batch_of: Callable[[list[Item], int | None, int, int], Packed] = (
     pack_batch if _native is None else _native.pack_batch
 )

@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING, Any
 
 from dbglog._ros._tags import unescape_tag
 from dbglog.api import _native
+from dbglog.api._channel import Channel
 from dbglog.api._convert import (
     KIND_DEFAULT,
     MAX_STRING_CHARS,
@@ -37,7 +38,7 @@ from dbglog.api._convert import (
 )
 from dbglog.api._errors import _API_DIR, DbglogError, DbglogWarning, Reporter, Stats, safe_repr
 from dbglog.api._rate import RateLimiter, SiteState, check_throttle
-from dbglog.api._runtime import Channel, Runtime
+from dbglog.api._runtime import Runtime
 
 __all__ = [
     "REPORTER",

@@ -11,9 +11,9 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any, Final
 
+from dbglog.api._channel import Channel
 from dbglog.api._convert import ConversionError, multiarray_message
 from dbglog.api._public import RUNTIME, _std_type
-from dbglog.api._runtime import Channel
 
 __all__ = [
     "PIPE",
