@@ -390,12 +390,8 @@ class ViewerApp:
 
     def _keys_blocked(self) -> bool:
         """Whether the keys belong to something else: a dialog, the context menu, a field being typed in."""
-        return (
-            self.dialog_open()
-            or self.pointer_input.menu_shown()
-            or self.canvas.typing()
-            or self.tree.typing()
-        )
+        typing = self.canvas.typing() or self.tree.typing()
+        return self.dialog_open() or self.pointer_input.menu_shown() or typing
 
     def cancel(self) -> None:
         """Escape: close the context menu, or cancel the open dialog as its Cancel button would."""
