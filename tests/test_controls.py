@@ -555,3 +555,19 @@ SCENARIOS = sorted(n.removeprefix("scenario_") for n in dir() if n.startswith("s
 def test_controls_ui(scenario: str, tmp_path: Path) -> None:
     """Each control scenario (see its docstring) passes in the real viewer, in a process of its own."""
     run_scenario("test_controls", scenario, tmp_path, timeout=100)
+
+
+def test_a_note_is_cut_to_its_one_line_with_an_ellipsis() -> None:
+    """A control's note longer than its width is cut where the rest fits with an ellipsis (no wrapping into
+    a second line that the widget clips); a short one, and only the first line of several, show whole."""
+    from dbglog.viewer._widgets._common import fit_line
+
+    def width(text: str) -> float:
+        return 7.0 * len(text)
+
+    assert fit_line("paused: read-only", 200, width) == "paused: read-only"
+    cut = fit_line("paused: the value then, read-only", 196, width)
+    assert cut == "paused: the value then, rea\u2026"  # 28 characters: 196 px
+    assert width(cut) <= 196
+    assert fit_line("first\nsecond", 200, width) == "first"
+    assert fit_line("x" * 50, 3, width) == "\u2026"

@@ -144,7 +144,11 @@ class Probe:
         elif kind == "plot":
             out["lines"] = [[ln.time, ln.count, ln.label, ln.marker] for ln in widget.event_lines]
         if kind in ("slider", "text_field", "toggle") and widget.note:
-            out["note"] = dpg.get_value(widget.note)
+            tip = getattr(widget, "_note_tip", 0)
+            out["note_line"] = line = dpg.get_value(widget.note)
+            out["note"] = dpg.get_value(tip) if tip else line  # all of it (on hover where cut)
+            size = dpg.get_text_size(line)
+            out["note_fits"] = bool(size) and size[0] <= item.rect.w - 4  # one line, inside the widget
         return out
 
     def state(self) -> dict[str, Any]:
@@ -624,6 +628,10 @@ def test_events_list_click_travels_back_and_widgets_show_the_value_then(
     assert gain["shown"] == then
     assert not gain["enabled"]
     assert gain["note"] == "paused: the value then, read-only"
+    enabled = state["items"]["Enabled"]  # 200 px wide: the note is cut to its one line, not wrapped
+    assert enabled["note"] == "paused: the value then, read-only"
+    assert enabled["note_fits"], enabled["note_line"]
+    assert enabled["note_line"].endswith("\u2026"), enabled["note_line"]
     assert gain["pill"] == "live then"
     assert next(r for r in state["panel"]["rows"] if r["time"] == target["time"])["selected"]
     viewer.shot("events-list-past")

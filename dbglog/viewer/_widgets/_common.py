@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import dearpygui.dearpygui as dpg
 import numpy as np
@@ -104,6 +104,21 @@ def format_value(value: float | None, decimals: int, unit: str = "") -> str:
 def text_size(text: str, size: float) -> tuple[float, float]:
     """Approximate the pixel size of `text` drawn at font `size` (proportional font, no display needed)."""
     return (len(text) * size * 0.55, size)
+
+
+def fit_line(text: str, width: float, measure: Callable[[str], float]) -> str:
+    """Return the first line of `text`, cut to `width` pixels (by `measure`) and ended with an ellipsis."""
+    line = text.split("\n", 1)[0]
+    if measure(line) <= width:
+        return line
+    lo, hi = 0, len(line)  # the longest prefix that fits with the ellipsis: binary search
+    while lo < hi:
+        mid = (lo + hi + 1) // 2
+        if measure(line[:mid].rstrip() + "\u2026") <= width:
+            lo = mid
+        else:
+            hi = mid - 1
+    return line[:lo].rstrip() + "\u2026"
 
 
 def draw_centered_text(

@@ -27,6 +27,7 @@ from dbglog.viewer._widgets._common import (
     ERROR,
     NUMBER_TYPES,
     ParamLink,
+    fit_line,
     param_bounds,
     param_kind_problem,
 )
@@ -133,6 +134,9 @@ class _Control(Widget):
         self.problem = ""
         """A configuration problem found by the widget itself (bad message JSON), shown as its error."""
         self.note: int | str = 0
+        self._note_w = 60
+        self._note_tip: int | str = 0
+        self._note_tipbox: int | str = 0
         self.link = ParamLink(self)
         """The node's parameter the control is bound to instead of a topic (`parameters` controls)."""
         self.param_note = ""
@@ -192,7 +196,7 @@ class _Control(Widget):
             text = f"\u2192 {self.link.target}" + (f"   {span.text}" if span is not None else "")
         if (text, bad) != self._param_shown:
             self._param_shown = (text, bad)
-            dpg.set_value(self.note, text)
+            self._set_note(text)
             dpg.configure_item(self.note, color=ERROR if bad else DIM)
 
     def set_context(self, context: WidgetContext) -> None:
@@ -284,15 +288,31 @@ class _Control(Widget):
                 text = f"\u2192 {target}"
             else:
                 text = "no topic: right-click \u203a Topic setup"
-        dpg.set_value(self.note, text)
+        self._set_note(text)
         dpg.configure_item(self.note, color=_ERROR_COLOR if self.problem else DIM)
+
+    def _set_note(self, text: str) -> None:
+        """Show `text` on the note's one line (cut with an ellipsis where longer; all of it on hover)."""
+        width = self._note_w
+
+        def measure(line: str) -> float:
+            size = dpg.get_text_size(line)
+            return float(size[0]) if size else 0.0
+
+        shown = fit_line(text, width, measure)
+        dpg.set_value(self.note, shown)
+        dpg.set_value(self._note_tip, text)
+        dpg.configure_item(self._note_tipbox, show=shown != text)
 
     def _add_note(self, parent: int | str, width: int, room: int = NOTE_H) -> None:
         """Add the one-line target/problem note when `room` pixels are left for it."""
         if room < NOTE_H:
             self.note = 0
             return
-        self.note = dpg.add_text("", parent=parent, color=DIM, wrap=max(60, width - 4))
+        self._note_w = max(60, width - 4)
+        self.note = dpg.add_text("", parent=parent, color=DIM)
+        with dpg.tooltip(self.note, show=False) as self._note_tipbox:
+            self._note_tip = dpg.add_text("", wrap=400)
         self._param_shown = None
         self._show_note()
 
