@@ -17,9 +17,11 @@ from dbglog.viewer._document._dashboard import (
     FORMAT,
     ROBOT_VERSION,
     VERSION,
+    WATCH_VERSION,
     Dashboard,
     DashboardError,
     RawWidget,
+    WatchConfig,
     WidgetConfig,
     dumps,
     load_dashboard,
@@ -162,6 +164,90 @@ def test_unknown_entries_save_back_unchanged(tmp_path: Path) -> None:
     assert saved["version"] == 1, "nothing in it needs a newer version"
 
 
+WATCH = {"file": "/ws/controller.py", "line": 42, "exprs": ["error", "self.gain"]}
+
+
+def test_watch_round_trips_and_makes_the_file_version_3() -> None:
+    """A widget's watch loads, saves and loads back equal; a file with one is version 3, one without 1."""
+    full = {**WATCH, "node": "/controller", "when": "error > 0.1", "throttle": 0.5}
+    for raw in (WATCH, full):
+        result = parse_dashboard(_one_dial(watch=raw), LOOKUP)
+        assert result.messages == []
+        (dial,) = _widgets(result.dashboard.widgets)
+        assert dial.watch == WatchConfig(
+            "/ws/controller.py",
+            42,
+            ("error", "self.gain"),
+            node=str(raw.get("node", "")),
+            when=str(raw.get("when", "")),
+            throttle=raw.get("throttle"),  # type: ignore[arg-type]
+        )
+        saved = json.loads(dumps(result.dashboard))
+        assert saved["version"] == WATCH_VERSION
+        assert saved["widgets"][0]["watch"] == raw
+    plain = json.loads(dumps(parse_dashboard(_one_dial(), LOOKUP).dashboard))
+    assert plain["version"] == 1
+    assert "watch" not in plain["widgets"][0]
+
+
+def test_watch_of_an_unknown_widget_type_keeps_the_file_version_3() -> None:
+    """An entry kept verbatim (a plugin not installed) with a watch is saved back as version 3."""
+    data = _one_dial(watch=WATCH)
+    data["widgets"][0]["type"] = "not_installed"
+    result = parse_dashboard(data, LOOKUP)
+    assert isinstance(result.dashboard.widgets[0], RawWidget)
+    assert json.loads(dumps(result.dashboard))["version"] == WATCH_VERSION
+
+
+def test_watch_in_a_file_before_version_3_is_an_unknown_field() -> None:
+    """Versions 1 and 2 have no watches: the field is named and ignored, as any unknown field."""
+    data = _one_dial(watch=WATCH)
+    data["version"] = ROBOT_VERSION
+    result = parse_dashboard(data, LOOKUP)
+    assert result.messages == ["widget #1 'Hits': unknown field 'watch' ignored"]
+    assert _widgets(result.dashboard.widgets)[0].watch is None
+
+
+@pytest.mark.parametrize(
+    ("watch", "expected"),
+    [
+        ("x", "field 'watch' must be an object, got a string"),
+        ({**WATCH, "file": ""}, "'watch.file' must be a file name"),
+        ({**WATCH, "file": "a\nb"}, "'watch.file' contains the control character U+000A"),
+        ({**WATCH, "line": 0}, "'watch.line' must be a whole number 1..10000000, got 0"),
+        ({**WATCH, "line": True}, "'watch.line' must be a whole number"),
+        ({**WATCH, "line": 4.5}, "'watch.line' must be a whole number"),
+        ({**WATCH, "exprs": []}, "'watch.exprs' must be a list of 1 to 16 expressions"),
+        ({**WATCH, "exprs": "error"}, "'watch.exprs' must be a list"),
+        ({**WATCH, "exprs": ["ok", 3]}, "'watch.exprs[1]' must be an expression, got 3"),
+        ({**WATCH, "exprs": ["x" * 501]}, "'watch.exprs[0]' is longer than 500 characters"),
+        ({**WATCH, "node": 5}, "'watch.node' must be a string, got 5"),
+        ({**WATCH, "throttle": -1}, "'watch.throttle' must be 0..3600 seconds, got -1"),
+        ({**WATCH, "throttle": "fast"}, "'watch.throttle' must be 0..3600 seconds"),
+    ],
+)
+def test_a_bad_watch_is_left_out_naming_the_field(watch: object, expected: str) -> None:
+    """A watch field of the wrong kind leaves the watch out with a message naming it; the widget loads."""
+    if isinstance(watch, dict) and watch.get("file") == "a\\nb":
+        watch = {**watch, "file": "a\nb"}
+    result = parse_dashboard(_one_dial(watch=watch), LOOKUP)
+    (message,) = result.messages
+    assert message.startswith("widget #1 'Hits': field ")
+    assert expected in message
+    assert message.endswith("the watch is left out")
+    (dial,) = _widgets(result.dashboard.widgets)
+    assert dial.watch is None
+    assert dial.name == "Hits"
+
+
+def test_a_watch_expression_the_reader_refuses_is_kept_as_written() -> None:
+    """An expression outside the watch language loads as written (the widget shows the refusal once armed);
+    an unknown key of the watch is named and ignored."""
+    result = parse_dashboard(_one_dial(watch={**WATCH, "exprs": ["len(x)"], "colour": "red"}), LOOKUP)
+    assert result.messages == ["widget #1 'Hits': field 'watch': unknown field 'colour' ignored"]
+    assert _widgets(result.dashboard.widgets)[0].watch == WatchConfig("/ws/controller.py", 42, ("len(x)",))
+
+
 def test_legacy_saves_in_current_format(tmp_path: Path) -> None:
     """Saving a legacy dashboard writes the current format, which loads back equal."""
     result = load_dashboard(GOLDEN / "legacy_all_widgets.json", LOOKUP)
@@ -286,6 +372,18 @@ SAFE_CHARS = st.characters(blacklist_categories=("Cs", "Cc"))
 """Text a dashboard keeps as it is: no lone surrogates, no control characters (see text_problem)."""
 
 
+_one_line = st.text(SAFE_CHARS, min_size=1, max_size=30).map(str.strip).filter(bool)
+watches = st.builds(
+    WatchConfig,
+    _one_line,
+    st.integers(1, 10_000_000),
+    st.lists(_one_line, min_size=1, max_size=16).map(tuple),
+    node=st.just("") | _one_line,
+    when=st.just("") | _one_line,
+    throttle=st.none() | st.floats(0, 3600),
+)
+
+
 def _config(type_name: str) -> st.SearchStrategy[WidgetConfig]:
     cls = REGISTRY.get(type_name)
     assert cls is not None
@@ -325,6 +423,7 @@ def _config(type_name: str) -> st.SearchStrategy[WidgetConfig]:
         st.lists(binding, max_size=cls.max_bindings).map(tuple),
         st.fixed_dictionaries(props),
         st.none() | st.floats(0.001, 86_400),
+        st.none() | watches,
     )
 
 

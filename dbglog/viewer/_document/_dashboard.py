@@ -26,7 +26,7 @@ import threading
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -45,10 +45,12 @@ __all__ = [
     "MAX_STALE_AFTER",
     "MAX_WIDGETS",
     "VERSION",
+    "WATCH_VERSION",
     "Dashboard",
     "DashboardError",
     "LoadResult",
     "RawWidget",
+    "WatchConfig",
     "WidgetConfig",
     "check_stale_after",
     "dumps",
@@ -59,11 +61,14 @@ __all__ = [
 ]
 
 FORMAT = "dbglog-dashboard"
-VERSION = 2
-"""The newest version this viewer reads. A file is written as version 1 unless it needs version 2 (a binding
-to the selected robot or to every robot), so older viewers still open every other dashboard."""
+VERSION = 3
+"""The newest version this viewer reads. A file is written as the lowest version that holds it (1 unless a
+binding follows the selected robot or every robot: 2, or a widget has a watch: 3), so older viewers still
+open every other dashboard."""
 ROBOT_VERSION = 2
 """The first version whose bindings may have a ``"robot"`` (``"$selected"``, ``"$every"``)."""
+WATCH_VERSION = 3
+"""The first version whose widgets may have a ``"watch"`` (a variable of a running program: docs/watch.md)."""
 MAX_FILE_BYTES = 16 << 20
 """Largest dashboard file read (16 MiB)."""
 MAX_WIDGETS = 1000
@@ -77,6 +82,12 @@ MAX_NAME = 200
 MAX_TOPIC = 1000
 MAX_FIELD = 1000
 MAX_REGEX = 10_000
+MAX_WATCH_FILE = 4096
+MAX_WATCH_LINE = 10_000_000
+MAX_EXPR = 500
+"""The longest watch expression (as the watch protocol reads them)."""
+MAX_EXPRS = 16
+MAX_THROTTLE = 3600.0
 TEMP_MARK = ".dbglog-tmp-"
 """Temporary files of a save are named ``.NAME.dbglog-tmp-PID`` in the dashboard's folder."""
 
@@ -102,6 +113,43 @@ class DashboardError(ValueError):
 
 
 @dataclass(frozen=True)
+class WatchConfig:
+    """A variable of a running Python program that a widget shows: a line of a file and expressions.
+
+    The viewer arms it in every watchable process that has the line (only those with an rclpy node called
+    `node`, when given) and binds the widget to the tags it publishes (docs/watch.md, *In the viewer*).
+    """
+
+    file: str
+    """The file as the process loaded it (an absolute path), or a unique end of its path."""
+    line: int
+    exprs: tuple[str, ...]
+    """The expressions, as written: one that is not allowed shows as the widget's error when armed."""
+    node: str = ""
+    """Only processes with an rclpy node of this name (``""``: every process that has the line)."""
+    when: str = ""
+    """Only the hits where this expression is true (``""``: every hit)."""
+    throttle: float | None = None
+    """At most one hit per this many seconds (None: every hit up to 1 kHz)."""
+
+    def to_dict(self) -> dict[str, Any]:
+        """Return the JSON form (optional fields only when set)."""
+        out: dict[str, Any] = {"file": self.file, "line": self.line, "exprs": list(self.exprs)}
+        if self.node:
+            out["node"] = self.node
+        if self.when:
+            out["when"] = self.when
+        if self.throttle is not None:
+            out["throttle"] = self.throttle
+        return out
+
+    @property
+    def title(self) -> str:
+        """How messages name it: ``loop.py:24 speed, robot.gain``."""
+        return f"{Path(self.file).name}:{self.line} {', '.join(self.exprs)}"
+
+
+@dataclass(frozen=True)
 class WidgetConfig:
     """One widget on the canvas as saved: type, name, place and size, bindings, property values."""
 
@@ -115,6 +163,8 @@ class WidgetConfig:
     properties: Mapping[str, PropValue] = field(default_factory=dict)
     stale_after: float | None = None
     """Seconds without a message before this widget shows stale; None: the viewer's setting."""
+    watch: WatchConfig | None = None
+    """The variable of a running program it shows, armed while the dashboard is open (None: none)."""
 
     def to_dict(self) -> dict[str, Any]:
         """Return the JSON form (current format)."""
@@ -130,6 +180,8 @@ class WidgetConfig:
         }
         if self.stale_after is not None:
             out["stale_after"] = self.stale_after
+        if self.watch is not None:
+            out["watch"] = self.watch.to_dict()
         return out
 
     # The union WidgetConfig | RawWidget answers these alike, so the canvas never asks which it holds.
@@ -244,16 +296,21 @@ class Dashboard:
         }
 
     def needed_version(self) -> int:
-        """The lowest file version that holds this dashboard: 2 when a binding is robot-relative (an entry
-        kept verbatim counts too), else 1."""
+        """The lowest file version that holds this dashboard: 3 with a watch, 2 when a binding is
+        robot-relative (an entry kept verbatim counts too), else 1."""
+        version = 1
         for w in self.widgets:
             if isinstance(w, RawWidget):
+                if w.data.get("watch") is not None:
+                    return WATCH_VERSION
                 raw = w.data.get("bindings")
                 if isinstance(raw, list) and any(isinstance(b, dict) and "robot" in b for b in raw):
-                    return ROBOT_VERSION
+                    version = ROBOT_VERSION
+            elif w.watch is not None:
+                return WATCH_VERSION
             elif any(b.robot for b in w.bindings):
-                return ROBOT_VERSION
-        return 1
+                version = ROBOT_VERSION
+        return version
 
 
 @dataclass
@@ -666,11 +723,13 @@ def _parse_known(
     bindings = _parse_bindings(entry.get("bindings", []), cls, where, msgs, robots=robots)
     props = _parse_properties(entry.get("properties", {}), cls, where, msgs)
     stale_after = _stale_after(entry, where, msgs)
+    watches = result.version >= WATCH_VERSION
+    watch = _parse_watch(entry["watch"], where, msgs) if watches and entry.get("watch") is not None else None
     for key in entry:
-        if key not in _WIDGET_KEYS:
+        if key not in _WIDGET_KEYS and (key != "watch" or not watches):
             msgs.append(f"{where}: unknown field {_q(key)} ignored")
     result.dashboard.widgets.append(
-        WidgetConfig(type_name, name, x, y, width, height, bindings, props, stale_after)
+        WidgetConfig(type_name, name, x, y, width, height, bindings, props, stale_after, watch)
     )
 
 
@@ -699,6 +758,72 @@ def _stale_after(entry: Mapping[str, Any], where: str, msgs: list[str]) -> float
     except ValueError as exc:
         msgs.append(f"{where}: field 'stale_after' {exc}; using the viewer's stale time")
         return None
+
+
+_WATCH_KEYS = frozenset({"file", "line", "exprs", "node", "when", "throttle"})
+
+
+def _parse_watch(raw: object, where: str, msgs: list[str]) -> WatchConfig | None:
+    """A widget's ``"watch"`` (version 3 on). A field of the wrong kind leaves the watch out with a message
+    (the widget keeps its bindings); an expression the watch language refuses is kept as written and shows
+    as the widget's error once armed, as a regex that does not compile does."""
+    at = f"{where}: field 'watch'"
+    if not isinstance(raw, dict):
+        msgs.append(f"{at} must be an object, got {_kind(raw)}; the watch is left out")
+        return None
+    problems: list[str] = []
+    file = raw.get("file")
+    if not isinstance(file, str) or not file.strip():
+        problems.append(f"'watch.file' must be a file name, got {_short(file)}")
+    elif problem := text_problem(file):
+        problems.append(f"'watch.file' {problem}")
+    elif len(file) > MAX_WATCH_FILE:
+        problems.append(f"'watch.file' is longer than {MAX_WATCH_FILE} characters")
+    line = raw.get("line")
+    if isinstance(line, bool) or not isinstance(line, int) or not 1 <= line <= MAX_WATCH_LINE:
+        problems.append(f"'watch.line' must be a whole number 1..{MAX_WATCH_LINE}, got {_short(line)}")
+    exprs = raw.get("exprs")
+    if not isinstance(exprs, list) or not 1 <= len(exprs) <= MAX_EXPRS:
+        problems.append(f"'watch.exprs' must be a list of 1 to {MAX_EXPRS} expressions, got {_short(exprs)}")
+    else:
+        for i, expr in enumerate(exprs):
+            if not isinstance(expr, str) or not expr.strip():
+                problems.append(f"'watch.exprs[{i}]' must be an expression, got {_short(expr)}")
+            elif problem := text_problem(expr):
+                problems.append(f"'watch.exprs[{i}]' {problem}")
+            elif len(expr) > MAX_EXPR:
+                problems.append(f"'watch.exprs[{i}]' is longer than {MAX_EXPR} characters")
+    texts: dict[str, str] = {}
+    for key in ("node", "when"):
+        value = raw.get(key)
+        if value is None:
+            value = ""
+        if not isinstance(value, str):
+            problems.append(f"'watch.{key}' must be a string, got {_short(value)}")
+        elif problem := text_problem(value):
+            problems.append(f"'watch.{key}' {problem}")
+        elif len(value) > MAX_EXPR:
+            problems.append(f"'watch.{key}' is longer than {MAX_EXPR} characters")
+        else:
+            texts[key] = value.strip()
+    throttle = raw.get("throttle")
+    seconds = None if throttle is None else _as_float(throttle)
+    if throttle is not None and (seconds is None or not 0 <= seconds <= MAX_THROTTLE):
+        problems.append(f"'watch.throttle' must be 0..{MAX_THROTTLE:g} seconds, got {_short(throttle)}")
+    if problems:
+        msgs.append(f"{where}: field {'; '.join(problems)}; the watch is left out")
+        return None
+    for key in raw:
+        if key not in _WATCH_KEYS:
+            msgs.append(f"{at}: unknown field {_q(key)} ignored")
+    return WatchConfig(
+        cast(str, file).strip(),
+        cast(int, line),
+        tuple(str(e).strip() for e in cast(list[str], exprs)),
+        node=texts.get("node", ""),
+        when=texts.get("when", ""),
+        throttle=seconds,
+    )
 
 
 def _coord(
