@@ -14,7 +14,7 @@ import dearpygui.dearpygui as dpg
 from dbglog.viewer._data._model import EVERY_ROBOT, SELECTED_ROBOT, Binding, SeriesSnapshot, Status
 from dbglog.viewer._data._robots import Fleet, is_relative
 from dbglog.viewer._data._timeline import Timeline
-from dbglog.viewer._document._dashboard import RawWidget, WidgetConfig
+from dbglog.viewer._document._dashboard import RawWidget, WatchConfig, WidgetConfig
 from dbglog.viewer._ui._theme import DIM, HEADER, STATUS_COLORS, TEXT
 from dbglog.viewer._widgets._common import text_size
 from dbglog.viewer._widgets._geometry import Rect
@@ -33,6 +33,7 @@ __all__ = [
     "CanvasItem",
     "FrameSnapshots",
     "SnapshotReader",
+    "StatusNote",
     "combined_status",
     "parameter_misbound",
 ]
@@ -53,6 +54,14 @@ class SnapshotReader(Protocol):
 
     def snapshot(self, binding: Binding) -> SeriesSnapshot:
         """Return the series of `binding` as the frame shows it."""
+
+
+class StatusNote(Protocol):
+    """What, besides its series, has a say in a widget's status (a watch: armed, its process gone)."""
+
+    def over(self, status: Status, reason: str) -> tuple[Status, str, str]:
+        """The status, the pill's text and the reason to show, given those of the widget's series."""
+        ...
 
 
 class FrameSnapshots:
@@ -163,10 +172,14 @@ class CanvasItem:
         self.edited = False
         """Set by `refresh` when the widget changed a saved property itself; the viewer clears it."""
         self._key: tuple[object, ...] | None = None
-        self._pill_state: tuple[Status, str, bool] | None = None
+        self._pill_state: tuple[Status, str, bool, str | None] | None = None
         self._paused = False
         self.pill_label = ""
         """What the status pill says (``live``; paused, ``live then``)."""
+        self.note: StatusNote | None = None
+        """What besides the series has a say in the status (a watch); set on the UI thread, compared by
+        value (a new one redraws the pill)."""
+        self._pill_text: str | None = None
         """The dashboard is paused at a time: the pill says the status *then* ("live then")."""
         x, y, w, h = self.geometry()
         self.window = dpg.add_child_window(
@@ -332,7 +345,8 @@ class CanvasItem:
         dpg.draw_circle((w - r, r), r, color=none, fill=HEADER, parent=dl)
         status = self.status
         then = self._paused and status in (Status.LIVE, Status.STALE)
-        label = self.pill_label = f"{status.value} then" if then else status.value
+        text = self._pill_text or status.value
+        label = self.pill_label = f"{text} then" if then else text
         pill_w = text_size(label, 13)[0] + 26
         max_chars = max(3, int((w - pill_w - 24) / (15 * 0.55)))
         title = self.name if len(self.name) <= max_chars else self.name[: max_chars - 1] + "\u2026"
@@ -361,7 +375,7 @@ class CanvasItem:
             whose = "every robot's" if EVERY_ROBOT in following else "the selected robot's"
             bindings = f"{whose} topics (the Robot menu switches):\n{bindings}"
         dpg.set_value(self.tooltip_text, "\n".join(x for x in (tip, self.reason, bindings) if x))
-        self._pill_state = (status, self.reason, self._paused)
+        self._pill_state = (status, self.reason, self._paused, self._pill_text)
 
     # -- live updates -------------------------------------------------------------------------------
 
@@ -423,7 +437,7 @@ class CanvasItem:
             drawn = self.widget.redraw_key()
         except Exception:  # `refresh` disables the widget and says why
             return True
-        key = _state_key(self._snapshots(source), own, paused_at, drawn)
+        key = _state_key(self._snapshots(source), (own, self.note), paused_at, drawn)
         return key != self._key or self.widget.props_changed
 
     def refresh(self, source: SnapshotReader, now: float, *, paused_at: float | None = None) -> None:
@@ -453,13 +467,17 @@ class CanvasItem:
             if props != dict(config.properties):
                 self.config = replace(config, properties=props)
                 self.edited = True
-        key = _state_key(snapshots, own, paused_at, drawn)
+        key = _state_key(snapshots, (own, self.note), paused_at, drawn)
         if key == self._key:
             return
         self._key = key
-        self.status, self.reason = own if own is not None else combined_status(snapshots)
+        status, reason = own if own is not None else combined_status(snapshots)
+        self._pill_text = None
+        if self.note is not None:
+            status, self._pill_text, reason = self.note.over(status, reason)
+        self.status, self.reason = status, reason
         self._paused = paused_at is not None
-        if (self.status, self.reason, self._paused) != self._pill_state:
+        if (self.status, self.reason, self._paused, self._pill_text) != self._pill_state:
             self._draw_header(int(self.geometry()[2]))
         try:
             self.widget.paused_at = paused_at
@@ -519,6 +537,13 @@ class CanvasItem:
         config = self.config.editable
         if config is not None and seconds != config.stale_after:
             self.config = replace(config, stale_after=seconds)
+            self.invalidate()
+
+    def set_watch(self, watch: WatchConfig | None) -> None:
+        """Give the widget the variable of a running program it shows (None: none); saved with it."""
+        config = self.config.editable
+        if config is not None and watch != config.watch:
+            self.config = replace(config, watch=watch)
             self.invalidate()
 
     def set_bindings(self, bindings: tuple[Binding, ...]) -> None:
