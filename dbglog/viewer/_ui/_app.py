@@ -44,6 +44,7 @@ from dbglog.viewer._ui._status import StatusBar
 from dbglog.viewer._ui._tagtree import TREE_W, TagTreePanel
 from dbglog.viewer._ui._time import KEYS_HINT, TimeControl
 from dbglog.viewer._ui._timebar import TIMEBAR_H, TimeBar
+from dbglog.viewer._ui._watches import WatchKeeper
 from dbglog.viewer._ui._window import install_input, main_window, open_viewport
 from dbglog.viewer._widgets import WidgetRegistry
 from dbglog.viewer.widget_api import TimeRange
@@ -185,6 +186,17 @@ class ViewerApp:
         """The tag tree beside the canvas: robots, groups, tags and topics to drag onto it."""
         self.canvas.drop_handlers.append(self.tree.drop)
         self.frame_hooks += [self.robots.poll, self.tree.poll]
+        self.watches = WatchKeeper(
+            self.doc,
+            self.dialogs,
+            add_widget=self.canvas.add_widget,
+            view_rect=self.canvas.view_rect,
+            say=self.set_status,
+            wake=self.pacer.request,
+            live=not recording,
+        )
+        """Watch a variable…, and the dashboard's watches kept armed with their state on their widgets."""
+        self.frame_hooks.append(self.watches.poll)
         self.status = StatusBar(self.time, self.doc.summary, self.loop)
         self.keys = KeyBindings(self.actions, chord=self.loop.chord, keyboard_taken=self._keys_blocked)
         self.menus = MenuBar(self.actions, MENUS)
@@ -204,6 +216,7 @@ class ViewerApp:
             self.events_panel,
             self.robots,
             self.tree,
+            self.watches,
         ):
             concern.register(self.actions)
         self.files.register(self.actions, modal=lambda: self.dialogs.current is not None)
@@ -266,6 +279,7 @@ class ViewerApp:
             return
         self.quitting = True  # Dear PyGui calls the exit callback once more while destroying the context
         self.dialogs.close()
+        self.watches.close()
         self.doc.release_all()
         self.publisher.stop()
         self.started = False

@@ -37,6 +37,7 @@ MENUS: tuple[tuple[str, tuple[str | None, ...]], ...] = (
             "view.find_tag",
         ),
     ),
+    ("Watch", ("watch.add",)),
 )
 """The menu bar: (title, entries); an entry is an action's name, None a separator."""
 CONTEXT_MENU = (

@@ -103,9 +103,10 @@ class Dialogs:
         self.doc.mark_dirty()
 
     def move_highlight(self, step: int) -> None:
-        """Up/Down in Topic setup: highlight the previous/next suggested topic (Enter takes it)."""
-        if isinstance(self.current, TopicDialog):
-            self.current.move_highlight(step)
+        """Up/Down in Topic setup or Watch a variable: the previous/next suggestion (Enter takes it)."""
+        move = getattr(self.current, "move_highlight", None)
+        if callable(move):
+            move(step)
 
     def register(self, actions: Actions) -> None:
         """Register the commands of the dialogs (Load messages; the arrow keys in Topic setup)."""
