@@ -107,6 +107,7 @@ def _dialog_state(app: Any) -> dict[str, Any] | None:
         "file_active": bool(dpg.is_item_active(d.file_input)),
         "files": _rows(d.file_list),
         "file_note": dpg.get_value(d.file_note),
+        "every_rect": _rect(d.every_box),
         "chosen_file": d.file,
         "source_note": dpg.get_value(d.source_note),
         "source_rect": _rect(d.source_box),
@@ -439,14 +440,24 @@ def test_menu_dialog_plots_a_scripts_variable_saved_and_rearmed(
 def test_key_opens_the_dialog_on_an_rclpy_node(
     viewer: Callable[[str], ViewerChild], talker: Program, loop: Program
 ) -> None:
-    """Ctrl+Shift+W opens the dialog; an rclpy node with DBGLOG_WATCH=1 is chosen among the processes, its
-    file taken from the type-ahead with Enter, a line clicked, ``self.count`` typed with completion: a plot
-    shows the node's counter, which goes on counting."""
+    """Ctrl+Shift+W opens the dialog; an rclpy node with DBGLOG_WATCH=1 is chosen among the processes
+    (libraries too offers rclpy's files), its file taken from the type-ahead with Enter, a line clicked,
+    ``self.count`` typed with completion: a plot shows the node's counter, which goes on counting."""
     v = viewer("empty")
     v.key("ctrl+shift+w")
     v.wait_for(lambda s: dialog(s).get("kind") == "WatchDialog")
     choose_process(v, "watch_talker")
-    v.wait_for(lambda s: dialog(s)["file_active"] and "talker" in dialog(s)["file_note"], START_S)
+    state = v.wait_for(lambda s: "1 file of your code" in dialog(s)["file_note"], START_S)
+    v.click(*center(dialog(state)["every_rect"]))  # libraries too: rclpy's files are offered
+    state = v.wait_for(lambda s: dialog(s)["file_note"].endswith("files loaded by /watch_talker"), START_S)
+    assert int(dialog(state)["file_note"].split()[0]) > 20
+    v.click(*center(dialog(state)["file_rect"]))
+    v.type("node.py")
+    v.wait_for(lambda s: "node.py" in names(dialog(s)["files"]))
+    v.click(*center(dialog(state)["every_rect"]))
+    v.wait_for(lambda s: "1 file of your code" in dialog(s)["file_note"], START_S)
+    v.click(*center(dialog(state)["file_rect"]))
+    v.key("ctrl+a", "BackSpace")
     v.type("talk")
     state = v.wait_for(lambda s: names(dialog(s)["files"])[:1] == ["talker.py"])
     v.key("Return")

@@ -12,6 +12,7 @@ from dbglog.viewer._ui._watchdialog import (
     process_label,
     source_row,
     typed_token,
+    unknown_names,
 )
 from dbglog.viewer._ui._watches import watch_bindings, watch_spec
 from dbglog.watch.client import Names, Process
@@ -72,6 +73,15 @@ def test_expression_check_says_why_a_watch_would_refuse_it() -> None:
     ok, text = expression_check("  ")
     assert not ok
     assert text.startswith("type a name")
+
+
+def test_names_the_line_does_not_have_are_found_without_running_anything() -> None:
+    """Names an expression reads that are neither locals nor globals at the line are listed, once each."""
+    assert unknown_names("robot.speed + ranges[0]", NAMES) == []
+    assert unknown_names("nosuch + robot.nosuch_attr * nosuch", NAMES) == ["nosuch"]
+    assert unknown_names("a if json else b", NAMES) == ["a", "b"]
+    assert unknown_names("nosuch", None) == []
+    assert unknown_names("a +", NAMES) == []
 
 
 def test_source_rows_and_process_labels() -> None:

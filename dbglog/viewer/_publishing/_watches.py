@@ -214,7 +214,7 @@ class WatchService(Generic[K]):
 
     def start(self) -> None:
         """Start the service's thread, which makes the client (idempotent; returns at once)."""
-        if self._thread is not None:
+        if self._thread is not None or self._stop.is_set():
             return
         self._thread = threading.Thread(target=self._run, name="dbglog-watch-keeper", daemon=True)
         self._thread.start()
@@ -277,9 +277,9 @@ class WatchService(Generic[K]):
             self._wanted = dict(wanted)
         self.start()
 
-    def files(self, process: Process) -> Future[list[str]]:
-        """The source files of the user's tree that `process` loaded (a `Future`: poll it)."""
-        return self._query(lambda c: c.files(process, timeout=_QUERY_TIMEOUT_S))
+    def files(self, process: Process, *, everything: bool = False) -> Future[list[str]]:
+        """The source files of the user's tree that `process` loaded, or every one (a `Future`: poll it)."""
+        return self._query(lambda c: c.files(process, everything=everything, timeout=_QUERY_TIMEOUT_S))
 
     def source(self, process: Process, file: str, line: int, *, context: int = 10) -> Future[Source]:
         """Lines of `file` around `line` as `process` reads them (a `Future`)."""

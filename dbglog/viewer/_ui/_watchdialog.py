@@ -10,6 +10,7 @@ record what was clicked or typed; `tick` does the work on the UI thread.
 
 from __future__ import annotations
 
+import ast
 import os
 import re
 import threading
@@ -39,6 +40,7 @@ __all__ = [
     "process_label",
     "source_row",
     "typed_token",
+    "unknown_names",
 ]
 
 CONTEXT_LINES: Final = 200
@@ -52,7 +54,7 @@ SHOW_AS: Final = (
 )
 """The widgets a watch can show as (type, label), the default first."""
 MAX_SUGGESTIONS: Final = 60
-ROW_H: Final = 19
+ROW_H: Final = 21
 """The height of a row of a list (a selectable in the window's font, with the lists' spacing)."""
 _WAITING = STATUS_COLORS[Status.WAITING]
 _TOKEN = re.compile(r"(?<![\w.])([A-Za-z_]\w*)$")
@@ -139,6 +141,23 @@ def expression_check(text: str) -> tuple[bool, str]:
     return True, "ok: read as the line is about to run; nothing of the program runs"
 
 
+def unknown_names(text: str, names: Names | None) -> list[str]:
+    """The names `text` reads that the code at the line does not have now (no local, no global of it).
+
+    Python's parser only reads the text: nothing is evaluated. Empty when `names` is not known yet or the
+    text is no expression (`expression_check` says why).
+    """
+    if names is None:
+        return []
+    try:
+        tree = ast.parse(text.strip(), mode="eval")
+    except SyntaxError:
+        return []
+    known = {*names.locals, *names.globals}
+    read = dict.fromkeys(n.id for n in ast.walk(tree) if isinstance(n, ast.Name))
+    return [name for name in read if name not in known]
+
+
 @dataclass(frozen=True, slots=True)
 class WatchPlan:
     """What OK adds: a widget of `type_name` named `name` that shows `watch`."""
@@ -169,8 +188,8 @@ class WatchQueries(Protocol):
         """Whether processes already running may still be on their way."""
         ...
 
-    def files(self, process: Process) -> Future[list[str]]:
-        """The user's source files `process` loaded."""
+    def files(self, process: Process, *, everything: bool = False) -> Future[list[str]]:
+        """The user's source files `process` loaded (`everything`: libraries too)."""
         ...
 
     def source(self, process: Process, file: str, line: int, *, context: int = 10) -> Future[Source]:
@@ -257,6 +276,9 @@ class WatchDialog(Dialog):
         with dpg.group(horizontal=True, parent=w):
             dpg.add_text("File", color=DIM)
             self.file_note = dpg.add_text("", color=DIM)
+            self.every_box = dpg.add_checkbox(
+                label="libraries too", callback=lambda *_: self._record("every", None)
+            )
         self.file_input = dpg.add_input_text(
             width=-1,
             hint="type part of a file name, e.g. controller.py",
@@ -303,7 +325,7 @@ class WatchDialog(Dialog):
             self.show_as = dpg.add_radio_button(
                 [label for _type, label in SHOW_AS], default_value=SHOW_AS[0][1], horizontal=True
             )
-        self.error_text = dpg.add_text("", color=ERROR_COLOR, parent=w, wrap=750)
+        self.error_text = dpg.add_text("", color=ERROR_COLOR, parent=w, wrap=750, show=False)
         dpg.add_spacer(height=4, parent=w)
         with dpg.group(horizontal=True, parent=w):
             self.ok_button = dpg.add_button(
@@ -360,6 +382,8 @@ class WatchDialog(Dialog):
             shown = self.file_shown
             if shown:
                 self.choose_file(shown[0])
+        elif what == "every":
+            self._ask_files()
         elif what == "line" and isinstance(value, int):
             self.choose_line(value)
         elif what == "line_enter":
@@ -428,14 +452,21 @@ class WatchDialog(Dialog):
             self.focus_soon(self.file_input)
             return
         self.process = found
-        self.files = None
-        self._ask("files", self.queries.files(found), found.agent)
-        self._show_files()
+        self._ask_files()
         if self.file:
             self.choose_file(self.file)  # the same file in the restarted program, say
         self.focus_soon(self.file_input)
 
     # -- the file -------------------------------------------------------------------------------------------
+
+    def _ask_files(self) -> None:
+        """Ask the process for its files: those of the user's tree, or every one (libraries too)."""
+        if self.process is None:
+            return
+        self.files = None
+        everything = bool(dpg.get_value(self.every_box))
+        self._ask("files", self.queries.files(self.process, everything=everything), self.process.agent)
+        self._show_files()
 
     def _show_files(self) -> None:
         if self.process is None:
@@ -443,8 +474,8 @@ class WatchDialog(Dialog):
         elif self.files is None:
             note = "reading the files the process loaded\u2026"
         else:
-            count = len(self.files)
-            note = f"{count} file{'' if count == 1 else 's'} of your code loaded by {self.process.name}"
+            count, whose = len(self.files), "" if dpg.get_value(self.every_box) else " of your code"
+            note = f"{count} file{'' if count == 1 else 's'}{whose} loaded by {self.process.name}"
         dpg.set_value(self.file_note, note)
         shown = file_suggestions(self.files or [], self._typed_file)
         picked = bool(self.file) and self._typed_file == self.file
@@ -598,12 +629,28 @@ class WatchDialog(Dialog):
 
     def _check(self) -> bool:
         ok, text = expression_check(self._typed_expr)
-        dpg.set_value(self.expr_note, text)
         color = OK_COLOR if ok else ERROR_COLOR if self._typed_expr else DIM
+        unknown = unknown_names(self._typed_expr, self.names) if ok else []
+        if self.completion:  # the name being typed is still being completed
+            unknown = [name for name in unknown if name != typed_token(self._typed_expr)]
+        if unknown:  # allowed (a global may be made later), but it would say "expr error" now
+            color = _WAITING
+            text = (
+                f"{', '.join(unknown)}: no such name at line {self.line} now (a local or a global of its "
+                "code); the widget says 'expr error' while there is none"
+            )
+        dpg.set_value(self.expr_note, text)
         dpg.configure_item(self.expr_note, color=color)
         ready = ok and self.plan() is not None
         dpg.configure_item(self.ok_button, enabled=ready)
+        if ready:
+            self._error("")
         return ready
+
+    def _error(self, text: str) -> None:
+        """Say what stops OK above the buttons (nothing: the line goes)."""
+        dpg.set_value(self.error_text, text)
+        dpg.configure_item(self.error_text, show=bool(text))
 
     # -- answers --------------------------------------------------------------------------------------------
 
@@ -629,7 +676,7 @@ class WatchDialog(Dialog):
             return
         if error is not None:
             self.files = []
-            dpg.set_value(self.error_text, f"cannot list the process's files: {error}")
+            self._error(f"cannot list the process's files: {error}")
         else:
             self.files = [str(f) for f in value] if isinstance(value, list) else []
         self._show_files()
@@ -684,7 +731,7 @@ class WatchDialog(Dialog):
         ok, text = expression_check(self._typed_expr)
         plan = self.plan() if ok else None
         if plan is None:
-            dpg.set_value(self.error_text, text if not ok and self.names is not None else _missing_step(self))
+            self._error(text if not ok and self.names is not None else _missing_step(self))
             return False
         self.on_ok(plan)
         self.close()

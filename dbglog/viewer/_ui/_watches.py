@@ -93,11 +93,11 @@ class WatchKeeper:
         self.add_widget, self.view_rect, self.say, self.wake = add_widget, view_rect, say, wake
         self.live = live
         self.service: WatchService[WatchConfig] = service if service is not None else WatchService()
-        self._seen = -1
-        """The service's version the widgets show."""
+        self._seen: tuple[int, list[tuple[int, WatchConfig]]] = (-1, [])
+        """The service's version and the watched widgets their notes show (a new widget, a widget whose type
+        changed, is shown at once)."""
         self._shown: weakref.WeakKeyDictionary[CanvasItem, tuple[str, ...]] = weakref.WeakKeyDictionary()
         """Widget -> the watch topics last bound (a change of them binds again; a Topic setup stays)."""
-        self._count = 0
         self._code_font: int | str | None = None
         self._font_tried = False
 
@@ -152,10 +152,10 @@ class WatchKeeper:
         if not watched and not self.service.started:
             return
         self.service.keep({w: watch_spec(w) for _item, w in watched})
-        version = self.service.version
-        if version == self._seen and len(watched) == self._count:
+        seen = (self.service.version, [(id(item), w) for item, w in watched])
+        if seen == self._seen:
             return
-        self._seen, self._count = version, len(watched)
+        self._seen = seen
         for item, w in watched:
             report = self.service.report(w)
             if item.note != report:
