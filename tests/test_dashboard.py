@@ -169,7 +169,7 @@ WATCH = {"file": "/ws/controller.py", "line": 42, "exprs": ["error", "self.gain"
 
 def test_watch_round_trips_and_makes_the_file_version_3() -> None:
     """A widget's watch loads, saves and loads back equal; a file with one is version 3, one without 1."""
-    full = {**WATCH, "node": "/controller", "when": "error > 0.1", "throttle": 0.5}
+    full = {**WATCH, "node": "/controller", "when": "error > 0.1", "throttle": 0.5, "max_cpu": 2.5}
     for raw in (WATCH, full):
         result = parse_dashboard(_one_dial(watch=raw), LOOKUP)
         assert result.messages == []
@@ -181,6 +181,7 @@ def test_watch_round_trips_and_makes_the_file_version_3() -> None:
             node=str(raw.get("node", "")),
             when=str(raw.get("when", "")),
             throttle=raw.get("throttle"),  # type: ignore[arg-type]
+            max_cpu=raw.get("max_cpu"),  # type: ignore[arg-type]
         )
         saved = json.loads(dumps(result.dashboard))
         assert saved["version"] == WATCH_VERSION
@@ -224,6 +225,7 @@ def test_watch_in_a_file_before_version_3_is_an_unknown_field() -> None:
         ({**WATCH, "node": 5}, "'watch.node' must be a string, got 5"),
         ({**WATCH, "throttle": -1}, "'watch.throttle' must be 0..3600 seconds, got -1"),
         ({**WATCH, "throttle": "fast"}, "'watch.throttle' must be 0..3600 seconds"),
+        ({**WATCH, "max_cpu": 80}, "'watch.max_cpu' must be 0.1..50 percent, got 80"),
     ],
 )
 def test_a_bad_watch_is_left_out_naming_the_field(watch: object, expected: str) -> None:
@@ -381,6 +383,7 @@ watches = st.builds(
     node=st.just("") | _one_line,
     when=st.just("") | _one_line,
     throttle=st.none() | st.floats(0, 3600),
+    max_cpu=st.none() | st.floats(0.1, 50),
 )
 
 

@@ -34,6 +34,7 @@ DATA = Path(__file__).resolve().parent / "data" / "watch"
 LOOP, TALKER = DATA / "loop.py", DATA / "talker.py"
 STEP_LINE = line_of("step", LOOP)
 TICK_LINE = line_of("tick", TALKER)
+HOT_LINE = line_of("hot", LOOP)
 BLANK_LINE = STEP_LINE - 7
 """An empty line of loop.py (between two functions): no code."""
 START_S = 60.0
@@ -487,7 +488,8 @@ def test_widgets_show_each_watch_state(
     viewer: Callable[[str], ViewerChild], loop: Program, tmp_path: Path
 ) -> None:
     """A dashboard's watches each show their state on the widget: armed and live, a line with no code, a
-    missing name, a property (reading it would run code), a call (refused before it is sent)."""
+    missing name, a property (reading it would run code), a call (refused before it is sent), disarmed by
+    the CPU rule."""
     from dbglog.viewer._document._dashboard import (
         Dashboard,
         RawWidget,
@@ -496,8 +498,8 @@ def test_widgets_show_each_watch_state(
         save_dashboard,
     )
 
-    def widget(name: str, line: int, expr: str, x: float, y: float) -> WidgetConfig:
-        watch = WatchConfig(str(LOOP), line, (expr,))
+    def widget(name: str, line: int, expr: str, x: float, y: float, cpu: float | None = None) -> WidgetConfig:
+        watch = WatchConfig(str(LOOP), line, (expr,), max_cpu=cpu)
         return WidgetConfig("string", name, x, y, 300, 160, (), {}, None, watch)
 
     widgets = [
@@ -506,6 +508,7 @@ def test_widgets_show_each_watch_state(
         widget("missing", STEP_LINE, "nosuch", 20, 200),
         widget("costly", STEP_LINE, "robot.costly", 340, 200),
         widget("call", STEP_LINE, "len(ranges)", 660, 200),
+        widget("hot", HOT_LINE, "acc", 660, 20, cpu=0.1),
     ]
     path = tmp_path / "states.json"
     save_dashboard(Dashboard(list[WidgetConfig | RawWidget](widgets)), path)
@@ -514,7 +517,8 @@ def test_widgets_show_each_watch_state(
     def shown(s: dict[str, Any]) -> dict[str, str]:
         return {i["name"]: i["pill"] for i in s["items"]}
 
-    want = {"good": "live", "blank": "no line"} | dict.fromkeys(("missing", "costly", "call"), "expr error")
+    want = {"good": "live", "blank": "no line", "hot": "cpu limit"}
+    want |= dict.fromkeys(("missing", "costly", "call"), "expr error")
     state = v.wait_for(lambda s: shown(s) == want, START_S)
     reasons = {i["name"]: i["reason"] for i in state["items"]}
     assert f"pid {loop.pid}" in reasons["good"]
@@ -522,5 +526,6 @@ def test_widgets_show_each_watch_state(
     assert "nosuch" in reasons["missing"]
     assert "property: reading it would run code" in reasons["costly"]
     assert "'len(ranges)' is not allowed" in reasons["call"]
+    assert "disarmed so as not to slow the program" in reasons["hot"]
     assert {i["status"] for i in state["items"] if i["name"] != "good"} == {"error"}
     v.shot("watch-states")

@@ -107,6 +107,8 @@ def test_a_dashboard_watch_becomes_the_clients_spec_and_the_widgets_bindings() -
         0.5,
     )
     assert watch_spec(WatchConfig("c.py", 1, ("x",))).node is None
+    assert watch_spec(WatchConfig("c.py", 1, ("x",))).max_cpu == 0.05
+    assert watch_spec(WatchConfig("c.py", 1, ("x",), max_cpu=0.1)).max_cpu == 0.001
     topics = ("/rosdashboard/watch/x", "/rosdashboard/watch/y")
     assert watch_bindings(topics, 6) == (Binding(topics[0], "data"), Binding(topics[1], "data"))
     assert watch_bindings(topics, 1) == (Binding(topics[0], "data"),)

@@ -88,6 +88,8 @@ MAX_EXPR = 500
 """The longest watch expression (as the watch protocol reads them)."""
 MAX_EXPRS = 16
 MAX_THROTTLE = 3600.0
+MIN_WATCH_CPU, MAX_WATCH_CPU = 0.1, 50.0
+"""A watch's CPU share in percent (``dbglog watch --max-cpu``)."""
 TEMP_MARK = ".dbglog-tmp-"
 """Temporary files of a save are named ``.NAME.dbglog-tmp-PID`` in the dashboard's folder."""
 
@@ -131,6 +133,8 @@ class WatchConfig:
     """Only the hits where this expression is true (``""``: every hit)."""
     throttle: float | None = None
     """At most one hit per this many seconds (None: every hit up to 1 kHz)."""
+    max_cpu: float | None = None
+    """The share of one CPU, in percent, above which the watch disarms itself (None: the default 5)."""
 
     def to_dict(self) -> dict[str, Any]:
         """Return the JSON form (optional fields only when set)."""
@@ -141,6 +145,8 @@ class WatchConfig:
             out["when"] = self.when
         if self.throttle is not None:
             out["throttle"] = self.throttle
+        if self.max_cpu is not None:
+            out["max_cpu"] = self.max_cpu
         return out
 
     @property
@@ -760,7 +766,7 @@ def _stale_after(entry: Mapping[str, Any], where: str, msgs: list[str]) -> float
         return None
 
 
-_WATCH_KEYS = frozenset({"file", "line", "exprs", "node", "when", "throttle"})
+_WATCH_KEYS = frozenset({"file", "line", "exprs", "node", "when", "throttle", "max_cpu"})
 
 
 def _parse_watch(raw: object, where: str, msgs: list[str]) -> WatchConfig | None:
@@ -810,6 +816,12 @@ def _parse_watch(raw: object, where: str, msgs: list[str]) -> WatchConfig | None
     seconds = None if throttle is None else _as_float(throttle)
     if throttle is not None and (seconds is None or not 0 <= seconds <= MAX_THROTTLE):
         problems.append(f"'watch.throttle' must be 0..{MAX_THROTTLE:g} seconds, got {_short(throttle)}")
+    max_cpu = raw.get("max_cpu")
+    percent = None if max_cpu is None else _as_float(max_cpu)
+    if max_cpu is not None and (percent is None or not MIN_WATCH_CPU <= percent <= MAX_WATCH_CPU):
+        problems.append(
+            f"'watch.max_cpu' must be {MIN_WATCH_CPU:g}..{MAX_WATCH_CPU:g} percent, got {_short(max_cpu)}"
+        )
     if problems:
         msgs.append(f"{where}: field {'; '.join(problems)}; the watch is left out")
         return None
@@ -823,6 +835,7 @@ def _parse_watch(raw: object, where: str, msgs: list[str]) -> WatchConfig | None
         node=texts.get("node", ""),
         when=texts.get("when", ""),
         throttle=seconds,
+        max_cpu=percent,
     )
 
 

@@ -26,7 +26,7 @@ from dbglog.viewer._ui._frame import CanvasItem
 from dbglog.viewer._ui._modal import Dialogs
 from dbglog.viewer._ui._watchdialog import WatchDialog, WatchPlan
 from dbglog.viewer._widgets._geometry import Rect
-from dbglog.watch.client import WatchSpec
+from dbglog.watch.client import DEFAULT_MAX_CPU, WatchSpec
 
 __all__ = ["CODE_FONTS", "WatchKeeper", "watch_bindings", "watch_spec"]
 
@@ -50,6 +50,7 @@ def watch_spec(watch: WatchConfig) -> WatchSpec:
         when=watch.when or None,
         throttle=watch.throttle,
         node=watch.node or None,
+        max_cpu=DEFAULT_MAX_CPU if watch.max_cpu is None else watch.max_cpu / 100.0,
     )
 
 
