@@ -529,3 +529,43 @@ def test_widgets_show_each_watch_state(
     assert "disarmed so as not to slow the program" in reasons["hot"]
     assert {i["status"] for i in state["items"] if i["name"] != "good"} == {"error"}
     v.shot("watch-states")
+
+
+def test_a_replay_arms_no_watch_and_shows_the_recorded_values(display: str, tmp_path: Path) -> None:
+    """``dbglog view --replay`` with a dashboard of watches arms none (no ROS): the widget shows the
+    recording's values of the watch's tag and says it is not armed; the watch is kept for saving."""
+    from rclpy.serialization import serialize_message
+    from std_msgs.msg import Float64
+
+    from dbglog.record import McapWriter
+    from dbglog.viewer._data._model import Binding
+    from dbglog.viewer._document._dashboard import (
+        Dashboard,
+        RawWidget,
+        WatchConfig,
+        WidgetConfig,
+        save_dashboard,
+    )
+
+    topic, t0 = "/rosdashboard/watch/speed", 1_700_000_000_000_000_000
+    writer = McapWriter(tmp_path / "run.mcap")
+    channel = writer.add_channel(topic, "std_msgs/msg/Float64")
+    for i in range(50):
+        writer.write(channel, t0 + i * 100_000_000, serialize_message(Float64(data=i * 0.5)), t0)
+    writer.close()
+    watch = WatchConfig(str(LOOP), STEP_LINE, ("speed",))
+    plot = WidgetConfig("plot", "speed", 20, 20, 420, 260, (Binding(topic, "data"),), {}, None, watch)
+    save_dashboard(Dashboard(list[WidgetConfig | RawWidget]([plot])), tmp_path / "dash.json")
+    report = tmp_path / "report.json"
+    dash, rec, shot = tmp_path / "dash.json", tmp_path / "run.mcap", tmp_path / "shot.png"
+    done = subprocess.run(
+        [sys.executable, "-m", "dbglog", "view", str(dash), "--replay", str(rec), "--screenshot", str(shot),
+         "--after", "0.3", "--report-json", str(report)],
+        env={**os.environ, "DISPLAY": display}, capture_output=True, text=True, timeout=120, check=False,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    (widget,) = json.loads(report.read_text())["widgets"]
+    assert widget["values"] == [24.5]
+    assert widget["status"] == "live"
+    assert widget["reason"].startswith("not armed: a recording is shown")
+    assert json.loads(report.read_text())["dashboard"]["widgets"][0]["watch"] == watch.to_dict()
