@@ -250,6 +250,8 @@ class WatchDialog(Dialog):
         self.file = ""
         """The chosen file, as the process loaded it."""
         self.file_shown: list[str] = []
+        self.file_highlight = 0
+        """The highlighted file (Enter takes it)."""
         self.source: Source | None = None
         self.line: int | None = None
         self.names: Names | None = None
@@ -289,12 +291,10 @@ class WatchDialog(Dialog):
         self.file_list = dpg.add_child_window(height=_rows_h(1), width=-1, parent=w)
         with dpg.group(horizontal=True, parent=w):
             dpg.add_text("Line", color=DIM)
-            self.line_input = dpg.add_input_int(
+            self.line_input = dpg.add_input_text(
                 width=110,
-                default_value=0,
-                step=0,
-                min_value=0,
-                min_clamped=True,
+                hint="number",
+                decimal=True,
                 on_enter=True,
                 callback=lambda *_: self._record("line_enter", None),
             )
@@ -379,15 +379,16 @@ class WatchDialog(Dialog):
         elif what == "file" and isinstance(value, str):
             self.choose_file(value)
         elif what == "file_enter":
-            shown = self.file_shown
-            if shown:
-                self.choose_file(shown[0])
+            if self.file_shown:
+                self.choose_file(self.file_shown[min(self.file_highlight, len(self.file_shown) - 1)])
         elif what == "every":
             self._ask_files()
         elif what == "line" and isinstance(value, int):
             self.choose_line(value)
         elif what == "line_enter":
-            self.choose_line(int(dpg.get_value(self.line_input)))
+            typed = str(dpg.get_value(self.line_input)).strip()
+            if typed.isdigit():
+                self.choose_line(int(typed))
         elif what == "name" and isinstance(value, str):
             self.take_completion(value)
         elif what == "expr_enter":
@@ -401,9 +402,7 @@ class WatchDialog(Dialog):
 
     def _show_processes(self) -> None:
         procs = self.queries.processes()
-        if [p.agent for p in procs] != [p.agent for p in self.procs] or not dpg.get_item_children(
-            self.proc_list, 1
-        ):
+        if [p.agent for p in procs] != [p.agent for p in self.procs]:
             self.procs = procs
             dpg.delete_item(self.proc_list, children_only=True)
             dpg.configure_item(self.proc_list, height=_rows_h(min(3, max(1, len(procs)))))
@@ -483,6 +482,7 @@ class WatchDialog(Dialog):
             dpg.configure_item(self.file_list, show=not picked)
             return
         self.file_shown = shown
+        self.file_highlight = 0
         dpg.delete_item(self.file_list, children_only=True)
         picked = bool(self.file) and self._typed_file == self.file
         dpg.configure_item(self.file_list, height=_rows_h(min(5, max(1, len(shown)))), show=not picked)
@@ -507,14 +507,15 @@ class WatchDialog(Dialog):
         self._show_files()
         if changed:
             self.line, self.names, self.line_error = None, None, ""
-            dpg.set_value(self.line_input, 0)
+            dpg.set_value(self.line_input, "")
         self._ask_source(self.line or 1)
         self.focus_soon(self.line_input)
 
     # -- the line -------------------------------------------------------------------------------------------
 
     def _ask_source(self, line: int) -> None:
-        assert self.process is not None
+        if self.process is None:
+            return
         dpg.set_value(self.source_note, f"reading {os.path.basename(self.file)} from the process\u2026")
         dpg.configure_item(self.source_note, color=_WAITING)
         future = self.queries.source(self.process, self.file, line, context=CONTEXT_LINES)
@@ -550,7 +551,7 @@ class WatchDialog(Dialog):
         if self.process is None or not self.file or line < 1:
             return
         self.line = line
-        dpg.set_value(self.line_input, line)
+        dpg.set_value(self.line_input, str(line))
         source = self.source
         inside = source is not None and source.first <= line < source.first + len(source.lines)
         if inside:
@@ -603,12 +604,14 @@ class WatchDialog(Dialog):
             )
 
     def move_highlight(self, step: int) -> None:
-        """Up/Down: highlight the previous/next completion (Enter takes it)."""
-        if not self.completion:
-            return
-        self.highlight = max(0, min(len(self.completion) - 1, self.highlight + step))
-        for i, row in enumerate(dpg.get_item_children(self.completion_list, 1) or []):
-            dpg.set_value(row, i == self.highlight)
+        """Up/Down: highlight the previous/next file or completion, whichever field is typed in (Enter
+        takes it)."""
+        if dpg.is_item_active(self.file_input) and self.file_shown:
+            self.file_highlight = max(0, min(len(self.file_shown) - 1, self.file_highlight + step))
+            _highlight(self.file_list, self.file_highlight)
+        elif self.completion:
+            self.highlight = max(0, min(len(self.completion) - 1, self.highlight + step))
+            _highlight(self.completion_list, self.highlight)
 
     def take_completion(self, name: str) -> None:
         """Complete the name typed last with `name` (as clicking it does)."""
@@ -756,6 +759,12 @@ def _missing_step(dialog: WatchDialog) -> str:
     if dialog.names is None:
         return dialog.line_error or "reading the names at that line…"
     return "type an expression"
+
+
+def _highlight(listing: int | str, index: int) -> None:
+    """Select row `index` of a list of selectables (and no other)."""
+    for i, row in enumerate(dpg.get_item_children(listing, 1) or []):
+        dpg.set_value(row, i == index)
 
 
 def _rows_h(rows: int) -> int:
