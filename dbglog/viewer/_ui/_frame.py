@@ -426,7 +426,10 @@ class CanvasItem:
             own = self.widget.status()
         except Exception as exc:  # `refresh` disables the widget and says why
             return Status.ERROR, f"widget failed to report its status: {exc!r}"
-        return own if own is not None else combined_status(self._snapshots(source))
+        status, reason = own if own is not None else combined_status(self._snapshots(source))
+        if self.note is not None:
+            status, _pill, reason = self.note.over(status, reason)
+        return status, reason
 
     def changed(self, source: SnapshotReader, *, paused_at: float | None = None) -> bool:
         """Whether `refresh` would redraw now (a count, status or reason changed, the cursor moved)."""
