@@ -41,6 +41,10 @@ _log = logging.getLogger(__name__)
 POLL_S: Final = 0.2
 """How often the service reads its watches' states and the processes (seconds)."""
 _QUERY_TIMEOUT_S: Final = 5.0
+_ANSWER_POLL_S: Final = 0.03
+"""How often the watches are read while one waits for a process's answer."""
+_ANSWER_WAIT_S: Final = 2.0
+"""A watch is read that often for this long after it was armed or its report last said it waits."""
 _SCALAR_TYPES: Final = ("Float64", "Int64", "Bool", "String")
 
 T = TypeVar("T")
@@ -164,7 +168,7 @@ def summarize(
 class _Kept:
     """One watch the service keeps armed, and what its events told (the service's thread)."""
 
-    __slots__ = ("error", "failing", "noted", "spec", "stats", "topics", "watch")
+    __slots__ = ("error", "failing", "noted", "report_at", "spec", "stats", "topics", "watch")
 
     def __init__(self, spec: WatchSpec) -> None:
         self.spec = spec
@@ -177,6 +181,8 @@ class _Kept:
         """Agent -> an expression error seen at a hit (values came at other hits)."""
         self.stats: dict[str, dict[str, int]] = {}
         self.topics: list[str] = []
+        self.report_at = time.monotonic()
+        """Until when (minus `_ANSWER_WAIT_S`) its answers are looked for often: armed, or last waiting."""
 
 
 class WatchService(Generic[K]):
@@ -194,6 +200,8 @@ class WatchService(Generic[K]):
         self.poll_s = poll_s
         self._lock = threading.Lock()
         self._stop = threading.Event()
+        self._wake = threading.Event()
+        """Set when the wanted watches change (or the service stops): the next turn comes at once."""
         self._ready = threading.Event()
         self._client: WatchClient | None = None
         self._failure = ""
@@ -242,6 +250,7 @@ class WatchService(Generic[K]):
         if self._stop.is_set():
             return
         self._stop.set()
+        self._wake.set()
         thread = self._thread
         if thread is not None:
             thread.join(timeout)
@@ -275,6 +284,7 @@ class WatchService(Generic[K]):
             if wanted.keys() == self._wanted.keys():
                 return
             self._wanted = dict(wanted)
+        self._wake.set()
         self.start()
 
     def files(self, process: Process, *, everything: bool = False) -> Future[list[str]]:
@@ -321,7 +331,12 @@ class WatchService(Generic[K]):
                     self._turn(client)
                 except Exception:  # a turn's trouble (a graph hiccup) must not end the service
                     _log.debug("watch service turn failed", exc_info=True)
-                if self._stop.wait(self.poll_s):
+                waiting = any(  # an answer on its way: look again soon
+                    kept.report_at > time.monotonic() - _ANSWER_WAIT_S for kept in self._kept.values()
+                )
+                self._wake.wait(min(self.poll_s, _ANSWER_POLL_S) if waiting else self.poll_s)
+                self._wake.clear()
+                if self._stop.is_set():
                     break
         finally:
             with contextlib.suppress(Exception):
@@ -347,6 +362,10 @@ class WatchService(Generic[K]):
         names = {p.agent: _process_name(p) for p in processes}
         robots = {p.agent: p.robot for p in processes}
         reports = {key: self._summed(kept, names, robots) for key, kept in self._kept.items()}
+        now = time.monotonic()
+        for key, report in reports.items():
+            if report.state in ("starting", "asking"):
+                self._kept[key].report_at = now
         with self._lock:
             if reports != self._reports or processes != self._processes or discovering != self._discovering:
                 self._reports, self._processes, self._discovering = reports, processes, discovering

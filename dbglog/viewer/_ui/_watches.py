@@ -94,9 +94,10 @@ class WatchKeeper:
         self.add_widget, self.view_rect, self.say, self.wake = add_widget, view_rect, say, wake
         self.live = live
         self.service: WatchService[WatchConfig] = service if service is not None else WatchService()
-        self._seen: tuple[int, list[tuple[int, WatchConfig]]] = (-1, [])
-        """The service's version and the watched widgets their notes show (a new widget, a widget whose type
-        changed, is shown at once)."""
+        self._pairs: list[tuple[int, WatchConfig]] = []
+        """The watched widgets (by identity) and their watches, as the service was last given them."""
+        self._version = -1
+        """The service's version the widgets' notes show."""
         self._shown: weakref.WeakKeyDictionary[CanvasItem, tuple[str, ...]] = weakref.WeakKeyDictionary()
         """Widget -> the watch topics last bound (a change of them binds again; a Topic setup stays)."""
         self._code_font: int | str | None = None
@@ -152,11 +153,13 @@ class WatchKeeper:
             self.wake()
         if not watched and not self.service.started:
             return
-        self.service.keep({w: watch_spec(w) for _item, w in watched})
-        seen = (self.service.version, [(id(item), w) for item, w in watched])
-        if seen == self._seen:
+        pairs = [(id(item), w) for item, w in watched]
+        if pairs != self._pairs:  # a widget came, went, or changed type: the service gets the new set
+            self._pairs, self._version = pairs, -1
+            self.service.keep({w: watch_spec(w) for _item, w in watched})
+        if self.service.version == self._version:
             return
-        self._seen = seen
+        self._version = self.service.version
         for item, w in watched:
             report = self.service.report(w)
             if item.note != report:
