@@ -373,9 +373,8 @@ class WatchService(Generic[K]):
 
     def _summed(self, kept: _Kept, names: Mapping[str, str], robots: Mapping[str, str]) -> WatchReport:
         if kept.error is not None:
-            return WatchReport(
-                kept.error.state if kept.error.state != "timeout" else "refused", str(kept.error)
-            )
+            state = "expr_error" if kept.error.state == "expr_error" else "refused"  # checked before sending
+            return WatchReport(state, str(kept.error))
         watch = kept.watch
         if watch is None:
             return WatchReport("starting", "starting the watch client")
