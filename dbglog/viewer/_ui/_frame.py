@@ -176,11 +176,12 @@ class CanvasItem:
         self._paused = False
         self.pill_label = ""
         """What the status pill says (``live``; paused, ``live then``)."""
+        """The dashboard is paused at a time: the pill says the status *then* ("live then")."""
         self.note: StatusNote | None = None
         """What besides the series has a say in the status (a watch); set on the UI thread, compared by
         value (a new one redraws the pill)."""
         self._pill_text: str | None = None
-        """The dashboard is paused at a time: the pill says the status *then* ("live then")."""
+        """The pill's text when the note gives one (``armed``, ``gone``), else the status's."""
         x, y, w, h = self.geometry()
         self.window = dpg.add_child_window(
             parent=canvas,
