@@ -10,6 +10,7 @@ the programs did.
 
 from __future__ import annotations
 
+import contextlib
 import itertools
 import json
 import os
@@ -17,6 +18,7 @@ import shutil
 import signal
 import subprocess
 import sys
+import time
 import warnings
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -569,3 +571,35 @@ def test_a_replay_arms_no_watch_and_shows_the_recorded_values(display: str, tmp_
     assert widget["status"] == "live"
     assert widget["reason"].startswith("not armed: a recording is shown")
     assert json.loads(report.read_text())["dashboard"]["widgets"][0]["watch"] == watch.to_dict()
+
+
+def test_the_window_keeps_drawing_while_a_process_does_not_answer(
+    viewer: Callable[[str], ViewerChild], tmp_path: Path
+) -> None:
+    """A process stopped (SIGSTOP) after it was listed never answers: the dialog says it is reading its
+    files while the window goes on drawing and taking input, then says the process did not answer."""
+    frozen = Program(LOOP, tmp_path, "frozen")
+    try:
+        v = viewer("empty")
+        v.key("ctrl+shift+w")
+        state = v.wait_for(
+            lambda s: any(f"pid {frozen.pid} " in r[0] for r in dialog(s).get("procs", [])), START_S
+        )
+        state = v.wait_for(lambda s: "file of your code" in dialog(s)["file_note"], START_S)
+        os.kill(frozen.pid, signal.SIGSTOP)
+        v.click(*center(dialog(state)["every_rect"]))  # ask again: it will not answer now
+        state = v.wait_for(lambda s: dialog(s)["file_note"].startswith("reading the files"))
+        x, y, _w, h = dialog(state)["source_rect"]
+        first, start, k = int(state["frame"]), time.monotonic(), 0
+        while time.monotonic() - start < 2.5:  # the client gives up after 5 s: still asking meanwhile
+            v.move(x + 20 + 30 * (k % 20), y + h / 2)  # each move is seen by a drawn frame
+            k += 1
+        state = v.state()
+        assert dialog(state)["file_note"].startswith("reading the files"), "still asking"
+        assert int(state["frame"]) - first >= 10, "the window drew while the process did not answer"
+        state = v.wait_for(lambda s: "did not answer" in dialog(s)["error"], START_S)
+        assert dialog(state)["error"].startswith("cannot list the process's files")
+    finally:
+        with contextlib.suppress(ProcessLookupError):
+            os.kill(frozen.pid, signal.SIGCONT)
+        frozen.finish()
