@@ -582,9 +582,8 @@ def test_the_window_keeps_drawing_while_a_process_does_not_answer(
     try:
         v = viewer("empty")
         v.key("ctrl+shift+w")
-        state = v.wait_for(
-            lambda s: any(f"pid {frozen.pid} " in r[0] for r in dialog(s).get("procs", [])), START_S
-        )
+        v.wait_for(lambda s: dialog(s).get("kind") == "WatchDialog")
+        choose_process(v, f"pid {frozen.pid} ")
         state = v.wait_for(lambda s: "file of your code" in dialog(s)["file_note"], START_S)
         os.kill(frozen.pid, signal.SIGSTOP)
         v.click(*center(dialog(state)["every_rect"]))  # ask again: it will not answer now

@@ -413,8 +413,8 @@ class WatchDialog(Dialog):
                     default_value=self.process is not None and p.agent == self.process.agent,
                     callback=lambda *_, a=p.agent: self._record("process", a),
                 )
-            if self.process is None and len(procs) == 1:
-                self.choose_process(procs[0].agent)
+        if self.process is None and len(self.procs) == 1 and not self.queries.discovering():
+            self.choose_process(self.procs[0].agent)  # the only one, once no other may still come
         note, color = self._process_note()
         if dpg.get_value(self.proc_note) != note:
             dpg.set_value(self.proc_note, note)
