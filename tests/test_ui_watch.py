@@ -104,6 +104,7 @@ def _dialog_state(app: Any) -> dict[str, Any] | None:
     return {
         "kind": "WatchDialog",
         "procs": _rows(d.proc_list),
+        "procs_rect": _rect(d.proc_box),
         "proc_note": dpg.get_value(d.proc_note),
         "file": dpg.get_value(d.file_input),
         "file_rect": _rect(d.file_input),
@@ -111,6 +112,7 @@ def _dialog_state(app: Any) -> dict[str, Any] | None:
         "files": _rows(d.file_list),
         "file_note": dpg.get_value(d.file_note),
         "every_rect": _rect(d.every_box),
+        "every": bool(dpg.get_value(d.every_box)),
         "chosen_file": d.file,
         "source_note": dpg.get_value(d.source_note),
         "source_rect": _rect(d.source_box),
@@ -324,11 +326,20 @@ def open_by_menu(v: ViewerChild) -> dict[str, Any]:
 
 
 def choose_process(v: ViewerChild, word: str) -> None:
-    """Click the process whose row says `word` (once it is listed)."""
-    state = v.wait_for(lambda s: any(word in r[0] and r[1] for r in dialog(s)["procs"]), START_S)
-    row = next(r for r in dialog(state)["procs"] if word in r[0])
-    v.click(*center(row[1]))
-    v.wait_for(lambda s: any(word in r[0] and r[2] for r in dialog(s)["procs"]))
+    """Click the process whose row says `word` once it is listed (the wheel brings it into view)."""
+    state = v.wait_for(lambda s: any(word in r[0] for r in dialog(s)["procs"]), START_S)
+    for _ in range(20):
+        row = next(r for r in dialog(state)["procs"] if word in r[0])
+        box = dialog(state)["procs_rect"]
+        if row[1] is not None and box[1] <= row[1][1] and row[1][1] + row[1][3] <= box[1] + box[3]:
+            v.click(*center(row[1]))
+            v.wait_for(lambda s: any(word in r[0] and r[2] for r in dialog(s)["procs"]))
+            return
+        shown = next(r[1] for r in dialog(state)["procs"] if r[1] is not None)
+        v.move(*center(shown))
+        v.xdo("click", "5")  # the wheel, one notch down
+        state = v.frames(3)
+    raise AssertionError(f"the process {word!r} never came into view: {dialog(state)['procs']}")
 
 
 def scroll_to_line(v: ViewerChild, line: int) -> list[float]:
@@ -456,9 +467,9 @@ def test_key_opens_the_dialog_on_an_rclpy_node(
     assert int(dialog(state)["file_note"].split()[0]) > 20
     v.click(*center(dialog(state)["file_rect"]))
     v.type("node.py")
-    v.wait_for(lambda s: "node.py" in names(dialog(s)["files"]))
+    state = v.wait_for(lambda s: "node.py" in names(dialog(s)["files"]))
     v.click(*center(dialog(state)["every_rect"]))
-    v.wait_for(lambda s: "1 file of your code" in dialog(s)["file_note"], START_S)
+    state = v.wait_for(lambda s: "1 file of your code" in dialog(s)["file_note"], START_S)
     v.click(*center(dialog(state)["file_rect"]))
     v.key("ctrl+a", "BackSpace")
     v.type("talk")

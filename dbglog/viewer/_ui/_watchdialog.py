@@ -274,7 +274,9 @@ class WatchDialog(Dialog):
         w = self.window
         dpg.add_text("Process", color=DIM, parent=w)
         self.proc_note = dpg.add_text("", parent=w, wrap=750)
-        self.proc_list = dpg.add_child_window(height=_rows_h(1), width=-1, parent=w)
+        # Three rows whatever the count: a process coming or going never moves what is under the pointer.
+        self.proc_box = dpg.add_group(parent=w)  # (a group reports its rectangle; the list itself, none)
+        self.proc_list = dpg.add_child_window(height=_rows_h(3), width=-1, parent=self.proc_box)
         with dpg.group(horizontal=True, parent=w):
             dpg.add_text("File", color=DIM)
             self.file_note = dpg.add_text("", color=DIM)
@@ -405,7 +407,6 @@ class WatchDialog(Dialog):
         if [p.agent for p in procs] != [p.agent for p in self.procs]:
             self.procs = procs
             dpg.delete_item(self.proc_list, children_only=True)
-            dpg.configure_item(self.proc_list, height=_rows_h(min(3, max(1, len(procs)))))
             for p in procs:
                 dpg.add_selectable(
                     label=process_label(p),
