@@ -101,8 +101,11 @@ def _dialog_state(app: Any) -> dict[str, Any] | None:
     d = app.dialog
     if not isinstance(d, WatchDialog):
         return None if d is None else {"kind": type(d).__name__}
+    (x, y), (w, h) = dpg.get_item_pos(d.window), dpg.get_item_rect_size(d.window)
     return {
         "kind": "WatchDialog",
+        "rect": [float(x), float(y), float(w), float(h)],
+        "window_h": float(dpg.get_viewport_client_height()),
         "procs": _rows(d.proc_list),
         "procs_rect": _rect(d.proc_box),
         "proc_note": dpg.get_value(d.proc_note),
@@ -293,6 +296,12 @@ def center(rect: list[float]) -> tuple[float, float]:
     return rect[0] + rect[2] / 2, rect[1] + rect[3] / 2
 
 
+def fits(state: dict[str, Any]) -> bool:
+    """Whether the whole dialog, its buttons included, is inside the window."""
+    _x, y, _w, h = dialog(state)["rect"]
+    return bool(y >= 0 and y + h <= dialog(state)["window_h"])
+
+
 def names(rows: list[list[Any]]) -> list[str]:
     """The first words of a list's rows (a file's name, a completion)."""
     return [row[0].split()[0] for row in rows]
@@ -391,6 +400,7 @@ def test_menu_dialog_plots_a_scripts_variable_saved_and_rearmed(
         v.type("r")  # ranges, robot (locals), Robot (a global)
         state = v.wait_for(lambda s: names(dialog(s)["completions"])[:2] == ["ranges", "robot"])
         v.shot("watch-dialog-completion")
+        assert fits(v.frames(3)), "the dialog with its completions fits the window"
         v.key("Down")
         v.wait_for(lambda s: [r[2] for r in dialog(s)["completions"]][:2] == [False, True])
         v.key("Return")
@@ -466,7 +476,10 @@ def test_key_opens_the_dialog_on_an_rclpy_node(
     state = v.wait_for(lambda s: dialog(s)["file_note"].endswith("files loaded by /watch_talker"), START_S)
     assert int(dialog(state)["file_note"].split()[0]) > 20
     v.click(*center(dialog(state)["file_rect"]))
-    v.type("node.py")
+    v.type("n")
+    v.wait_for(lambda s: len(dialog(s)["files"]) >= 5)
+    assert fits(v.frames(3)), "the dialog with its longest file list fits the window"
+    v.type("ode.py")
     state = v.wait_for(lambda s: "node.py" in names(dialog(s)["files"]))
     v.click(*center(dialog(state)["every_rect"]))
     state = v.wait_for(lambda s: "1 file of your code" in dialog(s)["file_note"], START_S)

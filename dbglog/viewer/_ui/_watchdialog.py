@@ -54,6 +54,8 @@ SHOW_AS: Final = (
 )
 """The widgets a watch can show as (type, label), the default first."""
 MAX_SUGGESTIONS: Final = 60
+TALLEST_H: Final = 840
+"""The dialog's height with its longest lists shown (it is placed so that this fits the window)."""
 ROW_H: Final = 21
 """The height of a row of a list (a selectable in the window's font, with the lists' spacing)."""
 _WAITING = STATUS_COLORS[Status.WAITING]
@@ -266,6 +268,11 @@ class WatchDialog(Dialog):
         self._rows: dict[int, int | str] = {}
         self._chosen_theme = _chosen_row_theme()
         self._build()
+        # Placed once, high enough for its tallest state (a file's list, or the completions, and a note),
+        # so that it never moves under the pointer as its lists come and go.
+        x, y = dpg.get_item_pos(self.window)
+        room = (dpg.get_viewport_client_height() or 800) - TALLEST_H - 8
+        dpg.configure_item(self.window, pos=(x, max(0, min(y, room))))
         self._show_processes()
 
     # -- building -------------------------------------------------------------------------------------------
@@ -337,6 +344,8 @@ class WatchDialog(Dialog):
         self._list_theme = _list_theme()
         for listing in (self.proc_list, self.file_list, self.completion_list):
             dpg.bind_item_theme(listing, self._list_theme)
+        self._button_theme = _button_theme()
+        dpg.bind_item_theme(self.ok_button, self._button_theme)
 
     def _record(self, what: str, value: object) -> None:
         with self._lock:
@@ -744,7 +753,7 @@ class WatchDialog(Dialog):
     def close(self) -> None:
         """Remove the dialog (answers still on their way are dropped)."""
         super().close()
-        for theme in (self._chosen_theme, self._code_theme, self._list_theme):
+        for theme in (self._chosen_theme, self._code_theme, self._list_theme, self._button_theme):
             if dpg.does_item_exist(theme):
                 dpg.delete_item(theme)
 
@@ -787,6 +796,16 @@ def _list_theme() -> int | str:
     """A list's rows close together."""
     with dpg.theme() as theme, dpg.theme_component(dpg.mvAll):
         dpg.add_theme_style(dpg.mvStyleVar_ItemSpacing, 8, 3)
+    result: int | str = theme
+    return result
+
+
+def _button_theme() -> int | str:
+    """A button that cannot be pressed yet looks it: its text dim."""
+    with dpg.theme() as theme, dpg.theme_component(dpg.mvButton, enabled_state=False):
+        dpg.add_theme_color(dpg.mvThemeCol_Text, DIM)
+        dpg.add_theme_color(dpg.mvThemeCol_ButtonHovered, (48, 53, 64, 255))
+        dpg.add_theme_color(dpg.mvThemeCol_ButtonActive, (48, 53, 64, 255))
     result: int | str = theme
     return result
 
