@@ -471,7 +471,7 @@ def test_bindings_to_the_selected_robot_and_every_robot_load_and_save_as_version
     out = tmp_path / "robots.json"
     save_dashboard(result.dashboard, out)
     saved = json.loads(out.read_text())
-    assert saved["version"] == ROBOT_VERSION == VERSION
+    assert saved["version"] == ROBOT_VERSION
     assert saved["widgets"][0]["bindings"][:2] == [
         {"robot": "$selected", "topic": "rosdashboard/speed", "field": "", "regex": ""},
         {"robot": "$every", "topic": "odom", "field": "pose.x", "regex": ""},
@@ -508,5 +508,5 @@ def test_a_bad_robot_value_keeps_the_topic_as_written() -> None:
             f"widget #1 'Speed': bindings[0]: a {type_name} {what}: it follows the selected robot instead "
             "of every robot"
         ]
-    with pytest.raises(DashboardError, match="version 3 is newer than this viewer understands"):
-        parse_dashboard(_robot_file(3), LOOKUP)
+    with pytest.raises(DashboardError, match=f"version {VERSION + 1} is newer than this viewer understands"):
+        parse_dashboard(_robot_file(VERSION + 1), LOOKUP)

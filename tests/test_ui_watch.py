@@ -428,7 +428,7 @@ def test_menu_dialog_plots_a_scripts_variable_saved_and_rearmed(
         v.key("Return")
         state = v.wait_for(lambda s: s["path"] == str(tmp_path / "watched.json") and not s["dirty"])
         saved = json.loads((tmp_path / "watched.json").read_text())
-        assert saved["version"] == 2
+        assert saved["version"] == 3  # WATCH_VERSION
         assert saved["widgets"][0]["watch"] == plot["watch"]
         v.stop()
     finally:
