@@ -427,3 +427,23 @@ def test_a_robot_namespace_process(client: WatchClient, tmp: Path, how: str) -> 
     counts = [s.value for s in samples if s.pid == run.pid]
     assert len(counts) >= 10
     assert counts == list(range(int(counts[0]), int(counts[0]) + len(counts)))  # type: ignore[call-overload]
+
+
+def test_a_process_of_this_host_whose_pid_ended_has_exited() -> None:
+    """A killed process's node stays on the graph for the middleware's lease (20 s): one of this host whose
+    pid no longer runs is known to have exited; a running one, or one of another host, is not."""
+    import socket
+
+    from dbglog.watch.client import _exited_here
+
+    ended = subprocess.Popen([sys.executable, "-c", "pass"])
+    ended.wait(30)
+
+    def process(pid: int, host: str) -> Process:
+        return Process("a", "dbglog_watch_1_a", pid, host, (), "", "", "", (), "", ())
+
+    here = socket.gethostname()
+    assert _exited_here(process(ended.pid, here))
+    assert not _exited_here(process(os.getpid(), here))
+    assert not _exited_here(process(1, here)), "pid 1 runs (as another user's process would)"
+    assert not _exited_here(process(ended.pid, here + "-elsewhere"))

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import socket
 import threading
 import time
 import uuid
@@ -581,9 +582,11 @@ class WatchClient:
         if entry is None:
             return False
         process, since = entry
-        if process.node in self._on_graph:
-            return True
         quiet = time.monotonic() - since
+        if process.node in self._on_graph:
+            # A killed process's node stays on the graph until the middleware's lease ends (~20 s); one
+            # of this host that stopped announcing itself and whose pid is not running is gone now.
+            return quiet < FRESH_S or not _exited_here(process)
         if process.node in self._seen_on_graph:
             return quiet < FRESH_S  # it left the graph: gone unless it still announces itself
         return quiet < UNSEEN_S
@@ -943,6 +946,20 @@ _STATS: Final = frozenset({"hits", "sent", "filtered", "throttled", "dropped", "
 
 def _no_callback(_msg: object) -> None:
     """Subscription callback that never runs: the client's thread takes messages itself."""
+
+
+def _exited_here(process: Process) -> bool:
+    """Whether `process` ran on this host and its pid is no longer running (another pid namespace under
+    the same host name reads as exited too: the caller asks only of a process that stopped announcing)."""
+    if process.host != socket.gethostname():
+        return False
+    try:
+        os.kill(process.pid, 0)
+    except ProcessLookupError:
+        return True
+    except OSError:  # running, as another user's
+        return False
+    return False
 
 
 def _replace(status: WatchStatus, **changes: Any) -> WatchStatus:
