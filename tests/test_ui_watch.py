@@ -129,6 +129,8 @@ def _dialog_state(app: Any) -> dict[str, Any] | None:
         "expr_active": bool(dpg.is_item_active(d.expr_input)),
         "completions": _rows(d.completion_list),
         "expr_note": dpg.get_value(d.expr_note),
+        "when": dpg.get_value(d.when_input),
+        "when_rect": _rect(d.when_input),
         "ok_enabled": bool(dpg.get_item_configuration(d.ok_button).get("enabled")),
         "ok_rect": _rect(d.ok_button),
         "error": dpg.get_value(d.error_text),
@@ -488,7 +490,8 @@ def test_key_opens_the_dialog_on_an_rclpy_node(
 ) -> None:
     """Ctrl+Shift+W opens the dialog; an rclpy node with DBGLOG_WATCH=1 is chosen among the processes
     (libraries too offers rclpy's files), its file taken from the type-ahead with Enter, a line clicked,
-    ``self.count`` typed with completion: a plot shows the node's counter, which goes on counting."""
+    ``self.count`` typed with completion and a condition (one with a call refused as typed): a plot shows the
+    node's counter at the hits the condition lets through."""
     v = viewer("empty")
     v.key("ctrl+shift+w")
     v.wait_for(lambda s: dialog(s).get("kind") == "WatchDialog")
@@ -520,16 +523,23 @@ def test_key_opens_the_dialog_on_an_rclpy_node(
     v.key("End")
     v.type(".count")
     state = v.wait_for(lambda s: dialog(s)["expr"] == "self.count" and dialog(s)["ok_enabled"])
+    v.click(*center(dialog(state)["when_rect"]))  # only when, as a conditional breakpoint
+    v.type("self.count % 3 == len(x)")
+    state = v.wait_for(lambda s: "calls are not allowed" in dialog(s)["expr_note"])
+    assert not dialog(state)["ok_enabled"]
+    v.key("ctrl+a", "BackSpace")
+    v.type("self.count % 3 == 0")
+    v.wait_for(lambda s: dialog(s)["when"] == "self.count % 3 == 0" and dialog(s)["ok_enabled"])
     v.key("Return")
     state = v.wait_for(lambda s: len(item(s, "self.count").get("values", [])) >= 10, START_S)
     counter = item(state, "self.count")
     assert counter["watch"]["node"] == "/watch_talker"
+    assert counter["watch"]["when"] == "self.count % 3 == 0"
     assert counter["topics"] == ["/rosdashboard/watch/self/count"]
     values = counter["values"]
-    assert all(float(x).is_integer() and x > 0 for x in values)
+    assert all(float(x).is_integer() and x > 0 and x % 3 == 0 for x in values), "only the hits wanted"
     steps = [b - a for a, b in itertools.pairwise(values)]
-    assert all(step >= 1 for step in steps)
-    assert steps.count(1) >= len(steps) // 2
+    assert steps.count(3) >= len(steps) // 2, "every third count"
 
 
 def test_widgets_show_each_watch_state(

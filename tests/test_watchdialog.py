@@ -7,6 +7,7 @@ from dbglog.viewer._document._dashboard import WatchConfig
 from dbglog.viewer._ui._watchdialog import (
     complete,
     completions,
+    condition_check,
     expression_check,
     file_suggestions,
     process_label,
@@ -73,6 +74,16 @@ def test_expression_check_says_why_a_watch_would_refuse_it() -> None:
     ok, text = expression_check("  ")
     assert not ok
     assert text.startswith("type a name")
+
+
+def test_a_condition_is_every_hit_when_empty_and_refused_as_an_expression_is() -> None:
+    """An empty condition is every hit; a comparison is allowed; a call in it is refused, saying so."""
+    assert condition_check("") == (True, "")
+    assert condition_check("  ") == (True, "")
+    assert condition_check("self.count % 2 == 0 and speed > 0.5") == (True, "")
+    ok, text = condition_check("len(ranges) > 2")
+    assert not ok
+    assert text.startswith("only when: 'len(ranges) > 2' is not allowed")
 
 
 def test_names_the_line_does_not_have_are_found_without_running_anything() -> None:

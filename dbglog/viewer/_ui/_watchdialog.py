@@ -35,6 +35,7 @@ __all__ = [
     "WatchQueries",
     "complete",
     "completions",
+    "condition_check",
     "expression_check",
     "file_suggestions",
     "process_label",
@@ -141,6 +142,18 @@ def expression_check(text: str) -> tuple[bool, str]:
     except WatchError as exc:
         return False, str(exc)
     return True, "ok: read as the line is about to run; nothing of the program runs"
+
+
+def condition_check(text: str) -> tuple[bool, str]:
+    """Whether a condition (only the hits where it is true, as a conditional breakpoint's) may be watched,
+    and why not (``""``: allowed; an empty condition is every hit)."""
+    if not text.strip():
+        return True, ""
+    try:
+        WatchSpec("file.py", 1, ("x",), when=text.strip()).check()
+    except WatchError as exc:
+        return False, f"only when: {exc}"
+    return True, ""
 
 
 def unknown_names(text: str, names: Names | None) -> list[str]:
@@ -264,6 +277,7 @@ class WatchDialog(Dialog):
         self._asks: dict[str, _Ask] = {}
         self._typed_file = ""
         self._typed_expr = ""
+        self._typed_when = ""
         self._scroll_to: int | None = None
         self._rows: dict[int, int | str] = {}
         self._chosen_theme = _chosen_row_theme()
@@ -334,6 +348,13 @@ class WatchDialog(Dialog):
             self.show_as = dpg.add_radio_button(
                 [label for _type, label in SHOW_AS], default_value=SHOW_AS[0][1], horizontal=True
             )
+            dpg.add_text("  only when", color=DIM)
+            self.when_input = dpg.add_input_text(  # a conditional breakpoint's condition
+                width=-1,
+                hint="every hit",
+                on_enter=True,
+                callback=lambda *_: self._record("ok", None),
+            )
         self.error_text = dpg.add_text("", color=ERROR_COLOR, parent=w, wrap=750, show=False)
         dpg.add_spacer(height=4, parent=w)
         with dpg.group(horizontal=True, parent=w):
@@ -380,6 +401,10 @@ class WatchDialog(Dialog):
         if expr != self._typed_expr:
             self._typed_expr = expr
             self._show_completions()
+            self._check()
+        when = str(dpg.get_value(self.when_input))
+        if when != self._typed_when:
+            self._typed_when = when
             self._check()
         if self._scroll_to is not None:
             self._scroll()
@@ -646,6 +671,11 @@ class WatchDialog(Dialog):
         unknown = unknown_names(self._typed_expr, self.names) if ok else []
         if self.completion:  # the name being typed is still being completed
             unknown = [name for name in unknown if name != typed_token(self._typed_expr)]
+        when_ok, when_text = condition_check(self._typed_when)
+        if ok and not when_ok:
+            ok, text, color = False, when_text, ERROR_COLOR
+        elif ok:
+            unknown += [n for n in unknown_names(self._typed_when, self.names) if n not in unknown]
         if unknown:  # allowed (a global may be made later), but it would say "expr error" now
             color = _WAITING
             text = (
@@ -737,11 +767,14 @@ class WatchDialog(Dialog):
         label = str(dpg.get_value(self.show_as))
         type_name = next((t for t, lab in SHOW_AS if lab == label), SHOW_AS[0][0])
         node = self.process.nodes[0] if self.process.nodes else ""
-        return WatchPlan(type_name, expr, WatchConfig(self.file, self.line, (expr,), node=node))
+        when = self._typed_when.strip()
+        return WatchPlan(type_name, expr, WatchConfig(self.file, self.line, (expr,), node=node, when=when))
 
     def apply(self) -> bool:
         """Add the widget and close; False (and why) while something is missing or refused."""
         ok, text = expression_check(self._typed_expr)
+        if ok:
+            ok, text = condition_check(self._typed_when)
         plan = self.plan() if ok else None
         if plan is None:
             self._error(text if not ok and self.names is not None else _missing_step(self))
