@@ -9,6 +9,9 @@ Run: ``.venv/bin/python benchmarks/bench_watch_viewer.py [--arms 10]``; prints M
   seconds from `keep` (a widget added, a dashboard opened) to the watch's report saying ``armed`` with its
   topic, then to ``keep({})`` leaving nothing armed in the program (a widget deleted); medians and
   maxima over `--arms` rounds.
+* **killed -> gone**: seconds from SIGKILL of a program whose watch is armed to the report saying
+  ``gone`` (its node stays on the graph for the middleware's lease; the client asks the pid), over
+  `--kills` programs.
 """
 
 from __future__ import annotations
@@ -135,16 +138,62 @@ def to_armed(arms: int) -> list[list[object]]:
     ]
 
 
+def _program(tmp: Path, name: str) -> subprocess.Popen[bytes]:
+    env = {k: v for k, v in os.environ.items() if not k.startswith("DBGLOG_WATCH") and k != "DBGLOG"}
+    return subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "dbglog",
+            "run",
+            str(LOOP),
+            str(tmp / f"{name}.out"),
+            str(tmp / f"{name}.stop"),
+        ],
+        env=env,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+
+
+def to_gone(kills: int) -> list[list[object]]:
+    """Seconds from killing a program whose watch is armed to the watch's report saying ``gone``."""
+    from dbglog.viewer._publishing._watches import WatchService
+    from dbglog.watch.client import WatchSpec
+
+    tmp = Path(tempfile.mkdtemp(prefix="bench_watch_gone_"))
+    service: WatchService[str] = WatchService()
+    service.keep({"speed": WatchSpec(str(LOOP), STEP, ("speed",))})
+    seconds = []
+    try:
+        for i in range(kills):
+            program = _program(tmp, f"run{i}")
+            try:
+                _until(lambda p=program: f"pid {p.pid}" in service.report("speed").message)  # type: ignore[misc]
+                _until(lambda: service.report("speed").state == "armed")
+            finally:
+                program.kill()
+                program.wait(30)
+            seconds.append(_until(lambda: service.report("speed").state == "gone"))
+    finally:
+        service.close()
+    return [["SIGKILL -> gone (report)", f"{statistics.median(seconds):.2f}", f"{max(seconds):.2f}"]]
+
+
 def main() -> int:
     """Run both measurements and print their tables."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--arms", type=int, default=10, help="rounds of arming and disarming (default 10)")
+    parser.add_argument("--kills", type=int, default=3, help="programs killed while watched (default 3)")
     args = parser.parse_args()
     local_ros_env()
     print(f"Python {sys.version.split()[0]}, load {os.getloadavg()[0]:.1f}")
     print_table("WatchKeeper.poll per look", ["watched widgets", "µs a call"], per_look((0, 10, 100, 1000)))
     print_table(
         f"A watch in a real program ({args.arms} rounds)", ["", "median s", "max s"], to_armed(args.arms)
+    )
+    print_table(
+        f"A watched program killed ({args.kills} programs)", ["", "median s", "max s"], to_gone(args.kills)
     )
     return 0
 
