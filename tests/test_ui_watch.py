@@ -215,7 +215,7 @@ class Program:
     """A watched program: loop.py under ``dbglog run`` (its steps as JSON lines) or talker.py."""
 
     def __init__(self, script: Path, tmp: Path, name: str) -> None:
-        self.out, self.stop_file = tmp / f"{name}.out", tmp / f"{name}.stop"
+        self.out, self.stop_file, self.err = tmp / f"{name}.out", tmp / f"{name}.stop", tmp / f"{name}.err"
         self.stop_file.unlink(missing_ok=True)
         if script == TALKER:
             argv = [sys.executable, str(script), str(self.stop_file)]
@@ -223,14 +223,19 @@ class Program:
         else:
             argv = [sys.executable, "-m", "dbglog", "run", str(script), str(self.out), str(self.stop_file)]
             env = _env()
-        self.proc = subprocess.Popen(
-            argv, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True
-        )
+        with self.err.open("wb") as err:  # a file, never a pipe that fills and stops the program
+            self.proc = subprocess.Popen(argv, env=env, stdout=subprocess.DEVNULL, stderr=err)
 
     @property
     def pid(self) -> int:
         """The program's pid."""
         return self.proc.pid
+
+    def said(self) -> str:
+        """Whether it still runs, and the end of what it wrote to stderr (for a failing test's message)."""
+        code = self.proc.poll()
+        text = self.err.read_text(errors="replace")[-3000:] if self.err.exists() else ""
+        return f"{'running' if code is None else f'exited {code}'}; stderr: {text or '(nothing)'}"
 
     def speeds(self) -> set[float]:
         """The values of ``speed`` (and ``robot.speed``) the program has had at its step line."""
@@ -246,15 +251,11 @@ class Program:
             self.proc.wait(20)
         except subprocess.TimeoutExpired:
             stop_child(self.proc, signal.SIGKILL)
-        if self.proc.stderr is not None:
-            self.proc.stderr.close()
 
     def kill(self) -> None:
         """Kill it outright (as a crash would)."""
         self.proc.kill()
         self.proc.wait(10)
-        if self.proc.stderr is not None:
-            self.proc.stderr.close()
 
 
 @pytest.fixture(scope="module")
@@ -338,9 +339,12 @@ def open_by_menu(v: ViewerChild) -> dict[str, Any]:
     return v.wait_for(lambda s: dialog(s).get("kind") == "WatchDialog")
 
 
-def choose_process(v: ViewerChild, word: str) -> None:
+def choose_process(v: ViewerChild, word: str, program: Program) -> None:
     """Click the process whose row says `word` once it is listed (the wheel brings it into view)."""
-    state = v.wait_for(lambda s: any(word in r[0] for r in dialog(s)["procs"]), START_S)
+    try:
+        state = v.wait_for(lambda s: any(word in r[0] for r in dialog(s)["procs"]), START_S)
+    except AssertionError as exc:
+        raise AssertionError(f"{word!r} was never listed: the program {program.said()}\n{exc}") from None
     for _ in range(20):
         row = next(r for r in dialog(state)["procs"] if word in r[0])
         box = dialog(state)["procs_rect"]
@@ -410,7 +414,7 @@ def test_menu_dialog_plots_a_scripts_variable_saved_and_rearmed(
         v = viewer("empty")
         state = open_by_menu(v)
         v.shot("watch-dialog-open")
-        choose_process(v, f"pid {first.pid} ")
+        choose_process(v, f"pid {first.pid} ", first)
         state = v.wait_for(
             lambda s: dialog(s)["file_active"] and "loop.py" in dialog(s)["file_note"], START_S
         )
@@ -495,7 +499,7 @@ def test_key_opens_the_dialog_on_an_rclpy_node(
     v = viewer("empty")
     v.key("ctrl+shift+w")
     v.wait_for(lambda s: dialog(s).get("kind") == "WatchDialog")
-    choose_process(v, "watch_talker")
+    choose_process(v, "watch_talker", talker)
     state = v.wait_for(lambda s: "1 file of your code" in dialog(s)["file_note"], START_S)
     v.click(*center(dialog(state)["every_rect"]))  # libraries too: rclpy's files are offered
     state = v.wait_for(lambda s: dialog(s)["file_note"].endswith("files loaded by /watch_talker"), START_S)
@@ -639,7 +643,7 @@ def test_the_window_keeps_drawing_while_a_process_does_not_answer(
         v = viewer("empty")
         v.key("ctrl+shift+w")
         v.wait_for(lambda s: dialog(s).get("kind") == "WatchDialog")
-        choose_process(v, f"pid {frozen.pid} ")
+        choose_process(v, f"pid {frozen.pid} ", frozen)
         state = v.wait_for(lambda s: "file of your code" in dialog(s)["file_note"], START_S)
         os.kill(frozen.pid, signal.SIGSTOP)
         v.click(*center(dialog(state)["every_rect"]))  # ask again: it will not answer now
