@@ -301,6 +301,33 @@ def test_the_cpu_rule_disarms_and_the_program_goes_on(client: WatchClient, loop:
     assert wait_until(lambda: len(loop.lines()) > before + 10, 10)
 
 
+def test_a_hit_paused_by_a_loaded_machine_is_not_taken_for_cpu(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A hit that took 0.5 s of wall time (the OS ran other programs meanwhile) but next to no CPU leaves the
+    watch armed, at the hit and at the window's end: the CPU rule counts at most the CPU the process spent
+    (it said 1000% of a CPU and disarmed)."""
+    import types
+
+    from dbglog.watch import _agent
+
+    start = time.perf_counter_ns()
+    ticks = iter([start, start + 500_000_000])  # the hit's start, its end half a second later
+    clock = types.SimpleNamespace(
+        perf_counter_ns=lambda: next(ticks, start + 1_200_000_000),  # then the CPU window's end
+        process_time_ns=time.process_time_ns,
+        time_ns=time.time_ns,
+    )
+    stub = types.SimpleNamespace(backend=None, _queue=[], _pipe=None)
+    spec = ArmSpec("x.py", 1, (), throttle=0)
+    watch = _agent.Watch(stub, ("k",), spec, "x.py", (), [], None, [])  # type: ignore[arg-type]
+    watch.window_start = start
+    monkeypatch.setattr(_agent, "time", clock)
+    assert watch.hit(sys._getframe())
+    assert watch.active, watch.ended
+    watch.check_cpu()
+    assert watch.active, watch.ended
+    assert watch.sent == 1
+
+
 def test_a_node_timer_callback_by_node_name(client: WatchClient, loop: Child, talker: Child) -> None:
     """--node picks the rclpy node's process; its timer callback's attribute arrives, every tick."""
     watch = client.arm(WatchSpec("talker.py", line_of("tick", TALKER), ("self.count",), node="watch_talker"))

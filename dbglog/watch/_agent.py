@@ -289,6 +289,9 @@ class Watch:
         self.budget_ns = int(spec.max_cpu * CPU_WINDOW_NS)
         self.window_start = time.perf_counter_ns()
         self.window_busy = 0
+        self.window_cpu = time.process_time_ns()
+        """The process's CPU time when the window started: a window's cost is at most what it spent since
+        (a hit the OS paused, on a loaded machine, took wall time but no CPU)."""
         self.window_events = 0
         self.reported_stats: tuple[int, ...] = ()
         self._event_ns = agent.backend.event_ns if agent.backend is not None else 0
@@ -368,8 +371,10 @@ class Watch:
             busy = self.window_busy + time.perf_counter_ns() - t0 + self._event_ns
             self.window_busy = busy
             if busy > self.budget_ns and busy > self.max_cpu * (t0 - self.window_start) and self.active:
-                self.active = False  # a full window's share already spent: off now, said by the agent
-                self.ended = ("cpu", self._cpu_message(busy, t0 - self.window_start))
+                busy = self.window_busy = min(busy, time.process_time_ns() - self.window_cpu)
+                if busy > self.budget_ns and busy > self.max_cpu * (t0 - self.window_start):
+                    self.active = False  # a full window's share already spent: off now, said by the agent
+                    self.ended = ("cpu", self._cpu_message(busy, t0 - self.window_start))
         return self.active
 
     def note(self, index: int, message: str) -> None:
@@ -411,8 +416,10 @@ class Watch:
             return
         events, hits = self.events(), self.hits
         other = max(0, (events - self.window_events) - (hits - self.window_hits))  # traced lines not hit
-        cost = self.window_busy + other * self._event_ns
+        cpu = time.process_time_ns()
+        cost = min(self.window_busy + other * self._event_ns, cpu - self.window_cpu)
         self.window_start, self.window_busy, self.window_events, self.window_hits = now, 0, events, hits
+        self.window_cpu = cpu
         if cost > self.max_cpu * elapsed:
             self.active = False
             self.ended = ("cpu", self._cpu_message(cost, elapsed))
