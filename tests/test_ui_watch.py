@@ -494,8 +494,8 @@ def test_key_opens_the_dialog_on_an_rclpy_node(
 ) -> None:
     """Ctrl+Shift+W opens the dialog; an rclpy node with DBGLOG_WATCH=1 is chosen among the processes
     (libraries too offers rclpy's files), its file taken from the type-ahead with Enter, a line clicked,
-    ``self.count`` typed with completion and a condition (one with a call refused as typed): a plot shows the
-    node's counter at the hits the condition lets through."""
+    ``self.count`` typed with completion (a held Enter takes the name and adds nothing) and a condition (one
+    with a call refused as typed): a plot shows the node's counter at the hits the condition lets through."""
     v = viewer("empty")
     v.key("ctrl+shift+w")
     v.wait_for(lambda s: dialog(s).get("kind") == "WatchDialog")
@@ -522,8 +522,12 @@ def test_key_opens_the_dialog_on_an_rclpy_node(
     v.wait_for(lambda s: dialog(s)["names"] and dialog(s)["expr_active"], START_S)
     v.type("sel")
     v.wait_for(lambda s: names(dialog(s)["completions"]) == ["self"])
-    v.key("Return")
-    v.wait_for(lambda s: dialog(s)["expr"] == "self" and dialog(s)["expr_active"])
+    v.xdo("keydown", "Return")  # held: Dear ImGui repeats it after 0.275 s, every 0.05 s
+    time.sleep(0.6)
+    v.xdo("keyup", "Return")
+    state = v.wait_for(lambda s: dialog(s).get("expr") == "self" and dialog(s)["expr_active"])
+    v.frames(3)
+    assert dialog(v.state()).get("expr") == "self", "a held Enter took the name and added no widget"
     v.key("End")
     v.type(".count")
     state = v.wait_for(lambda s: dialog(s)["expr"] == "self.count" and dialog(s)["ok_enabled"])

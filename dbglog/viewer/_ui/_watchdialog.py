@@ -60,6 +60,8 @@ TALLEST_H: Final = 840
 ROW_H: Final = 21
 """The height of a row of a list (a selectable in the window's font, with the lists' spacing)."""
 _WAITING = STATUS_COLORS[Status.WAITING]
+_ENTERS: Final = frozenset({"file_enter", "line_enter", "expr_enter", "when_enter"})
+"""What an Enter in a field records (one per press: a held key's repeats are dropped)."""
 _TOKEN = re.compile(r"(?<![\w.])([A-Za-z_]\w*)$")
 
 
@@ -279,6 +281,8 @@ class WatchDialog(Dialog):
         self._typed_expr = ""
         self._typed_when = ""
         self._scroll_to: int | None = None
+        self._enter_held = False
+        """An Enter was taken and the key has not been seen up since (its repeats are dropped)."""
         self._rows: dict[int, int | str] = {}
         self._chosen_theme = _chosen_row_theme()
         self._build()
@@ -353,7 +357,7 @@ class WatchDialog(Dialog):
                 width=-1,
                 hint="every hit",
                 on_enter=True,
-                callback=lambda *_: self._record("ok", None),
+                callback=lambda *_: self._record("when_enter", None),
             )
         self.error_text = dpg.add_text("", color=ERROR_COLOR, parent=w, wrap=750, show=False)
         dpg.add_spacer(height=4, parent=w)
@@ -388,9 +392,16 @@ class WatchDialog(Dialog):
         for what, value in events:
             if self.closed:
                 return
+            if what in _ENTERS:
+                if self._enter_held:  # Dear ImGui repeats a held Enter (or one a slow frame kept down)
+                    after = {"file_enter": self.line_input, "when_enter": self.when_input}
+                    self.focus_soon(after.get(what, self.expr_input))  # where the Enter taken sent it
+                    continue
+                self._enter_held = True
             self._on(what, value)
         if self.closed:
             return
+        self._enter_held = self._enter_held and dpg.is_key_down(dpg.mvKey_Return)
         self._show_processes()
         self._take_answers()
         typed = str(dpg.get_value(self.file_input))
@@ -429,7 +440,7 @@ class WatchDialog(Dialog):
             self.take_completion(value)
         elif what == "expr_enter":
             self.enter()
-        elif what == "ok":
+        elif what in ("ok", "when_enter"):
             self.apply()
         elif what == "cancel":
             self.close()
