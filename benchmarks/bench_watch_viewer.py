@@ -181,7 +181,7 @@ def to_gone(kills: int) -> list[list[object]]:
 
 
 def main() -> int:
-    """Run both measurements and print their tables."""
+    """Run the measurements and print their tables."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--arms", type=int, default=10, help="rounds of arming and disarming (default 10)")
     parser.add_argument("--kills", type=int, default=3, help="programs killed while watched (default 3)")
