@@ -53,6 +53,10 @@ class _NoDialogs:
     current = None
 
 
+class _NoCanvas:
+    """Never asked: no widget is added."""
+
+
 def per_look(counts: tuple[int, ...]) -> list[list[object]]:
     """µs per `WatchKeeper.poll` with `counts` watched widgets (reports unchanged)."""
     from dbglog.viewer._document._dashboard import WatchConfig, WidgetConfig
@@ -74,8 +78,7 @@ def per_look(counts: tuple[int, ...]) -> list[list[object]]:
         keeper = WatchKeeper(
             _Doc(items),  # type: ignore[arg-type]
             _NoDialogs(),  # type: ignore[arg-type]
-            add_widget=lambda *a, **k: None,
-            view_rect=lambda: None,  # type: ignore[arg-type,return-value]
+            _NoCanvas(),  # type: ignore[arg-type]
             say=lambda _t: None,
             wake=lambda: None,
             service=service,

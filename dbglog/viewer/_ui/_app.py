@@ -185,18 +185,10 @@ class ViewerApp:
         )
         """The tag tree beside the canvas: robots, groups, tags and topics to drag onto it."""
         self.canvas.drop_handlers.append(self.tree.drop)
-        self.frame_hooks += [self.robots.poll, self.tree.poll]
-        self.watches = WatchKeeper(
-            self.doc,
-            self.dialogs,
-            add_widget=self.canvas.add_widget,
-            view_rect=self.canvas.view_rect,
-            say=self.set_status,
-            wake=self.pacer.request,
-            live=not recording,
-        )
+        say, wake = self.set_status, self.pacer.request
+        self.watches = WatchKeeper(self.doc, self.dialogs, self.canvas, say=say, wake=wake, replay=recording)
         """Watch a variable…, and the dashboard's watches kept armed with their state on their widgets."""
-        self.frame_hooks.append(self.watches.poll)
+        self.frame_hooks += [self.robots.poll, self.tree.poll, self.watches.poll]
         self.status = StatusBar(self.time, self.doc.summary, self.loop)
         self.keys = KeyBindings(self.actions, chord=self.loop.chord, keyboard_taken=self._keys_blocked)
         self.menus = MenuBar(self.actions, MENUS)

@@ -13,7 +13,7 @@ from __future__ import annotations
 import weakref
 from collections.abc import Callable
 from pathlib import Path
-from typing import Final
+from typing import Final, Protocol
 
 import dearpygui.dearpygui as dpg
 
@@ -64,17 +64,29 @@ def _watch_of(item: CanvasItem) -> WatchConfig | None:
     return config.watch if isinstance(config, WidgetConfig) else None
 
 
+class WidgetPlacer(Protocol):
+    """Where the keeper puts a watched widget: the canvas."""
+
+    def view_rect(self) -> Rect:
+        """The part of the canvas in view (new widgets go there)."""
+        ...
+
+    def add_widget(self, type_name: str, x: float, y: float, *, name: str | None = None) -> CanvasItem | None:
+        """Place a new widget of `type_name` near canvas point (x, y) with a name; return it (None: no such
+        type)."""
+        ...
+
+
 class WatchKeeper:
     """The window's watches: the "Watch a variable…" command and each widget's watch kept armed.
 
     Args:
         doc: the dashboard (its widgets and their watches).
         dialogs: the window's dialogs.
-        add_widget: places a new widget of a type near canvas point (x, y) with a name; returns it.
-        view_rect: the part of the canvas in view (new widgets go there).
+        canvas: places the new widgets, in view.
         say: shows a message in the status bar.
         wake: asks the window for a frame (an answer came while nothing else changed).
-        live: False for a window on a recording (no ROS): its watches are not armed.
+        replay: True for a window on a recording (no ROS): its watches are not armed.
         service: the watch service (default: one of its own, started when first needed).
     """
 
@@ -82,17 +94,16 @@ class WatchKeeper:
         self,
         doc: CanvasDoc[CanvasItem],
         dialogs: Dialogs,
+        canvas: WidgetPlacer,
         *,
-        add_widget: Callable[..., CanvasItem | None],
-        view_rect: Callable[[], Rect],
         say: Callable[[str], None],
         wake: Callable[[], None],
-        live: bool = True,
+        replay: bool = False,
         service: WatchService[WatchConfig] | None = None,
     ) -> None:
         self.doc, self.dialogs = doc, dialogs
-        self.add_widget, self.view_rect, self.say, self.wake = add_widget, view_rect, say, wake
-        self.live = live
+        self.canvas, self.say, self.wake = canvas, say, wake
+        self.live = not replay
         self.service: WatchService[WatchConfig] = service if service is not None else WatchService()
         self._pairs: list[tuple[int, WatchConfig]] = []
         """The watched widgets (by identity) and their watches, as the service was last given them."""
@@ -129,8 +140,9 @@ class WatchKeeper:
 
     def add(self, plan: WatchPlan) -> CanvasItem | None:
         """Add the widget the dialog asked for, in view, with its watch (armed at the next frame)."""
-        view = self.view_rect()
-        item = self.add_widget(plan.type_name, view.x + 40, view.y + 40, name=self.doc.unique_name(plan.name))
+        view = self.canvas.view_rect()
+        name = self.doc.unique_name(plan.name)
+        item = self.canvas.add_widget(plan.type_name, view.x + 40, view.y + 40, name=name)
         if item is None:
             return None
         item.set_watch(plan.watch)
