@@ -214,11 +214,11 @@ def _env(**extra: str) -> dict[str, str]:
 class Program:
     """A watched program: loop.py under ``dbglog run`` (its steps as JSON lines) or talker.py."""
 
-    def __init__(self, script: Path, tmp: Path, name: str) -> None:
+    def __init__(self, script: Path, tmp: Path, name: str, *more: str) -> None:
         self.out, self.stop_file, self.err = tmp / f"{name}.out", tmp / f"{name}.stop", tmp / f"{name}.err"
         self.stop_file.unlink(missing_ok=True)
         if script == TALKER:
-            argv = [sys.executable, str(script), str(self.stop_file)]
+            argv = [sys.executable, str(script), str(self.stop_file), *more]
             env = _env(DBGLOG_WATCH="1")
         else:
             argv = [sys.executable, "-m", "dbglog", "run", str(script), str(self.out), str(self.stop_file)]
@@ -666,3 +666,27 @@ def test_the_window_keeps_drawing_while_a_process_does_not_answer(
         with contextlib.suppress(ProcessLookupError):
             os.kill(frozen.pid, signal.SIGCONT)
         frozen.finish()
+
+
+def test_a_process_listed_before_its_node_is_named_by_it_once_it_has_one(
+    viewer: Callable[[str], ViewerChild], tmp_path: Path
+) -> None:
+    """An rclpy program listed before it made its node (by its program's name) is listed by its node's name
+    once it has one, and a watch set in it is for that node."""
+    v = viewer("empty")
+    v.key("ctrl+shift+w")
+    v.wait_for(lambda s: dialog(s).get("kind") == "WatchDialog")
+    late = Program(TALKER, tmp_path, "late", "2.0")  # its node 2 s after dbglog's import made it watchable
+    try:
+        early = f"talker.py   pid {late.pid} "
+        try:
+            v.wait_for(lambda s: any(r[0].startswith(early) for r in dialog(s)["procs"]), START_S)
+        except AssertionError as exc:
+            raise AssertionError(f"never listed without its node: the program {late.said()}\n{exc}") from None
+        choose_process(v, early, late)
+        named = f"/watch_talker   pid {late.pid} "
+        state = v.wait_for(lambda s: any(r[0].startswith(named) for r in dialog(s)["procs"]), START_S)
+        assert dialog(state)["proc_note"] == f"watching in /watch_talker (pid {late.pid})"
+        assert any(r[2] for r in dialog(state)["procs"] if f"pid {late.pid} " in r[0]), "still the chosen one"
+    finally:
+        late.finish()

@@ -382,7 +382,7 @@ class WatchDialog(Dialog):
         """Whether an answer came or the processes changed since the last frame (a frame should show it)."""
         if any(ask.future.done() for ask in self._asks.values()):
             return True
-        return [p.agent for p in self.queries.processes()] != [p.agent for p in self.procs]
+        return _rows_of(self.queries.processes()) != _rows_of(self.procs)
 
     def tick(self) -> None:
         """Take the answers that came and what was clicked or typed; keep every part's note current."""
@@ -449,8 +449,10 @@ class WatchDialog(Dialog):
 
     def _show_processes(self) -> None:
         procs = self.queries.processes()
-        if [p.agent for p in procs] != [p.agent for p in self.procs]:
+        if _rows_of(procs) != _rows_of(self.procs):  # one came or went, or one's name changed (its node came)
             self.procs = procs
+            if self.process is not None:
+                self.process = next((p for p in procs if p.agent == self.process.agent), self.process)
             dpg.delete_item(self.proc_list, children_only=True)
             for p in procs:
                 dpg.add_selectable(
@@ -800,6 +802,11 @@ class WatchDialog(Dialog):
         for theme in (self._chosen_theme, self._code_theme, self._list_theme, self._button_theme):
             if dpg.does_item_exist(theme):
                 dpg.delete_item(theme)
+
+
+def _rows_of(procs: Sequence[Process]) -> list[tuple[str, str]]:
+    """The process list as shown: each process's agent and label."""
+    return [(p.agent, process_label(p)) for p in procs]
 
 
 def _missing_step(dialog: WatchDialog) -> str:

@@ -1,10 +1,12 @@
 """An rclpy node for the watch tests: a 100 Hz timer, dbglog imported (DBGLOG_WATCH=1 makes it watchable).
 
-Usage: talker.py STOP. It spins until the file STOP exists.
+Usage: talker.py STOP [NODE_AFTER]. It spins until the file STOP exists; NODE_AFTER: seconds to wait before
+making its node (it is watchable, by its program's name, meanwhile).
 """
 
 import os
 import sys
+import time
 
 import rclpy
 
@@ -23,6 +25,8 @@ class Talker:
 
 
 def main() -> None:
+    if len(sys.argv) > 2:
+        time.sleep(float(sys.argv[2]))
     rclpy.init()
     talker = Talker()
     while not os.path.exists(sys.argv[1]):
