@@ -257,7 +257,7 @@ def _redraw(args: argparse.Namespace) -> None:
                 app.timeline.seek(t)
             app.frame()
             frame_ms = (time.perf_counter() - begin) * 1e3
-            render_ms = (app.frame_times[-1] - app.last_work_s) * 1e3  # the seek counts as app work
+            render_ms = (app.frame_times[-1] - app.loop.last_work_s) * 1e3  # the seek counts as app work
             values = (frame_ms, frame_ms - render_ms, render_ms, (time.process_time() - cpu0) * 1e3)
             for column, value in zip(out, values, strict=True):
                 column.append(value)
@@ -304,7 +304,7 @@ def _redraw(args: argparse.Namespace) -> None:
     blocks: dict[bool, list[float]] = {True: [0, 0.0, 0.0], False: [0, 0.0, 0.0]}  # frames, seconds, CPU
     for block in range(2 * args.fill_blocks):
         panel = block % 2 == 1
-        app.paint.panel_clear = panel
+        app.canvas.paint.panel_clear = panel
         app.frame()  # the canvas and frames take the look (not counted)
         begin, cpu0 = time.perf_counter(), time.process_time()
         while time.perf_counter() - begin < 1.0:
@@ -330,7 +330,7 @@ def _redraw(args: argparse.Namespace) -> None:
             (True, "canvas cleared to the panel colour"),
         )
     ]
-    app.paint.panel_clear = True  # today's look for what follows
+    app.canvas.paint.panel_clear = True  # today's look for what follows
     # The same drag with the plots' lines computed at once on the UI thread (before the line worker), and
     # on the line worker while the frame renders (today), alternating 1 s blocks in this process.
     lines: dict[bool, list[float]] = {True: [0, 0.0, 0.0, 0.0], False: [0, 0.0, 0.0, 0.0]}
@@ -346,7 +346,7 @@ def _redraw(args: argparse.Namespace) -> None:
             t += 0.1
             app.timeline.seek(t)
             app.frame()
-            work += app.last_work_s
+            work += app.loop.last_work_s
             lines[on_worker][0] += 1
         lines[on_worker][1] += time.perf_counter() - begin
         lines[on_worker][2] += time.process_time() - cpu0

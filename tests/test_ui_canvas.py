@@ -133,7 +133,7 @@ class Probe:
                 }
                 for i in app.items
             ],
-            "on_panel": app.paint.on_panel,
+            "on_panel": app.canvas.paint.on_panel,
             "canvas": [ox + sx, oy + sy, view_w - bar_w, view_h - bar_h],
             "scroll": [sx, sy],
             "scroll_max": [dpg.get_x_scroll_max(app.canvas.window), dpg.get_y_scroll_max(app.canvas.window)],

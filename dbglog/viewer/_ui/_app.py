@@ -27,7 +27,7 @@ from dbglog.viewer._publishing._publish import PublishService
 from dbglog.viewer._ui._actions import Actions
 from dbglog.viewer._ui._bindings import KeyBindings, MenuBar, keys_hint
 from dbglog.viewer._ui._canvas import Canvas
-from dbglog.viewer._ui._chrome import PAYLOAD_TYPE, CanvasPaint
+from dbglog.viewer._ui._chrome import PAYLOAD_TYPE
 from dbglog.viewer._ui._dialogs import Dialog
 from dbglog.viewer._ui._eventlist import EventsPanel
 from dbglog.viewer._ui._files import FileCommands, FileDialogs
@@ -381,16 +381,6 @@ class ViewerApp:
     def after_render(self) -> None:
         """After a rendered frame: the keys seen up count again."""
         self.keys.after_frame()
-
-    @property
-    def paint(self) -> CanvasPaint:
-        """The canvas's backdrop and grid (`Canvas.paint`)."""
-        return self.canvas.paint
-
-    @property
-    def last_work_s(self) -> float:
-        """Seconds the last frame spent before rendering (input, snapshots, widget updates)."""
-        return self.loop.last_work_s
 
     # -- what the commands and the window share -----------------------------------------------------
 
