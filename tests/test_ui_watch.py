@@ -676,7 +676,8 @@ def test_a_process_listed_before_its_node_is_named_by_it_once_it_has_one(
     v = viewer("empty")
     v.key("ctrl+shift+w")
     v.wait_for(lambda s: dialog(s).get("kind") == "WatchDialog")
-    late = Program(TALKER, tmp_path, "late", "2.0")  # its node 2 s after dbglog's import made it watchable
+    make_node = tmp_path / "make-node"
+    late = Program(TALKER, tmp_path, "late", str(make_node))  # its node once the test has seen it without
     try:
         early = f"talker.py   pid {late.pid} "
         try:
@@ -684,6 +685,7 @@ def test_a_process_listed_before_its_node_is_named_by_it_once_it_has_one(
         except AssertionError as exc:
             raise AssertionError(f"never listed without its node: the program {late.said()}\n{exc}") from None
         choose_process(v, early, late)
+        make_node.touch()
         named = f"/watch_talker   pid {late.pid} "
         state = v.wait_for(lambda s: any(r[0].startswith(named) for r in dialog(s)["procs"]), START_S)
         assert dialog(state)["proc_note"] == f"watching in /watch_talker (pid {late.pid})"

@@ -1,7 +1,7 @@
 """An rclpy node for the watch tests: a 100 Hz timer, dbglog imported (DBGLOG_WATCH=1 makes it watchable).
 
 Usage: talker.py STOP [NODE_AFTER]. It spins until the file STOP exists; NODE_AFTER: seconds to wait before
-making its node (it is watchable, by its program's name, meanwhile).
+making its node, or a file it waits for first (it is watchable, by its program's name, meanwhile).
 """
 
 import os
@@ -26,7 +26,11 @@ class Talker:
 
 def main() -> None:
     if len(sys.argv) > 2:
-        time.sleep(float(sys.argv[2]))
+        try:
+            time.sleep(float(sys.argv[2]))
+        except ValueError:  # a file: made by the test once it saw the program without a node
+            while not os.path.exists(sys.argv[2]):
+                time.sleep(0.02)
     rclpy.init()
     talker = Talker()
     while not os.path.exists(sys.argv[1]):
