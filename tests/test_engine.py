@@ -19,12 +19,11 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import LaserScan
 from std_msgs.msg import Bool, Float64, Float64MultiArray, MultiArrayDimension, String
 
+from dbglog._ros import _graph as graph_module
+from dbglog._ros._graph import RECOUNT_S, SETTLE_S
 from dbglog._ros._qos import tag_qos
-from dbglog.viewer._data import _engine as engine_module
 from dbglog.viewer._data._engine import (
     _FEW_PER_TAKE,
-    _RECOUNT_S,
-    _SETTLE_S,
     Engine,
     _gather,
     _stretch,
@@ -546,7 +545,7 @@ def test_a_new_publisher_on_a_listed_topic_is_counted_within_the_recount_period(
         t0 = time.monotonic()
         assert wait_until(lambda: _publishers(engine, topic) == 1, TIMEOUT)
         print(f"publisher counted after {time.monotonic() - t0:.2f} s")
-        assert time.monotonic() - t0 <= _RECOUNT_S + 3.0, "within the recount period (and discovery)"
+        assert time.monotonic() - t0 <= RECOUNT_S + 3.0, "within the recount period (and discovery)"
         peer.node.destroy_publisher(pub)
         assert wait_until(lambda: _publishers(engine, topic) == 0, TIMEOUT), "the publisher left"
 
@@ -557,7 +556,7 @@ def test_a_new_node_publishing_on_a_listed_topic_is_counted_at_the_next_poll(
     """A node that starts publishing on a topic already listed (a robot's node started after `dbglog echo`)
     changes the graph's node list: its publisher is counted at the next poll, not after the recount period
     (here an hour), and so is its leaving."""
-    monkeypatch.setattr(engine_module, "_RECOUNT_S", 3600.0)
+    monkeypatch.setattr(graph_module, "RECOUNT_S", 3600.0)
     topic = _topic("new_node")
     with Engine(graph_period=0.1) as engine, RosPeer("new_node_listener") as listener:
         listener.subscribe(topic, String)
@@ -585,7 +584,7 @@ def test_a_crowded_steady_graph_is_counted_every_few_seconds_not_on_every_poll()
     Steady means all of it: the new engine also discovers the module's other participants (the shared
     engine and peer, the topics of the tests before), and each node or topic it finds is a change counted
     at once and again when it settles, so the test waits until a count has had no follower for longer
-    than the settling time (the recounts alone are `_RECOUNT_S` apart)."""
+    than the settling time (the recounts alone are `RECOUNT_S` apart)."""
     names = [_topic(f"crowd/t{k}") for k in range(CROWD)]
     with RosPeer("crowd") as crowd, Engine(graph_period=0.1) as engine:
         for name in names:
@@ -594,7 +593,7 @@ def test_a_crowded_steady_graph_is_counted_every_few_seconds_not_on_every_poll()
         engine.bind(wanted)
         assert wait_until(lambda: set(names) <= {t.name for t in engine.topics()}, TIMEOUT)
         assert _snap_when(engine, wanted, lambda s: s.reason == NO_MESSAGE_YET).status == Status.WAITING
-        assert wait_quiet(lambda: engine.stats().graph_counts, _SETTLE_S + 0.3, TIMEOUT), "never steady"
+        assert wait_quiet(lambda: engine.stats().graph_counts, SETTLE_S + 0.3, TIMEOUT), "never steady"
         before = engine.stats()
         time.sleep(2.5)
         after = engine.stats()

@@ -28,6 +28,7 @@ from dbglog._regex._compile import CompiledRegex
 from dbglog._ros._batch import batch_robot
 from dbglog._ros._cdr import CDR_HEADER, HEADER_SIZE, decode_fixed
 from dbglog._ros._census import Census, take_census
+from dbglog._ros._graph import Endpoints, GraphView
 from dbglog._ros._node import NodeIdentity, PrivateNode, WaitSet, no_callback, take_batch
 from dbglog._ros._qos import LOG_DEPTH, subscription_qos
 from dbglog._ros._tags import parse_topic
@@ -73,22 +74,13 @@ _MIN_DEPTH = 50
 """No subscription queues fewer messages than this, however many topics share the budget."""
 _VARIABLE_DEPTH = 100
 """Queue depth cap for variable-size messages (strings, arrays, images): their size is unknown."""
+_QUIET_POLL_S = 1.0
+"""How often an unbound held tag that sends little is looked at (`Engine._split`): not waited on."""
+_POLLED_SHARE = 4
+"""An unbound held tag that sent less than 1/4 of its queue's depth in the last `_QUIET_POLL_S` is looked
+at once in that time; one that sent more is waited on (its queue must not fill meanwhile)."""
 _SUGGEST_AFTER_S = 3.0
 """A wanted topic still without a publisher this long is probably misspelled: say what the graph has."""
-_RECOUNT_S = 2.0
-"""While the graph's nodes, topic names and types stay the same, every topic's endpoints are counted this
-often.
-
-Counting costs about 30 µs a topic (rmw's graph cache), so a graph poll that counted every topic of a
-300-topic robot cost 14 ms, four times a second: 5 % of a core for an idle viewer. A node or topic that
-comes or goes, or a topic that changes type, is counted at the next poll (the node list costs ~13 µs: a
-robot's node starting to publish on a topic that was already listed is seen at once); the topics a widget
-shows have their publishers looked at on every poll (``_follow``). What waits for the period is only an
-endpoint added to or removed from a node that stays."""
-_SETTLE_S = 1.0
-"""After the graph's nodes, names or types change, every topic is counted at once and once more this much
-later: rmw learns a node and its endpoints in separate discovery messages, so a count right after the node
-list changed can miss the endpoints that follow it (or still hold those of a node that left)."""
 _EVERY_NODE_TOPICS = frozenset({"/parameter_events"})
 """Topics every rclpy node publishes, the engine's own included: they don't make the graph non-empty."""
 LOG_TYPE = "rcl_interfaces/msg/Log"
@@ -172,11 +164,13 @@ class EngineStats:
     graph_polls: int
     """Looks at the ROS graph so far (every ``graph_period``, and after each change of bindings)."""
     graph_queries: int
-    """Questions asked of the ROS graph so far: topic lists, endpoint counts, publisher lists (each costs
-    tens of µs, and more as the graph grows)."""
+    """Questions asked of the ROS graph so far: node and topic lists, each node's endpoints, publisher lists
+    (each costs tens of µs, and a per-topic one more as the graph grows)."""
     graph_counts: int
     """Counts of every graph topic's endpoints so far (when the graph changed, once more when it settled,
-    and every ``_RECOUNT_S``)."""
+    and every ``RECOUNT_S``: see ``GraphView``)."""
+    graph_lists: int
+    """Reads of the graph's topic list so far (every poll of a small graph, less often of a big one)."""
 
 
 @dataclass(eq=False, slots=True)
@@ -200,6 +194,30 @@ class _TopicSub:
     taken: int = 0
     depth: int = 1
     """The subscription's KEEP_LAST queue depth."""
+    taken_at_poll: int = 0
+    """`taken` at the last graph poll."""
+    polled: bool = True
+    """Sends little (`Engine._split`): unbound, it is looked at every `_QUIET_POLL_S` instead of waited on."""
+    pointer: int = 0
+    """The subscription handle's pointer (how a wait set names it ready)."""
+
+
+class _Subs(dict[str, _TopicSub]):
+    """The engine's subscriptions by topic; `version` goes up whenever one comes or goes."""
+
+    version = 0
+
+    def __setitem__(self, name: str, topic: _TopicSub) -> None:
+        self.version += 1
+        super().__setitem__(name, topic)
+
+    def __delitem__(self, name: str) -> None:
+        self.version += 1
+        super().__delitem__(name)
+
+    def pop(self, name: str, *default: Any) -> Any:
+        self.version += 1
+        return super().pop(name, *default)
 
 
 def _offered(infos: list[Any]) -> tuple[bool, bool]:
@@ -350,14 +368,17 @@ class Engine(SeriesTimes):
         self._static_errors: dict[Binding, str] = {}
         self._topics: tuple[TopicInfo, ...] = ()
         self._types: dict[str, tuple[str, ...]] = {}
-        self._counts: dict[str, tuple[int, int]] = {}
-        """Each graph topic's (publishers, subscribers other than the engine's), as last counted."""
-        self._graph_seen: tuple[list[tuple[str, list[str]]], list[tuple[str, str]]] = ([], [])
-        """The graph's topic names and types, and its nodes, at the last poll."""
-        self._graph_changed_at = 0.0
-        """When the last poll found them changed (monotonic seconds)."""
-        self._counted_at = -_RECOUNT_S
-        """When every topic was last counted (monotonic seconds)."""
+        self._graph = GraphView()
+        """The graph's nodes, topics and endpoint counts, each read only as often as it is worth."""
+        self._rows_key: tuple[object, ...] | None = None
+        """What the topic list and the held tags were last built from (`_refresh_graph`)."""
+        self._graph_names: frozenset[str] = frozenset()
+        """The graph's topic names (batch topics left out), as last listed."""
+        self._held: dict[str, tuple[Endpoints, tuple[str, ...]]] = {}
+        """Each unbound tag topic with a publisher, and its endpoints and types (`_hold_tags`)."""
+        self._deciding = False
+        """A topic's publisher was too new to decide on at the last poll: the topic list is read at every
+        poll meanwhile (a new batch writer must be seen within the grace)."""
         self._dirty = threading.Event()
         self._running = False
         self._thread: threading.Thread | None = None
@@ -372,10 +393,10 @@ class Engine(SeriesTimes):
         self._thread_cpu = 0.0
         self._graph_polls = 0
         self._graph_queries = 0
-        self._graph_counts = 0
-        self._subs: dict[str, _TopicSub] = {}
-        self._held_seen: dict[str, tuple[int, tuple[str, ...]]] = {}
-        """Each unbound tag topic's (publishers, types) when the engine last decided how to hold it."""
+        """Questions asked of the graph besides the `GraphView`'s (publisher lists)."""
+        self._subs = _Subs()
+        self._held_seen: dict[str, tuple[Endpoints, tuple[str, ...]]] = {}
+        """Each unbound tag topic's (endpoints, types) when the engine last decided how to hold it."""
         self._held_waiting: set[str] = set()
         """Unbound tag topics whose publisher is too new to decide on: looked at again at every poll."""
         self._batches = BatchIngest(
@@ -540,8 +561,9 @@ class Engine(SeriesTimes):
             subscriptions=len(subs),
             thread_cpu_s=self._thread_cpu,
             graph_polls=self._graph_polls,
-            graph_queries=self._graph_queries,
-            graph_counts=self._graph_counts,
+            graph_queries=self._graph_queries + self._graph.queries,
+            graph_counts=self._graph.recounts,
+            graph_lists=self._graph.lists,
         )
 
     def batch_stats(self) -> BatchStats:
@@ -584,6 +606,7 @@ class Engine(SeriesTimes):
             self._ready.set()
             return
         self.identity = ros.identity
+        self._graph.own = ros.identity
         self._graph_since = time.monotonic()
         self._ready.set()
         node = ros.node
@@ -591,7 +614,7 @@ class Engine(SeriesTimes):
             self._loop(ros)
         finally:
             self._guard = None
-            subs, self._subs = list(self._subs.values()), {}
+            subs, self._subs = list(self._subs.values()), _Subs()
             destroy = [functools.partial(node.destroy_subscription, topic.sub) for topic in subs]
             ros.close([functools.partial(self._batches.close, node), *destroy])
 
@@ -599,6 +622,12 @@ class Engine(SeriesTimes):
         node, context = ros.node, ros.context
         next_graph = 0.0
         wait_set = WaitSet(ros, self._guard)
+        poll_set = WaitSet(ros, ros.guard())  # (its guard is never triggered: `_wake` wakes `wait_set`)
+        waited: list[Any] = []
+        polled: list[Any] = []
+        by_pointer: dict[int, _TopicSub] = {}
+        split = -1  # the `_subs` version the lists were made from
+        next_quiet = 0.0
         previous_woke = time.monotonic()
         while self._running and context.ok():
             cycle_start = time.monotonic()
@@ -606,28 +635,35 @@ class Engine(SeriesTimes):
             fullest = 0.0
             taken = takes = 0
             try:
+                reconciled = False
                 if self._dirty.is_set():
                     self._dirty.clear()
                     self._reconcile(node)
                     next_graph = 0.0
+                    reconciled = True  # (a binding may have come to a quiet topic)
                 if cycle_start >= next_graph:
                     self._refresh_graph(node)
                     next_graph = time.monotonic() + self.graph_period
-                wait_subs = list(self._subs.values())
-                batch_subs = list(self._batches.subs.values())
-                subscriptions = [topic.sub for topic in wait_subs] + batch_subs
-                timeout = max(0.0, next_graph - time.monotonic())
-                ready = wait_set.wait(subscriptions, int(timeout * 1e9))
+                quiet = cycle_start >= next_quiet
+                if quiet:
+                    next_quiet = cycle_start + _QUIET_POLL_S
+                if quiet or reconciled or split != self._subs.version:
+                    split = self._subs.version
+                    waited, polled, by_pointer = self._split(quiet)
+                ready = poll_set.wait(polled, 0) if quiet and polled else set()
+                timeout = 0.0 if ready else max(0.0, next_graph - time.monotonic())
+                ready |= wait_set.wait(waited + list(self._batches.subs.values()), int(timeout * 1e9))
                 woke, woke_cpu = time.monotonic(), time.thread_time()
                 self._cycles += 1
                 if ready:
-                    for topic in wait_subs:
-                        if topic.sub.handle.pointer in ready:
+                    for pointer in ready:
+                        topic = by_pointer.get(pointer)
+                        if topic is not None:
                             n = self._drain(topic)
                             fullest = max(fullest, n / topic.depth)
                             taken += n
                             takes += n > 0
-                    if batch_subs:
+                    if self._batches.subs:
                         n, k = self._batches.drain(ready)
                         taken += n
                         takes += k
@@ -639,6 +675,8 @@ class Engine(SeriesTimes):
                     return
                 _log.exception("viewer engine cycle failed; continuing")
                 wait_set.reset()
+                poll_set.reset()
+                split = -1  # the wait lists are made again
                 time.sleep(0.05)
             self._thread_cpu = time.thread_time()
             now = time.monotonic()
@@ -650,6 +688,31 @@ class Engine(SeriesTimes):
             previous_woke = woke
             if rest > 0 and self._running:
                 time.sleep(rest)
+
+    def _split(self, quiet: bool) -> tuple[list[Any], list[Any], dict[int, _TopicSub]]:
+        """Return the subscriptions to wait on, those to look at every `_QUIET_POLL_S` only, and every one by
+        its handle's pointer.
+
+        rmw's wait costs every subscription in it each time (a few µs each, more while it blocks): beside
+        2,000 held tags that send nothing, waiting on them at each graph poll was most of an idle engine's
+        work. An unbound tag held in the history that sent less than `1/_POLLED_SHARE` of its queue in the
+        last `_QUIET_POLL_S` is looked at once in that time instead: its messages wait in its queue until
+        then (they keep their source times). `quiet`: that time is up, each topic's messages since decide.
+        """
+        kept = self._kept
+        waited: list[Any] = []
+        polled: list[Any] = []
+        by_pointer: dict[int, _TopicSub] = {}
+        for name, topic in self._subs.items():
+            if quiet:
+                fresh, topic.taken_at_poll = topic.taken - topic.taken_at_poll, topic.taken
+                topic.polled = fresh * _POLLED_SHARE < topic.depth
+            if topic.polled and not topic.sinks and name not in kept:
+                polled.append(topic.sub)
+            else:
+                waited.append(topic.sub)
+            by_pointer[topic.pointer] = topic
+        return waited, polled, by_pointer
 
     # --- bindings and the graph (ROS thread) -----------------------------------------------------
 
@@ -722,75 +785,85 @@ class Engine(SeriesTimes):
         return plan
 
     def _refresh_graph(self, node: Any) -> None:
+        """Look at the graph: its nodes at every poll, its topics and their endpoints when due (`GraphView`),
+        every wanted topic's publishers; follow them, and hold the unbound tags."""
+        started = time.thread_time()
         if self._census_wanted:  # before the topics: they are then at least as new as the census
             try:
                 self._census = take_census(node)
             except Exception:  # the census is advice: the poll goes on without it
                 _log.debug("viewer engine: census failed", exc_info=True)
-        graph = node.get_topic_names_and_types()
-        names_types = [(n, t) for n, t in graph if batch_robot(n) is None]
         self._graph_polls += 1
-        self._graph_queries += 1 + self._batches.refresh(node, [n for n, _t in graph])  # + batch writers
+        graph = self._graph
+        listed, _counted = graph.look(  # (`dbglog tags`, the census on, reads the topics at every poll)
+            node,
+            time.monotonic(),
+            period=self.graph_period,
+            eager=self._deciding or self._census_wanted,
+            own_subs=self._subs,
+        )
+        if listed:
+            self._graph_queries += self._batches.refresh(node, [n for n, _t in graph.topics])  # batch writers
         wanted = self._wanted()
-        counted = self._count_endpoints(node, names_types)
-        topics: list[TopicInfo] = []
-        held: dict[str, tuple[int, tuple[str, ...]]] = {}
-        types: dict[str, tuple[str, ...]] = {}
         publishers: dict[str, list[Any]] = {}
-        for name, type_list in names_types:
-            pubs, foreign_subs = self._counts.get(name, (0, 0))
-            if name in wanted:
-                infos = publishers[name] = node.get_publishers_info_by_topic(name)
-                self._graph_queries += 1
-                pubs = len(infos)
-                type_list = sorted({info.topic_type for info in infos}) or type_list
-            if pubs and name not in wanted and self._holds(name):
-                held[name] = (pubs, tuple(type_list))
-            if pubs == 0 and foreign_subs <= 0:
-                continue
-            types[name] = tuple(type_list)
-            topics.append(TopicInfo(name, tuple(type_list), pubs))
-        self._types = types
-        self._topics = tuple(sorted(topics, key=lambda t: t.name))
-        graph_names = {name for name, _ in names_types}
+        on_graph: list[tuple[str, int, tuple[str, ...]]] = []
+        for name in wanted:
+            infos = publishers[name] = node.get_publishers_info_by_topic(name)
+            self._graph_queries += 1
+            on_graph.append((name, len(infos), tuple(sorted({info.topic_type for info in infos}))))
+        key = (graph.version, frozenset(wanted), tuple(on_graph))
+        rebuilt = key != self._rows_key
+        if rebuilt:
+            self._rows_key = key
+            self._rebuild_rows(wanted, {name: (pubs, types) for name, pubs, types in on_graph})
         for name in [n for n in self._absent_since if n not in wanted]:
             del self._absent_since[name]
+        self._deciding = False
         for name, bindings in wanted.items():
             try:
-                self._follow(node, name, bindings, name in graph_names, publishers.get(name, []))
+                self._follow(node, name, bindings, name in self._graph_names, publishers[name])
             except Exception as exc:  # one odd topic must not stop the others
                 if (name, str(exc)) not in self._reported:  # once, not every graph poll
                     self._reported.add((name, str(exc)))
                     _log.exception("viewer engine: topic %s failed", name)
                 for series in bindings.values():
                     series.set_error(f"internal error on {name}: {exc}")
-        if self.hold_tags:
-            self._hold_tags(node, held, set(wanted), counted)
+        if self.hold_tags and (rebuilt or self._held_waiting):
+            self._hold_tags(node, set(wanted))
+            self._deciding |= bool(self._held_waiting)
+        if listed:  # what a read of the topic list costs, all told, sets how often it is read
+            graph.took(time.thread_time() - started)
 
-    def _count_endpoints(self, node: Any, names_types: list[tuple[str, list[str]]]) -> bool:
-        """Count the publishers and the subscribers other than the engine's of every graph topic, when the
-        graph changed, once more when discovery has settled, and every ``_RECOUNT_S``; True when it did."""
-        now = time.monotonic()
-        graph = (names_types, sorted(node.get_node_names_and_namespaces()))
-        self._graph_queries += 1
-        if graph != self._graph_seen:
-            self._graph_seen, self._graph_changed_at = graph, now
-        changed = self._graph_changed_at
-        if not (
-            self._counted_at < changed  # not counted since the change
-            or self._counted_at < changed + _SETTLE_S <= now  # discovery has settled since
-            or now - self._counted_at >= _RECOUNT_S
-        ):
-            return False
-        self._counted_at = now
-        self._graph_counts += 1
-        counts = {}
-        for name, _ in names_types:
-            own = 1 if name in self._subs else 0
-            counts[name] = (node.count_publishers(name), node.count_subscribers(name) - own)
-        self._counts = counts
-        self._graph_queries += 2 * len(counts)
-        return True
+    def _rebuild_rows(
+        self, wanted: dict[str, dict[Binding, Series]], seen: dict[str, tuple[int, tuple[str, ...]]]
+    ) -> None:
+        """Build the topic list, each topic's types and the unbound tags to hold from the graph's last
+        list and counts; a wanted topic's publishers and types are the ones `seen` at this poll."""
+        topics: list[TopicInfo] = []
+        held: dict[str, tuple[Endpoints, tuple[str, ...]]] = {}
+        types: dict[str, tuple[str, ...]] = {}
+        names: list[str] = []
+        counts = self._graph.counts
+        nobody = Endpoints(0, 0, ())
+        for name, type_list in self._graph.topics:
+            if batch_robot(name) is not None:
+                continue
+            names.append(name)
+            ends = counts.get(name, nobody)
+            pubs, listed_types = ends.publishers, tuple(type_list)
+            if name in seen:
+                pubs, wanted_types = seen[name]
+                listed_types = wanted_types or listed_types
+            elif pubs and self._holds(name):
+                held[name] = (ends, listed_types)
+            if pubs == 0 and ends.subscribers <= 0:
+                continue
+            types[name] = listed_types
+            topics.append(TopicInfo(name, listed_types, pubs))
+        self._types = types
+        self._topics = tuple(sorted(topics, key=lambda t: t.name))
+        self._graph_names = frozenset(names)
+        self._held = held
 
     def _follow(
         self, node: Any, name: str, bindings: dict[Binding, Series], on_graph: bool, infos: list[Any]
@@ -831,6 +904,7 @@ class Engine(SeriesTimes):
             return
         self._batches.detach(name)
         if topic is None and self._batches.should_wait(name, infos):
+            self._deciding = True
             for series in bindings.values():
                 series.set_waiting("the topic's publisher just appeared; checking whether it sends batches")
             return
@@ -868,22 +942,21 @@ class Engine(SeriesTimes):
         """True for a topic the history keeps unbound: a dbglog tag (any robot's), with `hold_tags`."""
         return self.hold_tags and parse_topic(name) is not None
 
-    def _hold_tags(
-        self, node: Any, held: dict[str, tuple[int, tuple[str, ...]]], wanted: set[str], counted: bool
-    ) -> None:
-        """Keep the unbound tag topics in the history: `held` maps each to its (publishers, types).
+    def _hold_tags(self, node: Any, wanted: set[str]) -> None:
+        """Keep the unbound tag topics with a publisher (`_held`) in the history.
 
         The SDK's tags come in batches (nothing to do); any other tag gets a subscription of its own. A topic
-        is looked at again when its publisher count or types changed at a count of the graph, and at every
-        poll while its publisher is too new to decide on (`BatchIngest.should_wait`).
+        is looked at again when its publishing nodes, their count or its types changed at a count of the
+        graph, and at every poll while its publisher is too new to decide on (`BatchIngest.should_wait`).
         """
+        held = self._held
         for name in [n for n in self._subs if n not in held and n not in wanted]:
             node.destroy_subscription(self._subs.pop(name).sub)  # an unbound tag that left the graph
         for name in [n for n in self._held_seen if n not in held]:
             del self._held_seen[name]
         self._held_waiting &= held.keys()
         for name, seen in held.items():
-            if name not in self._held_waiting and (not counted or self._held_seen.get(name) == seen):
+            if name not in self._held_waiting and self._held_seen.get(name) == seen:
                 continue
             self._held_seen[name] = seen
             self._held_waiting.discard(name)
@@ -958,7 +1031,9 @@ class Engine(SeriesTimes):
             depth = max(depth, LOG_DEPTH)  # every node's declarations at a launch, a recorder's markers
         qos = subscription_qos(depth, reliable=reliable, transient=transient)
         sub = node.create_subscription(cls, name, no_callback, qos, raw=True)
-        topic = _TopicSub(name, msg_type, cls, sub, reliable, transient, depth=depth)
+        topic = _TopicSub(
+            name, msg_type, cls, sub, reliable, transient, depth=depth, pointer=sub.handle.pointer
+        )
         topic.scalar = scalar_plan(cls, msg_type)
         if self.store.kind(name) == ("numbers" if topic.scalar else "payloads"):
             # A latched publisher re-sends what the history may already hold: skip that much.
@@ -969,7 +1044,7 @@ class Engine(SeriesTimes):
         elif self.store.kind(name) is not None:
             self.store.drop(name)
         if old is not None:
-            topic.taken = old.taken
+            topic.taken, topic.taken_at_poll = old.taken, old.taken_at_poll
         for binding, series in bindings.items():
             previous = old.sinks.get(binding) if old is not None and not type_changed else None
             if previous is not None and previous.kind is not None:
