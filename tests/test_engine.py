@@ -15,15 +15,17 @@ import numpy as np
 import pytest
 from builtin_interfaces.msg import Time
 from geometry_msgs.msg import PoseStamped, Twist
+from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import LaserScan
 from std_msgs.msg import Bool, Float64, Float64MultiArray, MultiArrayDimension, String
 
 from dbglog._ros import _graph as graph_module
 from dbglog._ros._graph import RECOUNT_S, SETTLE_S
-from dbglog._ros._qos import tag_qos
+from dbglog._ros._qos import subscription_qos, tag_qos
 from dbglog.viewer._data._engine import (
     _FEW_PER_TAKE,
+    _QUIET_POLL_S,
     Engine,
     _gather,
     _stretch,
@@ -605,6 +607,72 @@ def test_a_crowded_steady_graph_is_counted_every_few_seconds_not_on_every_poll()
         per_poll = 4  # the topic and node lists, the batch writers, the wanted topic's publishers
         assert queries - per_poll * polls <= 3 * 2 * graph, "at most a few full counts in 2.5 s"
         assert _publishers(engine, names[-1]) == 1
+
+
+BIG_CROWD = 2000
+"""Tags on the big graph: 4 robots' (issue 34's target: the idle viewer beside 2,000 topics)."""
+
+
+def test_beside_2000_idle_tags_a_poll_asks_a_few_questions_and_waits_on_none_of_them() -> None:
+    """Beside 2,000 tags of 4 robots on 20 nodes, sending nothing, an idle engine with 20 of them bound asks
+    rmw about one question a poll (the node list), and at each recount two a node and the bound topics'
+    publishers: it asked two a topic, each scanning every endpoint (4,000 questions, ~200 ms, every 2 s),
+    and waited on every held tag's subscription at each poll. Every tag is held all the same: the unbound
+    ones are looked at every `_QUIET_POLL_S`, and one that sends is in the history within that time."""
+    run = next(_ids)
+    names = [f"/robot{i % 4 + 1}/rosdashboard/idle{run}/g{i // 80}/t{i // 4 % 20}" for i in range(BIG_CROWD)]
+    bound = [Binding(name) for name in names[:20]]
+    with RosPeer(f"idle_crowd_{run}") as crowd, Engine(graph_period=0.1) as engine:
+        nodes = [crowd.node] + [Node(f"idle_crowd_{run}_{k}", context=crowd.context) for k in range(19)]
+        pubs = [nodes[i % 20].create_publisher(Float64, name, tag_qos()) for i, name in enumerate(names)]
+        for binding in bound:
+            engine.bind(binding)
+        assert wait_until(lambda: engine.stats().subscriptions >= BIG_CROWD, 60), engine.stats().subscriptions
+        assert wait_quiet(lambda: engine.stats().graph_counts, SETTLE_S + 0.3, 60), "never steady"
+        before = engine.stats()
+        time.sleep(2.5)
+        after = engine.stats()
+        polls = after.graph_polls - before.graph_polls
+        queries = after.graph_queries - before.graph_queries
+        counts = after.graph_counts - before.graph_counts
+        lists = after.graph_lists - before.graph_lists
+        graph_nodes = len(crowd.node.get_node_names_and_namespaces())
+        print(f"{polls} polls, {lists} lists, {counts} counts beside {graph_nodes} nodes: {queries} queries")
+        assert polls >= 10, "graph_period 0.1 s"
+        assert counts <= 2, "every RECOUNT_S"
+        assert queries <= polls + lists * 2 + counts * (2 * graph_nodes + len(bound) + 10)
+        assert len(after.polled) == BIG_CROWD - len(bound), "no unbound tag waited on"
+        pubs[-1].publish(Float64(data=1.5))
+        t0 = time.monotonic()
+        assert wait_until(lambda: engine.store.count(names[-1]) >= 1, TIMEOUT), "a quiet tag is still held"
+        assert time.monotonic() - t0 < _QUIET_POLL_S + 2.0, "within the quiet tags' period (and delivery)"
+        for k, node in enumerate(nodes[1:]):
+            for pub in pubs[k + 1 :: 20]:
+                node.destroy_publisher(pub)
+            node.destroy_node()
+
+
+def test_an_unbound_tag_that_sends_little_is_looked_at_now_and_then_and_one_that_sends_much_waited_on() -> (
+    None
+):
+    """An unbound tag held in the history that sends little is looked at every `_QUIET_POLL_S` (not waited on,
+    which costs every subscription at each wake-up); one that sent over a quarter of its queue in that time
+    is waited on (its queue must not fill) until it sends little again; every message is held."""
+    topic = f"/rosdashboard/quiet_{next(_ids)}"
+    with RosPeer(f"quiet_{next(_ids)}") as peer, Engine(graph_period=0.1) as engine:
+        pub = peer.publisher(topic, Float64, subscription_qos(1000, reliable=True, transient=True))
+        assert wait_until(lambda: topic in engine.stats().polled, TIMEOUT), "held, looked at now and then"
+        for k in range(5):
+            pub.publish(Float64(data=float(k)))
+        t0 = time.monotonic()
+        assert wait_until(lambda: engine.store.count(topic) == 5, TIMEOUT)
+        assert time.monotonic() - t0 < _QUIET_POLL_S + 2.0, "within the period (and delivery)"
+        burst = engine.stats().depths[topic] // 2
+        for k in range(burst):
+            pub.publish(Float64(data=float(k)))
+        assert wait_until(lambda: topic not in engine.stats().polled, TIMEOUT), "a busy tag is waited on"
+        assert wait_until(lambda: engine.store.count(topic) == 5 + burst, TIMEOUT), "none lost"
+        assert wait_until(lambda: topic in engine.stats().polled, TIMEOUT), "quiet again"
 
 
 def test_fields_of_a_topic_for_the_setup_dialog(engine: Engine, peer: RosPeer) -> None:
