@@ -22,10 +22,11 @@ does, through ``ViewerApp.run`` with its frame cap (``--fps``) and its idle skip
 process's CPU: empty and idle, empty and idle beside a graph of ``--crowd`` topics (its engine polls the
 graph; measured once it has seen them all), the same with the tag tree shown (``tree-run``; with
 ``--crowd-names robots`` the crowd is dbglog tags of 4 robots, ``/robotN/rosdashboard/groupG/tagT``, as the
-tree groups them, and the row also times the tree's filter on them), 20 widgets idle, 20 widgets paused in a
+tree groups them, and the row also times the tree's filter on them; ``--crowd-rate`` Hz makes each crowd
+topic send, which an engine holding every tag takes), 20 widgets idle, 20 widgets paused in a
 replay's history (``--replay-minutes`` of 50 topics x 100 Hz; the *replay* rows), 20 widgets live.
 ``--compare TREE`` runs the same rows, with the same caps, with the ``dbglog`` package of another checkout
-(e.g. ``git worktree add /tmp/old HEAD~1``) beside this one.
+(e.g. ``git worktree add /tmp/old HEAD~1``) beside this one (for ``tree-run``, one with the tag tree).
 
 The *fleet* rows (``--scenarios fleet,fleet-run``) start two robot processes (`benchmarks/_fleet.py`,
 ``--fleet-tags`` tags each in subsystems of 20, at ``--fleet-rate`` Hz, through the dbglog SDK, in
@@ -91,7 +92,8 @@ def _publisher(args: argparse.Namespace) -> None:
 
 
 def _crowd(args: argparse.Namespace) -> None:
-    """Hold `--crowd` topics on the graph (publishers that send nothing), as a robot's many nodes do."""
+    """Hold `--crowd` topics on the graph, as a robot's many nodes do: sending nothing, or each at
+    `--crowd-rate` Hz."""
     import rclpy
     from rclpy.context import Context
     from rclpy.node import Node
@@ -100,10 +102,24 @@ def _crowd(args: argparse.Namespace) -> None:
     context = Context()
     rclpy.init(context=context)
     nodes = [Node(f"bench_ui_crowd_{n}", context=context) for n in range(max(1, args.crowd // 10))]
-    for i in range(args.crowd):
+    pubs = [
         nodes[i % len(nodes)].create_publisher(Float64, _crowd_topic(i, args.crowd_names), 10)
+        for i in range(args.crowd)
+    ]
     print("up", flush=True)
-    time.sleep(args.duration)
+    end = time.monotonic() + args.duration
+    if args.crowd_rate <= 0:
+        time.sleep(args.duration)
+    ticks = 20  # a slice of the topics at each of 20 ticks a period: the messages spread over it
+    period = 1.0 / args.crowd_rate if args.crowd_rate > 0 else 0.0
+    tick = 0
+    next_at = time.monotonic()
+    while args.crowd_rate > 0 and time.monotonic() < end:
+        for pub in pubs[tick % ticks :: ticks]:
+            pub.publish(Float64(data=float(tick)))
+        tick += 1
+        next_at += period / ticks
+        time.sleep(max(0.0, next_at - time.monotonic()))
     for node in nodes:
         node.destroy_node()
     rclpy.shutdown(context=context)
@@ -387,6 +403,8 @@ def _measure(
             args.crowd,
             "--crowd-names",
             args.crowd_names,
+            "--crowd-rate",
+            args.crowd_rate,
             "--duration",
             args.warmup + args.duration + 90,
         )
@@ -536,6 +554,12 @@ def main(argv: list[str] | None = None) -> int:
         default="plain",
         help="the crowd's topics: /bench/crowd/tN, or dbglog tags of 4 robots in groups (for the tree rows)",
     )
+    parser.add_argument(
+        "--crowd-rate",
+        type=float,
+        default=0.0,
+        help="Hz of each crowd topic (default 0: the crowd sends nothing)",
+    )
     parser.add_argument("--tree", action="store_true", help="(ui role) show the tag tree")
     parser.add_argument("--duration", type=float, default=8.0, help="measured seconds per repeat")
     parser.add_argument("--warmup", type=float, default=3.0)
@@ -603,11 +627,7 @@ def main(argv: list[str] | None = None) -> int:
     for name in chosen:
         source, vsync, label = labels[name]
         loop = "run" if name.endswith("-run") else "frames"
-        codes = [""] + (
-            [args.compare]
-            if args.compare and (loop == "run" or source == "fleet") and source != "tree"
-            else []
-        )
+        codes = [""] + ([args.compare] if args.compare and (loop == "run" or source == "fleet") else [])
         for code in codes:
             runs = [
                 _measure(
