@@ -9,7 +9,7 @@ import sys
 import pytest
 
 from dbglog._ros._tags import TagError
-from dbglog.viewer._data._history import History
+from dbglog.viewer._data._history import History, Sample
 from dbglog.viewer._data._model import EVERY_ROBOT, SELECTED_ROBOT, Binding, Status, TopicInfo
 from dbglog.viewer._data._robots import (
     NO_NAMESPACE,
@@ -161,6 +161,35 @@ def test_robot_states_come_from_their_tags_newest_sample_at_the_moment_shown() -
     then = {s.robot: s for s in fleet.states(store, 101.5, 2.0)}
     assert then["/robot1"].newest == 101.0, "paused: the newest sample at the cursor, not after it"
     assert {s.status for s in fleet.states(None, 105.0, 2.0)} == {Status.WAITING}
+
+
+class _CountedHistory(History):
+    """A history that counts its sample look-ups (`at`)."""
+
+    looked_up = 0
+
+    def at(self, topic: str, t: float) -> Sample | None:
+        self.looked_up += 1
+        return super().at(topic, t)
+
+
+def test_live_robot_states_read_each_tags_newest_time_without_looking_up_samples() -> None:
+    """Live (the cursor after every sample), 2,000 tags' states are their newest held times, no sample looked
+    up (16 ms a second for 2,000 tags); paused before a tag's newest sample, that tag's is looked up."""
+    store = _CountedHistory(clock=None)
+    names = [f"/robot{i % 4 + 1}/rosdashboard/group{i // 80}/tag{i // 4 % 20}" for i in range(2000)]
+    for k, name in enumerate(names):
+        store.append_numbers(name, [100.0 + k % 7, 200.0 + k % 5], [1.0, 2.0])
+    fleet = Fleet()
+    fleet.observe(infos(*names), held=store.topics())
+    states = {s.robot: s for s in fleet.states(store, 300.0, 2.0)}
+    assert store.looked_up == 0
+    assert [states[f"/robot{r}"].newest for r in (1, 2, 3, 4)] == [204.0, 204.0, 204.0, 204.0]
+    assert {s.status for s in states.values()} == {Status.STALE}
+    then = {s.robot: s for s in fleet.states(store, 150.0, 60.0)}
+    assert store.looked_up == 2000, "each tag's sample at the cursor, before its newest"
+    assert [then[f"/robot{r}"].newest for r in (1, 2, 3, 4)] == [106.0, 106.0, 106.0, 106.0]
+    assert {s.status for s in then.values()} == {Status.LIVE}
 
 
 def test_a_topic_rate_counts_the_samples_of_the_last_seconds() -> None:
