@@ -552,6 +552,25 @@ def test_a_new_publisher_on_a_listed_topic_is_counted_within_the_recount_period(
         assert wait_until(lambda: _publishers(engine, topic) == 0, TIMEOUT), "the publisher left"
 
 
+def test_with_the_census_on_the_topic_list_is_read_at_every_poll(monkeypatch: pytest.MonkeyPatch) -> None:
+    """`dbglog tags` (the census on) decides the graph settled after polls that found its topics unchanged:
+    its engine reads the topic list at every poll, however much that costs; a viewer's engine reads a list
+    that costs much less often (here made to cost as much as a big graph's: once every `RECOUNT_S`)."""
+    monkeypatch.setattr(graph_module, "LIST_SHARE", 1e-9)
+    for census in (True, False):
+        with Engine(graph_period=0.1, census=census, hold_tags=False) as engine:
+            assert wait_until(lambda: engine.stats().graph_polls >= 3, TIMEOUT)
+            before = engine.stats()
+            time.sleep(1.0)
+            after = engine.stats()
+            polls, lists = after.graph_polls - before.graph_polls, after.graph_lists - before.graph_lists
+            assert polls >= 5, "graph_period 0.1 s"
+            if census:
+                assert lists >= polls - 1, (polls, lists)
+            else:
+                assert lists <= 2, (polls, lists)
+
+
 def test_a_new_node_publishing_on_a_listed_topic_is_counted_at_the_next_poll(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
