@@ -33,6 +33,8 @@ def test_a_chord_needs_its_modifier_down_as_its_key_goes_down() -> None:
     hold.frame(False, list)  # Ctrl up before S's press is handled
     assert hold.chord(s, down_now=False)
     assert not hold.chord(m, down_now=False)
+    hold.frame(False, list)
+    assert not hold.chord(s, down_now=False), "S again, a frame after that hold: S alone (not Ctrl+S)"
 
     hold = ModifierHold()
     hold.frame(True, list)  # Ctrl down alone

@@ -258,7 +258,8 @@ class ModifierHold:
     def chord(self, key: int, *, down_now: bool) -> bool:
         """Whether a press of `key`, seen at the last frame (or the one being rendered), is a chord with the
         modifier (`down_now`: whether it is down as the press is handled)."""
-        if down_now or key in self.keys:
+        if down_now:
             return True
-        ends_with_it = self.down or self.released == self.frames  # not yet seen up, or up since this frame
-        return ends_with_it and self.keys <= {key}
+        if not (self.down or self.released == self.frames):  # the hold ended frames ago: its keys are past
+            return False
+        return key in self.keys or self.keys <= {key}  # pressed in the hold, or the hold ends with it alone
