@@ -350,8 +350,12 @@ def choose_process(v: ViewerChild, word: str, program: Program) -> None:
         box = dialog(state)["procs_rect"]
         if row[1] is not None and box[1] <= row[1][1] and row[1][1] + row[1][3] <= box[1] + box[3]:
             v.click(*center(row[1]))
-            v.wait_for(lambda s: any(word in r[0] and r[2] for r in dialog(s)["procs"]))
-            return
+            try:  # (a row that another process's coming or going rebuilt under the click took nothing)
+                v.wait_for(lambda s: any(word in r[0] and r[2] for r in dialog(s)["procs"]), 5.0)
+                return
+            except AssertionError:
+                state = v.state()
+                continue
         shown = next(r[1] for r in dialog(state)["procs"] if r[1] is not None)
         v.move(*center(shown))
         v.xdo("click", "5")  # the wheel, one notch down
