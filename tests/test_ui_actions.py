@@ -37,6 +37,26 @@ def test_a_chord_needs_its_modifier_down_as_its_key_goes_down() -> None:
     assert not hold.chord(s, down_now=False), "S again, a frame after that hold: S alone (not Ctrl+S)"
 
     hold = ModifierHold()
+    hold.frame(True, lambda: [s])  # Ctrl+S, its press handled late (the callback thread, a loaded machine)
+    hold.frame(False, list)
+    hold.frame(False, list)
+    hold.frame(False, list)
+    assert hold.chord(s, down_now=False), "S pressed in the hold, handled three frames after: Ctrl+S"
+    hold.frame(True, lambda: [s])
+    hold.frame(False, list)
+    hold.released_at -= 1.0  # a second after the hold
+    hold.frame(False, list)
+    assert not hold.chord(s, down_now=False), "S alone a second after Ctrl+S: S"
+
+    left = 513
+    hold = ModifierHold()
+    assert hold.chord(left, down_now=True), "Shift+Left handled before the frame records the press"
+    hold.frame(True, lambda: [left])
+    hold.frame(False, list)
+    hold.frame(False, list)
+    assert not hold.chord(left, down_now=False), "Left alone just after Shift+Left: Left"
+
+    hold = ModifierHold()
     hold.frame(True, list)  # Ctrl down alone
     assert hold.chord(m, down_now=False), "m's frame saw Ctrl go up (not yet recorded): a chord"
     hold.frame(False, list)

@@ -14,7 +14,9 @@ Example::
 from __future__ import annotations
 
 import collections
+import math
 import re
+import time
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from typing import Any, Literal
@@ -223,14 +225,22 @@ class Actions:
         return done
 
 
+LATE_PRESS_S = 0.5
+"""How long after its hold ended a key pressed during it still makes a chord: Dear PyGui's callback thread
+may handle the press frames later than the frame that saw it (a loaded machine)."""
+
+
 class ModifierHold:
     """Whether a modifier (Ctrl, Shift) makes a key's press a chord: it was down when the key went down.
 
     Dear ImGui takes a frame's input events together: a quick chord's modifier can be released in the very
-    frame that sees its key pressed. The frames tell the hold's story (`frame`): the keys pressed while it
-    was down, and the frame that first saw it up. A key's press is a chord when the modifier is down, when
-    the key was pressed during the hold, or when the hold ends in the frame that sees the key with no other
-    key pressed during it (a modifier let go with its key); a letter typed after Ctrl+A is not Ctrl+letter.
+    frame that sees its key pressed; and Dear PyGui's callback thread handles a press after the frame that
+    saw it, frames later on a loaded machine. The frames tell the hold's story (`frame`): the keys pressed
+    while it was down, and the frame that first saw it up. A key's press is a chord when the modifier is
+    down; when a press of the key seen during a hold has not made its chord yet (handled within
+    `LATE_PRESS_S` of the hold's end); or when the hold ends in the frame that sees the key with no other
+    key pressed during it (a modifier let go with its key). A letter typed after Ctrl+A is not Ctrl+letter,
+    nor is Left pressed alone after Shift+Left.
     """
 
     def __init__(self) -> None:
@@ -238,8 +248,14 @@ class ModifierHold:
         """Whether the last frame saw the modifier down."""
         self.keys: set[int] = set()
         """The keys pressed while it was down, in its last hold."""
+        self.seen: collections.Counter[int] = collections.Counter()
+        """Presses of each key the frames saw during holds (all of them so far)."""
+        self.made: collections.Counter[int] = collections.Counter()
+        """Chords each key made while its modifier was down or from a press seen during a hold."""
         self.released = -1
         """The frame that first saw the last hold's modifier up (-1: none yet)."""
+        self.released_at = -math.inf
+        """When (monotonic) that frame saw it."""
         self.frames = 0
         """Frames seen."""
 
@@ -250,16 +266,27 @@ class ModifierHold:
         if down:
             if not self.down:
                 self.keys = set()
-            self.keys.update(pressed())
+            keys = list(pressed())
+            self.keys.update(keys)
+            self.seen.update(keys)
         elif self.down:
             self.released = self.frames
+            self.released_at = time.monotonic()
         self.down = down
 
     def chord(self, key: int, *, down_now: bool) -> bool:
         """Whether a press of `key`, seen at the last frame (or the one being rendered), is a chord with the
         modifier (`down_now`: whether it is down as the press is handled)."""
+        # A press makes one chord: counted whether the frames saw it before its handling or after.
         if down_now:
+            self.made[key] += 1
             return True
-        if not (self.down or self.released == self.frames):  # the hold ended frames ago: its keys are past
+        late = self.down or time.monotonic() - self.released_at < LATE_PRESS_S
+        if late and self.seen[key] > self.made[key]:  # a press in the hold, handled after it ended
+            self.made[key] += 1
+            return True
+        ends_with_it = self.down or self.released == self.frames  # not yet seen up, or up since this frame
+        if not (ends_with_it and self.keys <= {key}):
             return False
-        return key in self.keys or self.keys <= {key}  # pressed in the hold, or the hold ends with it alone
+        self.made[key] = max(self.made[key], self.seen[key])  # its press, if the frames saw it, is spent
+        return True
