@@ -22,6 +22,21 @@ RELIABLE_VOLATILE = QoSProfile(
 )
 
 
+def first_line(stream: Any) -> str:
+    """The first line a child process printed, stripped, past the middleware's own log lines.
+
+    Fast DDS prints its errors on stdout (``[RTPS_TRANSPORT_SHM Error] Failed init_port ...`` when a
+    killed process left its shared-memory port locked; it goes on over UDP): they are not the child's.
+    """
+    while True:
+        line = stream.readline()
+        if not line:
+            return ""
+        if "RTPS_" in line or line.startswith("\x1b["):
+            continue
+        return str(line).strip()
+
+
 def wait_until(predicate: Callable[[], bool], timeout: float = 10.0, interval: float = 0.01) -> bool:
     """Poll `predicate` until it is true or `timeout` seconds pass; return its last value."""
     deadline = time.monotonic() + timeout

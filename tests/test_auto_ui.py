@@ -21,6 +21,7 @@ import pytest
 from dbglog._ros._tags import natural_key
 from dbglog.viewer._document._dashboard import WidgetConfig, parse_dashboard
 from dbglog.viewer._widgets import WidgetRegistry
+from tests._ros import first_line
 from tests._viewer_child import ViewerChild
 from tests.test_demo import display as display  # the shared fixture: a display for the viewer
 from tests.test_ui import read_png
@@ -313,7 +314,7 @@ def _robot(namespace: str, *args: str) -> subprocess.Popen[str]:
         cwd=ROOT,
     )
     assert proc.stdout is not None
-    assert proc.stdout.readline().strip() == "publishing", "the robot process did not start"
+    assert first_line(proc.stdout) == "publishing", "the robot process did not start"
     return proc
 
 
@@ -394,7 +395,13 @@ def test_two_robots_of_300_tags_get_a_panel_each_subsystem(
             if late.stdout is not None:
                 late.stdout.close()
         after = {w["name"]: w for w in report["dashboard"]["widgets"]}
-        assert set(after) == set(before), "the later tags joined widgets there: no new widget"
+        # The state joins the panel's States widget. The number joins a plot of its panel whose magnitudes
+        # lie within a decade of its own and that has room; whether one has depends on the magnitudes the
+        # first samples of the panel's sines showed (a loaded machine sees fewer before placing), so it may
+        # instead get a plot of its own in its panel: no other widget is new.
+        new = set(after) - set(before)
+        assert new <= {"robot1:s0/v_late"}, f"the later tags joined widgets there: new {sorted(new)}"
+        assert set(before) <= set(after)
         for name, w in before.items():
             assert (after[name]["x"], after[name]["y"]) == (w["x"], w["y"]), f"{name} moved"
         joined = {

@@ -19,7 +19,7 @@ import pytest
 from std_msgs.msg import Float64
 
 from tests._children import run_dbglog
-from tests._ros import RosPeer, wait_until
+from tests._ros import RosPeer, first_line, wait_until
 
 TIMEOUT = 90
 _ANNOUNCE_PERIOD_S = 3.0
@@ -55,7 +55,7 @@ class Robot:
             text=True,
         )
         assert self.proc.stdout is not None
-        assert self.proc.stdout.readline().strip() == "publishing", "the publisher process did not start"
+        assert first_line(self.proc.stdout) == "publishing", "the publisher process did not start"
         self.started = time.monotonic()
 
     def kill(self) -> None:

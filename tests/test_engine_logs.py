@@ -22,7 +22,7 @@ from dbglog._regex._propose import propose
 from dbglog.viewer._data._engine import Engine
 from dbglog.viewer._data._logstore import DEBUG, ERROR, INFO, WARN, LogFilter, LogStore
 from dbglog.viewer._data._model import Binding, SeriesSnapshot, Status
-from tests._ros import RosPeer, wait_until
+from tests._ros import RosPeer, first_line, wait_until
 
 TIMEOUT = 40.0
 LEVELS = (DEBUG, INFO, WARN, ERROR)
@@ -79,7 +79,7 @@ def _loggers(run: str, nodes: int, count: int, phase: str) -> Iterator[subproces
     )
     try:
         assert proc.stdout is not None
-        assert proc.stdout.readline().strip() == "logged"
+        assert first_line(proc.stdout) == "logged"
         yield proc
     finally:
         if proc.stdin is not None:
@@ -94,7 +94,7 @@ def _again(proc: subprocess.Popen[str], phase: str) -> None:
     assert proc.stdout is not None
     proc.stdin.write(phase + "\n")
     proc.stdin.flush()
-    assert proc.stdout.readline().strip() == "logged"
+    assert first_line(proc.stdout) == "logged"
 
 
 def _ours(store: LogStore, run: str, phase: str | None = None) -> list[tuple[str, int, str]]:

@@ -19,7 +19,7 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
 from dbglog.record import read_recording
 from dbglog.record._inspect import echo_lines, tag_series, tags_table
-from tests._ros import RosPeer
+from tests._ros import RosPeer, first_line
 
 pytestmark = pytest.mark.timeout(120)
 
@@ -75,7 +75,7 @@ class Proc:
     def line(self) -> str:
         """The next stdout line."""
         assert self.proc.stdout is not None
-        return self.proc.stdout.readline().strip()
+        return first_line(self.proc.stdout)
 
     def send(self, text: str) -> None:
         """Write a line to stdin."""

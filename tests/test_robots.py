@@ -23,7 +23,7 @@ from dbglog.record._reader import read_recording
 from dbglog.viewer._data._engine import Engine
 from dbglog.viewer._data._model import Binding
 from tests._children import ROOT, run_dbglog
-from tests._ros import RosPeer, wait_until
+from tests._ros import RosPeer, first_line, wait_until
 
 TIMEOUT = 90
 TAG = "rb/speed"
@@ -62,7 +62,7 @@ def _start(source: str, namespace: str, value: float) -> subprocess.Popen[str]:
         env["DBGLOG_NAMESPACE"] = namespace.lstrip("/")  # without its slash: normalized by dbglog
     proc = subprocess.Popen(argv, env=env, stdout=subprocess.PIPE, text=True)
     assert proc.stdout is not None
-    assert proc.stdout.readline().strip() == "publishing", "the robot process did not start"
+    assert first_line(proc.stdout) == "publishing", "the robot process did not start"
     return proc
 
 

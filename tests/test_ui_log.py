@@ -23,7 +23,7 @@ from typing import Any
 
 import pytest
 
-from tests._ros import wait_until
+from tests._ros import first_line, wait_until
 from tests._viewer_child import WAIT_S, ViewerChild, in_view, report_frame
 from tests.test_ui_menus import _labelled, _menubar
 
@@ -290,7 +290,7 @@ class Loggers:
             text=True,
         )
         assert self.proc.stdout is not None
-        assert self.proc.stdout.readline().strip() == "logged"
+        assert first_line(self.proc.stdout) == "logged"
 
     def more(self, start: int) -> None:
         """Log lines `start` .. `start + LINES - 1` of every node."""
@@ -298,7 +298,7 @@ class Loggers:
         assert self.proc.stdout is not None
         self.proc.stdin.write(f"{start}\n")
         self.proc.stdin.flush()
-        assert self.proc.stdout.readline().strip() == "logged"
+        assert first_line(self.proc.stdout) == "logged"
 
     def close(self) -> None:
         """End the process (its /rosout publishers go with it)."""

@@ -23,6 +23,7 @@ from typing import Any
 
 import pytest
 
+from tests._ros import first_line
 from tests._viewer_child import ROOT, ViewerChild, report_frame
 
 pytestmark = pytest.mark.gui
@@ -67,7 +68,7 @@ def robots() -> Iterator[None]:
             )
             procs.append(proc)
             assert proc.stdout is not None
-            assert proc.stdout.readline().strip() == "publishing", "a robot did not start"
+            assert first_line(proc.stdout) == "publishing", "a robot did not start"
         yield
     finally:
         for proc in procs:

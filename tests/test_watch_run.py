@@ -18,6 +18,7 @@ from pathlib import Path
 import pytest
 
 from dbglog.watch._cli_run import ProgramError, resolve_program
+from tests._ros import first_line
 
 REPORT = """
 import json, os, sys
@@ -125,7 +126,7 @@ def test_ctrl_c_ends_like_python(tmp_path: Path) -> None:
         env={**os.environ, "DBGLOG": "off"},
     )
     assert proc.stdout is not None
-    assert proc.stdout.readline().strip() == "up"
+    assert first_line(proc.stdout) == "up"
     proc.send_signal(signal.SIGINT)
     _out, err = proc.communicate(timeout=30)
     assert proc.returncode == 130
