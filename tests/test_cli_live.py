@@ -201,9 +201,10 @@ def test_tags_rates_are_true_and_stale_tags_have_none(robots: Callable[..., Robo
     assert rows["lv_rate20/latched"][1:] == ["-", "3.5", "stale"]
 
     slow.kill()
-    rows = _table(_dbglog("tags").stdout)
+    out = _dbglog("tags")
+    rows = _table(out.stdout)
     for tag in fast.tags:
-        assert rows[tag][3] == "live", rows[tag]
+        assert rows[tag][3] == "live", (rows[tag], out.stderr)
         assert 14.0 <= _hz(rows[tag][1]) <= 26.0, rows[tag]
     for tag in slow.tags:
         # Gone from the graph (same host: the participant is dropped at once); listed only while a

@@ -577,9 +577,14 @@ def test_view_new_file_starts_empty_dashboard_that_ctrl_s_writes(display: str, t
             assert wait_until(lambda: "new.json" in xdo("getwindowname", window), timeout=WAIT_S)
             assert xdo("getwindowname", window).strip().endswith("new.json"), "named, and nothing unsaved"
             assert not path.exists(), "nothing is written before Save"
-            xdo("windowfocus", "--sync", window)
-            xdo("key", "--clearmodifiers", "ctrl+s")
-            assert wait_until(path.exists, timeout=WAIT_S), (tmp_path / "view.log").read_text()
+            # (Xvfb has no window manager: on a loaded machine the focus, or the keys sent at once after it,
+            # can miss the window's first frames; a user presses again, and so does this test, a few times.)
+            for _ in range(5):
+                xdo("windowfocus", "--sync", window)
+                xdo("key", "--clearmodifiers", "ctrl+s")
+                if wait_until(path.exists, timeout=WAIT_S / 5):
+                    break
+            assert path.exists(), (tmp_path / "view.log").read_text()
             saved = json.loads(path.read_text())
             assert saved["widgets"] == []
             xdo("key", "--clearmodifiers", "ctrl+q")  # nothing unsaved: closes at once
