@@ -28,6 +28,7 @@ from dbglog.viewer.widget_api import PropertyError, PropValue, Widget
 
 __all__ = [
     "LARGE_GROUP",
+    "NUMBER_TYPES",
     "SERIES_PER_PLOT",
     "STATES_PER_WIDGET",
     "WIDGET_BUDGET",
@@ -47,7 +48,7 @@ __all__ = [
     "retype",
 ]
 
-_NUMBER_TYPES = frozenset(
+NUMBER_TYPES = frozenset(
     f"std_msgs/msg/{t}"
     for t in (
         "Float32",
@@ -64,6 +65,7 @@ _NUMBER_TYPES = frozenset(
         "Char",
     )
 )
+"""The std_msgs types whose value is one number (drawn in plots)."""
 _STATE_TYPES = frozenset({"std_msgs/msg/Bool", "std_msgs/msg/String"})
 _ARRAY_TYPE = re.compile(r"std_msgs/msg/(Float|Int|UInt)(8|16|32|64)MultiArray|std_msgs/msg/ByteMultiArray")
 _FRACTION = re.compile(r"confidence|probability|prob|ratio|fraction|certainty|likelihood|score")
@@ -254,7 +256,7 @@ def classify(
     gauge = None
     if msg_type in _STATE_TYPES:
         kind, bindings = TagKind.STATE, (whole,)
-    elif msg_type in _NUMBER_TYPES:
+    elif msg_type in NUMBER_TYPES:
         kind, bindings, gauge = TagKind.NUMBER, (whole,), _gauge_for(text)
     elif _ARRAY_TYPE.fullmatch(msg_type):
         n = max(1, min(MAX_PLOT_SERIES, array_length or 1))

@@ -16,6 +16,7 @@ from typing import Literal
 from dbglog._ros._tags import natural_key, parse_topic, robot_label
 from dbglog.viewer._data._model import EVERY_ROBOT, SELECTED_ROBOT, Binding, FieldInfo, TopicInfo
 from dbglog.viewer._data._robots import Fleet, robot_name
+from dbglog.viewer._document._autodash import NUMBER_TYPES
 
 __all__ = [
     "OTHER_TOPICS",
@@ -39,24 +40,7 @@ PLOT_SERIES = 6
 COLLAPSE_OVER = 60
 """Groups start collapsed when the tree has more leaves than this (robots always start open)."""
 _GLOB = re.compile(r"[*?\[]")
-_NUMBERS = frozenset(
-    f"std_msgs/msg/{t}"
-    for t in (
-        "Float32",
-        "Float64",
-        "Int8",
-        "Int16",
-        "Int32",
-        "Int64",
-        "UInt8",
-        "UInt16",
-        "UInt32",
-        "UInt64",
-        "Byte",
-        "Char",
-        "Bool",
-    )
-)
+_NUMBERS = NUMBER_TYPES | {"std_msgs/msg/Bool"}
 _ARRAY = re.compile(r"std_msgs/msg/(?:Float|Int|UInt)(?:8|16|32|64)MultiArray|std_msgs/msg/ByteMultiArray")
 _TEXT_TYPES = frozenset({"std_msgs/msg/String"})
 _LOG_TYPES = frozenset({"rcl_interfaces/msg/Log"})
