@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import threading
 from collections.abc import Callable, Sequence
 from dataclasses import replace
 from pathlib import Path
@@ -132,8 +133,22 @@ class Dialog:
             on_close=lambda *_: self.close(),
         )
         self.closed = False
+        self._events: list[tuple[str, object]] = []
+        """What was clicked or typed (Dear PyGui's callback thread), for `tick` to take (`_take_events`)."""
+        self._events_lock = threading.Lock()
         self._focus_next: tuple[int | str, int] | None = None
         """An item to give the keyboard, and the rendered frame from which to do it."""
+
+    def _record(self, what: str, value: object) -> None:
+        """Callback thread: note what was clicked or typed, for the next `tick`."""
+        with self._events_lock:
+            self._events.append((what, value))
+
+    def _take_events(self) -> list[tuple[str, object]]:
+        """UI thread: what was recorded since the last call, in order."""
+        with self._events_lock:
+            events, self._events = self._events, []
+        return events
 
     def tick(self) -> None:
         """Called once per frame while open (subclasses call this first)."""

@@ -11,7 +11,6 @@ clicked; `tick` does the work on the UI thread.
 
 from __future__ import annotations
 
-import threading
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -95,8 +94,6 @@ class PlotNumberDialog(Dialog):
         self.preview_ms = 0.0
         self.copied = ""
         """The YAML last put on the clipboard (tests read it)."""
-        self._events: list[tuple[str, object]] = []
-        self._lock = threading.Lock()
         w = self.window
         head = f"{clock_text(self.line.time)}  [{self.line.node}]  " if self.line.node else ""
         shown = self.line.message if len(self.line.message) <= 400 else self.line.message[:400] + "\u2026"
@@ -162,16 +159,10 @@ class PlotNumberDialog(Dialog):
             dpg.add_button(label="Cancel", width=100, callback=lambda *_: self._record("cancel", None))
         self._propose()
 
-    def _record(self, what: str, value: object) -> None:
-        with self._lock:
-            self._events.append((what, value))
-
     def tick(self) -> None:
         """Apply what was clicked (on the UI thread)."""
         super().tick()
-        with self._lock:
-            events, self._events = self._events, []
-        for what, value in events:
+        for what, value in self._take_events():
             if self.closed:
                 return
             if what == "number" and isinstance(value, str):

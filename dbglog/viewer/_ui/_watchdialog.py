@@ -13,7 +13,6 @@ from __future__ import annotations
 import ast
 import os
 import re
-import threading
 from collections.abc import Callable, Sequence
 from concurrent.futures import Future
 from dataclasses import dataclass
@@ -259,8 +258,6 @@ class WatchDialog(Dialog):
     ) -> None:
         super().__init__("Watch a variable", 780, on_close)
         self.queries, self.on_ok, self.code_font = queries, on_ok, code_font
-        self._events: list[tuple[str, object]] = []
-        self._lock = threading.Lock()
         self.procs: list[Process] = []
         self.process: Process | None = None
         self.files: list[str] | None = None
@@ -372,10 +369,6 @@ class WatchDialog(Dialog):
         self._button_theme = _button_theme()
         dpg.bind_item_theme(self.ok_button, self._button_theme)
 
-    def _record(self, what: str, value: object) -> None:
-        with self._lock:
-            self._events.append((what, value))
-
     # -- each frame -----------------------------------------------------------------------------------------
 
     def news(self) -> bool:
@@ -387,9 +380,7 @@ class WatchDialog(Dialog):
     def tick(self) -> None:
         """Take the answers that came and what was clicked or typed; keep every part's note current."""
         super().tick()
-        with self._lock:
-            events, self._events = self._events, []
-        for what, value in events:
+        for what, value in self._take_events():
             if self.closed:
                 return
             if what in _ENTERS:
