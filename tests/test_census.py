@@ -5,10 +5,18 @@ from __future__ import annotations
 import os
 import socket
 from collections.abc import Iterator
+from pathlib import Path
 
 import pytest
 
-from dbglog._ros._census import Census, discovery_reach, metatraffic_ports, take_census, udp_sockets
+from dbglog._ros._census import (
+    Census,
+    discovery_reach,
+    metatraffic_ports,
+    take_census,
+    udp_sockets,
+    unseen_holders,
+)
 from dbglog._ros._node import PrivateNode
 from tests._ros import RosPeer, wait_until
 
@@ -110,6 +118,7 @@ def test_a_participant_never_found_is_unseen_and_a_full_socket_counts_its_drops(
         census = take_census(ros.node)
         assert census.unseen == 1
         assert census.local == (before.local or 0) + 1
+        assert unseen_holders(census) == [f"pid {os.getpid()} ({_cmdline(os.getpid())})"]
         with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sender:
             for _ in range(200):  # never read: the kernel drops what the small buffer cannot hold
                 sender.sendto(b"x" * 1000, ("127.0.0.1", metatraffic_ports(_domain())[-1]))
@@ -133,3 +142,42 @@ def test_the_engine_takes_a_census_at_each_graph_poll_when_asked() -> None:
     with Engine(node_name="census_engine_off", graph_period=0.05) as engine:
         assert wait_until(lambda: engine.stats().graph_polls >= 2, TIMEOUT)
         assert engine.census() is None
+
+
+def _cmdline(pid: int) -> str:
+    words = Path(f"/proc/{pid}/cmdline").read_bytes().rstrip(b"\0").replace(b"\0", b" ").decode()
+    return words if len(words) <= 60 else words[:59] + "…"
+
+
+def _process(proc: Path, pid: int, command: bytes, inodes: list[int]) -> None:
+    """A fake /proc/<pid>: its command line and an fd per socket inode (and one that is not a socket)."""
+    (proc / str(pid) / "fd").mkdir(parents=True)
+    (proc / str(pid) / "cmdline").write_bytes(command)
+    for fd, inode in enumerate(inodes, start=3):
+        (proc / str(pid) / "fd" / str(fd)).symlink_to(f"socket:[{inode}]")
+    (proc / str(pid) / "fd" / "0").symlink_to("/dev/null")
+
+
+def test_the_participants_not_found_are_named_by_their_process_or_else_their_port(tmp_path: Path) -> None:
+    """A process holding more discovery ports than participants of its pid found is named once per
+    participant not found, with its command line cut to 60 characters; a forked child sharing the socket
+    is not named twice; what is left is named by the ports whose holders cannot be read."""
+    talker = b"python3\0talker.py\0--rate\0" + b"9" * 80 + b"\0"
+    _process(tmp_path, 70000, talker, [101, 102])
+    _process(tmp_path, 70001, b"fork\0", [101])  # a child holding its parent's socket
+    _process(tmp_path, 4242, b"found_node\0", [103])
+    (tmp_path / "self").mkdir()
+    census = Census(
+        local=4,
+        found=2,
+        ports=((7660, 101), (7662, 102), (7664, 103), (7666, 104)),
+        found_pids=((70000 & 0xFFFF).to_bytes(2, "little"), (4242).to_bytes(2, "little")),
+    )
+    named = unseen_holders(census, proc=str(tmp_path))
+    assert named == ["pid 70000 (python3 talker.py --rate " + "9" * 34 + "…)", "port 7666"]
+    everyone = Census(local=4, found=4, ports=census.ports)
+    assert unseen_holders(everyone, proc=str(tmp_path)) == []
+    three_unread = Census(local=4, found=3, ports=((7660, 201), (7662, 202), (7664, 203), (7666, 204)))
+    assert unseen_holders(three_unread, proc=str(tmp_path)) == [
+        "1 of ports 7660, 7662, 7664, 7666 (their processes cannot be read)"
+    ]

@@ -13,7 +13,7 @@ there can be any. Linux and Fast DDS only; elsewhere the counts are None.
 from __future__ import annotations
 
 import os
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -24,6 +24,7 @@ __all__ = [
     "participant_prefixes",
     "take_census",
     "udp_sockets",
+    "unseen_holders",
 ]
 
 _PORT_BASE = 7400
@@ -84,16 +85,16 @@ def _read_tables() -> list[str] | None:
     return tables or None
 
 
-def _own_inodes() -> set[int]:
-    """Return the inodes of this process's sockets."""
+def _socket_inodes(fd_dir: str) -> set[int]:
+    """Return the inodes of the sockets open in a process's fd directory (none when it cannot be read)."""
     inodes: set[int] = set()
     try:
-        fds = os.listdir("/proc/self/fd")
-    except OSError:
+        fds = os.listdir(fd_dir)
+    except OSError:  # another user's process, or gone
         return inodes
     for fd in fds:
         try:
-            target = os.readlink(f"/proc/self/fd/{fd}")
+            target = os.readlink(f"{fd_dir}/{fd}")
         except OSError:  # closed meanwhile
             continue
         if target.startswith("socket:["):
@@ -134,6 +135,10 @@ class Census:
     """Of those, the ones the node found (participants of other DDS vendors are counted here too)."""
     dropped: int | None = None
     """Datagrams this process's discovery sockets dropped so far (None: cannot be told)."""
+    ports: tuple[tuple[int, int], ...] = ()
+    """The (port, socket inode) of each discovery socket of the domain on this host."""
+    found_pids: tuple[bytes, ...] = ()
+    """The process-id bytes of each Fast DDS participant of this host the node found (repeats kept)."""
 
     @property
     def unseen(self) -> int | None:
@@ -155,15 +160,74 @@ def take_census(node: Any, *, pid: int | None = None) -> Census:
         return Census(None, 0)
     wanted = metatraffic_ports(int(node.context.get_domain_id()))
     sockets = [s for s in udp_sockets(tables) if s.port in wanted]
-    mine = _own_inodes()
+    mine = _socket_inodes("/proc/self/fd")
     dropped = sum(s.drops for s in sockets if s.inode in mine)
     local = len({s.port for s in sockets})
+    ports = tuple(sorted({(s.port, s.inode) for s in sockets}))
     prefixes = participant_prefixes(node)
     pid16 = ((os.getpid() if pid is None else pid) & 0xFFFF).to_bytes(2, "little")
     hosts = {p[2:4] for p in prefixes if p[:2] == _FAST_DDS and p[4:6] == pid16}
     if len(hosts) > 1:  # a process on another host has this one's pid bits: this host cannot be told
         return Census(None, 0, dropped)
     if not hosts:  # the node has not found its own participant yet
-        return Census(local, 0, dropped)
+        return Census(local, 0, dropped, ports)
     (host,) = hosts
-    return Census(local, sum(1 for p in prefixes if p[:2] != _FAST_DDS or p[2:4] == host), dropped)
+    here = [p for p in prefixes if p[:2] != _FAST_DDS or p[2:4] == host]
+    return Census(local, len(here), dropped, ports, tuple(p[4:6] for p in here if p[:2] == _FAST_DDS))
+
+
+def unseen_holders(census: Census, *, proc: str = "/proc") -> list[str]:
+    """Name the processes of this host whose participants `census` counts but its node has not found.
+
+    A socket's holder is found by its inode among the open files of the processes this user may read
+    (``/proc/<pid>/fd``); a process holding more discovery ports than the node found participants of its
+    process id is named, with its command line, once per participant not found. The rest not found are
+    among the ports whose holders cannot be read (another user's processes): those are named by number.
+
+    Args:
+        census: a census taken with `take_census`.
+        proc: the proc file system's mount point.
+    """
+    if not census.unseen:
+        return []
+    wanted = {inode: port for port, inode in census.ports}
+    holders: dict[int, list[int]] = {}
+    for pid, inode in _socket_holders(proc, set(wanted)):
+        if inode in wanted:  # a forked child shares its parent's sockets: the lowest pid is named
+            holders.setdefault(pid, []).append(wanted.pop(inode))
+    named = []
+    for pid, ports in sorted(holders.items()):
+        missing = len(set(ports)) - census.found_pids.count((pid & 0xFFFF).to_bytes(2, "little"))
+        named += [f"pid {pid} ({_command(proc, pid)})"] * max(0, missing)
+    unread = sorted(set(wanted.values()))
+    left = census.unseen - len(named)
+    if left > 0 and unread:
+        named += (
+            [f"port {port}" for port in unread]
+            if left >= len(unread)
+            else [f"{left} of ports {', '.join(map(str, unread))} (their processes cannot be read)"]
+        )
+    return named
+
+
+def _socket_holders(proc: str, inodes: set[int]) -> Iterator[tuple[int, int]]:
+    """Yield (pid, inode) for each of `inodes` open in a process this user may read, by rising pid."""
+    if not inodes:
+        return
+    try:
+        pids = sorted(int(name) for name in os.listdir(proc) if name.isdigit())
+    except OSError:
+        return
+    for pid in pids:
+        for inode in _socket_inodes(f"{proc}/{pid}/fd") & inodes:
+            yield pid, inode
+
+
+def _command(proc: str, pid: int) -> str:
+    """Return `pid`'s command line, cut to 60 characters ("?" when it cannot be read)."""
+    try:
+        with open(f"{proc}/{pid}/cmdline", "rb") as f:
+            words = f.read().rstrip(b"\0").replace(b"\0", b" ").decode(errors="replace")
+    except OSError:
+        return "?"
+    return words if len(words) <= 60 else words[:59] + "…"

@@ -11,7 +11,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from dbglog._ros._census import Census, discovery_reach
+from dbglog._ros._census import Census, discovery_reach, unseen_holders
 from dbglog._ros._tags import natural_key, robot_label, tag_of
 from dbglog.viewer._data._suggest import DISCOVERY_HORIZON_S
 
@@ -390,8 +390,10 @@ def _settle(engine: Engine, args: argparse.Namespace, seen: dict[str, _Seen]) ->
     if census is not None and census.unseen:
         domain = os.environ.get("ROS_DOMAIN_ID", "0")
         some = "1 DDS participant" if census.unseen == 1 else f"{census.unseen} DDS participants"
+        holders = unseen_holders(census)
+        which = f" ({'; '.join(holders[:8])}{' and more' if len(holders) > 8 else ''})" if holders else ""
         print(
-            f"dbglog tags: {some} on this host (ROS_DOMAIN_ID={domain}) not found in {waited}: "
+            f"dbglog tags: {some} on this host (ROS_DOMAIN_ID={domain}) not found in {waited}{which}: "
             "the tags published there are missing from the table",
             file=sys.stderr,
         )
