@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import functools
 import threading
 
 import pytest
 
-from dbglog.viewer._ui._actions import Actions, Chord, ModifierHold
+from dbglog.viewer._ui._actions import Actions, Chord, ModifierHold, Scope
+from dbglog.viewer._ui._bindings import KeyBindings
 
 
 def test_a_chord_is_read_and_written_back() -> None:
@@ -23,58 +25,76 @@ def test_a_chord_is_read_and_written_back() -> None:
         Chord.parse("Ctrl+Ctrl+S")
 
 
-def test_a_chord_needs_its_modifier_down_as_its_key_goes_down() -> None:
-    """A key pressed while Ctrl is down is a chord, even handled after Ctrl went up; Ctrl let go in the very
-    frame that sees its key (Dear ImGui takes a frame's events together) still is; a letter after Ctrl+A,
-    even in the frame that sees Ctrl up, is not; nor a key pressed a frame after Ctrl went up alone."""
-    a, m, s = 546, 558, 564
+def test_a_key_runs_the_chord_of_the_modifiers_its_own_frame_saw_down() -> None:
+    """The keys a frame saw pressed run the chords of the modifiers that frame saw down, at the next frame:
+    Ctrl+S saves, S alone does not, a letter after Ctrl+A (Ctrl up in its frame) is the letter; a canvas
+    key waits while the keyboard is taken; a key that does not repeat runs once until it is seen up."""
+    ran: list[str] = []
+    actions = Actions()
+    scopes: tuple[tuple[str, str, Scope], ...] = (
+        ("file.save", "Ctrl+S", "window"),
+        ("time.previous", "Left", "canvas"),
+        ("time.back", "Shift+Left", "canvas"),
+        ("marker.add", "Ctrl+M", "window"),
+    )
+    for name, key, scope in scopes:
+        actions.register(name, name, name, functools.partial(ran.append, name), keys=(key,), scope=scope)
+    actions.register(
+        "edit.delete", "Delete", "x", lambda: ran.append("edit.delete"), keys=("Delete",), repeat=False
+    )
+    taken = [False]
+    keys = KeyBindings(actions, keyboard_taken=lambda: taken[0])
+
+    def frame(pressed: list[str], *, ctrl: bool = False, shift: bool = False) -> list[str]:
+        keys.pressed(pressed, ctrl=ctrl, shift=shift)
+        assert not ran, "an action runs at the next frame, not in the callback that saw its key"
+        actions.run_queued()
+        done = list(ran)
+        ran.clear()
+        return done
+
+    assert frame(["S"], ctrl=True) == ["file.save"]
+    assert frame(["S"]) == []
+    assert frame(["M"]) == [], "m typed after Ctrl+A: Ctrl was up in its frame"
+    assert frame(["M"], ctrl=True) == ["marker.add"]
+    assert frame(["Left"], shift=True) == ["time.back"]
+    assert frame(["Left"], ctrl=True) == ["time.previous"], "Left alone runs with Ctrl down too"
+    taken[0] = True
+    assert frame(["Left"]) == [], "a canvas key waits while a field has the keyboard"
+    assert frame(["S"], ctrl=True) == ["file.save"], "a window key does not"
+    assert frame(["Delete"]) == ["edit.delete"]
+    assert frame(["Delete"]) == [], "its key's repeat, not seen up since"
+
+
+def test_a_modifier_held_with_a_key_in_its_frame_or_let_go_in_it_after_a_clean_hold_makes_a_chord() -> None:
+    """Ctrl down in the frame that sees S: Ctrl+S. Ctrl let go in the very frame that sees Q, nothing else
+    pressed in its hold (xdotool's ctrl+q): Ctrl+Q. A letter in the frame that sees Ctrl up after Ctrl+A:
+    the letter. Left a frame after Shift+Left: Left. The keys are asked only while the modifier is down."""
+    a, left = 546, 513
     hold = ModifierHold()
-    hold.frame(True, lambda: [s])  # Ctrl+S: Ctrl and S down in one frame
-    hold.frame(False, list)  # Ctrl up before S's press is handled
-    assert hold.chord(s, down_now=False)
-    assert not hold.chord(m, down_now=False)
-    hold.frame(False, list)
-    assert not hold.chord(s, down_now=False), "S again, a frame after that hold: S alone (not Ctrl+S)"
+    assert hold.frame(True, lambda: [564]), "Ctrl and S down in one frame"
+    assert not hold.frame(False, list), "S pressed again, in the frame after Ctrl went up with S: S"
 
     hold = ModifierHold()
-    hold.frame(True, lambda: [s])  # Ctrl+S, its press handled late (the callback thread, a loaded machine)
-    hold.frame(False, list)
-    hold.frame(False, list)
-    hold.frame(False, list)
-    assert hold.chord(s, down_now=False), "S pressed in the hold, handled three frames after: Ctrl+S"
-    hold.frame(True, lambda: [s])
-    hold.frame(False, list)
-    hold.released_at -= 1.0  # a second after the hold
-    hold.frame(False, list)
-    assert not hold.chord(s, down_now=False), "S alone a second after Ctrl+S: S"
-
-    left = 513
-    hold = ModifierHold()
-    assert hold.chord(left, down_now=True), "Shift+Left handled before the frame records the press"
-    hold.frame(True, lambda: [left])
-    hold.frame(False, list)
-    hold.frame(False, list)
-    assert not hold.chord(left, down_now=False), "Left alone just after Shift+Left: Left"
+    assert hold.frame(True, list), "Ctrl down alone"
+    assert hold.frame(False, list), "Q's frame sees Ctrl go up: a clean hold ends with Q, Ctrl+Q"
+    assert not hold.frame(False, list), "a key a frame later: plain"
 
     hold = ModifierHold()
-    hold.frame(True, list)  # Ctrl down alone
-    assert hold.chord(m, down_now=False), "m's frame saw Ctrl go up (not yet recorded): a chord"
-    hold.frame(False, list)
-    assert hold.chord(m, down_now=False), "Ctrl went up in m's frame: a chord"
-    hold.frame(False, list)
-    assert not hold.chord(m, down_now=False), "m a frame after Ctrl went up"
+    assert hold.frame(True, lambda: [a]), "Ctrl+A in a field"
+    assert not hold.frame(False, list), "m in the frame that sees Ctrl up after Ctrl+A: m"
 
     hold = ModifierHold()
-    hold.frame(True, lambda: [a])  # Ctrl+A in a field
-    hold.frame(False, list)  # Ctrl went up in the frame that sees m
-    assert not hold.chord(m, down_now=False)
-    assert hold.chord(m, down_now=True), "Ctrl down again: Ctrl+M"
+    assert hold.frame(True, lambda: [left]), "Shift+Left"
+    assert not hold.frame(False, list), "Shift up with Left's release: a Left pressed now is Left"
+    assert hold.frame(True, list)
     asked: list[bool] = []
 
     def pressed() -> list[int]:
         asked.append(True)
         return []
 
+    hold.frame(False, pressed)
     hold.frame(False, pressed)
     assert not asked, "the keys pressed are asked only while the modifier is down"
 

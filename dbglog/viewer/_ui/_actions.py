@@ -14,9 +14,7 @@ Example::
 from __future__ import annotations
 
 import collections
-import math
 import re
-import time
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from typing import Any, Literal
@@ -182,7 +180,7 @@ class Actions:
         return self[name].shortcut
 
     def keys(self) -> set[str]:
-        """Every key some chord uses (the key handlers to install)."""
+        """Every key some chord uses (the keys read after each frame)."""
         return {chord.key for chord in self._chords}
 
     def for_key(self, key: str, *, ctrl: bool, shift: bool) -> Action | None:
@@ -225,22 +223,14 @@ class Actions:
         return done
 
 
-LATE_PRESS_S = 0.5
-"""How long after its hold ended a key pressed during it still makes a chord: Dear PyGui's callback thread
-may handle the press frames later than the frame that saw it (a loaded machine)."""
-
-
 class ModifierHold:
-    """Whether a modifier (Ctrl, Shift) makes a key's press a chord: it was down when the key went down.
+    """Whether a modifier (Ctrl, Shift) makes the keys a rendered frame saw pressed chords with it.
 
-    Dear ImGui takes a frame's input events together: a quick chord's modifier can be released in the very
-    frame that sees its key pressed; and Dear PyGui's callback thread handles a press after the frame that
-    saw it, frames later on a loaded machine. The frames tell the hold's story (`frame`): the keys pressed
-    while it was down, and the frame that first saw it up. A key's press is a chord when the modifier is
-    down; when a press of the key seen during a hold has not made its chord yet (handled within
-    `LATE_PRESS_S` of the hold's end); or when the hold ends in the frame that sees the key with no other
-    key pressed during it (a modifier let go with its key). A letter typed after Ctrl+A is not Ctrl+letter,
-    nor is Left pressed alone after Shift+Left.
+    Dear ImGui trickles input events to frames, one change of a key per frame; yet a modifier let go with
+    its key (Ctrl up before Q up: xdotool's ``key ctrl+q``, a quick hand) goes up in the very frame that
+    sees the key go down. So a frame's presses are chords when the modifier is down in that frame, or went
+    up in it after a hold in which no other key was pressed: a letter typed just after Ctrl+A is the letter,
+    and so is Left pressed just after Shift+Left.
     """
 
     def __init__(self) -> None:
@@ -248,45 +238,16 @@ class ModifierHold:
         """Whether the last frame saw the modifier down."""
         self.keys: set[int] = set()
         """The keys pressed while it was down, in its last hold."""
-        self.seen: collections.Counter[int] = collections.Counter()
-        """Presses of each key the frames saw during holds (all of them so far)."""
-        self.made: collections.Counter[int] = collections.Counter()
-        """Chords each key made while its modifier was down or from a press seen during a hold."""
-        self.released = -1
-        """The frame that first saw the last hold's modifier up (-1: none yet)."""
-        self.released_at = -math.inf
-        """When (monotonic) that frame saw it."""
-        self.frames = 0
-        """Frames seen."""
 
-    def frame(self, down: bool, pressed: Callable[[], Iterable[int]]) -> None:
-        """After a rendered frame (UI thread): the modifier is `down`; `pressed` gives the frame's key presses
-        (asked only while it is down)."""
-        self.frames += 1
+    def frame(self, down: bool, pressed: Callable[[], Iterable[int]]) -> bool:
+        """Take a rendered frame that saw the modifier `down`; return whether the keys it saw pressed are
+        chords with it (`pressed` gives them all, and is asked only while the modifier is down)."""
         if down:
             if not self.down:
                 self.keys = set()
-            keys = list(pressed())
-            self.keys.update(keys)
-            self.seen.update(keys)
-        elif self.down:
-            self.released = self.frames
-            self.released_at = time.monotonic()
+            self.keys.update(pressed())
+            chord = True
+        else:
+            chord = self.down and not self.keys  # let go in the frame that sees its key, after a clean hold
         self.down = down
-
-    def chord(self, key: int, *, down_now: bool) -> bool:
-        """Whether a press of `key`, seen at the last frame (or the one being rendered), is a chord with the
-        modifier (`down_now`: whether it is down as the press is handled)."""
-        # A press makes one chord: counted whether the frames saw it before its handling or after.
-        if down_now:
-            self.made[key] += 1
-            return True
-        late = self.down or time.monotonic() - self.released_at < LATE_PRESS_S
-        if late and self.seen[key] > self.made[key]:  # a press in the hold, handled after it ended
-            self.made[key] += 1
-            return True
-        ends_with_it = self.down or self.released == self.frames  # not yet seen up, or up since this frame
-        if not (ends_with_it and self.keys <= {key}):
-            return False
-        self.made[key] = max(self.made[key], self.seen[key])  # its press, if the frames saw it, is spent
-        return True
+        return chord

@@ -190,7 +190,7 @@ class ViewerApp:
         """Watch a variable…, and the dashboard's watches kept armed with their state on their widgets."""
         self.frame_hooks += [self.robots.poll, self.tree.poll, self.watches.poll]
         self.status = StatusBar(self.time, self.doc.summary, self.loop)
-        self.keys = KeyBindings(self.actions, chord=self.loop.chord, keyboard_taken=self._keys_blocked)
+        self.keys = KeyBindings(self.actions, keyboard_taken=self._keys_blocked)
         self.menus = MenuBar(self.actions, MENUS)
         self.started = False
         """Whether the window exists (between `start` and `close`)."""
@@ -255,7 +255,7 @@ class ViewerApp:
         self.robots.build(dpg.get_item_parent(self.menus.menus["File"]))
         self.robots.discover()
         self.pointer_input.build_menu()
-        install_input(self.keys, self.pointer_input.on_wheel, self.loop.note_key)
+        install_input(self.pointer_input.on_wheel, self.loop.note_key)
         self._update_title()
         if self.timeline.recording:
             self.timeline.pause()  # at the recording's end, what it showed last; Space plays from the start
@@ -379,7 +379,7 @@ class ViewerApp:
         return self.dialogs.current is not None or self.files.request is not None
 
     def after_render(self) -> None:
-        """After a rendered frame: the keys seen up count again."""
+        """After a rendered frame: the actions of the keys it saw pressed are queued (UI thread)."""
         self.keys.after_frame()
 
     # -- what the commands and the window share -----------------------------------------------------

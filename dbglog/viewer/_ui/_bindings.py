@@ -1,16 +1,18 @@
 """Where named actions meet Dear PyGui: the keys, menu entries and buttons that run them (by name).
 
-Dear PyGui calls key, menu and button callbacks on its own thread: each only queues the action, which runs
-on the UI thread at the next frame (`Actions.run_queued`).
+Dear PyGui calls menu and button callbacks on its own thread: each only queues the action, which runs on
+the UI thread at the next frame (`Actions.run_queued`). Keys are read by the UI thread itself after each
+rendered frame (`KeyBindings.after_frame`), with the modifiers that very frame saw down.
 """
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable, Sequence
 
 import dearpygui.dearpygui as dpg
 
-from dbglog.viewer._ui._actions import KEYS, Action, Actions
+from dbglog.viewer._ui._actions import KEYS, Action, Actions, ModifierHold
 
 __all__ = ["KEY_CODES", "KeyBindings", "MenuBar", "add_button", "add_menu_entry", "keys_hint"]
 
@@ -19,42 +21,68 @@ _SPECIAL = {
     "Enter": "mvKey_Return",
     **{k: f"mvKey_{k}" for k in ("Left", "Right", "Up", "Down", "Home", "End", "Delete", "Escape", "Tab")},
 }
+_MODIFIER_WORDS = ("Alt", "Ctrl", "Control", "Mod", "Shift", "Win", "Menu", "None")
+_PLAIN_KEYS = tuple(
+    sorted(
+        {
+            getattr(dpg, n)
+            for n in dir(dpg)
+            if n.startswith("mvKey_") and not any(w in n for w in _MODIFIER_WORDS)
+        }
+    )
+)
+"""Dear PyGui's key codes but the modifiers' (the keys a modifier's hold records)."""
 KEY_CODES: dict[str, int] = {name: int(getattr(dpg, _SPECIAL.get(name, f"mvKey_{name}"))) for name in KEYS}
 """Key name (`Chord.key`) -> Dear PyGui's key code."""
 
 
 class KeyBindings:
-    """One key press handler per key an action uses: a press runs the action its chord picks.
+    """The actions' keys: after each rendered frame, a key that frame saw pressed runs the action its chord
+    picks with the modifiers held with it (`ModifierHold`: that frame's, and the frames' before).
+
+    The frame that sees a key go down knows which modifiers were held with it. Dear PyGui's key handlers
+    run later on its callback thread, when the modifiers may be up already: frames later for a viewer
+    waiting for a CPU (``SCHED_IDLE`` beside busy processes), where Ctrl+S and Ctrl+Q did nothing now and
+    then.
 
     Args:
         actions: the window's actions.
-        chord: whether a press of a key (Dear PyGui's key code) is a chord with a modifier (its
-            ``mvKey_ModCtrl``, ``mvKey_ModShift``): the modifier was down as the key went down.
         keyboard_taken: whether a dialog, a menu or a text field has the keyboard (``canvas`` keys wait).
     """
 
-    def __init__(
-        self, actions: Actions, *, chord: Callable[[int, int], bool], keyboard_taken: Callable[[], bool]
-    ) -> None:
+    def __init__(self, actions: Actions, *, keyboard_taken: Callable[[], bool]) -> None:
         self.actions = actions
-        self._chord = chord
         self._keyboard_taken = keyboard_taken
+        self._codes: tuple[tuple[str, int], ...] = ()
+        """The keys an action uses, with their Dear PyGui codes (read after each frame)."""
+        self._actions_seen = -1
+        """How many actions there were when `_codes` was made (actions are registered after this)."""
         self._held: set[str] = set()
         """Keys of actions that do not repeat, taken and not seen up since (their repeats are ignored)."""
+        self._holds = (ModifierHold(), ModifierHold())
+        """Ctrl's and Shift's holds as the rendered frames saw them."""
 
-    def install(self) -> None:
-        """Add the key handlers (call inside ``dpg.handler_registry()``)."""
-        for key in sorted(self.actions.keys()):
-            dpg.add_key_press_handler(KEY_CODES[key], callback=lambda *_, k=key: self.pressed(k))
+    def after_frame(self) -> None:
+        """After a rendered frame (UI thread): queue the actions of the keys it saw pressed; forget the keys
+        seen up (their next press counts again)."""
+        if len(self.actions) != self._actions_seen:
+            self._actions_seen = len(self.actions)
+            self._codes = tuple((key, KEY_CODES[key]) for key in sorted(self.actions.keys()))
+        ctrl_hold, shift_hold = self._holds
+        ctrl = ctrl_hold.frame(bool(dpg.is_key_down(dpg.mvKey_ModCtrl)), _pressed_plain_keys)
+        shift = shift_hold.frame(bool(dpg.is_key_down(dpg.mvKey_ModShift)), _pressed_plain_keys)
+        pressed = [key for key, code in self._codes if dpg.is_key_pressed(code)]
+        if pressed:
+            self.pressed(pressed, ctrl=ctrl, shift=shift)
+        if self._held:
+            self._held = {key for key in self._held if dpg.is_key_down(KEY_CODES[key])}
 
-    def pressed(self, key: str) -> None:
-        """Dear PyGui's callback thread: queue the action this key runs with the modifiers held now."""
-        code = KEY_CODES[key]
-        action = self.actions.for_key(
-            key, ctrl=self._chord(dpg.mvKey_ModCtrl, code), shift=self._chord(dpg.mvKey_ModShift, code)
-        )
-        if action is not None:
-            self.actions.call_soon(lambda: self._fire(action, key))
+    def pressed(self, keys: Sequence[str], *, ctrl: bool, shift: bool) -> None:
+        """Queue the action each of `keys`, pressed in one frame with these modifiers down, runs (if any)."""
+        for key in keys:
+            action = self.actions.for_key(key, ctrl=ctrl, shift=shift)
+            if action is not None:
+                self.actions.call_soon(functools.partial(self._fire, action, key))
 
     def _fire(self, action: Action, key: str) -> None:
         if action.scope == "canvas" and self._keyboard_taken():
@@ -65,10 +93,10 @@ class KeyBindings:
             self._held.add(key)
         action.run()
 
-    def after_frame(self) -> None:
-        """After a rendered frame: forget the keys seen up (their next press counts again)."""
-        if self._held:
-            self._held = {key for key in self._held if dpg.is_key_down(KEY_CODES[key])}
+
+def _pressed_plain_keys() -> list[int]:
+    """The keys but modifiers the frame just rendered saw pressed (25 us: asked while a modifier is down)."""
+    return [code for code in _PLAIN_KEYS if dpg.is_key_pressed(code)]
 
 
 def add_menu_entry(actions: Actions, name: str, **config: object) -> int | str:

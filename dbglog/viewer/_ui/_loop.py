@@ -15,7 +15,6 @@ from typing import Protocol
 import dearpygui.dearpygui as dpg
 
 from dbglog._files import write_new_file
-from dbglog.viewer._ui._actions import ModifierHold
 from dbglog.viewer._ui._pacing import (
     DEFAULT_DATA_FPS,
     DEFAULT_FPS,
@@ -32,13 +31,6 @@ __all__ = ["SETTLE_FRAMES", "FrameLoop", "FrameSteps", "keep_freed_memory"]
 
 SETTLE_FRAMES = 3
 """Frames rendered before a screenshot is captured, so that the last update is fully on screen."""
-_MODIFIER_WORDS = ("Alt", "Ctrl", "Control", "Mod", "Shift", "Win", "Menu", "None")
-
-
-def _plain_keys() -> tuple[int, ...]:
-    """Dear PyGui's key codes but the modifiers' (the keys whose press a modifier's hold records)."""
-    names = (n for n in dir(dpg) if n.startswith("mvKey_"))
-    return tuple(sorted({getattr(dpg, n) for n in names if not any(w in n for w in _MODIFIER_WORDS)}))
 
 
 def keep_freed_memory() -> bool:
@@ -123,9 +115,6 @@ class FrameLoop:
         """When Dear PyGui last reported a key going down or up (its callback thread writes it)."""
         self._key_poked = 0.0
         """The `_key_at` the loop last answered with a burst of frames."""
-        self._holds = {dpg.mvKey_ModCtrl: ModifierHold(), dpg.mvKey_ModShift: ModifierHold()}
-        """Ctrl's and Shift's holds as the rendered frames saw them (`chord`)."""
-        self._plain_keys = _plain_keys()
         self._view_key: tuple[object, ...] = ()
 
     def listen_to_x(self) -> None:
@@ -219,26 +208,11 @@ class FrameLoop:
         self.rendered += 1
         self.pacer.rendered(now, time.perf_counter() - t0)
         self._input_now = self._input_seen()
-        for modifier, hold in self._holds.items():
-            hold.frame(bool(dpg.is_key_down(modifier)), self._pressed)
         self.steps.after_render()
-
-    def _pressed(self) -> list[int]:
-        """The keys but modifiers pressed in the frame just rendered (25 us: asked while one is held)."""
-        return [key for key in self._plain_keys if dpg.is_key_pressed(key)]
 
     def held(self, modifier: int) -> bool:
         """Whether a modifier key (Ctrl, Shift) is down now (the wheel: Shift scrolls sideways)."""
         return bool(dpg.is_key_down(modifier))
-
-    def chord(self, modifier: int, key: int) -> bool:
-        """Whether a press of `key` (Dear PyGui's callback thread, just after the frame that saw it) is a
-        chord with `modifier`: the modifier was down when the key went down (`ModifierHold`).
-
-        Dear ImGui takes the events of a frame together: a quick Ctrl+S can arrive with Ctrl already
-        released in the frame that sees S, more often when frames are far apart (the loop idles).
-        """
-        return self._holds[modifier].chord(key, down_now=bool(dpg.is_key_down(modifier)))
 
     def _input_seen(self) -> bool:
         """Whether the user moved the mouse or holds a button (checked after each rendered frame)."""
