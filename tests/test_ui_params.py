@@ -347,8 +347,7 @@ class Viewer(ViewerChild):
     def replace_text(self, rect: list[float], text: str) -> None:
         """Click into a text field, select what it holds, type `text` and press Enter."""
         self.click(rect[0] + rect[2] / 2, rect[1] + rect[3] / 2)
-        self.key("ctrl+a")
-        time.sleep(0.3)  # a letter right after Ctrl counts as a Ctrl chord for a moment (`FrameLoop.held`)
+        self.key("ctrl+a")  # a letter typed right after is a letter (`ModifierHold`)
         self.type(text)
         self.key("Return")
 
