@@ -15,7 +15,7 @@ from rclpy.node import Node
 from rclpy.publisher import Publisher
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
-__all__ = ["RELIABLE_VOLATILE", "RosPeer", "wait_quiet", "wait_until"]
+__all__ = ["RELIABLE_VOLATILE", "RosPeer", "first_line", "own_output", "wait_quiet", "wait_until"]
 
 RELIABLE_VOLATILE = QoSProfile(
     depth=1000, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE
@@ -32,9 +32,19 @@ def first_line(stream: Any) -> str:
         line = stream.readline()
         if not line:
             return ""
-        if "RTPS_" in line or line.startswith("\x1b["):
+        if _middleware_line(line):
             continue
         return str(line).strip()
+
+
+def own_output(text: str) -> str:
+    """A child's captured output without the middleware's own log lines (see `first_line`), stripped."""
+    return "\n".join(line for line in text.splitlines() if not _middleware_line(line)).strip()
+
+
+def _middleware_line(line: str) -> bool:
+    """Whether a line of a child's stdout is Fast DDS's own log (coloured, ``[RTPS_...]``)."""
+    return "RTPS_" in line or line.startswith("\x1b[")
 
 
 def wait_until(predicate: Callable[[], bool], timeout: float = 10.0, interval: float = 0.01) -> bool:

@@ -9,6 +9,7 @@ import sys
 import pytest
 
 from dbglog._config import ConfigError, load_config
+from tests._ros import own_output
 
 PROBE = """
 import sys, dbglog
@@ -29,7 +30,7 @@ def _probe(code: str, **env: str) -> str:
         check=False,
     )
     assert out.returncode == 0, out.stderr
-    return out.stdout.strip()
+    return own_output(out.stdout)
 
 
 def test_watch_switch_is_read_with_the_others() -> None:

@@ -152,13 +152,22 @@ class _StopRequestedError(Exception):
 
 
 @contextlib.contextmanager
-def _stop_on_signals() -> Iterator[None]:
+def _stop_on_signals() -> Iterator[list[str]]:
+    """Raise `_StopRequestedError` on SIGTERM and SIGHUP; yield the list of the signals' names that came.
+
+    The exception can be lost: raised while ``subprocess`` forks a child, inside an at-fork hook, Python
+    prints it as ignored and goes on (CI saw a demo that never stopped). The list keeps the request for
+    `_watch`, which checks it between its waits.
+    """
+    requested: list[str] = []
+
     def handler(signum: int, _frame: FrameType | None) -> None:
-        raise _StopRequestedError(signal.Signals(signum).name)
+        requested.append(signal.Signals(signum).name)
+        raise _StopRequestedError(requested[-1])
 
     previous = {s: signal.signal(s, handler) for s in (signal.SIGTERM, signal.SIGHUP)}
     try:
-        yield
+        yield requested
     finally:
         for signum, old in previous.items():
             signal.signal(signum, old)
@@ -189,7 +198,7 @@ def run(args: argparse.Namespace) -> int:
         )
         return 2
     localhost_discovery()
-    with tempfile.TemporaryDirectory(prefix="dbglog-demo-") as tmp, _stop_on_signals():
+    with tempfile.TemporaryDirectory(prefix="dbglog-demo-") as tmp, _stop_on_signals() as requested:
         sup = Supervisor(Path(tmp))
         try:
             sup.start("robot", [sys.executable, "-m", "dbglog._demo._robot"], quiet=True)
@@ -201,7 +210,7 @@ def run(args: argparse.Namespace) -> int:
                 file=sys.stderr,
                 flush=True,
             )
-            return _watch(sup, viewer)
+            return _watch(sup, viewer, requested)
         except _StopRequestedError as exc:
             print(f"dbglog demo: {exc}: stopping", file=sys.stderr)
             return 128 + int(getattr(signal, str(exc), signal.SIGTERM))
@@ -209,10 +218,16 @@ def run(args: argparse.Namespace) -> int:
             sup.close()
 
 
-def _watch(sup: Supervisor, viewer: subprocess.Popen[bytes]) -> int:
-    """Wait for the viewer; report a helper that died on the way; return the exit code."""
+def _watch(sup: Supervisor, viewer: subprocess.Popen[bytes], requested: Sequence[str] = ()) -> int:
+    """Wait for the viewer; report a helper that died on the way; return the exit code.
+
+    Raises:
+        _StopRequestedError: a stop signal came (`requested`), also one whose own exception was lost.
+    """
     reported: set[str] = set()
     while True:
+        if requested:
+            raise _StopRequestedError(requested[0])
         try:
             code = viewer.wait(0.5)
             break
