@@ -14,7 +14,7 @@ from std_msgs.msg import Float64, Int64
 
 import dbglog
 from dbglog._ros._qos import tag_qos
-from tests._ros import RosPeer
+from tests._ros import RosPeer, own_output
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -51,7 +51,7 @@ def test_plain_script_runs_on_and_off() -> None:
     """examples/plain_script.py runs with dbglog on (publishing) and off (counting nothing)."""
     on = _run_example("plain_script.py", "--steps", "20", "--dt", "0.001")
     assert on.returncode == 0, on.stderr
-    fields = dict(item.split("=") for item in on.stdout.split())
+    fields = dict(item.split("=") for item in own_output(on.stdout).split())
     assert (fields["enabled"], fields["calls"], fields["dropped"]) == ("True", "120", "0")
     assert 121 <= int(fields["published"]) <= 140  # 20 steps x 7 values, the throttled phase mostly held
     off = _run_example("plain_script.py", "--steps", "20", "--dt", "0.001", env={"DBGLOG": "off"})
@@ -105,6 +105,6 @@ def test_script_beside_a_clone_named_dbglog_imports_the_package(tmp_path: Path) 
     assert proc.returncode == 0, (
         "the venv's dbglog must be installed as .ci/setup.sh does (editable_mode=compat):\n" + proc.stderr
     )
-    location, published = proc.stdout.split()
+    location, published = own_output(proc.stdout).split()
     assert Path(location).name == "__init__.py"
     assert published == "1"

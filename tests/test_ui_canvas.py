@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 import os
 import shutil
+import signal
 import subprocess
 import sys
 import time
@@ -583,7 +584,17 @@ def test_view_new_file_starts_empty_dashboard_that_ctrl_s_writes(display: str, t
             saved = json.loads(path.read_text())
             assert saved["widgets"] == []
             xdo("key", "--clearmodifiers", "ctrl+q")  # nothing unsaved: closes at once
-            assert proc.wait(WAIT_S) == 0, (tmp_path / "view.log").read_text()
+            try:
+                code = proc.wait(WAIT_S)
+            except subprocess.TimeoutExpired:
+                title = xdo("getwindowname", window).strip()
+                proc.send_signal(signal.SIGUSR1)  # `dbglog view` prints every thread's stack
+                time.sleep(2.0)
+                pytest.fail(
+                    f"still running {WAIT_S} s after Ctrl+Q; title {title!r}; its log and stacks:\n"
+                    + (tmp_path / "view.log").read_text()
+                )
+            assert code == 0, (tmp_path / "view.log").read_text()
         finally:
             if proc.poll() is None:
                 proc.kill()

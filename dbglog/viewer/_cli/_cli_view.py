@@ -7,6 +7,7 @@ import functools
 import math
 import os
 import re
+import signal
 import sys
 import time
 from pathlib import Path
@@ -269,9 +270,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def _stacks_on_sigusr1() -> None:
+    """``kill -USR1 <pid>`` prints every thread's stack on stderr: what a viewer that hangs is doing."""
+    import faulthandler
+
+    if hasattr(signal, "SIGUSR1") and signal.getsignal(signal.SIGUSR1) == signal.SIG_DFL:
+        faulthandler.register(signal.SIGUSR1, all_threads=True)
+
+
 def run(args: argparse.Namespace) -> int:
     """Open the viewer; return the exit code."""
     apply_cpu_argument(args.cpu, "dbglog view")  # first: every thread started from here on inherits it
+    _stacks_on_sigusr1()
     from dbglog.viewer._document._dashboard import DashboardError, LoadResult, load_dashboard
     from dbglog.viewer._widgets import WidgetRegistry
 
