@@ -146,7 +146,7 @@ def test_the_engine_takes_a_census_at_each_graph_poll_when_asked() -> None:
 
 def _cmdline(pid: int) -> str:
     words = Path(f"/proc/{pid}/cmdline").read_bytes().rstrip(b"\0").replace(b"\0", b" ").decode()
-    return words if len(words) <= 60 else words[:59] + "…"
+    return words if len(words) <= 60 else f"{words[:24]}…{words[-35:]}"
 
 
 def _process(proc: Path, pid: int, command: bytes, inodes: list[int]) -> None:
@@ -160,8 +160,9 @@ def _process(proc: Path, pid: int, command: bytes, inodes: list[int]) -> None:
 
 def test_the_participants_not_found_are_named_by_their_process_or_else_their_port(tmp_path: Path) -> None:
     """A process holding more discovery ports than participants of its pid found is named once per
-    participant not found, with its command line cut to 60 characters; a forked child sharing the socket
-    is not named twice; what is left is named by the ports whose holders cannot be read."""
+    participant not found, with its command line cut to 60 characters in its middle; a forked child
+    sharing the socket is not named twice; what is left is named by the ports whose holders cannot be
+    read."""
     talker = b"python3\0talker.py\0--rate\0" + b"9" * 80 + b"\0"
     _process(tmp_path, 70000, talker, [101, 102])
     _process(tmp_path, 70001, b"fork\0", [101])  # a child holding its parent's socket
@@ -174,7 +175,7 @@ def test_the_participants_not_found_are_named_by_their_process_or_else_their_por
         found_pids=((70000 & 0xFFFF).to_bytes(2, "little"), (4242).to_bytes(2, "little")),
     )
     named = unseen_holders(census, proc=str(tmp_path))
-    assert named == ["pid 70000 (python3 talker.py --rate " + "9" * 34 + "…)", "port 7666"]
+    assert named == ["pid 70000 (python3 talker.py --rate…" + "9" * 35 + ")", "port 7666"]
     everyone = Census(local=4, found=4, ports=census.ports)
     assert unseen_holders(everyone, proc=str(tmp_path)) == []
     three_unread = Census(local=4, found=3, ports=((7660, 201), (7662, 202), (7664, 203), (7666, 204)))

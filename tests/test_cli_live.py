@@ -99,6 +99,17 @@ def _table(stdout: str) -> dict[str, list[str]]:
     return rows
 
 
+def _said_of(stderr: str, *robots: Robot) -> str:
+    """`dbglog tags`' stderr less its line on participants it never found when it names none of `robots`
+    (a process another test of this worker left on the domain, stopped or going away, is named there)."""
+    pids = [f"pid {robot.proc.pid} " for robot in robots]
+    return "\n".join(
+        line
+        for line in stderr.splitlines()
+        if not ("DDS participant" in line and "not found" in line and not any(p in line for p in pids))
+    )
+
+
 def _hz(cell: str) -> float:
     assert cell.endswith(" Hz"), cell
     return float(cell.removesuffix(" Hz"))
@@ -139,7 +150,7 @@ def test_tags_lists_every_tag_of_two_processes_every_run(robots: Callable[..., R
             assert status == "live", f"run {run}: {tag}: {rows[tag]}"
             assert value != "-", f"run {run}: {tag}: {rows[tag]}"
             assert rate != "-", f"run {run}: {tag}: {rows[tag]}"
-        assert out.stderr == "", out.stderr
+        assert _said_of(out.stderr, fast, slow) == "", out.stderr
 
 
 def test_tags_lists_in_natural_order_and_settle_sets_the_least_wait(robots: Callable[..., Robot]) -> None:
@@ -158,7 +169,7 @@ def test_tags_lists_in_natural_order_and_settle_sets_the_least_wait(robots: Call
         assert out.returncode == 0, out.stderr
         listed = [tag for tag in _table(out.stdout) if tag.startswith("lv_nat/")]
         assert listed == [f"lv_nat/t{k}" for k in range(12)], out.stdout
-        assert out.stderr == "", out.stderr
+        assert _said_of(out.stderr, robot) == "", out.stderr
     assert took_default < 4.0
     assert took_settled >= 4.0
     refused = _dbglog("tags", "--settle", "-1")
@@ -194,7 +205,7 @@ def test_tags_waits_for_every_participant_of_this_host_and_says_which_it_never_f
     assert took >= 4.0
     # other tests' participants may come and go meanwhile: the count is at least this one, and it is named
     assert re.search(r"\d+ DDS participants? on this host .* not found in", out.stderr), out.stderr
-    assert f"pid {silent.pid} ({(sys.executable + ' -c import socket')[:50]}" in out.stderr, out.stderr
+    assert f"pid {silent.pid} ({(sys.executable + ' -c import socket')[:24]}" in out.stderr, out.stderr
     assert "missing from the table" in out.stderr, out.stderr
 
 

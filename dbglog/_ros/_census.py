@@ -224,10 +224,10 @@ def _socket_holders(proc: str, inodes: set[int]) -> Iterator[tuple[int, int]]:
 
 
 def _command(proc: str, pid: int) -> str:
-    """Return `pid`'s command line, cut to 60 characters ("?" when it cannot be read)."""
+    """Return `pid`'s command line, cut to 60 characters in its middle ("?" when it cannot be read)."""
     try:
         with open(f"{proc}/{pid}/cmdline", "rb") as f:
             words = f.read().rstrip(b"\0").replace(b"\0", b" ").decode(errors="replace")
     except OSError:
         return "?"
-    return words if len(words) <= 60 else words[:59] + "…"
+    return words if len(words) <= 60 else f"{words[:24]}…{words[-35:]}"  # the program, and its script
