@@ -379,8 +379,10 @@ class ViewerApp:
         return self.dialogs.current is not None or self.files.request is not None
 
     def after_render(self) -> None:
-        """After a rendered frame: the actions of the keys it saw pressed are queued (UI thread)."""
-        self.keys.after_frame()
+        """After a rendered frame: the actions of the keys it saw pressed are queued (UI thread); a frame
+        that used a key event keeps the loop rendering (Dear ImGui may hold more)."""
+        if self.keys.after_frame():
+            self.loop.note_key()
 
     # -- what the commands and the window share -----------------------------------------------------
 

@@ -32,6 +32,8 @@ _PLAIN_KEYS = tuple(
     )
 )
 """Dear PyGui's key codes but the modifiers' (the keys a modifier's hold records)."""
+_WATCHED_KEYS = (*_PLAIN_KEYS, dpg.mvKey_ModCtrl, dpg.mvKey_ModShift, dpg.mvKey_ModAlt)
+"""The keys whose going down or up after a frame keeps the loop rendering (116 keys: 30 us to read)."""
 KEY_CODES: dict[str, int] = {name: int(getattr(dpg, _SPECIAL.get(name, f"mvKey_{name}"))) for name in KEYS}
 """Key name (`Chord.key`) -> Dear PyGui's key code."""
 
@@ -61,10 +63,16 @@ class KeyBindings:
         """Keys of actions that do not repeat, taken and not seen up since (their repeats are ignored)."""
         self._holds = (ModifierHold(), ModifierHold())
         """Ctrl's and Shift's holds as the rendered frames saw them."""
+        self._down: frozenset[int] = frozenset()
+        """The keys the last frame saw down."""
 
-    def after_frame(self) -> None:
+    def after_frame(self) -> bool:
         """After a rendered frame (UI thread): queue the actions of the keys it saw pressed; forget the keys
-        seen up (their next press counts again)."""
+        seen up (their next press counts again). Return whether the frame used a key event (a key went
+        down or up): Dear ImGui may hold more of them, for the next frames, with nothing left on the X
+        connection to wake the loop."""
+        down = frozenset(code for code in _WATCHED_KEYS if dpg.is_key_down(code))
+        used, self._down = down != self._down, down
         if len(self.actions) != self._actions_seen:
             self._actions_seen = len(self.actions)
             self._codes = tuple((key, KEY_CODES[key]) for key in sorted(self.actions.keys()))
@@ -76,6 +84,7 @@ class KeyBindings:
             self.pressed(pressed, ctrl=ctrl, shift=shift)
         if self._held:
             self._held = {key for key in self._held if dpg.is_key_down(KEY_CODES[key])}
+        return used or bool(pressed)
 
     def pressed(self, keys: Sequence[str], *, ctrl: bool, shift: bool) -> None:
         """Queue the action each of `keys`, pressed in one frame with these modifiers down, runs (if any)."""

@@ -172,7 +172,8 @@ class FrameLoop:
                 pacer.poke(time.monotonic())  # input for the window: render it at once, and keep up
 
     def note_key(self) -> None:
-        """Dear PyGui's callback thread: a frame used a key event (no Dear PyGui call here)."""
+        """A frame used a key event: the UI thread after a frame (`KeyBindings.after_frame`), and Dear
+        PyGui's callback thread (no Dear PyGui call here)."""
         self._key_at = time.monotonic()
 
     def look(self) -> None:
