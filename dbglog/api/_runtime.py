@@ -285,7 +285,7 @@ class Runtime:
         if writer is None:
             return
         stats = writer.stats()
-        if stats["oldest_s"] > _WRITER_STARVED_S:
+        if stats["oldest_s"] >= _WRITER_STARVED_S:  # the longest wait since the last look
             self.reporter.warn(
                 "queue_full",
                 "writer_starved",

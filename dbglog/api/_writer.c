@@ -64,6 +64,7 @@ typedef struct {
                             * message is written later submits are refused at once, so the publisher
                             * thread never holds its lock for long */
     int64_t busy_submitted; /* when the job being written was submitted */
+    int64_t longest_ns;    /* the longest a written message waited (submit to written) since `stats` */
     int stopping;
     int started;
     int ready;             /* the thread has set `native_id` */
@@ -103,8 +104,12 @@ writer_main(void *arg)
             w->reset(); /* rcl's error state is per thread: this one's */
         }
         size_t size = job->size;
+        int64_t waited = monotonic_ns() - job->submitted;
         free(job);
         pthread_mutex_lock(&w->mutex);
+        if (waited > w->longest_ns) {
+            w->longest_ns = waited;
+        }
         w->busy = 0;
         w->refusing = 0;
         w->queued_bytes -= size;
@@ -371,8 +376,11 @@ writer_stats(Writer *w, PyObject *Py_UNUSED(ignored))
         queued = (Py_ssize_t)w->queued_bytes;
         busy = w->busy;
         int64_t oldest = busy ? w->busy_submitted : (w->head != NULL ? w->head->submitted : 0);
+        int64_t longest = w->longest_ns;
+        w->longest_ns = 0;
         pthread_mutex_unlock(&w->mutex);
-        waiting = oldest ? (double)(monotonic_ns() - oldest) / 1e9 : 0.0;
+        int64_t now_waiting = oldest ? monotonic_ns() - oldest : 0;
+        waiting = (double)(now_waiting > longest ? now_waiting : longest) / 1e9;
     }
     return Py_BuildValue("{sKsKsnsOsd}", "written", written, "failed", failed, "queued_bytes", queued, "busy",
                          busy ? Py_True : Py_False, "oldest_s", waiting);
@@ -390,7 +398,8 @@ static PyMethodDef writer_methods[] = {
     {"stop", (PyCFunction)writer_stop, METH_NOARGS, "stop(): write what is queued, then end the thread."},
     {"stats", (PyCFunction)writer_stats, METH_NOARGS,
      "stats() -> dict: messages written and refused by rcl, bytes queued, whether one is being written, "
-     "and how long the oldest message not yet written has waited (s)."},
+     "and the longest a message waited to be written since the last look: one written since then, or the "
+     "oldest still waiting (s)."},
     {NULL, NULL, 0, NULL},
 };
 
