@@ -406,13 +406,55 @@ def test_a_backlog_of_kept_batches_is_taken_a_time_budget_a_wake_up(monkeypatch:
             monkeypatch.setattr(_batchsub, "_MAX_DRAIN_S", 0.0)  # the budget runs out after the first
             per_wake_up: list[int] = []
 
+            behind: list[bool] = []
+
             def take() -> bool:
                 per_wake_up.append(ingest.drain(ready)[0])
+                behind.append(ingest.behind)
                 return sum(per_wake_up) >= kept
 
             assert wait_until(take, 10)
             assert max(per_wake_up) == 1, per_wake_up  # one a wake-up: the backlog did not hold the loop
             assert sum(per_wake_up) == kept
             assert history.range(topic, -np.inf, np.inf)[1].tolist() == [float(s) for s in range(kept)]
+            assert all(behind), behind  # each stopped on the budget: more may wait
+            assert ingest.drain(ready) == (0, 0)
+            assert not ingest.behind  # the queue was found empty
         finally:
             reader.close()
+
+
+def test_the_engine_says_it_is_catching_up_while_a_backlog_is_taken_in_slices(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """While a robot's kept batches are taken a slice a wake-up, the engine says it is catching up, so a
+    reader (``dbglog tags``) never takes the first slice for all there is: whenever the history held part
+    of the backlog, the engine said so after; once it says it caught up, the history holds all of it."""
+    from std_msgs.msg import UInt8MultiArray
+
+    from dbglog._ros._batch import batch_topic
+    from dbglog._ros._qos import batch_qos
+    from dbglog.viewer._data import _batchsub
+    from tests._ros import RosPeer
+
+    kept = 40
+    robot = f"/{_RUN}_slices"
+    topic = topic_for_tag("s0/v", robot)
+    monkeypatch.setattr(_batchsub, "_MAX_DRAIN_S", 0.0)  # one batch a wake-up
+    with RosPeer("batch_slices_robot") as peer:
+        pub = peer.publisher(batch_topic(robot), UInt8MultiArray, batch_qos())
+        for seq in range(kept):
+            pub.publish(_encode([("s0/v", "Float64", float(seq))], seq=seq))
+        with Engine(node_name="batch_slices_engine", history_seconds=600) as eng:
+            seen: list[tuple[int, bool]] = []
+
+            def caught_up() -> bool:
+                held = eng.store.count(topic)
+                seen.append((held, eng.stats().catching_up))  # read after the count, as `dbglog tags` does
+                return held == kept and not seen[-1][1]
+
+            assert wait_until(caught_up, 30, interval=0.001), seen[-5:]
+            partial = [(held, catching) for held, catching in seen if 0 < held < kept]
+            assert partial, seen  # the slices were seen one by one
+            assert all(catching for _, catching in partial), partial
+            assert eng.store.range(topic, -np.inf, np.inf)[1].tolist() == [float(s) for s in range(kept)]

@@ -367,7 +367,9 @@ def _settle(engine: Engine, args: argparse.Namespace, seen: dict[str, _Seen]) ->
             early = bool(topics) and not graph.settled(args, census, now)
             break
         waiting = _waiting_for(engine, topics, seen, now, poll, _VALUE_GRACE_S)
-        if topics and graph.settled(args, census, now) and not waiting:
+        # last: a take under way when the snapshots were read says so here (a burst of kept history is
+        # taken in slices, and a tag judged on its first slice looked stale: its newest values came next)
+        if topics and graph.settled(args, census, now) and not waiting and not engine.stats().catching_up:
             break
         time.sleep(_POLL_S)
     waiting = _waiting_for(engine, topics, seen, now, poll, math.inf)

@@ -127,6 +127,8 @@ class BatchIngest:
         self._lost = 0
         self.taken = 0
         """Messages taken from the batch topics, re-sent ones included (the engine's take counter)."""
+        self.behind = False
+        """The last `drain` left batches waiting (a slice's time or count ran out)."""
 
     # --- graph (engine thread) ----------------------------------------------------------------------
 
@@ -243,24 +245,29 @@ class BatchIngest:
         """Take the batches of the subscriptions in `ready` (handle pointers), keep every sample in the
         history and feed covered topics' sinks; return (batches taken, takes that found any)."""
         taken = takes = 0
+        behind = False
         for robot, sub in list(self.subs.items()):
             if sub.handle.pointer in ready:
-                n = self._drain(sub, robot)
+                n, left = self._drain(sub, robot)
                 taken += n
                 takes += n > 0
+                behind = behind or left
         self.taken += taken
+        self.behind = behind
         return taken, takes
 
-    def _drain(self, sub: Any, robot: str) -> int:
+    def _drain(self, sub: Any, robot: str) -> tuple[int, bool]:
         """Take up to `_MAX_TAKE` batches of one robot's subscription, for at most `_MAX_DRAIN_S` (at least
-        one); return how many it took."""
+        one); return how many it took and whether it stopped before the queue was empty."""
         take = sub.handle.take_message
         n = 0
         until = time.monotonic() + _MAX_DRAIN_S
-        while n < _MAX_TAKE and (n == 0 or time.monotonic() < until):
+        while True:
+            if n >= _MAX_TAKE or (n > 0 and time.monotonic() >= until):
+                return n, True
             got = take(self._cls, True)
             if got is None:
-                break
+                return n, False
             n += 1
             try:
                 batch = decode_batch(got[0])
@@ -277,7 +284,6 @@ class BatchIngest:
             self._samples += batch.samples
             for samples in batch.tags:
                 self._ingest(samples, robot)
-        return n
 
     def _ingest(self, samples: TagSamples, robot: str = "") -> None:
         name = topic_for_tag(samples.tag, robot)

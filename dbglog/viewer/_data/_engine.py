@@ -173,6 +173,9 @@ class EngineStats:
     """Reads of the graph's topic list so far (every poll of a small graph, less often of a big one)."""
     polled: frozenset[str]
     """Topics looked at every ``_QUIET_POLL_S`` instead of waited on (unbound tags that send little)."""
+    catching_up: bool = False
+    """Messages are being taken, or the last wake-up left some waiting (a backlog is taken in slices: a
+    robot's kept history arrives as a burst of up to 1000 batches, `dbglog tags` waits for all of it)."""
 
 
 @dataclass(eq=False, slots=True)
@@ -399,6 +402,7 @@ class Engine(SeriesTimes):
         self._taken = 0
         self._takes = 0
         self._cycles = 0
+        self._catching_up = False
         self._thread_cpu = 0.0
         self._graph_polls = 0
         self._polled: frozenset[str] = frozenset()
@@ -575,6 +579,7 @@ class Engine(SeriesTimes):
             graph_counts=self._graph.recounts,
             graph_lists=self._graph.lists,
             polled=self._polled,
+            catching_up=self._catching_up,
         )
 
     def batch_stats(self) -> BatchStats:
@@ -668,6 +673,8 @@ class Engine(SeriesTimes):
                 woke, woke_cpu = time.monotonic(), time.thread_time()
                 self._cycles += 1
                 if ready:
+                    self._catching_up = True  # (before the first take: a reader sees no partial drain done)
+                    behind = False
                     for pointer in ready:
                         topic = by_pointer.get(pointer)
                         if topic is not None:
@@ -675,11 +682,16 @@ class Engine(SeriesTimes):
                             fullest = max(fullest, n / topic.depth)
                             taken += n
                             takes += n > 0
+                            behind = behind or n >= _MAX_BATCH
                     if self._batches.subs:
                         n, k = self._batches.drain(ready)
                         taken += n
                         takes += k
+                        behind = behind or self._batches.behind
                     self._takes += takes
+                    self._catching_up = behind
+                else:  # nothing waits (a slice that took the last message said it was behind)
+                    self._catching_up = False
                 if self._ordering:
                     self._release(time.monotonic())
             except Exception:
