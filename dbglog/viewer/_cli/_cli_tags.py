@@ -301,6 +301,31 @@ def _waiting_for(
     ]
 
 
+def _undecided(engine: Engine, topics: list[TopicInfo], seen: dict[str, _Seen]) -> bool:
+    """True while the engine is still taking a backlog and some tag with values would be called stale.
+
+    A robot's kept batches are taken oldest first, in 50 ms slices: a tag judged on the first slice (its
+    newest value then seconds old) was called stale, though its newer values were in the next slice. The
+    engine's word is read after the snapshots `_observe` read, so a take under way then is seen here.
+    Once every tag with values is live, the table prints without waiting for the rest of the backlog
+    (beside two robots of 300 tags that takes seconds): their last values may then be older than the
+    robot's newest (docs/engine.md, *Discovery*).
+    """
+    from dbglog.viewer._data._model import Binding
+
+    if not engine.stats().catching_up:
+        return False
+    now = time.monotonic()
+    for info in topics:
+        state = seen[info.name]
+        if (
+            state.first_value_at is not None
+            and not _judge(engine, engine.snapshot(Binding(info.name)), state, now)[0]
+        ):
+            return True
+    return False
+
+
 def _least_wait(args: argparse.Namespace, census: Census | None) -> float:
     """Return the least seconds given to discovery: --settle, else none where the census counts every
     participant discovery can reach (this host's), else the discovery horizon."""
@@ -367,9 +392,12 @@ def _settle(engine: Engine, args: argparse.Namespace, seen: dict[str, _Seen]) ->
             early = bool(topics) and not graph.settled(args, census, now)
             break
         waiting = _waiting_for(engine, topics, seen, now, poll, _VALUE_GRACE_S)
-        # last: a take under way when the snapshots were read says so here (a burst of kept history is
-        # taken in slices, and a tag judged on its first slice looked stale: its newest values came next)
-        if topics and graph.settled(args, census, now) and not waiting and not engine.stats().catching_up:
+        if (
+            topics
+            and graph.settled(args, census, now)
+            and not waiting
+            and not _undecided(engine, topics, seen)
+        ):
             break
         time.sleep(_POLL_S)
     waiting = _waiting_for(engine, topics, seen, now, poll, math.inf)
