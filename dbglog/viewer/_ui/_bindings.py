@@ -14,7 +14,7 @@ import dearpygui.dearpygui as dpg
 
 from dbglog.viewer._ui._actions import KEYS, Action, Actions, ModifierHold
 
-__all__ = ["KEY_CODES", "KeyBindings", "MenuBar", "add_button", "add_menu_entry", "keys_hint"]
+__all__ = ["KEY_CODES", "NAMED_KEYS", "KeyBindings", "MenuBar", "add_button", "add_menu_entry", "keys_hint"]
 
 _SPECIAL = {
     "Space": "mvKey_Spacebar",
@@ -22,18 +22,26 @@ _SPECIAL = {
     **{k: f"mvKey_{k}" for k in ("Left", "Right", "Up", "Down", "Home", "End", "Delete", "Escape", "Tab")},
 }
 _MODIFIER_WORDS = ("Alt", "Ctrl", "Control", "Mod", "Shift", "Win", "Menu", "None")
+NAMED_KEYS = range(512, 4096)
+"""Dear ImGui's named keys (`ImGuiKey_NamedKey_BEGIN` on); the modifiers' codes are 4096 and up. Dear PyGui
+2.x still names some keys by legacy codes (`mvKey_Colon` 59, `mvKey_Prior` 266, ...) or -1 (`mvKey_Apps`,
+the media keys): Dear ImGui's `IsKeyDown` reads no real state for those, and some read as held, their
+repeats as presses, in some runs and not others: a modifier's hold then looked unclean and a quick
+Ctrl+Q (Ctrl up in Q's frame) did nothing."""
 _PLAIN_KEYS = tuple(
     sorted(
         {
-            getattr(dpg, n)
+            code
             for n in dir(dpg)
-            if n.startswith("mvKey_") and not any(w in n for w in _MODIFIER_WORDS)
+            if n.startswith("mvKey_")
+            and not any(w in n for w in _MODIFIER_WORDS)
+            and (code := int(getattr(dpg, n))) in NAMED_KEYS
         }
     )
 )
-"""Dear PyGui's key codes but the modifiers' (the keys a modifier's hold records)."""
+"""Dear PyGui's codes of Dear ImGui's named keys but the modifiers (the keys a modifier's hold records)."""
 _WATCHED_KEYS = (*_PLAIN_KEYS, dpg.mvKey_ModCtrl, dpg.mvKey_ModShift, dpg.mvKey_ModAlt)
-"""The keys whose going down or up after a frame keeps the loop rendering (116 keys: 30 us to read)."""
+"""The keys whose going down or up after a frame keeps the loop rendering."""
 KEY_CODES: dict[str, int] = {name: int(getattr(dpg, _SPECIAL.get(name, f"mvKey_{name}"))) for name in KEYS}
 """Key name (`Chord.key`) -> Dear PyGui's key code."""
 
