@@ -474,3 +474,46 @@ def test_a_process_of_this_host_whose_pid_ended_has_exited() -> None:
     assert not _exited_here(process(os.getpid(), here))
     assert not _exited_here(process(1, here)), "pid 1 runs (as another user's process would)"
     assert not _exited_here(process(ended.pid, here + "-elsewhere"))
+
+
+def test_values_that_arrive_before_the_arm_answer_are_given_to_the_watch(client: WatchClient) -> None:
+    """A process's first hits go out on its batch topic, its arm answer on the answers topic: the batch can
+    come first, when the process is still being asked and no watch claims it. The client keeps such
+    batches a while and gives the watch its values once the process says it is armed (CI lost the first
+    of 3 hits of ``dbglog watch --count 3`` this way); values from before the arming are not given."""
+    from array import array
+
+    from dbglog._ros._batch import SLOT_FORMATS, encode_batch, pack_values, type_code
+    from dbglog.watch.client import WatchStatus, _Armed
+
+    robot, tag, armed_at = "/early_robot", "watch/early", time.time_ns()
+    stamps = [armed_at - 1_000_000, armed_at + 1_000_000, armed_at + 2_000_000]  # one from before arming
+    code = type_code("Float64")
+    raw = encode_batch(
+        7,
+        1,
+        [(code, tag.encode())],
+        array("H", [0, 0, 0]),
+        array("q", stamps),
+        pack_values(SLOT_FORMATS[code] * 3, [0.5, 1.5, 2.5]),
+        [],
+    )
+    watch = Watch(client, WatchSpec("loop.py", 1, ("speed",)))
+    armed = _Armed(WatchStatus("early_agent", 4242, "host", "asking"))
+    with client._lock:
+        watch._per["early_agent"] = armed
+        client._watches[watch.id] = watch
+    try:
+        client._on_batch(bytes(raw), robot)  # before the answer: nobody claims it
+        assert watch.samples() == []
+        answer = {"state": "armed", "tags": [tag], "robot": robot, "writer": 7, "armed_at": armed_at}
+        with client._lock:
+            client._apply_arm(watch, armed, answer)
+        got = watch.samples()
+        assert [(s.value, s.stamp_ns, s.expr) for s in got] == [(1.5, stamps[1], 0), (2.5, stamps[2], 0)]
+        with client._lock:
+            client._apply_arm(watch, armed, answer)  # said again: nothing is given twice
+        assert watch.samples() == []
+    finally:
+        with client._lock:
+            client._watches.pop(watch.id, None)

@@ -232,6 +232,11 @@ class _Session:
                 self.ended_at = now
             if len(self.hits) < sent and now - self.ended_at < _DELIVERY_S:
                 return None
+            if len(self.hits) < sent:
+                self.say(
+                    f"{sent - len(self.hits)} of the {sent} hits sent never arrived in {_DELIVERY_S:g} s"
+                )
+                return 1
             return 0 if all(s.state == "done" for s in ended) else 1
         if now - self.started < _HINT_AFTER_S:
             return None

@@ -74,6 +74,10 @@ last announcement."""
 _GRAPH_POLL_S: Final = 0.25
 _TICK_S: Final = 0.05
 _MAX_QUEUED: Final = 100_000
+_UNCLAIMED_S: Final = 5.0
+"""How long batches received while a process is still being asked are kept for the watch it arms: its
+first hits' batch can arrive before its answer (two topics), and no watch claimed those values then."""
+_UNCLAIMED_MAX: Final = 2_000
 
 
 class WatchError(Exception):
@@ -388,6 +392,8 @@ class WatchClient:
         """(robot, tag) -> the subscription of an array tag's topic (``values=True``)."""
         self._batch_subs: dict[str, Any] = {}
         """robot namespace -> the subscription of its batch topic (``values=True``)."""
+        self._unclaimed: deque[tuple[float, str, Any]] = deque(maxlen=_UNCLAIMED_MAX)
+        """(when, robot, decoded batch) received while some process was still being asked to arm."""
         self._values = values
         topics = watch_topics()
         try:
@@ -757,6 +763,7 @@ class WatchClient:
             text = str(message.get("error", ""))
             if message.get("pending"):
                 text += " (armed once it is loaded)"
+        was_taking = armed.status.state in _TAKING
         armed.status = _replace(
             armed.status,
             state=state,
@@ -765,6 +772,8 @@ class WatchClient:
             tags=tags or armed.status.tags,
             armed_at=int(message.get("armed_at", 0) or armed.status.armed_at),
         )
+        if state == "armed" and not was_taking:
+            self._claim_unclaimed(watch, armed)
         status = armed.status
         watch._events.append(WatchEvent(status.agent, status.pid, status.host, "status", state, text))
         skipped = message.get("skipped_threads")
@@ -844,17 +853,13 @@ class WatchClient:
         When several processes publish the tag, the batch's writer tells which one sent it (a process
         that reconnected its SDK has a new writer: then every owner gets it).
         """
-        out = []
+        out: list[tuple[Watch, _Armed, int, str]] = []
         closing = [w for w, _until in self._closing.values()]
         for watch in [*self._watches.values(), *closing]:
             for armed in watch._per.values():
-                if armed.status.state not in ("armed", "done", "cpu", "disarmed") or armed.robot != robot:
+                if armed.status.state not in _TAKING or armed.robot != robot:
                     continue
-                for index, base in armed.tags.items():
-                    if tag == base:
-                        out.append((watch, armed, index, ""))
-                    elif tag.startswith(base + "/"):
-                        out.append((watch, armed, index, tag[len(base) + 1 :]))
+                out.extend((watch, armed, index, key) for index, key in _claims(armed, tag))
         if writer is not None and len({armed.status.agent for _w, armed, _i, _k in out}) > 1:
             mine = [o for o in out if o[1].writer == writer]
             return mine or out
@@ -872,6 +877,12 @@ class WatchClient:
             return
         got: list[tuple[Watch, Sample]] = []
         with self._lock:
+            if any(a.status.state == "asking" for w in self._watches.values() for a in w._per.values()):
+                now = time.monotonic()
+                unclaimed = self._unclaimed
+                while unclaimed and now - unclaimed[0][0] > _UNCLAIMED_S:
+                    unclaimed.popleft()
+                unclaimed.append((now, robot, batch))
             for samples in batch.tags:
                 owners = self._owners(robot, samples.tag, batch.writer)
                 if not owners:
@@ -885,6 +896,30 @@ class WatchClient:
             got.sort(key=lambda item: (item[1].agent, item[1].stamp_ns, item[1].expr, item[1].key))
             for watch, sample in got:
                 watch._samples.append(sample)
+
+    def _claim_unclaimed(self, watch: Watch, armed: _Armed) -> None:
+        """Give a process that just armed `watch` its values from the batches received while it was being
+        asked (lock held): no watch claimed them then, so none of them was given to this one."""
+        status = armed.status
+        now = time.monotonic()
+        got: list[Sample] = []
+        for when, robot, batch in self._unclaimed:
+            if robot != armed.robot or now - when > _UNCLAIMED_S:
+                continue
+            several = len({a.status.agent for a in watch._per.values()}) > 1
+            if several and armed.writer is not None and batch.writer != armed.writer:
+                continue  # another process's batch (several publish the tag)
+            for samples in batch.tags:
+                claims = _claims(armed, samples.tag)
+                if not claims:
+                    continue
+                values = samples.values if isinstance(samples.values, list) else samples.values.tolist()
+                for index, key in claims:
+                    for stamp, value in zip(samples.times_ns.tolist(), values, strict=True):
+                        if stamp >= status.armed_at:
+                            got.append(Sample(status.agent, status.pid, index, key, value, stamp))
+        got.sort(key=lambda sample: (sample.stamp_ns, sample.expr, sample.key))
+        watch._samples.extend(got)
 
     def _on_array(self, robot: str, tag: str, msg: Any, stamp: int) -> None:
         with self._lock:
@@ -942,6 +977,19 @@ class WatchClient:
 
 
 _STATS: Final = frozenset({"hits", "sent", "filtered", "throttled", "dropped", "errors"})
+_TAKING: Final = frozenset({"armed", "done", "cpu", "disarmed"})
+"""The states of a process whose values a watch takes."""
+
+
+def _claims(armed: _Armed, tag: str) -> list[tuple[int, str]]:
+    """The (expression, key) of a process's watch that `tag` carries: its tag, or a key under it."""
+    out = []
+    for index, base in armed.tags.items():
+        if tag == base:
+            out.append((index, ""))
+        elif tag.startswith(base + "/"):
+            out.append((index, tag[len(base) + 1 :]))
+    return out
 
 
 def _no_callback(_msg: object) -> None:
