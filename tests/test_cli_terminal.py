@@ -9,6 +9,7 @@ import threading
 import time
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -280,3 +281,35 @@ def test_docs_show_dbglog_echo_not_ros2_topic() -> None:
             assert not line.lstrip().startswith(("$ ros2 ", "ros2 ")), where
             if "ros2 topic" in line:
                 assert "dbglog echo" in line or "needs a full ROS 2 install" in line, where
+
+
+def test_tags_waits_for_discovery_only_as_long_as_the_census_needs(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Where discovery reaches this host only and the census counts every participant, `dbglog tags` gives
+    discovery no least wait (it used to wait the 4 s horizon); it waits the horizon where it cannot count
+    them (another host may answer), and always what --settle says. Settled needs every participant found
+    (or the horizon passed), quiet polls, and a poll well after the discovery sockets last dropped data."""
+    from dbglog._ros._census import Census
+    from dbglog.viewer._cli._cli_tags import _Graph, _least_wait
+    from dbglog.viewer._data._suggest import DISCOVERY_HORIZON_S
+
+    default, settle = argparse.Namespace(settle=None), argparse.Namespace(settle=4.0)
+    complete, missing = Census(local=3, found=3, dropped=0), Census(local=3, found=2, dropped=0)
+    monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    assert _least_wait(default, complete) == 0.0
+    assert _least_wait(default, missing) == 0.0  # found or not: `settled` waits for the missing one
+    assert _least_wait(default, None) == DISCOVERY_HORIZON_S  # not Fast DDS, or no /proc
+    assert _least_wait(settle, complete) == 4.0
+    monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "SUBNET")
+    assert _least_wait(default, complete) == DISCOVERY_HORIZON_S
+    monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+
+    graph = _Graph(started=0.0)
+    topics: list[Any] = []
+    for poll, now in enumerate((0.1, 0.35, 0.6, 0.85)):
+        graph.watch(topics, complete, poll, now)
+    assert graph.settled(default, complete, 0.85)  # quiet for 3 polls over 0.75 s, all found
+    assert not graph.settled(default, missing, 0.85)  # one participant of this host not found yet
+    assert graph.settled(default, missing, DISCOVERY_HORIZON_S)  # ... until the horizon
+    assert not graph.settled(settle, complete, 0.85)  # --settle 4
+    graph.watch(topics, Census(local=3, found=3, dropped=5), 4, 1.1)  # a socket dropped discovery data
+    assert not graph.settled(default, complete, 1.1)
