@@ -255,7 +255,7 @@ class ViewerApp:
         self.robots.build(dpg.get_item_parent(self.menus.menus["File"]))
         self.robots.discover()
         self.pointer_input.build_menu()
-        install_input(self.pointer_input.on_wheel, self.loop.note_key)
+        install_input(self.pointer_input.on_wheel)
         self._update_title()
         if self.timeline.recording:
             self.timeline.pause()  # at the recording's end, what it showed last; Space plays from the start

@@ -85,13 +85,14 @@ class KeyBindings:
             self._actions_seen = len(self.actions)
             self._codes = tuple((key, KEY_CODES[key]) for key in sorted(self.actions.keys()))
         ctrl_hold, shift_hold = self._holds
-        ctrl = ctrl_hold.frame(bool(dpg.is_key_down(dpg.mvKey_ModCtrl)), _pressed_plain_keys)
-        shift = shift_hold.frame(bool(dpg.is_key_down(dpg.mvKey_ModShift)), _pressed_plain_keys)
+        plain = functools.cache(_pressed_plain_keys)  # read once a frame, and only while a modifier is down
+        ctrl = ctrl_hold.frame(dpg.mvKey_ModCtrl in down, plain)
+        shift = shift_hold.frame(dpg.mvKey_ModShift in down, plain)
         pressed = [key for key, code in self._codes if dpg.is_key_pressed(code)]
         if pressed:
             self.pressed(pressed, ctrl=ctrl, shift=shift)
         if self._held:
-            self._held = {key for key in self._held if dpg.is_key_down(KEY_CODES[key])}
+            self._held = {key for key in self._held if KEY_CODES[key] in down}
         return used or bool(pressed)
 
     def pressed(self, keys: Sequence[str], *, ctrl: bool, shift: bool) -> None:

@@ -111,10 +111,6 @@ class FrameLoop:
         self._input_now = False
         """Whether the last rendered frame saw the user at work (`_input_seen`)."""
         self._mouse_seen: tuple[float, float] = (-1.0, -1.0)
-        self._key_at = 0.0
-        """When Dear PyGui last reported a key going down or up (its callback thread writes it)."""
-        self._key_poked = 0.0
-        """The `_key_at` the loop last answered with a burst of frames."""
         self._view_key: tuple[object, ...] = ()
 
     def listen_to_x(self) -> None:
@@ -143,7 +139,7 @@ class FrameLoop:
         Dear ImGui takes at most about one key event a frame (a key down, its character, its release:
         three frames a typed letter), so the keys GLFW read from X together are used over many frames, with
         nothing left on the X connection to wake the loop. Each key a frame uses keeps the loop at the cap
-        (`note_key`, `look`): at 15 frames a second, a word typed at 60 ms a key had its last letters
+        (`note_key`): at 15 frames a second, a word typed at 60 ms a key had its last letters
         waiting 20 s for the idle frames before.
         """
         deadline = None if seconds is None else time.monotonic() + seconds
@@ -172,16 +168,12 @@ class FrameLoop:
                 pacer.poke(time.monotonic())  # input for the window: render it at once, and keep up
 
     def note_key(self) -> None:
-        """A frame used a key event: the UI thread after a frame (`KeyBindings.after_frame`), and Dear
-        PyGui's callback thread (no Dear PyGui call here)."""
-        self._key_at = time.monotonic()
+        """A frame used a key event (UI thread, `KeyBindings.after_frame`): Dear ImGui may hold more of them,
+        with nothing left on the X connection to wake the loop, so it keeps rendering."""
+        self.pacer.poke(time.monotonic())
 
     def look(self) -> None:
         """Between frames: run the hooks and see whether anything on screen would change (no drawing)."""
-        key_at = self._key_at
-        if key_at != self._key_poked:  # a key was used: Dear ImGui may hold more of them
-            self._key_poked = key_at
-            self.pacer.poke(time.monotonic())
         if self.steps.look():
             self.pacer.request(time.monotonic())
         self._poke_if_view_changed()

@@ -58,14 +58,8 @@ def main_window(width: int, height: int) -> Iterator[int | str]:
     dpg.bind_item_theme(window, theme.main_window_theme())
 
 
-def install_input(on_wheel: Callable[[float], None], note_key: Callable[[], None]) -> None:
-    """Add the window's input handlers: the wheel, and every key's use (`note_key`); the actions' keys are
-    read after each frame (`KeyBindings`).
-
-    Dear ImGui hands typed keys to a frame one event at a time (its input trickling), so keys read from X in
-    one go are used over several frames: each use keeps the loop rendering (`FrameLoop.note_key`).
-    """
+def install_input(on_wheel: Callable[[float], None]) -> None:
+    """Add the window's input handlers: the wheel. The keys are read after each frame on the UI thread
+    (`KeyBindings.after_frame`), which also keeps the loop rendering while Dear ImGui hands them out."""
     with dpg.handler_registry():
         dpg.add_mouse_wheel_handler(callback=lambda _s, delta: on_wheel(delta))
-        dpg.add_key_press_handler(0, callback=lambda *_: note_key())  # key 0: any key
-        dpg.add_key_release_handler(0, callback=lambda *_: note_key())
