@@ -313,7 +313,7 @@ def _undecided(engine: Engine, topics: list[TopicInfo], seen: dict[str, _Seen]) 
     """
     from dbglog.viewer._data._model import Binding
 
-    if not engine.stats().catching_up:
+    if not engine.catching_up:
         return False
     now = time.monotonic()
     for info in topics:

@@ -175,7 +175,7 @@ class EngineStats:
     """Topics looked at every ``_QUIET_POLL_S`` instead of waited on (unbound tags that send little)."""
     catching_up: bool = False
     """Messages are being taken, or the last wake-up left some waiting (a backlog is taken in slices: a
-    robot's kept history arrives as a burst of up to 1000 batches, `dbglog tags` waits for all of it)."""
+    robot's kept history arrives as a burst of up to 1000 batches); `Engine.catching_up` without the rest."""
 
 
 @dataclass(eq=False, slots=True)
@@ -581,6 +581,11 @@ class Engine(SeriesTimes):
             polled=self._polled,
             catching_up=self._catching_up,
         )
+
+    @property
+    def catching_up(self) -> bool:
+        """Whether messages are being taken or the last wake-up left some waiting (`EngineStats`)."""
+        return self._catching_up
 
     def batch_stats(self) -> BatchStats:
         """Return what arrived on dbglog's batch topic (batches, samples, lost batches, covered topics)."""
