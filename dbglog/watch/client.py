@@ -884,15 +884,8 @@ class WatchClient:
                     unclaimed.popleft()
                 unclaimed.append((now, robot, batch))
             for samples in batch.tags:
-                owners = self._owners(robot, samples.tag, batch.writer)
-                if not owners:
-                    continue
-                values = samples.values if isinstance(samples.values, list) else samples.values.tolist()
-                for watch, armed, index, key in owners:
-                    status = armed.status
-                    for stamp, value in zip(samples.times_ns.tolist(), values, strict=True):
-                        if stamp >= status.armed_at:
-                            got.append((watch, Sample(status.agent, status.pid, index, key, value, stamp)))
+                for watch, armed, index, key in self._owners(robot, samples.tag, batch.writer):
+                    got.extend((watch, sample) for sample in _armed_samples(armed, index, key, samples))
             got.sort(key=lambda item: (item[1].agent, item[1].stamp_ns, item[1].expr, item[1].key))
             for watch, sample in got:
                 watch._samples.append(sample)
@@ -900,24 +893,17 @@ class WatchClient:
     def _claim_unclaimed(self, watch: Watch, armed: _Armed) -> None:
         """Give a process that just armed `watch` its values from the batches received while it was being
         asked (lock held): no watch claimed them then, so none of them was given to this one."""
-        status = armed.status
         now = time.monotonic()
+        several = len({a.status.agent for a in watch._per.values()}) > 1
         got: list[Sample] = []
         for when, robot, batch in self._unclaimed:
             if robot != armed.robot or now - when > _UNCLAIMED_S:
                 continue
-            several = len({a.status.agent for a in watch._per.values()}) > 1
             if several and armed.writer is not None and batch.writer != armed.writer:
                 continue  # another process's batch (several publish the tag)
             for samples in batch.tags:
-                claims = _claims(armed, samples.tag)
-                if not claims:
-                    continue
-                values = samples.values if isinstance(samples.values, list) else samples.values.tolist()
-                for index, key in claims:
-                    for stamp, value in zip(samples.times_ns.tolist(), values, strict=True):
-                        if stamp >= status.armed_at:
-                            got.append(Sample(status.agent, status.pid, index, key, value, stamp))
+                for index, key in _claims(armed, samples.tag):
+                    got.extend(_armed_samples(armed, index, key, samples))
         got.sort(key=lambda sample: (sample.stamp_ns, sample.expr, sample.key))
         watch._samples.extend(got)
 
@@ -990,6 +976,18 @@ def _claims(armed: _Armed, tag: str) -> list[tuple[int, str]]:
         elif tag.startswith(base + "/"):
             out.append((index, tag[len(base) + 1 :]))
     return out
+
+
+def _armed_samples(armed: _Armed, index: int, key: str, samples: Any) -> list[Sample]:
+    """A batch's samples of one tag (`TagSamples`) as expression `index`'s values (under `key`), those
+    since the process armed the watch."""
+    status = armed.status
+    values = samples.values if isinstance(samples.values, list) else samples.values.tolist()
+    return [
+        Sample(status.agent, status.pid, index, key, value, stamp)
+        for stamp, value in zip(samples.times_ns.tolist(), values, strict=True)
+        if stamp >= status.armed_at
+    ]
 
 
 def _no_callback(_msg: object) -> None:
