@@ -9,6 +9,7 @@ import subprocess
 import sys
 import time
 from collections.abc import Iterator
+from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
@@ -40,41 +41,60 @@ def display() -> Iterator[dict[str, str]]:
         yield {**os.environ, "DISPLAY": name}
 
 
-def descendants(pid: int) -> set[int]:
-    """Every living process below `pid` (children, grandchildren, ...), from /proc."""
-    parents: dict[int, int] = {}
-    for entry in Path("/proc").iterdir():
-        if not entry.name.isdigit():
-            continue
+@dataclass(frozen=True)
+class Proc:
+    """One process: its pid and its start time, so that a pid the kernel hands out again is another process.
+
+    CI's pid space is 32768 wide and a suite of ROS nodes (each with tens of threads) wraps it in minutes:
+    a pid seen under the demo can belong to a kernel worker by the time the test looks again.
+    """
+
+    pid: int
+    start: str
+
+    def alive(self) -> bool:
+        """Whether this very process exists and is not a zombie."""
+        fields = _stat(self.pid)
+        return fields is not None and fields[19] == self.start and fields[0] != "Z"
+
+    def cmdline(self) -> str:
+        """The command line (empty once it is gone or exiting)."""
         try:
-            stat = (entry / "stat").read_text()
+            return Path(f"/proc/{self.pid}/cmdline").read_bytes().replace(b"\0", b" ").decode()
         except OSError:
-            continue
-        fields = stat[stat.rindex(")") + 2 :].split()
-        parents[int(entry.name)] = int(fields[1])
-    out: set[int] = set()
-    frontier = {pid}
-    while frontier:
-        frontier = {p for p, parent in parents.items() if parent in frontier} - out
-        out |= frontier
-    return out
+            return ""
 
 
-def alive(pid: int) -> bool:
-    """Whether `pid` exists and is not a zombie."""
+def _stat(pid: int) -> list[str] | None:
+    """The fields of /proc/<pid>/stat after the command name (state first), or None once it is gone."""
     try:
         stat = Path(f"/proc/{pid}/stat").read_text()
     except OSError:
-        return False
-    return stat[stat.rindex(")") + 2] != "Z"
+        return None
+    return stat[stat.rindex(")") + 2 :].split()
 
 
-def cmdline(pid: int) -> str:
-    """The command line of `pid` (empty once it is gone)."""
-    try:
-        return Path(f"/proc/{pid}/cmdline").read_bytes().replace(b"\0", b" ").decode()
-    except OSError:
-        return ""
+def descendants(pid: int) -> set[Proc]:
+    """Every living process below `pid` (children, grandchildren, ...), from /proc."""
+    parents: dict[Proc, int] = {}
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit():
+            continue
+        fields = _stat(int(entry.name))
+        if fields is not None:
+            parents[Proc(int(entry.name), fields[19])] = int(fields[1])
+    out: set[Proc] = set()
+    frontier = {pid}
+    while frontier:
+        found = {p for p, parent in parents.items() if parent in frontier} - out
+        out |= found
+        frontier = {p.pid for p in found}
+    return out
+
+
+def living(procs: set[Proc]) -> list[str]:
+    """The command lines of those of `procs` still alive."""
+    return [p.cmdline() for p in procs if p.alive()]
 
 
 def start_demo(env: dict[str, str], *args: str) -> subprocess.Popen[str]:
@@ -89,16 +109,16 @@ def start_demo(env: dict[str, str], *args: str) -> subprocess.Popen[str]:
     )
 
 
-def wait_for_children(demo: subprocess.Popen[str]) -> set[int]:
-    """Wait until the robot, the bridge and the viewer run under `demo`; return all their pids."""
-    found: set[int] = set()
+def wait_for_children(demo: subprocess.Popen[str]) -> set[Proc]:
+    """Wait until the robot, the bridge and the viewer run under `demo`; return all seen below it."""
+    found: set[Proc] = set()
 
     def three() -> bool:
         found.update(descendants(demo.pid))
-        lines = [cmdline(p) for p in found]
+        lines = [p.cmdline() for p in found]
         return all(any(word in c for c in lines) for word in ("_demo._robot", " bridge ", " view "))
 
-    assert wait_until(three, timeout=20), [cmdline(p) for p in found]
+    assert wait_until(three, timeout=20), [p.cmdline() for p in found]
     return found
 
 
@@ -121,9 +141,7 @@ def test_demo_screenshot_headless_widgets_live_nothing_left(display: dict[str, s
     assert {w["type"] for w in widgets} >= {"plot", "led", "string", "compass", "dial", "thermo"}
     not_live = [(w["name"], w["status"], w["reason"]) for w in widgets if w["status"] != "live"]
     assert not_live == [], not_live
-    assert wait_until(lambda: not any(alive(p) for p in children), timeout=10), [
-        cmdline(p) for p in children if alive(p)
-    ]
+    assert wait_until(lambda: not living(children), timeout=10), living(children)
 
 
 def test_demo_stops_everything_on_sigterm(display: dict[str, str]) -> None:
@@ -133,7 +151,7 @@ def test_demo_stops_everything_on_sigterm(display: dict[str, str]) -> None:
     demo.send_signal(signal.SIGTERM)
     demo.communicate(timeout=30)
     assert demo.returncode == 128 + signal.SIGTERM
-    assert not [cmdline(p) for p in children if alive(p)]
+    assert not living(children)
 
 
 def test_a_stop_signal_whose_exception_python_lost_still_stops_the_demo(tmp_path: Path) -> None:
@@ -160,12 +178,12 @@ def test_demo_viewer_crash_stops_the_rest(display: dict[str, str]) -> None:
     """When the viewer dies of a signal, the demo stops the robot and the bridge and exits 1."""
     demo = start_demo(display)
     children = wait_for_children(demo)
-    viewer = next(p for p in children if " view " in cmdline(p))
-    os.kill(viewer, signal.SIGSEGV)
+    viewer = next(p for p in children if " view " in p.cmdline())
+    os.kill(viewer.pid, signal.SIGSEGV)
     _out, err = demo.communicate(timeout=30)
     assert demo.returncode == 1
     assert "viewer crashed" in err
-    assert not [cmdline(p) for p in children if alive(p)]
+    assert not living(children)
 
 
 def test_demo_children_die_with_a_killed_demo(display: dict[str, str]) -> None:
@@ -174,9 +192,7 @@ def test_demo_children_die_with_a_killed_demo(display: dict[str, str]) -> None:
     children = wait_for_children(demo)
     demo.kill()
     demo.communicate(timeout=10)
-    assert wait_until(lambda: not any(alive(p) for p in children), timeout=20), [
-        cmdline(p) for p in children if alive(p)
-    ]
+    assert wait_until(lambda: not living(children), timeout=20), living(children)
 
 
 def test_demo_without_display_points_to_screenshot() -> None:
