@@ -285,11 +285,12 @@ class Runtime:
         if writer is None:
             return
         stats = writer.stats()
-        if stats["oldest_s"] >= _WRITER_STARVED_S:  # the longest wait since the last look
+        waited = stats["longest_wait_s"]  # the longest wait since the last look
+        if waited >= _WRITER_STARVED_S:
             self.reporter.warn(
                 "queue_full",
                 "writer_starved",
-                f"dbglog: other work keeps the CPUs busy: a message has waited {stats['oldest_s']:.1f} s in "
+                f"dbglog: other work keeps the CPUs busy: a message has waited {waited:.1f} s in "
                 "dbglog's writer thread to be published, so viewers see the values late (docs/api.md)",
                 None,
             )

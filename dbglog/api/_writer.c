@@ -383,7 +383,7 @@ writer_stats(Writer *w, PyObject *Py_UNUSED(ignored))
         waiting = (double)(now_waiting > longest ? now_waiting : longest) / 1e9;
     }
     return Py_BuildValue("{sKsKsnsOsd}", "written", written, "failed", failed, "queued_bytes", queued, "busy",
-                         busy ? Py_True : Py_False, "oldest_s", waiting);
+                         busy ? Py_True : Py_False, "longest_wait_s", waiting);
 }
 
 static PyMethodDef writer_methods[] = {
