@@ -131,6 +131,19 @@ def test_new_bindings_rename_a_widget_still_named_by_its_type() -> None:
     assert doc.dirty
 
 
+def test_bindings_that_follow_from_the_document_are_no_edit() -> None:
+    """Bindings set without `edit` (a watch's topics) bind the series and leave the document unmodified."""
+    doc, source, changes = make_doc()
+    watched = doc.add(dial("Dial", TEMP))
+    doc.set_bindings(watched, (SPEED,), edit=False)
+    assert watched.config.bindings == (SPEED,)
+    assert source.bound == {SPEED}
+    assert not doc.dirty
+    assert changes == []
+    doc.set_bindings(watched, (TEMP,))
+    assert doc.dirty
+
+
 def test_replace_keeps_the_place_in_the_drawing_order_and_the_topic_name() -> None:
     """A retyped widget takes the old one's place; its series stay bound; auto naming carries over."""
     doc, source, _ = make_doc()

@@ -600,6 +600,7 @@ def test_widgets_show_each_watch_state(
     assert "'len(ranges)' is not allowed" in reasons["call"]
     assert "disarmed so as not to slow the program" in reasons["hot"]
     assert {i["status"] for i in state["items"] if i["name"] != "good"} == {"error"}
+    assert not state["dirty"], "binding a widget to its watch's topics is no edit: the file opens unmodified"
     v.shot("watch-states")
 
 

@@ -301,11 +301,12 @@ class CanvasDoc(Generic[ItemT]):
             name = f"{label} {n}"
         return name
 
-    def set_bindings(self, item: ItemT, bindings: tuple[Binding, ...]) -> None:
+    def set_bindings(self, item: ItemT, bindings: tuple[Binding, ...], *, edit: bool = True) -> None:
         """Point a widget at new series (binding the new ones before releasing the old).
 
         A widget still called by its type ("Dial 2") or by the name its last topic gave it is named
-        after its new topic; a name the user gave it stays.
+        after its new topic; a name the user gave it stays. Without `edit`, the bindings follow from
+        what the document already holds (a watch's topics) and leave it unmodified.
         """
         auto = self._auto_named(item)
         item.set_bindings(bindings)
@@ -315,7 +316,8 @@ class CanvasDoc(Generic[ItemT]):
             if name is not None and name != item.name:
                 item.rename(name)
                 self._auto_names[item] = name
-        self.mark_dirty()
+        if edit:
+            self.mark_dirty()
 
     def _auto_named(self, item: ItemT) -> bool:
         if self._auto_names.get(item) == item.name:

@@ -184,8 +184,8 @@ class WatchKeeper:
             return
         self._shown[item] = report.topics
         bindings = watch_bindings(report.topics, item.widget_cls.max_bindings)
-        if item.bindings != bindings and item in self.doc.items:
-            self.doc.set_bindings(item, bindings)
+        if item.bindings != bindings and item in self.doc.items:  # derived from the watch: not an edit
+            self.doc.set_bindings(item, bindings, edit=False)
 
     def close(self) -> None:
         """Disarm every watch and stop the service (the window closes)."""
