@@ -14,11 +14,13 @@ import threading
 import time
 from collections.abc import Callable, Iterator
 from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
 from typing import IO
 
 import pytest
 from std_msgs.msg import Float64
 
+from dbglog.viewer._data._suggest import DISCOVERY_HORIZON_S
 from tests._children import run_dbglog
 from tests._ros import RosPeer, first_line, wait_until
 
@@ -260,14 +262,47 @@ def test_tags_names_a_published_tag_that_sends_nothing() -> None:
     assert "waiting for a first value from lv_silent" in out.stderr
 
 
-def test_tags_on_an_empty_graph_hints_at_the_domain() -> None:
-    """With nothing on the graph, the table says so and hints at ROS_DOMAIN_ID and the discovery range."""
-    env = {**os.environ, "ROS_DOMAIN_ID": str(random.SystemRandom().randint(215, 232))}
-    out = _dbglog("tags", "--wait", "1", env=env)
+def _unused_domain() -> int:
+    """A domain of 215-232 on which no participant of this host listens now (the census's sockets)."""
+    from dbglog._ros._census import metatraffic_ports, udp_sockets
+
+    tables = [Path(f"/proc/net/{t}").read_text() for t in ("udp", "udp6")]
+    ports = {s.port for s in udp_sockets(tables)}
+    free = [d for d in range(215, 233) if not ports & set(metatraffic_ports(d))]
+    assert free, "every domain of 215-232 has a participant on this host"
+    return random.SystemRandom().choice(free)
+
+
+def _waited(stdout: str) -> float:
+    """The seconds an empty table says it waited ("... waited 0.5 s) ...")."""
+    match = re.search(r"waited ([0-9.]+) s\)", stdout)
+    assert match is not None, stdout
+    return float(match.group(1))
+
+
+def test_tags_on_an_empty_graph_hints_at_the_domain_without_waiting_for_wait() -> None:
+    """With nothing on the graph, the table says so and hints at ROS_DOMAIN_ID and the discovery range;
+    as no other participant of the domain is on this host, it says so once the graph settled, neither
+    at --wait nor at the discovery horizon."""
+    env = {**os.environ, "ROS_DOMAIN_ID": str(_unused_domain())}
+    out = _dbglog("tags", "--wait", "60", env=env)
     assert out.returncode == 0, out.stderr
     assert "no dbglog tags" in out.stdout
     assert "ROS_DOMAIN_ID" in out.stdout
     assert "ROS_AUTOMATIC_DISCOVERY_RANGE" in out.stdout
+    assert _waited(out.stdout) < DISCOVERY_HORIZON_S, out.stdout
+
+
+def test_tags_beside_a_node_without_tags_waits_the_horizon_then_says_none() -> None:
+    """A node on the graph may still be listing its topics: with no tag, the table waits the discovery
+    horizon (not --wait) before it says there is none."""
+    with RosPeer("cli_live_no_tags") as peer:
+        peer.publisher("/lv_plain", Float64)
+        out = _dbglog("tags", "--wait", "60")
+    assert out.returncode == 0, out.stderr
+    assert "no dbglog tags" in out.stdout
+    assert "ROS_AUTOMATIC_DISCOVERY_RANGE" not in out.stdout, "the graph has topics: no domain hint"
+    assert DISCOVERY_HORIZON_S <= _waited(out.stdout) < 60, out.stdout
 
 
 def _stamped_lines(*args: str, count: int) -> list[tuple[float, float, str]]:

@@ -79,7 +79,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="S",
         help="at most this many seconds for DDS discovery and first values (default %(default)g); "
         "the table prints as soon as the graph has settled (after --settle, usually by a second more) and "
-        "every tag has its first value, or says on stderr which tags it gave up on",
+        "every tag has its first value, or says on stderr which tags it gave up on; with no tag at all, "
+        "once the graph has settled and no other participant is on this host, else at the discovery horizon",
     )
     parser.add_argument(
         "--settle",
@@ -336,6 +337,13 @@ def _least_wait(args: argparse.Namespace, census: Census | None) -> float:
     return DISCOVERY_HORIZON_S
 
 
+def _none_to_come(census: Census | None, waited: float) -> bool:
+    """With no tag listed and the graph settled: whether none can still come, as this host has no
+    participant of the domain but this command's, or the discovery horizon passed (a participant found
+    lists its topics moments later; one on another host can miss the handshake)."""
+    return (census is not None and census.local == 1) or waited >= DISCOVERY_HORIZON_S
+
+
 @dataclass(slots=True)
 class _Graph:
     """How the graph moved, poll by poll of the engine, while the command waited for it to settle."""
@@ -392,12 +400,10 @@ def _settle(engine: Engine, args: argparse.Namespace, seen: dict[str, _Seen]) ->
             early = bool(topics) and not graph.settled(args, census, now)
             break
         waiting = _waiting_for(engine, topics, seen, now, poll, _VALUE_GRACE_S)
-        if (
-            topics
-            and graph.settled(args, census, now)
-            and not waiting
-            and not _undecided(engine, topics, seen)
-        ):
+        if topics:
+            if graph.settled(args, census, now) and not waiting and not _undecided(engine, topics, seen):
+                break
+        elif graph.settled(args, census, now) and _none_to_come(census, now - started):
             break
         time.sleep(_POLL_S)
     waiting = _waiting_for(engine, topics, seen, now, poll, math.inf)
