@@ -4,10 +4,12 @@ from __future__ import annotations
 
 import os
 import random
+import time
 from collections.abc import Iterator
 
 import pytest
 
+from tests._shm import remove_dead_segments
 from tests._workers import private_display, worker_domain
 from tests._xvfb import x_display
 
@@ -27,6 +29,14 @@ os.environ.setdefault("DBGLOG_CPU", "normal")  # (dbglog._sched.CPU_ENV: nothing
 # SDK processes a test starts exit at once (no wait for readers still discovering them: up to 2 s each
 # where a child sees no other node yet) unless the test is about that wait (test_probe_delivery).
 os.environ.setdefault("DBGLOG_EXIT_WAIT", "0")
+_STARTED = time.time()
+
+
+def pytest_sessionfinish(session: pytest.Session) -> None:
+    """At the end of the run (the controller's, with workers): remove the Fast DDS segments of the processes
+    it killed (tests/_shm.py), so runs after runs do not fill /dev/shm."""
+    if not hasattr(session.config, "workerinput"):
+        remove_dead_segments(_STARTED)
 
 
 @pytest.fixture(autouse=True)
