@@ -11,6 +11,7 @@ import time
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -172,6 +173,33 @@ def test_a_stop_signal_whose_exception_python_lost_still_stops_the_demo(tmp_path
     finally:
         sup.close()
     assert viewer.poll() is not None, "closing the supervisor stops the viewer"
+
+
+def test_a_stop_signal_while_a_child_starts_still_stops_that_child(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """SIGTERM that comes after the fork, before `Supervisor.start` returns, is taken once the child is
+    known: `close` stops it (CI saw a viewer started so outlive the demo), and the child takes SIGTERM."""
+    class SignalledPopen(subprocess.Popen[bytes]):
+        """Popen, with the demo's SIGTERM arriving as the child has just started."""
+
+        def __init__(self, *args: Any, **kwargs: Any) -> None:
+            super().__init__(*args, **kwargs)
+            os.kill(os.getpid(), signal.SIGTERM)
+
+    sup = Supervisor(tmp_path)
+    with _stop_on_signals() as requested:
+        monkeypatch.setattr(subprocess, "Popen", SignalledPopen)
+        try:
+            with pytest.raises(_StopRequestedError, match="SIGTERM"):
+                sup.start("viewer", [sys.executable, "-c", "import time; time.sleep(60)"], quiet=True)
+        finally:
+            monkeypatch.undo()
+        assert requested == ["SIGTERM"]
+    assert [c.name for c in sup.children] == ["viewer"]
+    child = sup.children[0].proc
+    sup.close()
+    assert child.returncode == -signal.SIGTERM, "the child took SIGTERM: the parent's hold is not inherited"
 
 
 def test_demo_viewer_crash_stops_the_rest(display: dict[str, str]) -> None:

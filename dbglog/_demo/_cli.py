@@ -75,8 +75,14 @@ class _Child:
     log: Path | None
 
 
+_STOP_SIGNALS = frozenset({signal.SIGTERM, signal.SIGHUP, signal.SIGINT})
+"""Held back while a child starts (`Supervisor.start`)."""
+
+
 def _die_with_parent() -> None:  # pragma: no cover - runs in the child between fork and exec
-    """Ask Linux to send SIGTERM to this child when its parent dies (even by SIGKILL)."""
+    """Take the stop signals again (the parent held them back while it started this child), and ask Linux
+    to send SIGTERM to this child when its parent dies (even by SIGKILL)."""
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, _STOP_SIGNALS)
     os.setsid()
     if sys.platform.startswith("linux"):
         import ctypes
@@ -102,6 +108,10 @@ class Supervisor:
         if quiet:
             log = self.log_dir / f"{name}.log"
             out = log.open("wb")
+        # A stop signal that came between the fork and Popen's return raised there: the child ran on,
+        # unknown to `close`, and died only when the demo had exited (CI saw it still exiting). Held back
+        # until the child is known, the signal is taken (and raises) as `start` returns.
+        held = signal.pthread_sigmask(signal.SIG_BLOCK, _STOP_SIGNALS)
         try:
             proc = subprocess.Popen(
                 list(argv),
@@ -110,10 +120,11 @@ class Supervisor:
                 stderr=subprocess.STDOUT if quiet else None,
                 preexec_fn=_die_with_parent,  # no threads run in this process yet
             )
+            self.children.append(_Child(name, proc, log))
         finally:
             if out is not None:
                 out.close()
-        self.children.append(_Child(name, proc, log))
+            signal.pthread_sigmask(signal.SIG_SETMASK, held)
         return proc
 
     def dead(self) -> list[_Child]:
