@@ -7,7 +7,8 @@ import signal
 import subprocess
 import sys
 import textwrap
-from collections.abc import Mapping
+import time
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -68,19 +69,44 @@ def run_scenario(
     assert proc.returncode == 0, f"scenario {scenario} failed:\n{proc.stdout}\n{proc.stderr}"
 
 
-def run_sdk(code: str, *, timeout: float = 90) -> subprocess.CompletedProcess[str]:
-    """Run dbglog SDK code (dedented) in a child process: its own node and batch writer, dbglog on."""
+def run_sdk(
+    code: str, *, timeout: float = 90, stay_until: Callable[[], bool] | None = None, stay_s: float = 30.0
+) -> subprocess.CompletedProcess[str]:
+    """Run dbglog SDK code (dedented) in a child process: its own node and batch writer, dbglog on.
+
+    With `stay_until`, the child stays (its writers and their kept history with it) after `code` until
+    `stay_until()` holds, at most `stay_s`: a reader that discovers it late still gets everything. A fixed
+    stay was not enough: a participant that takes the id of one killed moments before is found 3 s late
+    (Fast DDS), and a loaded run lost the tail of a child that left at 3 s.
+    """
     env = {k: v for k, v in os.environ.items() if k not in ("DBGLOG", "DBGLOG_STRICT")}
     env["PYTHONPATH"] = str(ROOT)
-    return subprocess.run(
-        [sys.executable, "-c", textwrap.dedent(code)],
+    source = textwrap.dedent(code)
+    if stay_until is None:
+        return subprocess.run(
+            [sys.executable, "-c", source],
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=timeout,
+            cwd=ROOT,
+            check=False,
+        )
+    source += "\nimport sys as _sys\n_sys.stdin.read()  # stay until the test is done with us\n"
+    with subprocess.Popen(
+        [sys.executable, "-c", source],
         env=env,
-        capture_output=True,
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
         text=True,
-        timeout=timeout,
         cwd=ROOT,
-        check=False,
-    )
+    ) as child:
+        deadline = time.monotonic() + stay_s
+        while child.poll() is None and not stay_until() and time.monotonic() < deadline:
+            time.sleep(0.05)
+        out, err = child.communicate(input="", timeout=timeout)
+    return subprocess.CompletedProcess(child.args, child.returncode, out, err)
 
 
 def run_dbglog(

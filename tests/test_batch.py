@@ -236,13 +236,12 @@ def test_big_integers_logged_by_the_sdk_reach_the_engine_history_exactly(engine:
             time.sleep(0.02)
         assert dbglog.flush(5.0)
         assert dbglog.stats().dropped == 0
-        time.sleep(3.0)  # the batch writer stays: a viewer that discovers it late gets them all
         """
     before = engine.batch_stats().samples
-    done = run_sdk(code)
-    assert done.returncode == 0, done.stderr
     store = engine.store
     topics = [topic_for_tag(t) for t in (signed, unsigned, plain)]
+    done = run_sdk(code, stay_until=lambda: all(store.count(t) >= 3 for t in topics))
+    assert done.returncode == 0, done.stderr
     assert wait_until(lambda: all(store.count(t) >= 3 for t in topics), 30), store.stats()
     assert engine.batch_stats().samples - before >= 12  # they came in batches
     values = {t: store.range(t, -np.inf, np.inf)[1] for t in topics}
@@ -286,9 +285,8 @@ def test_a_big_int_tag_another_node_also_publishes_keeps_every_sample_exactly_on
                 dbglog.logint({tag!r}, {BIG} + k)
                 time.sleep(0.01)
             assert dbglog.flush(5.0)
-            time.sleep(3.0)  # the writers stay: a viewer that discovers them late gets them all
             """
-        done = run_sdk(code)
+        done = run_sdk(code, stay_until=lambda: engine.store.count(topic) >= 25)  # its 20 and the first 5
         assert done.returncode == 0, done.stderr
         for k in range(5, 10):
             pub.publish(Int64(data=-k))

@@ -55,8 +55,9 @@ def _wait_snap(engine: Engine, binding: Binding, ok: object) -> SeriesSnapshot:
     return snap
 
 
-def _sdk_log_known_values(tag: str, n: int, period: float) -> None:
-    """Log the values 0..n-1, one per `period` seconds, from a child process; wait for delivery."""
+def _sdk_log_known_values(engine: Engine, tag: str, n: int, period: float) -> None:
+    """Log the values 0..n-1, one per `period` seconds, from a child process that stays until `engine`
+    holds them all (at most 30 s)."""
     done = run_sdk(
         f"""
         import time, dbglog
@@ -66,8 +67,8 @@ def _sdk_log_known_values(tag: str, n: int, period: float) -> None:
             dbglog.logfloat({tag!r}, float(i))
             time.sleep({period})
         assert dbglog.flush(5.0)
-        time.sleep(3.0)  # the batch writer stays: a viewer that discovers it late gets them all
-        """
+        """,
+        stay_until=lambda: engine.store.count(topic_for_tag(tag)) >= n,
     )
     assert done.returncode == 0, done.stderr
 
@@ -75,7 +76,7 @@ def _sdk_log_known_values(tag: str, n: int, period: float) -> None:
 def test_a_tag_logged_before_anything_binds_it_is_back_filled(engine: Engine) -> None:
     """Every dbglog tag is kept from the moment it is seen: a plot added later starts with its past."""
     tag = f"{_RUN}/early"
-    _sdk_log_known_values(tag, 200, 0.005)
+    _sdk_log_known_values(engine, tag, 200, 0.005)
     topic = topic_for_tag(tag)
     assert wait_until(lambda: engine.store.count(topic) >= 200, TIMEOUT), engine.store.stats()
     binding = Binding(topic)

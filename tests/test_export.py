@@ -4,10 +4,6 @@ that an independent reader (mcap + mcap_ros2) decodes value by value and dbglog 
 from __future__ import annotations
 
 import csv
-import os
-import subprocess
-import sys
-import textwrap
 import time
 import uuid
 from pathlib import Path
@@ -25,9 +21,9 @@ from dbglog.viewer._data._export import ExportError, export_csv, save_recording
 from dbglog.viewer._data._model import Binding
 from dbglog.viewer._data._replay import load_replay
 from dbglog.viewer._values._transforms import Scale
+from tests._children import run_sdk
 from tests._ros import RosPeer, wait_until
 
-ROOT = Path(__file__).resolve().parent.parent
 T0 = 1_700_000_000_000_000_000
 
 
@@ -77,8 +73,6 @@ def test_the_live_history_saved_as_a_recording_reads_back_everywhere(tmp_path: P
     mcap_ros2 decodes every value at its source time, and dbglog replays it."""
     tag = f"export_{uuid.uuid4().hex[:6]}/ramp"
     words = f"/export_{uuid.uuid4().hex[:6]}/words"
-    env = {k: v for k, v in os.environ.items() if k not in ("DBGLOG", "DBGLOG_STRICT")}
-    env["PYTHONPATH"] = str(ROOT)
     with Engine(node_name="export_engine") as engine, RosPeer("export_peer") as peer:
         pub = peer.publisher(words, String)
         engine.bind(Binding(words))
@@ -91,16 +85,13 @@ def test_the_live_history_saved_as_a_recording_reads_back_everywhere(tmp_path: P
                 dbglog.logint({tag!r}, i)
                 time.sleep(0.001)
             assert dbglog.flush(5.0)
-            time.sleep(3.0)  # the batch writer stays: a viewer that discovers it late gets them all
         """
-        done = subprocess.run(
-            [sys.executable, "-c", textwrap.dedent(code)], env=env, capture_output=True, text=True, timeout=90
-        )
+        topic = topic_for_tag(tag)
+        done = run_sdk(code, stay_until=lambda: engine.store.count(topic) >= 300)
         assert done.returncode == 0, done.stderr
         for i in range(20):
             pub.publish(String(data=f"w{i}"))
             time.sleep(0.005)
-        topic = topic_for_tag(tag)
         assert wait_until(lambda: engine.store.count(topic) >= 300 and engine.store.count(words) >= 20, 30), (
             engine.store.count(topic),
             engine.store.count(words),
