@@ -6,6 +6,11 @@ on purpose) leaves both behind, and nothing of Fast DDS removes them: about 70 M
 developer's machine, run after run. A segment whose lock nobody holds has no owner any more. Only the
 segments created during this run are touched (a robot's own leftovers are not the suite's to remove), and
 the ports' segments (``fastrtps_port<n>``, reused by the next participant on that port) stay.
+
+Fast DDS's own ``fastdds shm clean`` (in the wheels' ``bin/``) applies the same lock rule, but to every
+segment and port of the machine and with no grace for a lock file a starting participant has just made
+and not locked yet: run at the end of one suite while the other Python's suite still starts processes
+(CI runs both side by side), it could remove a live participant's files. Hence these few lines.
 """
 
 from __future__ import annotations
