@@ -180,6 +180,7 @@ def test_a_stop_signal_while_a_child_starts_still_stops_that_child(
 ) -> None:
     """SIGTERM that comes after the fork, before `Supervisor.start` returns, is taken once the child is
     known: `close` stops it (CI saw a viewer started so outlive the demo), and the child takes SIGTERM."""
+
     class SignalledPopen(subprocess.Popen[bytes]):
         """Popen, with the demo's SIGTERM arriving as the child has just started."""
 
