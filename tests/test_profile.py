@@ -143,3 +143,39 @@ def test_dbglog_commands_claim_the_profile_but_dbglog_run_leaves_the_program_alo
         [sys.executable, "-c", check], capture_output=True, text=True, timeout=TIMEOUT, env=env, check=False
     )
     assert "claimed True" in out.stdout, out.stdout + out.stderr
+
+
+_NODE_UP = "import rclpy; rclpy.init(); node = rclpy.create_node('profile_log'); print('up')"
+
+
+def _with_bad_element(profile: str) -> str:
+    """`profile` with an element Fast DDS does not know in the participant's rtps (it logs an error)."""
+    assert "<rtps>" in profile
+    return profile.replace("<rtps>", "<rtps>\n        <dbglogNoSuchElement>1</dbglogNoSuchElement>", 1)
+
+
+def test_fast_dds_errors_go_to_stderr_under_the_profile(tmp_path: Path) -> None:
+    """Under dbglog's profile, an error Fast DDS logs goes to stderr and stdout keeps only the process's own
+    output; the same error without the profile's log section goes to stdout (why the section is there)."""
+    with_log = tmp_path / "with_log.xml"
+    with_log.write_text(_with_bad_element(PROFILE.read_text()))
+    text = PROFILE.read_text()
+    without_log = tmp_path / "without_log.xml"
+    without_log.write_text(
+        _with_bad_element(text[: text.index("  <log>")] + text[text.index("</log>") + 7 :])
+    )
+    outs = {}
+    for path in (with_log, without_log):
+        env = {**_env_without_profiles(), ENV: str(path)}
+        outs[path.stem] = subprocess.run(
+            [sys.executable, "-c", _NODE_UP],
+            capture_output=True,
+            text=True,
+            timeout=TIMEOUT,
+            env=env,
+            cwd=tmp_path,
+        )
+    assert outs["with_log"].returncode == 0, outs["with_log"].stderr
+    assert outs["with_log"].stdout == "up\n"
+    assert "dbglogNoSuchElement" in outs["with_log"].stderr
+    assert "dbglogNoSuchElement" in outs["without_log"].stdout, "without the section the error is on stdout"
