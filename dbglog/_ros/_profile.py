@@ -7,7 +7,8 @@ ignored), so when its answer came back before the receivers were registered it w
 newcomer found that participant only at its next periodic announcement, every 3 s: a viewer, ``dbglog
 tags`` or a recorder missed a running robot for up to 3 s, one run in two on a loaded machine. The profile
 (``discovery.xml``) gives the participant a throughput controller, which makes its discovery writers send
-from the flow controller's thread: the creating thread registers the receivers meanwhile.
+from the flow controller's thread: the creating thread registers the receivers meanwhile. Its log section
+sends Fast DDS's warnings and errors to stderr, so a command's stdout stays its own when piped.
 
 A Fast DDS profile is the default of every participant of the process, so it is used only by a process
 that `claim`\\ s it (the ``dbglog`` commands, never ``dbglog run``'s program, the SDK or an agent in a
