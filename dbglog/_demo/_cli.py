@@ -75,14 +75,8 @@ class _Child:
     log: Path | None
 
 
-_STOP_SIGNALS = frozenset({signal.SIGTERM, signal.SIGHUP, signal.SIGINT})
-"""Held back while a child starts (`Supervisor.start`)."""
-
-
 def _die_with_parent() -> None:  # pragma: no cover - runs in the child between fork and exec
-    """Take the stop signals again (the parent held them back while it started this child), and ask Linux
-    to send SIGTERM to this child when its parent dies (even by SIGKILL)."""
-    signal.pthread_sigmask(signal.SIG_UNBLOCK, _STOP_SIGNALS)
+    """Ask Linux to send SIGTERM to this child when its parent dies (even by SIGKILL)."""
     os.setsid()
     if sys.platform.startswith("linux"):
         import ctypes
@@ -99,6 +93,8 @@ class Supervisor:
     """Starts child processes in their own process groups and stops every one of them on `close`."""
 
     log_dir: Path
+    stops: StopRequests = field(default_factory=lambda: StopRequests())
+    """The stop signals that came (`_stop_on_signals`); held while a child starts."""
     children: list[_Child] = field(default_factory=list)
 
     def start(self, name: str, argv: Sequence[str], *, quiet: bool) -> subprocess.Popen[bytes]:
@@ -108,23 +104,22 @@ class Supervisor:
         if quiet:
             log = self.log_dir / f"{name}.log"
             out = log.open("wb")
-        # A stop signal that came between the fork and Popen's return raised there: the child ran on,
-        # unknown to `close`, and died only when the demo had exited (CI saw it still exiting). Held back
-        # until the child is known, the signal is taken (and raises) as `start` returns.
-        held = signal.pthread_sigmask(signal.SIG_BLOCK, _STOP_SIGNALS)
+        # A stop signal whose exception was raised between the fork and Popen's return left the child
+        # running, unknown to `close`: it died only when the demo had exited (CI saw it still exiting).
+        # While `stops` holds them, a stop only is noted, and raises once the child is known.
         try:
-            proc = subprocess.Popen(
-                list(argv),
-                stdin=subprocess.DEVNULL,
-                stdout=out,
-                stderr=subprocess.STDOUT if quiet else None,
-                preexec_fn=_die_with_parent,  # no threads run in this process yet
-            )
-            self.children.append(_Child(name, proc, log))
+            with self.stops.held():
+                proc = subprocess.Popen(
+                    list(argv),
+                    stdin=subprocess.DEVNULL,
+                    stdout=out,
+                    stderr=subprocess.STDOUT if quiet else None,
+                    preexec_fn=_die_with_parent,  # no threads run in this process yet
+                )
+                self.children.append(_Child(name, proc, log))
         finally:
             if out is not None:
                 out.close()
-            signal.pthread_sigmask(signal.SIG_SETMASK, held)
         return proc
 
     def dead(self) -> list[_Child]:
@@ -159,26 +154,52 @@ def _signal_group(proc: subprocess.Popen[bytes], signum: int) -> None:
 
 
 class _StopRequestedError(Exception):
-    """SIGTERM or SIGHUP arrived: leave through the clean-up path."""
+    """SIGTERM, SIGHUP or SIGINT arrived: leave through the clean-up path."""
+
+
+class StopRequests:
+    """The names of the stop signals that came, and whether their exception is held back for now."""
+
+    def __init__(self) -> None:
+        self.names: list[str] = []
+        self._holding = 0
+
+    def came(self, name: str) -> None:
+        """Note a stop signal; raise `_StopRequestedError` unless held (`held` raises it then)."""
+        self.names.append(name)
+        if not self._holding:
+            raise _StopRequestedError(name)
+
+    @contextlib.contextmanager
+    def held(self) -> Iterator[None]:
+        """Around a step that must not be cut short (starting a child): a stop that comes meanwhile is
+        noted, and raised when the step is done."""
+        self._holding += 1
+        try:
+            yield
+        finally:
+            self._holding -= 1
+        if not self._holding and self.names:
+            raise _StopRequestedError(self.names[0])
 
 
 @contextlib.contextmanager
-def _stop_on_signals() -> Iterator[list[str]]:
-    """Raise `_StopRequestedError` on SIGTERM and SIGHUP; yield the list of the signals' names that came.
+def _stop_on_signals() -> Iterator[StopRequests]:
+    """Raise `_StopRequestedError` on SIGTERM, SIGHUP and SIGINT (unless held); yield the requests.
 
-    The exception can be lost: raised while ``subprocess`` forks a child, inside an at-fork hook, Python
-    prints it as ignored and goes on (CI saw a demo that never stopped). The list keeps the request for
-    `_watch`, which checks it between its waits.
+    Python runs the handler in the main thread, whichever thread the kernel gave the signal. The exception
+    can still be lost: raised while ``subprocess`` forks a child, inside an at-fork hook, Python prints it
+    as ignored and goes on (CI saw a demo that never stopped). The names kept let `_watch` check between
+    its waits, and `Supervisor.start` holds the exception while a child starts.
     """
-    requested: list[str] = []
+    requests = StopRequests()
 
     def handler(signum: int, _frame: FrameType | None) -> None:
-        requested.append(signal.Signals(signum).name)
-        raise _StopRequestedError(requested[-1])
+        requests.came(signal.Signals(signum).name)
 
-    previous = {s: signal.signal(s, handler) for s in (signal.SIGTERM, signal.SIGHUP)}
+    previous = {s: signal.signal(s, handler) for s in (signal.SIGTERM, signal.SIGHUP, signal.SIGINT)}
     try:
-        yield requested
+        yield requests
     finally:
         for signum, old in previous.items():
             signal.signal(signum, old)
@@ -209,8 +230,8 @@ def run(args: argparse.Namespace) -> int:
         )
         return 2
     localhost_discovery()
-    with tempfile.TemporaryDirectory(prefix="dbglog-demo-") as tmp, _stop_on_signals() as requested:
-        sup = Supervisor(Path(tmp))
+    with tempfile.TemporaryDirectory(prefix="dbglog-demo-") as tmp, _stop_on_signals() as stops:
+        sup = Supervisor(Path(tmp), stops)
         try:
             sup.start("robot", [sys.executable, "-m", "dbglog._demo._robot"], quiet=True)
             sup.start("bridge", [sys.executable, "-m", "dbglog", "bridge", str(rules_path())], quiet=True)
@@ -221,7 +242,7 @@ def run(args: argparse.Namespace) -> int:
                 file=sys.stderr,
                 flush=True,
             )
-            return _watch(sup, viewer, requested)
+            return _watch(sup, viewer, stops.names)
         except _StopRequestedError as exc:
             print(f"dbglog demo: {exc}: stopping", file=sys.stderr)
             return 128 + int(getattr(signal, str(exc), signal.SIGTERM))
