@@ -88,12 +88,42 @@ def _die_with_parent() -> None:  # pragma: no cover - runs in the child between 
             pass
 
 
+class _StopRequestedError(Exception):
+    """SIGTERM, SIGHUP or SIGINT arrived: leave through the clean-up path."""
+
+
+class StopRequests:
+    """The names of the stop signals that came, and whether their exception is held back for now."""
+
+    def __init__(self) -> None:
+        self.names: list[str] = []
+        self._holding = 0
+
+    def came(self, name: str) -> None:
+        """Note a stop signal; raise `_StopRequestedError` unless held (`held` raises it then)."""
+        self.names.append(name)
+        if not self._holding:
+            raise _StopRequestedError(name)
+
+    @contextlib.contextmanager
+    def held(self) -> Iterator[None]:
+        """Around a step that must not be cut short (starting a child): a stop that comes meanwhile is
+        noted, and raised when the step is done."""
+        self._holding += 1
+        try:
+            yield
+        finally:
+            self._holding -= 1
+        if not self._holding and self.names:
+            raise _StopRequestedError(self.names[0])
+
+
 @dataclass
 class Supervisor:
     """Starts child processes in their own process groups and stops every one of them on `close`."""
 
     log_dir: Path
-    stops: StopRequests = field(default_factory=lambda: StopRequests())
+    stops: StopRequests = field(default_factory=StopRequests)
     """The stop signals that came (`_stop_on_signals`); held while a child starts."""
     children: list[_Child] = field(default_factory=list)
 
@@ -151,36 +181,6 @@ def _signal_group(proc: subprocess.Popen[bytes], signum: int) -> None:
     # The child leads its own group (setsid): its pid is the group id, even after it exited.
     with contextlib.suppress(ProcessLookupError, PermissionError):
         os.killpg(proc.pid, signum)
-
-
-class _StopRequestedError(Exception):
-    """SIGTERM, SIGHUP or SIGINT arrived: leave through the clean-up path."""
-
-
-class StopRequests:
-    """The names of the stop signals that came, and whether their exception is held back for now."""
-
-    def __init__(self) -> None:
-        self.names: list[str] = []
-        self._holding = 0
-
-    def came(self, name: str) -> None:
-        """Note a stop signal; raise `_StopRequestedError` unless held (`held` raises it then)."""
-        self.names.append(name)
-        if not self._holding:
-            raise _StopRequestedError(name)
-
-    @contextlib.contextmanager
-    def held(self) -> Iterator[None]:
-        """Around a step that must not be cut short (starting a child): a stop that comes meanwhile is
-        noted, and raised when the step is done."""
-        self._holding += 1
-        try:
-            yield
-        finally:
-            self._holding -= 1
-        if not self._holding and self.names:
-            raise _StopRequestedError(self.names[0])
 
 
 @contextlib.contextmanager
