@@ -9,7 +9,7 @@ import sys
 import time
 from collections.abc import Callable, Sequence
 
-__all__ = ["local_ros_env", "median_ns_per_call", "print_table", "spawn_flood"]
+__all__ = ["local_ros_env", "median_ns_per_call", "print_table", "spawn_flood", "start_ready"]
 
 
 def local_ros_env(domain: int | None = None) -> None:
@@ -60,3 +60,12 @@ def spawn_flood(
         )
         for i in range(publishers)
     ]
+
+
+def start_ready(argv: Sequence[str]) -> subprocess.Popen[str]:
+    """Start ``python ARGV`` and wait for its first line, ``publishing`` (a fleet robot, a plain peer)."""
+    proc = subprocess.Popen([sys.executable, *argv], stdout=subprocess.PIPE, text=True)
+    assert proc.stdout is not None
+    if proc.stdout.readline().strip() != "publishing":
+        raise RuntimeError(f"{list(argv)} did not start")
+    return proc

@@ -18,7 +18,7 @@ import subprocess
 import sys
 import time
 
-from benchmarks._common import local_ros_env, print_table
+from benchmarks._common import local_ros_env, print_table, start_ready
 
 _LATE_S = 1.0
 
@@ -92,14 +92,6 @@ def _peer(name: str) -> int:
     return 0
 
 
-def _start(argv: list[str]) -> subprocess.Popen[str]:
-    proc = subprocess.Popen([sys.executable, *argv], stdout=subprocess.PIPE, text=True)
-    assert proc.stdout is not None
-    if proc.stdout.readline().strip() != "publishing":
-        raise RuntimeError(f"{argv} did not start")
-    return proc
-
-
 def _summary(name: str, runs: list[dict[str, float]]) -> list[object]:
     topics = [r["topics"] for r in runs]
     late = sum(1 for r in runs if r["nodes"] > _LATE_S)
@@ -138,10 +130,10 @@ def main(argv: list[str] | None = None) -> int:
         for robot in robots:
             os.environ["DBGLOG_NAMESPACE"] = robot
             fleet = ["-m", "benchmarks._fleet", "--subsystems", str(args.subsystems), "--tags", "20"]
-            procs.append(_start(fleet))
+            procs.append(start_ready(fleet))
         os.environ.pop("DBGLOG_NAMESPACE", None)
         for k in range(args.peers):
-            procs.append(_start(["-m", "benchmarks.bench_discovery", "--peer", f"peer{k}"]))
+            procs.append(start_ready(["-m", "benchmarks.bench_discovery", "--peer", f"peer{k}"]))
         time.sleep(2.0)
         expect = str(args.subsystems * 20 + 1)  # the tags and the batch topic
         results: dict[str, list[dict[str, float]]] = {"plain": [], "profile": []}
