@@ -161,10 +161,10 @@ def test_demo_stops_everything_on_sigterm(display: dict[str, str], signum: signa
 def test_a_stop_signal_whose_exception_python_lost_still_stops_the_demo(tmp_path: Path) -> None:
     """SIGTERM raised inside an at-fork hook is printed as ignored and lost (CI saw a demo that never
     stopped): the request is kept, and the wait for the viewer stops on it."""
-    sup = Supervisor(tmp_path)
-    try:
-        viewer = sup.start("viewer", [sys.executable, "-c", "import time; time.sleep(60)"], quiet=True)
-        with _stop_on_signals() as stops:
+    with _stop_on_signals() as stops:
+        sup = Supervisor(tmp_path, stops)
+        try:
+            viewer = sup.start("viewer", [sys.executable, "-c", "import time; time.sleep(60)"], quiet=True)
             try:  # what an at-fork hook does with the exception: Python prints it and goes on
                 os.kill(os.getpid(), signal.SIGTERM)
                 time.sleep(1.0)
@@ -172,9 +172,9 @@ def test_a_stop_signal_whose_exception_python_lost_still_stops_the_demo(tmp_path
                 pass
             assert stops.names == ["SIGTERM"]
             with pytest.raises(_StopRequestedError, match="SIGTERM"):
-                _watch(sup, viewer, stops.names)
-    finally:
-        sup.close()
+                _watch(sup, viewer)
+        finally:
+            sup.close()
     assert viewer.poll() is not None, "closing the supervisor stops the viewer"
 
 

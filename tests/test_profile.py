@@ -157,9 +157,9 @@ def _with_bad_element(profile: str) -> str:
 def test_fast_dds_errors_go_to_stderr_under_the_profile(tmp_path: Path) -> None:
     """Under dbglog's profile, an error Fast DDS logs goes to stderr and stdout keeps only the process's own
     output; the same error without the profile's log section goes to stdout (why the section is there)."""
-    with_log = tmp_path / "with_log.xml"
-    with_log.write_text(_with_bad_element(PROFILE.read_text()))
     text = PROFILE.read_text()
+    with_log = tmp_path / "with_log.xml"
+    with_log.write_text(_with_bad_element(text))
     without_log = tmp_path / "without_log.xml"
     without_log.write_text(
         _with_bad_element(text[: text.index("  <log>")] + text[text.index("</log>") + 7 :])

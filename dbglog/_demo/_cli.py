@@ -242,7 +242,7 @@ def run(args: argparse.Namespace) -> int:
                 file=sys.stderr,
                 flush=True,
             )
-            return _watch(sup, viewer, stops.names)
+            return _watch(sup, viewer)
         except _StopRequestedError as exc:
             print(f"dbglog demo: {exc}: stopping", file=sys.stderr)
             return 128 + int(getattr(signal, str(exc), signal.SIGTERM))
@@ -250,13 +250,14 @@ def run(args: argparse.Namespace) -> int:
             sup.close()
 
 
-def _watch(sup: Supervisor, viewer: subprocess.Popen[bytes], requested: Sequence[str] = ()) -> int:
+def _watch(sup: Supervisor, viewer: subprocess.Popen[bytes]) -> int:
     """Wait for the viewer; report a helper that died on the way; return the exit code.
 
     Raises:
-        _StopRequestedError: a stop signal came (`requested`), also one whose own exception was lost.
+        _StopRequestedError: a stop signal came (`sup.stops`), also one whose own exception was lost.
     """
     reported: set[str] = set()
+    requested = sup.stops.names
     while True:
         if requested:
             raise _StopRequestedError(requested[0])
