@@ -13,6 +13,7 @@ from dbglog._ros._census import (
     Census,
     discovery_reach,
     metatraffic_ports,
+    participant_sockets,
     take_census,
     udp_sockets,
     unseen_holders,
@@ -72,6 +73,22 @@ def test_metatraffic_ports_follow_the_rtps_port_mapping() -> None:
     assert 30661 not in ports  # a participant's user-data port
 
 
+def test_a_participant_is_a_discovery_port_with_its_user_data_port_bound_too() -> None:
+    """A metatraffic port counts only beside the user-data port above it: a lone socket there (a sending
+    socket's ephemeral port, for domains above 101) is not a participant."""
+    first = metatraffic_ports(120)[0]
+    table = "\n".join(
+        [
+            _HEADER + " ref pointer drops",
+            _line(1, f"0100007F:{first:04X}", 11, 0),
+            _line(2, f"0100007F:{first + 1:04X}", 12, 0),
+            _line(3, f"00000000:{first + 2:04X}", 13, 0),  # alone: an ephemeral socket
+            _line(4, f"00000000:{first + 5:04X}", 14, 0),  # a user-data port alone
+        ]
+    )
+    assert [s.inode for s in participant_sockets(udp_sockets([table]), 120)] == [11]
+
+
 @pytest.mark.parametrize(
     ("environ", "reach"),
     [
@@ -100,7 +117,7 @@ def test_every_participant_of_this_host_is_found(ros: PrivateNode) -> None:
             census.append(take_census(ros.node))
             return census[-1].unseen == 0 and (census[-1].local or 0) >= 2
 
-        assert wait_until(found_all, TIMEOUT), census[-1:]
+        assert wait_until(found_all, TIMEOUT), (census[-1:], unseen_holders(census[-1]))
     final = census[-1]
     assert final.local == final.found
     assert final.dropped is not None
@@ -111,21 +128,26 @@ def test_a_participant_never_found_is_unseen_and_a_full_socket_counts_its_drops(
     it is this process's and overflows, its dropped datagrams are counted."""
     assert wait_until(lambda: take_census(ros.node).unseen == 0, TIMEOUT)
     before = take_census(ros.node)
+    port = metatraffic_ports(_domain())[-1]
     silent = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    user_data = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     silent.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
     try:
-        silent.bind(("127.0.0.1", metatraffic_ports(_domain())[-1]))
+        silent.bind(("127.0.0.1", port))
+        assert take_census(ros.node).local == before.local  # one port alone is not a participant
+        user_data.bind(("127.0.0.1", port + 1))
         census = take_census(ros.node)
         assert census.unseen == 1
         assert census.local == (before.local or 0) + 1
         assert unseen_holders(census) == [f"pid {os.getpid()} ({_cmdline(os.getpid())})"]
         with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sender:
             for _ in range(200):  # never read: the kernel drops what the small buffer cannot hold
-                sender.sendto(b"x" * 1000, ("127.0.0.1", metatraffic_ports(_domain())[-1]))
+                sender.sendto(b"x" * 1000, ("127.0.0.1", port))
         after = take_census(ros.node)
         assert (after.dropped or 0) - (before.dropped or 0) > 0, (before, after)
     finally:
         silent.close()
+        user_data.close()
     assert take_census(ros.node).unseen == 0
 
 

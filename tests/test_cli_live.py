@@ -203,9 +203,10 @@ def test_tags_waits_for_every_participant_of_this_host_and_says_which_it_never_f
     robot = robots("lv_silent", 3, 20.0)
     _until_published(robot.tags[0])
     port = metatraffic_ports(int(os.environ["ROS_DOMAIN_ID"]))[-1]
-    holder = (
-        "import socket, time; s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM); "
-        f"s.bind(('127.0.0.1', {port})); print('bound', flush=True); time.sleep(60)"
+    holder = (  # a participant's two ports: discovery, and user data above it
+        "import socket, time; s = [socket.socket(socket.AF_INET, socket.SOCK_DGRAM) for _ in '12']; "
+        f"s[0].bind(('127.0.0.1', {port})); s[1].bind(('127.0.0.1', {port + 1})); "
+        "print('bound', flush=True); time.sleep(60)"
     )
     with subprocess.Popen([sys.executable, "-c", holder], stdout=subprocess.PIPE, text=True) as silent:
         try:

@@ -1,13 +1,15 @@
 """What a node has found of the DDS participants on this host, and whether discovery traffic to it was lost.
 
 Every Fast DDS participant of a domain listens on an RTPS metatraffic unicast port
-(``7410 + 250 * domain + 2 * i``), so the ports bound on this host (``/proc/net/udp``) count the
-participants here; the GUID prefixes of the ``ros_discovery_info`` writers a node knows (one per ROS
-participant: vendor ``01 0f``, then the host's 2 bytes, then the process id's low 2 bytes) tell which of
-them it found. The kernel counts the datagrams each socket dropped because its buffer was full: discovery
-data lost that way is sent again within a heartbeat period (1 s), so a graph is settled only that long
-after its node's last drop. Participants on other hosts cannot be counted: `discovery_reach` says whether
-there can be any. Linux and Fast DDS only; elsewhere the counts are None.
+(``7410 + 250 * domain + 2 * i``) and on the user-data unicast port above it, so the pairs of ports bound
+on this host (``/proc/net/udp``) count the participants here (one port alone is not a participant:
+domains above 101 have their ports in Linux's ephemeral range, where any process's sending socket may
+land); the GUID prefixes of the ``ros_discovery_info`` writers a node knows (one per ROS participant:
+vendor ``01 0f``, then the host's 2 bytes, then the process id's low 2 bytes) tell which of them it found.
+The kernel counts the datagrams each socket dropped because its buffer was full: discovery data lost that
+way is sent again within a heartbeat period (1 s), so a graph is settled only that long after its node's
+last drop. Participants on other hosts cannot be counted: `discovery_reach` says whether there can be
+any. Linux and Fast DDS only; elsewhere the counts are None.
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ __all__ = [
     "discovery_reach",
     "metatraffic_ports",
     "participant_prefixes",
+    "participant_sockets",
     "take_census",
     "udp_sockets",
     "unseen_holders",
@@ -72,6 +75,20 @@ def metatraffic_ports(domain_id: int) -> range:
     """Return the RTPS metatraffic unicast ports participants of `domain_id` listen on."""
     first = _PORT_BASE + _DOMAIN_GAIN * domain_id + _METATRAFFIC_UNICAST
     return range(first, first + _PARTICIPANT_GAIN * _PARTICIPANT_IDS, _PARTICIPANT_GAIN)
+
+
+def participant_sockets(sockets: Iterable[UdpSocket], domain_id: int) -> list[UdpSocket]:
+    """Return the metatraffic sockets of `domain_id`'s participants among `sockets`: those whose port's
+    user-data port (the one above it) is bound too.
+
+    Args:
+        sockets: the host's UDP sockets (`udp_sockets`).
+        domain_id: the DDS domain.
+    """
+    sockets = list(sockets)
+    bound = {s.port for s in sockets}
+    wanted = metatraffic_ports(domain_id)
+    return [s for s in sockets if s.port in wanted and s.port + 1 in bound]
 
 
 def _read_tables() -> list[str] | None:
@@ -158,8 +175,7 @@ def take_census(node: Any, *, pid: int | None = None) -> Census:
     tables = _read_tables()
     if tables is None or not rclpy.utilities.get_rmw_implementation_identifier().startswith("rmw_fastrtps"):
         return Census(None, 0)
-    wanted = metatraffic_ports(int(node.context.get_domain_id()))
-    sockets = [s for s in udp_sockets(tables) if s.port in wanted]
+    sockets = participant_sockets(udp_sockets(tables), int(node.context.get_domain_id()))
     mine = _socket_inodes("/proc/self/fd")
     dropped = sum(s.drops for s in sockets if s.inode in mine)
     local = len({s.port for s in sockets})
