@@ -264,10 +264,10 @@ def test_tags_names_a_published_tag_that_sends_nothing() -> None:
 
 def _unused_domain() -> int:
     """A domain of 215-232 on which no participant of this host listens now (the census's sockets)."""
-    from dbglog._ros._census import _read_tables, metatraffic_ports, udp_sockets
+    from dbglog._ros._census import _read_tables, participant_sockets, udp_sockets
 
-    ports = {s.port for s in udp_sockets(_read_tables() or [])}
-    free = [d for d in range(215, 233) if not ports & set(metatraffic_ports(d))]
+    sockets = udp_sockets(_read_tables() or [])
+    free = [d for d in range(215, 233) if not participant_sockets(sockets, d)]
     assert free, "every domain of 215-232 has a participant on this host"
     return random.SystemRandom().choice(free)
 
