@@ -36,7 +36,7 @@ from dbglog._ros._tags import parse_topic, topic_for_tag
 from dbglog.viewer._data._history import History
 from dbglog.viewer._data._model import Binding, ValueKind
 from dbglog.viewer._data._series import NO_MESSAGE_YET, Series
-from dbglog.viewer._data._sinks import as_received, number_type
+from dbglog.viewer._data._sinks import as_received, flush, number_type
 
 __all__ = ["BatchIngest", "BatchStats"]
 
@@ -215,8 +215,13 @@ class BatchIngest:
         return None
 
     def detach(self, name: str) -> None:
-        """Stop feeding topic `name` from batches (it has another publisher, or none)."""
-        self._covered.pop(name, None)
+        """Stop feeding topic `name` from batches (it has another publisher, or none); what its bindings'
+        transforms held back for older samples goes out first."""
+        covered = self._covered.pop(name, None)
+        if covered is not None:
+            now = time.monotonic()
+            for sink in covered.sinks.values():
+                flush(sink, now)
 
     def keep_only(self, wanted: dict[str, dict[Binding, Series]]) -> None:
         """Forget covered topics and bindings nothing binds any more."""

@@ -50,6 +50,7 @@ from dbglog.viewer._data._sinks import (
     break_sink,
     feed,
     feed_numbers,
+    flush,
     make_sink,
     prepare,
     release,
@@ -934,6 +935,9 @@ class Engine(SeriesTimes):
         if self._batches.covers(infos, name) and len(pub_types) == 1:
             # Every publisher is a dbglog SDK that also sends batches: read every sample from those.
             if topic is not None:
+                now = time.monotonic()
+                for sink in topic.sinks.values():
+                    flush(sink, now)  # what its transforms held back goes out before the batches' sinks
                 node.destroy_subscription(topic.sub)
                 del self._subs[name]
             self._batches.attach(name, pub_types[0], bindings)

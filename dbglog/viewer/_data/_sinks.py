@@ -47,6 +47,7 @@ __all__ = [
     "break_sink",
     "feed",
     "feed_numbers",
+    "flush",
     "make_sink",
     "number_type",
     "release",
@@ -525,6 +526,20 @@ def release(sink: Sink, now: float) -> None:
     """Transform and push a stateful binding's samples that waited long enough (the engine, every cycle)."""
     if sink.reorder is not None and sink.reorder.times and sink.resolved is not None:
         _release(sink, now)
+
+
+def flush(sink: Sink, now: float) -> None:
+    """Transform and push a stateful binding's waiting samples at once, whatever their wait: the sink is
+    let go (its topic is read another way now), so no older sample can come to it, and what waited in it
+    would be lost without a word."""
+    reorder = sink.reorder
+    if reorder is None or not reorder.times or sink.resolved is None:
+        return
+    reorder.hold = 0.0
+    try:
+        _release(sink, now)
+    except Exception as exc:  # this binding's error alone
+        break_sink(sink, exc)
 
 
 def _release(sink: Sink, now: float) -> None:
