@@ -67,11 +67,13 @@ def test_live_report_lists_changes_with_old_values_and_markers(tmp_path: Path) -
                 for change in ({"count": 20}, {"kp": 2.5}, {"kp": 3.0}):
                     assert all(r.ok for r in params.set(nodes.fqn, change).result(WAIT))
                 params.publish_marker(Marker(time.time(), "robot bumped here"))
-                time.sleep(2.0)  # the marker is kept while its publisher lives: the viewer takes it meanwhile
+                # The marker is kept while its publisher lives: it lives until the viewer ends. A fixed 2 s
+                # was too short in CI, where a participant that takes the id of one closed moments before is
+                # found 3 s late (its publisher went before the viewer found it).
+                events = _events(viewer, tmp_path)
         except BaseException:
             viewer.kill()
             raise
-        events = _events(viewer, tmp_path)
     mine = [e for e in events if e["kind"] == "marker" or e.get("node") == nodes.fqn]
     assert [e.get("label", e.get("note")) for e in mine] == [
         "robot/vw_pid.count 10 → 20",
